@@ -1,0 +1,166 @@
+"""The `clshade` command line. Only this module prints; library code raises ClshadeError."""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+from . import __version__
+from .errors import ClshadeError
+
+
+def _add_device(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--device", metavar="D",
+                   help="OpenCL device: P:D index, cpu/gpu, or a substring such as 'PoCL 3.1' "
+                        "(default: $CLSHADE_DEVICE, else the PoCL CPU device)")
+
+
+def _add_model_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--fresnel", choices=("schlick", "dielectric", "conductor"),
+                   help="Fresnel term of microfacet lobes (default schlick)")
+    p.add_argument("--workflow", choices=("metallic", "kdks"),
+                   help="metallic-roughness, or the study's k_d + k_s = 1 rule (default: kdks for empirical lobes)")
+    p.add_argument("--half", action="store_true", help="store normal and base colour as half floats (vload_half)")
+    p.add_argument("--fast-math", action="store_true", help="build with -cl-fast-relaxed-math")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="clshade", description="OpenCL deferred shading: compare lighting models "
+                                     "as images, measure their cost and their accuracy.")
+    parser.add_argument("--version", action="version", version=f"clshade {__version__}")
+    parser.add_argument("--debug", action="store_true", help="show tracebacks")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+
+    p = sub.add_parser("render", help="render a scene to an image", description="Rasterise SCENE into a G-buffer, "
+                       "shade it with one lighting model on the OpenCL device and write an image.")
+    p.add_argument("scene", help="scene file (TOML, see scenes/README.md)")
+    p.add_argument("-m", "--model", help="preset (e.g. ggx_correlated), diffuse+specular pair "
+                   "(e.g. oren_nayar+ggx_correlated); default: the scene's render.model")
+    p.add_argument("-o", "--output", help="output image: .exr (linear float) or .png/.jpg (sRGB); "
+                   "default: <scene name>.png in the current folder")
+    p.add_argument("--width", type=int, help="override camera.width")
+    p.add_argument("--height", type=int, help="override camera.height")
+    p.add_argument("--exposure", type=float, help="exposure in stops (default: the scene's render.exposure)")
+    p.add_argument("--tonemap", choices=("none", "reinhard", "aces"), help="tone map for PNG/JPEG")
+    p.add_argument("--explain", action="store_true",
+                   help="print the feature set, build options and G-buffer channels of the kernel variant")
+    _add_model_options(p)
+    _add_device(p)
+    p.set_defaults(func=cmd_render)
+
+    p = sub.add_parser("models", help="list the lighting models", description="List presets and lobes with their "
+                       "formula, parameters and source, read from kernels/models/*.cl.")
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.set_defaults(func=cmd_models)
+
+    p = sub.add_parser("devices", help="list OpenCL platforms and devices")
+    p.set_defaults(func=cmd_devices)
+    return parser
+
+
+def _size(value: int | None, name: str) -> int | None:
+    if value is not None and not (1 <= value <= 16384):
+        raise ClshadeError(f"--{name} = {value}: must be within [1, 16384]")
+    return value
+
+
+def cmd_render(args: argparse.Namespace) -> int:
+    from .image import check_output_path, write_image
+    from .models import resolve
+    from .pipeline import Timings, prepare_frame, render
+    from .scene import load_scene
+
+    timings = Timings()
+    with timings.stage("load scene"):
+        scene = load_scene(args.scene)
+    out = Path(args.output) if args.output else Path.cwd() / f"{Path(args.scene).stem}.png"
+    protected = scene.inputs()
+    check_output_path(out, protected)
+    model = resolve(args.model or scene.model, args.fresnel, args.workflow)
+    frame = prepare_frame(scene, _size(args.width, "width"), _size(args.height, "height"), timings)
+    result = render(scene, model, device=args.device, half_gbuffer=args.half, fast_math=args.fast_math, frame=frame)
+    timings.update(result.timings)
+    if args.explain:
+        variant = result.shader.variant(model, result.features)
+        print(f"model: {model.label} ({model.id}); lobes: {', '.join(l.id for l in model.lobes)}; "
+              f"fresnel: {model.fresnel if model.uses_fresnel else 'n/a'}; workflow: {model.workflow}")
+        for line in result.features.describe():
+            print(f"feature {line}")
+        print(f"G-buffer channels: {', '.join(variant.channels)} "
+              f"({frame.gbuffer.bytes_per_pixel(variant.channels, result.features.half_gbuffer)} B/pixel read, 16 B written)")
+        print(f"build options: {' '.join(variant.options()) or '(none)'}")
+        print("defines: " + " ".join(f"{k}={v}" for k, v in variant.defines().items()))
+        print(f"device: {result.shader.rt.info.description}")
+    if frame.gbuffer.nonfinite_pixels:
+        print(f"clshade: warning: {frame.gbuffer.nonfinite_pixels} pixels had non-finite G-buffer inputs "
+              f"(NaN/Inf vertices or normals) and were shaded as background", file=sys.stderr)
+    with timings.stage("write"):
+        exposure = scene.exposure if args.exposure is None else args.exposure
+        write_image(out, result.image, args.tonemap or scene.tonemap, exposure, protected)
+    cam = frame.camera
+    print(f"wrote {out} ({cam.width}x{cam.height}, {model.label}, {frame.geometry.triangle_count} triangles, "
+          f"{int(frame.gbuffer.coverage.sum())} covered pixels)")
+    print(f"stages: {timings.line()}")
+    return 0
+
+
+def cmd_models(args: argparse.Namespace) -> int:
+    from .models import GROUPS, lobes, presets
+    if args.json:
+        data = {
+            "presets": [{"id": m.id, "name": m.label, "diffuse": m.diffuse, "specular": m.specular,
+                         "family": m.family, "workflow": m.workflow, "fresnel": m.fresnel if m.uses_fresnel else None}
+                        for m in presets()],
+            "lobes": [{"id": l.id, "name": l.name, "kind": l.kind, "family": l.family, "formula": l.formula,
+                       "source": l.source, "uses": sorted(l.uses), "notes": list(l.notes),
+                       "deviations": list(l.deviations),
+                       "params": [{"name": p.name, "min": p.low, "max": p.high, "default": p.default,
+                                   "description": p.description} for p in l.params]}
+                      for l in lobes().values()],
+            "groups": {k: list(v) for k, v in GROUPS.items()},
+        }
+        print(json.dumps(data, indent=2, ensure_ascii=False))
+        return 0
+    print("Presets (the study's shaders):")
+    for m in presets():
+        print(f"  {m.id:32s} {m.label:26s} {m.family:10s} workflow={m.workflow}")
+    print("\nLobes (combine as diffuse+specular, e.g. oren_nayar+ggx_correlated; append @dielectric or "
+          "@conductor for exact Fresnel):")
+    for l in lobes().values():
+        params = ", ".join(f"{p.name} [{p.low:g}, {p.high:g}] = {p.default:g}" for p in l.params) or "no parameters"
+        print(f"  {l.id:24s} {l.kind:8s} {l.family:10s} {l.formula}")
+        print(f"  {'':24s} params: {params}")
+        print(f"  {'':24s} source: {l.source}")
+    return 0
+
+
+def cmd_devices(args: argparse.Namespace) -> int:
+    from .runtime import list_devices, select_device
+    default, _ = select_device(None)
+    for info, device in list_devices():
+        mark = "*" if info == default else " "
+        print(f"{mark} {info.spec}  {info.kind:10s} {info.device}  |  {info.platform} | {info.platform_version}")
+    print("(* = default; choose with --device P:D or CLSHADE_DEVICE)")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except ClshadeError as exc:
+        if args.debug:
+            raise
+        print(f"clshade: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("clshade: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,116 @@
+"""Output: exposure, tone mapping, sRGB encoding and atomic image writes (OpenImageIO).
+
+`.exr` receives linear float RGBA radiance, untouched. PNG/JPEG receive
+8-bit sRGB: radiance × 2^exposure → tone map → sRGB OETF → round.
+Tone maps: `none` (clip to [0, 1]), `reinhard` (x / (1 + x)), `aces`
+(Narkowicz 2015 fit of the ACES RRT+ODT, applied to 0.6·x as in his post).
+"""
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from .errors import ClshadeError
+
+LINEAR_SUFFIXES = (".exr",)
+DISPLAY_SUFFIXES = (".png", ".jpg", ".jpeg")
+
+
+def tonemap(rgb: np.ndarray, method: str = "aces", exposure: float = 0.0) -> np.ndarray:
+    """Scene-linear RGB → display-linear RGB in [0, 1]."""
+    x = np.nan_to_num(np.asarray(rgb, np.float64), nan=0.0, posinf=np.finfo(np.float32).max) * (2.0 ** exposure)
+    x = np.maximum(x, 0.0)
+    if method == "none":
+        y = x
+    elif method == "reinhard":
+        y = x / (1.0 + x)
+    elif method == "aces":
+        x = 0.6 * x
+        with np.errstate(over="ignore", invalid="ignore"):
+            y = (x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)
+        y = np.where(np.isfinite(y), y, 2.51 / 2.43)
+    else:
+        raise ClshadeError(f"unknown tone map {method!r}; choose none, reinhard or aces")
+    return np.clip(y, 0.0, 1.0)
+
+
+def srgb_encode(linear: np.ndarray) -> np.ndarray:
+    """The sRGB OETF (IEC 61966-2-1) on values in [0, 1]."""
+    c = np.clip(linear, 0.0, 1.0)
+    return np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1 / 2.4) - 0.055)
+
+
+def to_display(image: np.ndarray, method: str = "aces", exposure: float = 0.0) -> np.ndarray:
+    """(H, W, 4) linear radiance + coverage → (H, W, 3) uint8 sRGB."""
+    encoded = srgb_encode(tonemap(image[..., :3], method, exposure))
+    return np.round(encoded * 255.0).astype(np.uint8)
+
+
+def check_output_path(path: Path, protected: list[Path] | tuple[Path, ...] = ()) -> Path:
+    """Refuse outputs that would overwrite an input, have no supported format, or
+    sit in a folder that does not exist or cannot be written."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in LINEAR_SUFFIXES + DISPLAY_SUFFIXES:
+        raise ClshadeError(f"{path}: unsupported output format {suffix or '(none)'}; "
+                           f"use .exr (linear float), .png or .jpg (sRGB 8-bit)")
+    resolved = path.resolve()
+    for p in protected:
+        if p is not None and Path(p).resolve() == resolved:
+            raise ClshadeError(f"{path}: refusing to overwrite an input of the scene ({p})")
+    folder = resolved.parent
+    if not folder.is_dir():
+        raise ClshadeError(f"{path}: output folder {folder} does not exist")
+    if not os.access(folder, os.W_OK):
+        raise ClshadeError(f"{path}: output folder {folder} is not writable")
+    return path
+
+
+def write_image(path: str | Path, image: np.ndarray, method: str = "aces", exposure: float = 0.0,
+                protected: list[Path] | tuple[Path, ...] = ()) -> Path:
+    """Write atomically: a temporary file in the same folder, then a rename, so a
+    failed or interrupted write never leaves a truncated image."""
+    import OpenImageIO as oiio
+    path = check_output_path(Path(path), protected)
+    linear = path.suffix.lower() in LINEAR_SUFFIXES
+    if linear:
+        pixels = np.ascontiguousarray(image.astype(np.float32))
+        fmt = "float"
+    else:
+        pixels = np.ascontiguousarray(to_display(image, method, exposure))
+        fmt = "uint8"
+    height, width, channels = pixels.shape
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.resolve().parent)
+    os.close(fd)
+    try:
+        spec = oiio.ImageSpec(width, height, channels, fmt)
+        if linear:
+            spec.channelnames = ("R", "G", "B", "A")[:channels]
+            spec.alpha_channel = 3 if channels == 4 else -1
+        else:
+            spec.attribute("oiio:ColorSpace", "sRGB")
+        out = oiio.ImageOutput.create(tmp)
+        if out is None:
+            raise ClshadeError(f"{path}: OpenImageIO cannot write this format ({oiio.geterror()})")
+        ok = out.open(tmp, spec) and out.write_image(pixels)
+        error = out.geterror() if not ok else ""
+        out.close()
+        if not ok:
+            raise ClshadeError(f"{path}: writing failed ({error})")
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+    return path
+
+
+def read_image(path: str | Path) -> np.ndarray:
+    """Read an image as float32 (H, W, C) (used by tests and the comparison sheets)."""
+    import OpenImageIO as oiio
+    buf = oiio.ImageBuf(str(path))
+    if buf.has_error:
+        raise ClshadeError(f"{path}: cannot read image ({buf.geterror()})")
+    return buf.get_pixels(oiio.FLOAT)

@@ -1,0 +1,92 @@
+"""The deferred pipeline, stage by stage, with a wall-clock time per stage:
+scene → geometry → rasterizer → G-buffer → kernel variant → image."""
+from __future__ import annotations
+
+import time
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .gbuffer import GBuffer, build_gbuffer
+from .meshes import Geometry, build_geometry
+from .models import Model
+from .raster import Fragments, rasterize
+from .runtime import Runtime, get_runtime
+from .scene import Camera, Scene, load_scene
+from .shade import Shader, scene_features
+from .variants import Features
+
+
+class Timings(dict):
+    """Stage name → seconds, in the order the stages ran."""
+
+    @contextmanager
+    def stage(self, name: str):
+        start = time.perf_counter()
+        try:
+            yield
+        finally:
+            self[name] = self.get(name, 0.0) + time.perf_counter() - start
+
+    def line(self) -> str:
+        return ", ".join(f"{k} {v * 1e3:.1f} ms" for k, v in self.items())
+
+
+@dataclass
+class Frame:
+    """Everything up to the shading pass, computed once and shared by every model."""
+    scene: Scene
+    camera: Camera
+    geometry: Geometry
+    fragments: Fragments
+    gbuffer: GBuffer
+    timings: Timings = field(default_factory=Timings)
+
+
+def prepare_frame(scene: Scene | str | Path, width: int | None = None, height: int | None = None,
+                  timings: Timings | None = None) -> Frame:
+    """Load (if needed), build geometry, rasterise and write the G-buffer."""
+    timings = timings if timings is not None else Timings()
+    if not isinstance(scene, Scene):
+        with timings.stage("load scene"):
+            scene = load_scene(scene)
+    camera = scene.camera.with_size(width, height)
+    with timings.stage("geometry"):
+        geometry = build_geometry(scene)
+    with timings.stage("rasterize"):
+        fragments = rasterize(geometry.vertices, geometry.faces, camera.view_matrix(), camera.projection_matrix(),
+                              camera.width, camera.height, cull_backfaces=geometry.cull)
+    with timings.stage("g-buffer"):
+        gbuffer = build_gbuffer(scene, geometry, fragments)
+    return Frame(scene, camera, geometry, fragments, gbuffer, timings)
+
+
+@dataclass
+class Render:
+    image: np.ndarray          # (H, W, 4) float32 linear radiance + coverage
+    frame: Frame
+    model: Model
+    features: Features
+    shader: Shader
+    timings: Timings
+
+
+def render(scene: Scene | str | Path, model: Model, *, width: int | None = None, height: int | None = None,
+           device: str | None = None, runtime: Runtime | None = None, half_gbuffer: bool = False,
+           fast_math: bool = False, frame: Frame | None = None) -> Render:
+    """Render one model; the returned Render keeps the frame and shader for reuse."""
+    timings = Timings()
+    frame = frame or prepare_frame(scene, width, height, timings)
+    with timings.stage("opencl setup"):
+        rt = runtime or get_runtime(device)
+        shader = Shader(rt, frame.gbuffer, frame.scene, frame.camera)
+        features = scene_features(frame.scene, half_gbuffer, fast_math)
+    with timings.stage("kernel build"):
+        dispatch = shader.prepare(model, features)
+    with timings.stage("shade"):
+        shader.enqueue(dispatch).wait()
+    with timings.stage("read back"):
+        image = shader.read()
+    return Render(image, frame, model, features, shader, timings)

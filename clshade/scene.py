@@ -1,0 +1,432 @@
+"""Scene files: TOML → small, validated data objects (camera, lights, materials, objects).
+
+The format is documented key by key in scenes/README.md. Every error names the
+file, the key path and the offending value; unknown keys get the nearest valid
+key as a suggestion.
+"""
+from __future__ import annotations
+
+import difflib
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .errors import ClshadeError, located
+
+TONEMAPS = ("none", "reinhard", "aces")
+PRIMITIVES = ("sphere", "box", "cylinder", "cone", "plane", "torus", "capsule")
+MAX_MATERIALS = 256          # the material id channel is one byte
+MAX_RESOLUTION = 16384
+# Default conductor: gold at R, G, B ≈ 650, 550, 450 nm (Johnson & Christy 1972).
+GOLD_ETA = (0.18, 0.42, 1.37)
+GOLD_K = (3.42, 2.35, 1.77)
+
+
+@dataclass(frozen=True)
+class Camera:
+    position: np.ndarray
+    target: np.ndarray
+    up: np.ndarray
+    fov: float                 # vertical field of view, degrees
+    width: int
+    height: int
+    near: float = 0.05
+    far: float = 1000.0
+
+    @property
+    def aspect(self) -> float:
+        return self.width / self.height
+
+    def basis(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Unit forward, right and up vectors (right-handed, +Y up by default)."""
+        fwd = self.target - self.position
+        fwd = fwd / np.linalg.norm(fwd)
+        right = np.cross(fwd, self.up)
+        right = right / np.linalg.norm(right)
+        up = np.cross(right, fwd)
+        return fwd, right, up
+
+    def view_matrix(self) -> np.ndarray:
+        """World → camera (camera looks down −Z)."""
+        fwd, right, up = self.basis()
+        m = np.eye(4)
+        m[0, :3], m[1, :3], m[2, :3] = right, up, -fwd
+        m[:3, 3] = -m[:3, :3] @ self.position
+        return m
+
+    def projection_matrix(self) -> np.ndarray:
+        """OpenGL perspective projection (clip space, NDC z in [−1, 1])."""
+        f = 1.0 / math.tan(math.radians(self.fov) / 2)
+        n, fa = self.near, self.far
+        m = np.zeros((4, 4))
+        m[0, 0], m[1, 1] = f / self.aspect, f
+        m[2, 2], m[2, 3] = (fa + n) / (n - fa), 2 * fa * n / (n - fa)
+        m[3, 2] = -1.0
+        return m
+
+    def with_size(self, width: int | None, height: int | None) -> "Camera":
+        from dataclasses import replace
+        return replace(self, width=width or self.width, height=height or self.height)
+
+
+@dataclass(frozen=True)
+class Light:
+    kind: str                  # directional | point | spot
+    color: np.ndarray          # irradiance (directional, W/m²) or intensity (W/sr)
+    direction: np.ndarray | None = None   # unit, the direction light travels
+    position: np.ndarray | None = None
+    inner_angle: float = 0.0   # spot: full intensity inside, degrees from the axis
+    outer_angle: float = 0.0   # spot: zero outside
+
+
+@dataclass(frozen=True)
+class Material:
+    name: str
+    base_color: tuple[float, float, float] = (0.8, 0.8, 0.8)
+    roughness: float = 0.5
+    metallic: float = 0.0
+    shininess: float | None = None   # None → derived from roughness: n = 2/α² − 2
+    ks: float = 0.3
+    kd: float | None = None          # None → 1 − ks (the study's k_d + k_s = 1)
+    ka: float = 1.0
+    ior: float = 1.5
+    f90: float = 1.0
+    eta: tuple[float, float, float] = GOLD_ETA
+    k: tuple[float, float, float] = GOLD_K
+    double_sided: bool = False
+
+    @property
+    def exponent(self) -> float:
+        """The Phong exponent: given, or the Beckmann-equivalent 2/α² − 2 (Walter 2007),
+        capped at SHININESS_FROM_ROUGHNESS_MAX."""
+        if self.shininess is not None:
+            return self.shininess
+        alpha2 = max(self.roughness ** 4, 1e-12)
+        return float(min(max(2.0 / alpha2 - 2.0, 0.0), SHININESS_FROM_ROUGHNESS_MAX))
+
+    def constants(self) -> dict[str, Any]:
+        return dict(kd=1.0 - self.ks if self.kd is None else self.kd, ks=self.ks, ka=self.ka,
+                    shininess=self.exponent, ior=self.ior, f90=self.f90, eta=self.eta, k=self.k)
+
+
+# Roughness 0 maps to an infinitely sharp Phong lobe; the cap keeps it a lobe
+# float32 can render (the same width as GGX at roughness ≈ 0.12).
+SHININESS_FROM_ROUGHNESS_MAX = 1.0e4
+
+
+@dataclass(frozen=True)
+class SceneObject:
+    name: str
+    material: str
+    mesh: Path | None = None
+    primitive: str | None = None
+    params: dict[str, Any] = field(default_factory=dict)
+    translate: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rotate: tuple[float, float, float] = (0.0, 0.0, 0.0)   # degrees about X, then Y, then Z
+    scale: tuple[float, float, float] = (1.0, 1.0, 1.0)
+
+    def matrix(self) -> np.ndarray:
+        """Object → world: translate · Rz · Ry · Rx · scale."""
+        rx, ry, rz = (math.radians(a) for a in self.rotate)
+        cx, sx, cy, sy, cz, sz = math.cos(rx), math.sin(rx), math.cos(ry), math.sin(ry), math.cos(rz), math.sin(rz)
+        Rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+        Ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+        Rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+        m = np.eye(4)
+        m[:3, :3] = Rz @ Ry @ Rx @ np.diag(self.scale)
+        m[:3, 3] = self.translate
+        return m
+
+
+@dataclass(frozen=True)
+class Scene:
+    path: Path | None
+    camera: Camera
+    lights: tuple[Light, ...]
+    materials: dict[str, Material]
+    objects: tuple[SceneObject, ...]
+    background: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    ambient: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    exposure: float = 0.0
+    tonemap: str = "aces"
+    model: str = "ggx_correlated"
+
+    @property
+    def material_names(self) -> list[str]:
+        return list(self.materials)
+
+    def inputs(self) -> list[Path]:
+        """Files the scene reads: the scene itself and its meshes."""
+        out = [self.path] if self.path else []
+        out += [o.mesh for o in self.objects if o.mesh is not None]
+        return out
+
+
+# ---------------------------------------------------------------- validation
+
+
+class _Reader:
+    """Reads one TOML table with typed getters; reports unknown keys."""
+
+    def __init__(self, file: Path | str, table: Any, where: str) -> None:
+        if not isinstance(table, dict):
+            raise located(f"expected a table, got {type(table).__name__}", file, where, table, has_value=True)
+        self.file, self.table, self.where = file, table, where
+        self.seen: set[str] = set()
+
+    def _key(self, key: str) -> str:
+        return f"{self.where}.{key}" if self.where else key
+
+    def error(self, key: str, message: str) -> ClshadeError:
+        return located(message, self.file, self._key(key), self.table.get(key), has_value=key in self.table)
+
+    def raw(self, key: str, default: Any = None) -> Any:
+        self.seen.add(key)
+        return self.table.get(key, default)
+
+    def number(self, key: str, default: float | None = None, low: float = -math.inf,
+               high: float = math.inf, required: bool = False) -> float | None:
+        value = self.raw(key)
+        if value is None:
+            if required:
+                raise located("is required", self.file, self._key(key))
+            return default
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise self.error(key, f"must be a number, got {type(value).__name__}")
+        if not math.isfinite(value) or not (low <= value <= high):
+            raise self.error(key, f"must be within [{low:g}, {high:g}]")
+        return float(value)
+
+    def integer(self, key: str, default: int, low: int, high: int) -> int:
+        value = self.raw(key)
+        if value is None:
+            return default
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise self.error(key, f"must be an integer, got {type(value).__name__}")
+        if not (low <= value <= high):
+            raise self.error(key, f"must be within [{low}, {high}]")
+        return value
+
+    def vector(self, key: str, default: Any = None, low: float = -math.inf, high: float = math.inf,
+               required: bool = False, nonzero: bool = False, allow_scalar: bool = False) -> tuple[float, float, float] | None:
+        value = self.raw(key)
+        if value is None:
+            if required:
+                raise located("is required", self.file, self._key(key))
+            return default
+        if allow_scalar and isinstance(value, (int, float)) and not isinstance(value, bool):
+            value = [value] * 3
+        if (not isinstance(value, list) or len(value) != 3
+                or any(isinstance(x, bool) or not isinstance(x, (int, float)) for x in value)):
+            raise self.error(key, "must be a list of 3 numbers" + (" or a number" if allow_scalar else ""))
+        if any(not math.isfinite(x) or not (low <= x <= high) for x in value):
+            raise self.error(key, f"components must be within [{low:g}, {high:g}]")
+        if nonzero and all(x == 0 for x in value):
+            raise self.error(key, "must not be the zero vector")
+        return tuple(float(x) for x in value)
+
+    def string(self, key: str, default: str | None = None, choices: tuple[str, ...] | None = None,
+               required: bool = False) -> str | None:
+        value = self.raw(key)
+        if value is None:
+            if required:
+                raise located("is required", self.file, self._key(key))
+            return default
+        if not isinstance(value, str):
+            raise self.error(key, f"must be a string, got {type(value).__name__}")
+        if choices and value not in choices:
+            near = difflib.get_close_matches(value, choices, n=1)
+            hint = f"; did you mean {near[0]!r}?" if near else ""
+            raise self.error(key, f"must be one of {', '.join(choices)}{hint}")
+        return value
+
+    def boolean(self, key: str, default: bool) -> bool:
+        value = self.raw(key)
+        if value is None:
+            return default
+        if not isinstance(value, bool):
+            raise self.error(key, "must be true or false")
+        return value
+
+    def finish(self) -> None:
+        """Reject keys that were never read, suggesting the nearest valid one."""
+        for key in self.table:
+            if key not in self.seen:
+                near = difflib.get_close_matches(key, sorted(self.seen), n=1, cutoff=0.5)
+                hint = f"; did you mean {near[0]!r}?" if near else f"; valid keys: {', '.join(sorted(self.seen))}"
+                raise located(f"unknown key{hint}", self.file, self._key(key))
+
+
+PRIMITIVE_PARAMS: dict[str, dict[str, tuple[float, float, float]]] = {
+    # name: {param: (default, low, high)}
+    "sphere": {"radius": (1.0, 1e-6, 1e6), "subdivisions": (4, 0, 7)},
+    "box": {"size": (1.0, 1e-6, 1e6)},
+    "cylinder": {"radius": (0.5, 1e-6, 1e6), "height": (1.0, 1e-6, 1e6), "sections": (48, 3, 1024)},
+    "cone": {"radius": (0.5, 1e-6, 1e6), "height": (1.0, 1e-6, 1e6), "sections": (48, 3, 1024)},
+    "capsule": {"radius": (0.5, 1e-6, 1e6), "height": (1.0, 0.0, 1e6), "sections": (32, 3, 1024)},
+    "plane": {"size": (10.0, 1e-6, 1e6)},
+    "torus": {"major_radius": (1.0, 1e-6, 1e6), "minor_radius": (0.25, 1e-6, 1e6), "sections": (48, 3, 1024)},
+}
+
+
+def _material(file: Path | str, table: Any, name: str, where: str) -> Material:
+    r = _Reader(file, table, where)
+    m = Material(
+        name=name,
+        base_color=r.vector("base_color", (0.8, 0.8, 0.8), 0.0, 1e6),
+        roughness=r.number("roughness", 0.5, 0.0, 1.0),
+        metallic=r.number("metallic", 0.0, 0.0, 1.0),
+        shininess=r.number("shininess", None, 0.0, 1e6),
+        ks=r.number("ks", 0.3, 0.0, 1.0),
+        kd=r.number("kd", None, 0.0, 1.0),
+        ka=r.number("ka", 1.0, 0.0, 1e6),
+        ior=r.number("ior", 1.5, 1.0, 10.0),
+        f90=r.number("f90", 1.0, 0.0, 1.0),
+        eta=r.vector("eta", GOLD_ETA, 0.0, 100.0),
+        k=r.vector("k", GOLD_K, 0.0, 100.0),
+        double_sided=r.boolean("double_sided", False),
+    )
+    r.finish()
+    return m
+
+
+def _light(file: Path | str, table: Any, where: str) -> Light:
+    r = _Reader(file, table, where)
+    kind = r.string("type", required=True, choices=("directional", "point", "spot"))
+    if kind == "directional":
+        d = np.array(r.vector("direction", required=True, nonzero=True))
+        light = Light(kind, np.array(r.vector("irradiance", (1.0, 1.0, 1.0), 0.0, 1e30, allow_scalar=True)),
+                      direction=d / np.linalg.norm(d))
+    else:
+        pos = np.array(r.vector("position", required=True))
+        color = np.array(r.vector("intensity", (1.0, 1.0, 1.0), 0.0, 1e30, allow_scalar=True))
+        if kind == "point":
+            light = Light(kind, color, position=pos)
+        else:
+            d = np.array(r.vector("direction", required=True, nonzero=True))
+            outer = r.number("outer_angle", 30.0, 0.0, 90.0)
+            inner = r.number("inner_angle", 0.8 * outer, 0.0, outer)
+            light = Light(kind, color, direction=d / np.linalg.norm(d), position=pos,
+                          inner_angle=inner, outer_angle=outer)
+    r.finish()
+    return light
+
+
+def _object(file: Path, table: Any, where: str, materials: dict[str, Material]) -> SceneObject:
+    r = _Reader(file, table, where)
+    name = r.string("name", where)
+    mesh = r.string("mesh")
+    primitive = r.string("primitive", choices=PRIMITIVES)
+    if (mesh is None) == (primitive is None):
+        raise located("needs exactly one of 'mesh' or 'primitive'", file, where)
+    params: dict[str, Any] = {}
+    if primitive:
+        for key, (default, low, high) in PRIMITIVE_PARAMS[primitive].items():
+            if isinstance(default, int):
+                params[key] = r.integer(key, default, int(low), int(high))
+            elif key == "size" and primitive == "box":
+                params[key] = r.vector(key, (default,) * 3, low, high, allow_scalar=True)
+            else:
+                params[key] = r.number(key, default, low, high)
+    mesh_path = None
+    if mesh is not None:
+        mesh_path = (Path(file).parent / mesh).resolve() if not Path(mesh).is_absolute() else Path(mesh)
+        if not mesh_path.is_file():
+            raise located("mesh file not found", file, f"{where}.mesh", mesh, has_value=True)
+    mat = r.raw("material", None)
+    if mat is None:
+        raise located("is required", file, f"{where}.material")
+    if isinstance(mat, str):
+        if mat not in materials:
+            near = difflib.get_close_matches(mat, list(materials), n=1)
+            hint = f"; did you mean {near[0]!r}?" if near else f"; defined: {', '.join(materials) or 'none'}"
+            raise located(f"names no material in [materials]{hint}", file, f"{where}.material", mat, has_value=True)
+        mat_name = mat
+    else:
+        mat_name = f"{name}#material"
+        materials[mat_name] = _material(file, mat, mat_name, f"{where}.material")
+    obj = SceneObject(
+        name=name, material=mat_name, mesh=mesh_path, primitive=primitive, params=params,
+        translate=r.vector("translate", (0.0, 0.0, 0.0)),
+        rotate=r.vector("rotate", (0.0, 0.0, 0.0), -360.0, 360.0),
+        scale=r.vector("scale", (1.0, 1.0, 1.0), 1e-9, 1e9, allow_scalar=True),
+    )
+    r.finish()
+    return obj
+
+
+def parse_scene(text: str, file: Path | str = "<scene>") -> Scene:
+    """Validate a scene from TOML text. Relative mesh paths resolve against the file's folder."""
+    file = Path(file) if not isinstance(file, Path) else file
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ClshadeError(f"{file}: malformed TOML: {exc}") from exc
+    top = _Reader(file, data, "")
+    cam = _Reader(file, top.raw("camera", None) or _missing(file, "camera"), "camera")
+    camera = Camera(
+        position=np.array(cam.vector("position", required=True)),
+        target=np.array(cam.vector("target", (0.0, 0.0, 0.0))),
+        up=np.array(cam.vector("up", (0.0, 1.0, 0.0), nonzero=True)),
+        fov=cam.number("fov", 45.0, 1e-3, 179.0),
+        width=cam.integer("width", 640, 1, MAX_RESOLUTION),
+        height=cam.integer("height", 480, 1, MAX_RESOLUTION),
+        near=cam.number("near", 0.05, 1e-6, 1e6),
+        far=cam.number("far", 1000.0, 1e-6, 1e12),
+    )
+    cam.finish()
+    if camera.far <= camera.near:
+        raise located("must be greater than camera.near", file, "camera.far", camera.far, has_value=True)
+    fwd = camera.target - camera.position
+    if np.linalg.norm(fwd) == 0:
+        raise located("equals camera.position", file, "camera.target", list(camera.target), has_value=True)
+    if np.linalg.norm(np.cross(fwd, camera.up)) < 1e-9 * np.linalg.norm(fwd) * np.linalg.norm(camera.up):
+        raise located("is parallel to the view direction", file, "camera.up", list(camera.up), has_value=True)
+
+    rnd = _Reader(file, top.raw("render", {}), "render")
+    background = rnd.vector("background", (0.0, 0.0, 0.0), 0.0, 1e6)
+    ambient = rnd.vector("ambient", (0.0, 0.0, 0.0), 0.0, 1e6, allow_scalar=True)
+    exposure = rnd.number("exposure", 0.0, -64.0, 64.0)
+    tonemap = rnd.string("tonemap", "aces", TONEMAPS)
+    model = rnd.string("model", "ggx_correlated")
+    rnd.finish()
+
+    lights_raw = top.raw("lights", [])
+    if not isinstance(lights_raw, list):
+        raise located("must be an array of tables ([[lights]])", file, "lights")
+    lights = tuple(_light(file, t, f"lights[{i}]") for i, t in enumerate(lights_raw))
+
+    mats_raw = top.raw("materials", {})
+    mats_reader = _Reader(file, mats_raw, "materials")
+    materials = {name: _material(file, t, name, f"materials.{name}") for name, t in mats_reader.table.items()}
+
+    objs_raw = top.raw("objects", [])
+    if not isinstance(objs_raw, list):
+        raise located("must be an array of tables ([[objects]])", file, "objects")
+    objects = tuple(_object(file, t, f"objects[{i}]", materials) for i, t in enumerate(objs_raw))
+    top.finish()
+    if len(materials) > MAX_MATERIALS:
+        raise located(f"at most {MAX_MATERIALS} materials are supported, got {len(materials)}", file, "materials")
+    return Scene(path=file if file.exists() else None, camera=camera, lights=lights, materials=materials,
+                 objects=objects, background=background, ambient=ambient, exposure=exposure,
+                 tonemap=tonemap, model=model)
+
+
+def _missing(file: Path, key: str) -> None:
+    raise located("is required", file, key)
+
+
+def load_scene(path: str | Path) -> Scene:
+    """Read and validate a scene file."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError as exc:
+        raise ClshadeError(f"{path}: scene file not found") from exc
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ClshadeError(f"{path}: cannot read scene file ({exc})") from exc
+    return parse_scene(text, path.resolve())

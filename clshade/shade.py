@@ -1,0 +1,131 @@
+"""The shading pass: upload a G-buffer once, then dispatch kernel variants on it.
+
+`Shader` owns the device copies of the G-buffer channels a run needs, the
+light and material tables, and the output buffer; `dispatch()` enqueues one
+variant and returns its OpenCL event (the benchmark reads profiling times
+from it), `render()` also reads the image back.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .gbuffer import GBuffer
+from .models import Model
+from .runtime import Runtime
+from .scene import Camera, Light, Scene
+from .variants import Features, Variant
+
+LIGHT_ORDER = ("directional", "point", "spot")
+
+
+def scene_features(scene: Scene, half_gbuffer: bool = False, fast_math: bool = False) -> Features:
+    """The feature set a scene calls for."""
+    count = {k: sum(1 for l in scene.lights if l.kind == k) for k in LIGHT_ORDER}
+    return Features(num_dir=count["directional"], num_point=count["point"], num_spot=count["spot"],
+                    ambient=any(a > 0 for a in scene.ambient), half_gbuffer=half_gbuffer, fast_math=fast_math)
+
+
+def pack_lights(lights: tuple[Light, ...] | list[Light]) -> np.ndarray:
+    """Lights as float4 rows in the layout of shade.cl (directional, point, spot)."""
+    rows: list[list[float]] = []
+    for kind in LIGHT_ORDER:
+        for light in (l for l in lights if l.kind == kind):
+            color = [float(c) for c in light.color]
+            if kind == "directional":
+                rows += [[*light.direction, 0.0], [*color, 0.0]]
+            elif kind == "point":
+                rows += [[*light.position, 0.0], [*color, 0.0]]
+            else:
+                cos_outer = math.cos(math.radians(light.outer_angle))
+                cos_inner = math.cos(math.radians(light.inner_angle))
+                rows += [[*light.position, cos_outer], [*color, cos_inner], [*light.direction, 0.0]]
+    return np.array(rows or [[0.0] * 4], np.float32)
+
+
+def camera_args(camera: Camera) -> list[np.ndarray]:
+    """cam_pos, cam_fwd and the pre-scaled cam_right / cam_up of shade.cl."""
+    fwd, right, up = camera.basis()
+    t = math.tan(math.radians(camera.fov) / 2)
+    f4 = lambda v: np.array([*v, 0.0], np.float32)  # noqa: E731
+    return [f4(camera.position), f4(fwd), f4(right * t * camera.aspect), f4(up * t)]
+
+
+@dataclass
+class Dispatch:
+    """A built variant bound to its arguments, ready to enqueue."""
+    variant: Variant
+    kernel: object
+    global_size: int
+
+
+class Shader:
+    """Device-side state for shading one G-buffer with one or more variants."""
+
+    def __init__(self, runtime: Runtime, gbuffer: GBuffer, scene: Scene, camera: Camera | None = None) -> None:
+        self.rt, self.gb, self.scene = runtime, gbuffer, scene
+        self.camera = camera or scene.camera
+        self._buffers: dict[tuple[str, bool], object] = {}
+        self.lights = runtime.to_device(pack_lights(scene.lights))
+        table = gbuffer.materials if len(gbuffer.materials) else np.zeros((1, 4, 4), np.float32)
+        self.materials = runtime.to_device(table.astype(np.float32))
+        self.out = runtime.empty(gbuffer.pixels * 16)
+        self.background = np.array([*scene.background, 0.0], np.float32)
+        self.ambient = np.array([*scene.ambient, 0.0], np.float32)
+        self._dispatches: dict[tuple, Dispatch] = {}
+
+    def buffer(self, name: str, half: bool = False):
+        """The device copy of one G-buffer channel (uploaded once)."""
+        key = (name, half and name in ("normal", "base"))
+        if key not in self._buffers:
+            self._buffers[key] = self.rt.to_device(self.gb.channel(name, half=key[1]))
+        return self._buffers[key]
+
+    def variant(self, model: Model, features: Features) -> Variant:
+        return Variant.build(model, features, self.gb.materials)
+
+    def prepare(self, model: Model, features: Features, entry: str = "shade") -> Dispatch:
+        """Build (once) and bind the kernel for (model, features); `entry` is shade or copy."""
+        variant = self.variant(model, features)
+        key = (variant.key, entry)
+        if key in self._dispatches:
+            return self._dispatches[key]
+        kernel = self.rt.kernel(variant.source(f"{entry}.cl"), entry, variant.options(), label=f"{model.id} ({entry})")
+        half = features.half_gbuffer
+        n = self.gb.pixels
+        args: list[object] = [np.uint32(n)]
+        if entry == "shade":
+            args += [np.uint32(self.gb.width), np.float32(2.0 / self.gb.width), np.float32(2.0 / self.gb.height)]
+            args += camera_args(self.camera)
+        args += [self.buffer(c, half) for c in variant.channels]
+        if entry == "shade":
+            if variant.has_material:
+                args.append(self.materials)
+            if features.num_lights:
+                args.append(self.lights)
+            if features.ambient:
+                args.append(self.ambient)
+            args.append(self.background)
+        args.append(self.out)
+        kernel.set_args(*args)
+        dispatch = Dispatch(variant, kernel, self.rt.global_size(n))
+        self._dispatches[key] = dispatch
+        return dispatch
+
+    def enqueue(self, dispatch: Dispatch):
+        """Enqueue one frame; returns the OpenCL event."""
+        return self.rt.cl.enqueue_nd_range_kernel(self.rt.queue, dispatch.kernel, (dispatch.global_size,),
+                                                  (self.rt.local_size,))
+
+    def read(self) -> np.ndarray:
+        """The last output as an (H, W, 4) float32 image (RGB radiance, coverage)."""
+        image = np.empty((self.gb.height, self.gb.width, 4), np.float32)
+        self.rt.cl.enqueue_copy(self.rt.queue, image, self.out)
+        return image
+
+    def render(self, model: Model, features: Features) -> np.ndarray:
+        dispatch = self.prepare(model, features)
+        self.enqueue(dispatch).wait()
+        return self.read()

@@ -1,0 +1,167 @@
+"""Kernel variants: a lighting model specialised for a scene's feature set.
+
+The scene decides the features (light counts by kind, ambient, storage
+precision, math mode); the model decides which G-buffer channels and material
+constants it reads. A variant carries exactly those: the defines are written
+at the top of the assembled source, so code, kernel arguments and channels of
+unused effects are absent from the program PoCL compiles.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .models import NONE, Model
+from .resources import kernels_dir
+
+# The per-material constants (surface.h, MATERIAL_STRIDE float4 per material).
+MATERIAL_LAYOUT = (("kd", "ks", "ka", "shininess"), ("ior", "f90", None, None),
+                   ("eta", None), ("k", None))
+TABLE_PARAMS = frozenset({"kd", "ks", "ka", "shininess", "ior", "f90", "eta", "k"})
+
+FRESNEL_DEFINES = {"schlick": "FRESNEL_SCHLICK", "dielectric": "FRESNEL_DIELECTRIC",
+                   "conductor": "FRESNEL_CONDUCTOR"}
+WORKFLOW_DEFINES = {"metallic": "WORKFLOW_METALLIC", "kdks": "WORKFLOW_KDKS"}
+
+FAST_MATH = "-cl-fast-relaxed-math"
+
+
+@dataclass(frozen=True)
+class Features:
+    """What a scene calls for, plus the precision choices of a run."""
+    num_dir: int = 0
+    num_point: int = 0
+    num_spot: int = 0
+    ambient: bool = False
+    half_gbuffer: bool = False
+    fast_math: bool = False
+
+    @property
+    def num_lights(self) -> int:
+        return self.num_dir + self.num_point + self.num_spot
+
+    def describe(self) -> list[str]:
+        out = [f"lights: {self.num_dir} directional, {self.num_point} point, {self.num_spot} spot"]
+        out.append(f"ambient: {'on' if self.ambient else 'off'}")
+        out.append(f"G-buffer storage: {'half (normal, base colour)' if self.half_gbuffer else 'float32'}")
+        out.append(f"math: {'fast-relaxed' if self.fast_math else 'precise'}")
+        return out
+
+
+def _c_float(x: float) -> str:
+    """A float32 literal that round-trips (9 significant digits)."""
+    value = float(np.float32(x))
+    text = f"{value:.9g}"
+    if "e" not in text and "." not in text and "inf" not in text and "nan" not in text:
+        text += ".0"
+    return text + "f"
+
+
+def material_row(params: dict[str, object]) -> np.ndarray:
+    """Pack one material's constants into MATERIAL_STRIDE float4 (see surface.h)."""
+    row = np.zeros((4, 4), np.float32)
+    row[0] = [params["kd"], params["ks"], params["ka"], params["shininess"]]
+    row[1, :2] = [params["ior"], params["f90"]]
+    row[2, :3] = params["eta"]
+    row[3, :3] = params["k"]
+    return row
+
+
+def used_table_columns(model: Model) -> np.ndarray:
+    """Boolean mask (4, 4) of the material-table entries the model reads."""
+    mask = np.zeros((4, 4), bool)
+    uses = model.uses
+    for r, names in enumerate(MATERIAL_LAYOUT):
+        for c, name in enumerate(names):
+            if name is None or name not in uses:
+                continue
+            if name in ("eta", "k"):
+                mask[r, :3] = True
+            else:
+                mask[r, c] = True
+    return mask
+
+
+@dataclass(frozen=True)
+class Variant:
+    """One specialised program: model × features × the channels it reads."""
+    model: Model
+    features: Features
+    channels: tuple[str, ...]
+    baked_material: tuple[float, ...] | None = field(default=None)
+
+    @classmethod
+    def build(cls, model: Model, features: Features, material_table: np.ndarray) -> "Variant":
+        """Choose channels: roughness/metallic when the model reads them; the material id
+        channel only when the materials differ in a constant the model reads (otherwise
+        those constants are compiled in)."""
+        uses = model.uses
+        channels = ["depth", "normal", "base"]
+        if "roughness" in uses:
+            channels.append("roughness")
+        if "metallic" in uses:
+            channels.append("metallic")
+        mask = used_table_columns(model)
+        table = np.asarray(material_table, np.float32).reshape(-1, 4, 4)
+        baked = None
+        if len(table) and np.all(table[:, mask] == table[0][mask]):
+            baked = tuple(float(x) for x in table[0].ravel())
+        elif len(table):
+            channels.append("material")
+        else:
+            baked = tuple(float(x) for x in np.zeros(16))
+        return cls(model, features, tuple(channels), baked)
+
+    @property
+    def has_material(self) -> bool:
+        return "material" in self.channels
+
+    def defines(self) -> dict[str, str]:
+        f, m = self.features, self.model
+        d = {
+            "NUM_DIR": str(f.num_dir), "NUM_POINT": str(f.num_point), "NUM_SPOT": str(f.num_spot),
+            "HAS_AMBIENT": str(int(f.ambient)),
+            "HAS_ROUGHNESS": str(int("roughness" in self.channels)),
+            "HAS_METALLIC": str(int("metallic" in self.channels)),
+            "HAS_MATERIAL": str(int(self.has_material)),
+            "HAS_DIFFUSE": str(int(m.diffuse != NONE)),
+            "HAS_SPECULAR": str(int(m.specular != NONE)),
+            "FRESNEL": FRESNEL_DEFINES[m.fresnel],
+            "WORKFLOW": WORKFLOW_DEFINES[m.workflow],
+        }
+        if f.half_gbuffer:
+            d["HALF_GBUFFER"] = "1"
+        if self.baked_material is not None:
+            values = np.asarray(self.baked_material, np.float32).reshape(4, 4)
+            for r in range(4):
+                d[f"MAT_M{r}"] = "(float4)(" + ", ".join(_c_float(x) for x in values[r]) + ")"
+        return d
+
+    def options(self) -> tuple[str, ...]:
+        return (FAST_MATH,) if self.features.fast_math else ()
+
+    def source(self, entry: str = "shade.cl") -> str:
+        return assemble(self.model, self.defines(), entry)
+
+    @property
+    def key(self) -> tuple:
+        return (self.model.id, self.features, self.channels, self.baked_material)
+
+
+def _read(name: str) -> str:
+    path = kernels_dir() / name
+    return f'#line 1 "{name}"\n' + path.read_text(encoding="utf-8") + "\n"
+
+
+def assemble(model: Model, defines: dict[str, str], entry: str) -> str:
+    """Concatenate the kernel sources in dependency order, with #line markers so
+    that build errors name the file: defines, brdf.h, surface.h, the diffuse and
+    specular model files, compose.h, then the entry file."""
+    head = "".join(f"#define {k} {v}\n" for k, v in defines.items())
+    parts = [head, _read("brdf.h"), _read("surface.h")]
+    for lobe in (model.diffuse, model.specular):
+        if lobe != NONE:
+            parts.append(_read(f"models/{lobe}.cl"))
+    parts += [_read("compose.h"), _read(entry)]
+    return "".join(parts)

@@ -1,0 +1,32 @@
+/* eval.cl — evaluate one lighting model's f (without the cosine) for arrays of
+ * (n, l, v) and parameters: the device side of accuracy tests, plausibility
+ * (reciprocity, albedo) and the stability grid. Uses exactly the composition
+ * of shade.cl (compose.h), so what is measured here is what renders.
+ *
+ * Per sample i:  n[i], l[i], v[i]  float4 (xyz used, need not be unit)
+ *                base[i]           float4 (rgb)
+ *                p[i]              float4 (roughness, metallic, -, -)
+ *                m[4i .. 4i+3]     the material constants (see surface.h)
+ * Output f[i] = (f.rgb, n·l > 0 ? 1 : 0): f is 0 when l is below the horizon.
+ */
+inline float3 unit_or(float3 x, float3 fallback) {
+    float len2 = dot(x, x);
+    return len2 > 1.0e-20f ? x * rsqrt(len2) : fallback;
+}
+
+__kernel void eval_brdf(const uint count,
+    __global const float4* n, __global const float4* l, __global const float4* v,
+    __global const float4* base, __global const float4* p, __global const float4* m,
+    __global float4* f)
+{
+    uint i = get_global_id(0);
+    if (i >= count) return;
+    float3 vv = unit_or(v[i].xyz, (float3)(0.0f, 0.0f, 1.0f));
+    float3 nn = unit_or(n[i].xyz, vv);
+    float3 ll = unit_or(l[i].xyz, (float3)(0.0f));
+    Surface s = make_surface(fmax(base[i].xyz, 0.0f), saturate(p[i].x), saturate(p[i].y),
+                             m[4 * i], m[4 * i + 1], m[4 * i + 2], m[4 * i + 3]);
+    Geometry g = make_geometry(nn, ll, vv);
+    float3 fr = brdf(g, s);
+    f[i] = g.nl_raw > 0.0f ? (float4)(fr, 1.0f) : (float4)(0.0f);
+}

@@ -1,0 +1,16 @@
+/*! clshade-model
+ * id: ggx_smith_schlick
+ * name: GGX with Smith–Schlick (k = α/2)
+ * kind: specular
+ * family: microfacet
+ * formula: f_s = D_GGX(α) · G1(l) G1(v) · F / (4 (n·l)(n·v)), G1(x) = n·x / (n·x (1−k) + k), k = α/2
+ * source: C. Schlick, "An Inexpensive BRDF Model for Physically-based Rendering", CGF 13(3), 1994; k = α/2 as in B. Karis, "Real Shading in Unreal Engine 4", 2013
+ * param: roughness | 0 | 1 | 0.5 | perceptual roughness r; α = r²
+ * uses: roughness, fresnel
+ * note: the study's shader shortcut, kept as a rung of the approximation ladder against walter_ggx and ggx_correlated.
+ */
+inline float3 specular_lobe(const Geometry g, const Surface s) {
+    float D = D_GGX(g.nh, g.sin2_nh, s.alpha);
+    float V = V_SmithSchlickGGX(g.nl, g.nv, s.alpha);
+    return (D * V) * fresnel(g, s);
+}
