@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import time
+from importlib import import_module
 from pathlib import Path
 
 from . import __version__
@@ -58,7 +58,19 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("devices", help="list OpenCL platforms and devices")
     p.set_defaults(func=cmd_devices)
+
+    check = sub.add_parser("check", help="measure physical plausibility or numerical stability",
+                           description="Measurements that back the claims clshade makes about its models.")
+    checks = check.add_subparsers(dest="check", metavar="CHECK")
+    checks.required = True
+    for module in EXTENSIONS:
+        import_module(f"clshade.{module}").add_parser(sub, checks)
     return parser
+
+
+# Modules that add commands: each defines add_parser(sub, checks), where `sub`
+# holds the top-level commands and `checks` the `clshade check ...` commands.
+EXTENSIONS: tuple[str, ...] = ()
 
 
 def _size(value: int | None, name: str) -> int | None:

@@ -1,0 +1,69 @@
+"""Evaluate a lighting model's f on the OpenCL device for arrays of directions
+and parameters (kernels/eval.cl), with exactly the composition that renders.
+
+Used by the accuracy tests, the plausibility measurements and the stability
+grid; the float64 counterpart is clshade.reference.brdf.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .models import Model
+from .runtime import Runtime, get_runtime
+from .scene import GOLD_ETA, GOLD_K
+from .variants import Features, Variant, material_row
+
+
+@dataclass
+class Samples:
+    """N evaluation points. Directions need not be unit length."""
+    n: np.ndarray                 # (N, 3)
+    l: np.ndarray                 # (N, 3)
+    v: np.ndarray                 # (N, 3)
+    base: np.ndarray              # (N, 3)
+    roughness: np.ndarray         # (N,)
+    metallic: np.ndarray          # (N,)
+    materials: np.ndarray         # (N, 4, 4) material constants (variants.material_row)
+
+    def __len__(self) -> int:
+        return len(self.n)
+
+
+def constant_materials(count: int, *, kd: float = 0.7, ks: float = 0.3, ka: float = 1.0,
+                       shininess: float | np.ndarray = 32.0, ior: float | np.ndarray = 1.5, f90: float = 1.0,
+                       eta=GOLD_ETA, k=GOLD_K) -> np.ndarray:
+    """(count, 4, 4) material rows; scalar or per-sample shininess / ior."""
+    rows = np.broadcast_to(material_row(dict(kd=kd, ks=ks, ka=ka, shininess=0.0, ior=1.5, f90=f90, eta=eta, k=k)),
+                           (count, 4, 4)).copy()
+    rows[:, 0, 3] = shininess
+    rows[:, 1, 0] = ior
+    return rows
+
+
+def _f4(x: np.ndarray) -> np.ndarray:
+    x = np.asarray(x, np.float32).reshape(-1, 3)
+    return np.ascontiguousarray(np.concatenate([x, np.zeros((len(x), 1), np.float32)], axis=1))
+
+
+def eval_brdf(model: Model, samples: Samples, runtime: Runtime | None = None,
+              fast_math: bool = False) -> np.ndarray:
+    """f (N, 3) float32 on the device; rows whose l is below the horizon are 0."""
+    rt = runtime or get_runtime()
+    cl = rt.cl
+    variant = Variant(model, Features(fast_math=fast_math), ("depth", "normal", "base"), None)
+    kernel = rt.kernel(variant.source("eval.cl"), "eval_brdf", variant.options(), label=f"{model.id} (eval)")
+    count = len(samples)
+    params = np.zeros((count, 4), np.float32)
+    params[:, 0] = samples.roughness
+    params[:, 1] = samples.metallic
+    bufs = [rt.to_device(_f4(a)) for a in (samples.n, samples.l, samples.v, samples.base)]
+    bufs.append(rt.to_device(params))
+    bufs.append(rt.to_device(np.ascontiguousarray(samples.materials, np.float32).reshape(-1, 4)))
+    out = rt.empty(count * 16)
+    kernel.set_args(np.uint32(count), *bufs, out)
+    cl.enqueue_nd_range_kernel(rt.queue, kernel, (rt.global_size(count),), (rt.local_size,)).wait()
+    result = np.empty((count, 4), np.float32)
+    cl.enqueue_copy(rt.queue, result, out)
+    return result[:, :3]
