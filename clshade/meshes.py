@@ -27,6 +27,40 @@ class Geometry:
         return len(self.faces)
 
 
+# Faces meeting at a vertex at more than this angle keep separate normals, so
+# box edges and cylinder caps shade flat while curved sides stay smooth.
+SHARP_EDGE_DEGREES = 30.0
+
+
+def split_sharp_edges(vertices: np.ndarray, faces: np.ndarray, degrees: float = SHARP_EDGE_DEGREES):
+    """Per-corner normals: each corner averages (area-weighted) the normals of the
+    faces around its vertex that lie within `degrees` of its own face. Returns
+    unshared vertices (3 per face), faces and normals. Vectorised over corner pairs."""
+    tri = vertices[faces]
+    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])      # length = 2·area
+    length = np.linalg.norm(cross, axis=1, keepdims=True)
+    unit = np.divide(cross, length, out=np.zeros_like(cross), where=length > 0)
+    vid = faces.reshape(-1)
+    fid = np.repeat(np.arange(len(faces)), 3)
+    order = np.argsort(vid, kind="stable")
+    sorted_vid = vid[order]
+    starts = np.flatnonzero(np.r_[True, sorted_vid[1:] != sorted_vid[:-1]])
+    sizes = np.diff(np.r_[starts, len(vid)])
+    # All (a, b) corner pairs sharing a vertex: group sizes are small (valence).
+    group_of = np.repeat(np.arange(len(starts)), sizes)
+    pair_counts = sizes[group_of]
+    a = np.repeat(order, pair_counts)
+    first = np.repeat(starts[group_of], pair_counts)
+    within = np.arange(len(a)) - np.repeat(np.cumsum(pair_counts) - pair_counts, pair_counts)
+    b = order[first + within]
+    keep = np.einsum("ij,ij->i", unit[fid[a]], unit[fid[b]]) >= np.cos(np.radians(degrees))
+    normals = np.zeros((len(vid), 3))
+    np.add.at(normals, a[keep], cross[fid[b[keep]]])
+    n = np.linalg.norm(normals, axis=1, keepdims=True)
+    normals = np.divide(normals, n, out=np.repeat(unit, 3, axis=0), where=n > 0)
+    return vertices[vid], np.arange(len(vid)).reshape(-1, 3), normals
+
+
 def _primitive(obj: SceneObject):
     import trimesh
     p = obj.params
@@ -52,9 +86,7 @@ def _primitive(obj: SceneObject):
                                       major_sections=p["sections"], minor_sections=max(p["sections"] // 2, 3))
     else:  # pragma: no cover - validated in scene.py
         raise ClshadeError(f"unknown primitive {kind!r}")
-    # Split vertices along sharp edges so boxes and cylinder caps shade flat.
-    mesh = mesh.smooth_shaded
-    return mesh.vertices, mesh.faces, mesh.vertex_normals
+    return split_sharp_edges(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64))
 
 
 def load_mesh(path: Path, scene_file: Path | None = None, key: str = "mesh"):

@@ -1,0 +1,636 @@
+"""Vectorised NumPy triangle rasterizer producing per-pixel fragments.
+
+The rasterizer knows nothing about lighting or materials (PyTorch3D style): it
+turns a triangle mesh, a view and an OpenGL projection into, per pixel, the
+index of the visible face, its view-space depth and perspective-correct
+barycentrics with respect to that face's three vertices.
+
+Pipeline (no Python loop per triangle or per pixel):
+
+1. vertices → clip space (``proj @ view``), float64;
+2. faces are processed in batches of :data:`FACE_BATCH`; trivially invisible
+   faces (non-finite, fully outside one frustum plane) are dropped;
+3. faces crossing the near plane (``z_clip + w_clip = 0``, i.e. ``w = near``
+   for a perspective matrix) are clipped Sutherland–Hodgman style into one or
+   two triangles, each clipped vertex carrying its barycentric coordinates in
+   the original face;
+4. per triangle: screen-space edge functions in float64 (written so that an
+   edge shared by two triangles gives exactly negated values, plus a top-left
+   tie rule: watertight, no pixel covered twice), a depth plane, a pixel
+   bounding box; boxes larger than :data:`TILE` are split into tiles;
+5. boxes/tiles are grouped by power-of-two size class and tested against the
+   pixel centres of a dense ``(n, sy, sx)`` grid by broadcasting (about one
+   add, one compare and one ``and`` per edge and candidate pixel), in chunks of
+   at most ``max_fragments`` candidate pixels;
+6. covered fragments are resolved with one ``np.minimum.at`` on int64 keys
+   packing (quantised NDC depth, triangle index); only the winning fragments
+   get their perspective-correct barycentrics and view depth computed.
+
+Pixel conventions: row 0 is the top of the image; pixel ``(i, j)`` has its
+centre at NDC ``x = (j + 0.5) / W * 2 - 1``, ``y = 1 - (i + 0.5) / H * 2``.
+Front faces are counter-clockwise in NDC.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = ["Fragments", "rasterize"]
+
+# --------------------------------------------------------------------------
+# Tolerances (every epsilon is named here, with the reason it exists)
+# --------------------------------------------------------------------------
+
+#: A triangle is degenerate (dropped) when the sine of the screen-space angle
+#: between its edges is below this: such a sliver is thinner than float64
+#: round-off can resolve (its barycentrics would be noise) and in practice
+#: covers no pixel centre.  Exactly zero-area triangles are always dropped.
+DEGENERATE_SIN_EPS: float = 1e-10
+
+#: Fragments are kept when ``-1 - eps <= z_ndc <= 1 + eps``.  Vertices created
+#: by near-plane clipping lie on ``z_ndc = -1`` only up to a few ulps, so the
+#: depth range test must not reject them on round-off.
+NDC_DEPTH_EPS: float = 1e-9
+
+#: Edge-function threshold of edges that do *not* own ties (top-left rule):
+#: ``E >= TIE_EPS`` means ``E > 0`` for any value a pixel-scale edge function
+#: can take, while ``E >= 0.0`` is used for the edges that own ties.  The
+#: smallest *normal* double is used (not the smallest subnormal) so the rule
+#: survives flush-to-zero/denormals-are-zero floating-point modes.
+TIE_EPS: float = float(np.finfo(np.float64).tiny)
+
+#: A tile of a large triangle is skipped when, for one edge, all its corner
+#: pixel centres are farther than this (in pixels) outside that edge.  The
+#: margin keeps the cull conservative against round-off in the corner values.
+TILE_CULL_MARGIN_PX: float = 1e-6
+
+# --------------------------------------------------------------------------
+# Tuning constants (not tolerances)
+# --------------------------------------------------------------------------
+
+#: Largest bounding-box side processed as one dense grid; larger boxes are
+#: split into TILE x TILE tiles.  Must be a power of two.
+TILE: int = 64
+_TILE_LOG2: int = TILE.bit_length() - 1
+
+#: Faces per batch: bounds the per-triangle working memory (a few hundred
+#: bytes per face) independently of the mesh size.
+FACE_BATCH: int = 1 << 17
+
+#: Preferred number of candidate pixels per dense grid chunk (cache friendly);
+#: the effective chunk is ``min(max_fragments, GRID_CHUNK_CELLS)`` (but at
+#: least one grid of the size class being processed).
+GRID_CHUNK_CELLS: int = 1 << 19
+
+#: Winning fragments whose barycentrics are computed at a time (cache sized).
+WINNER_CHUNK: int = 1 << 16
+
+_EMPTY_KEY = np.iinfo(np.int64).max
+_KEY_BITS = 62  # packed keys stay below 2**62: non-negative, no overflow
+
+
+@dataclass(frozen=True)
+class Fragments:
+    """Per-pixel result of :func:`rasterize`.
+
+    Attributes:
+        tri_id: ``(H, W)`` int32, index of the visible input face, -1 where no
+            triangle covers the pixel centre.
+        depth: ``(H, W)`` float32 view-space depth ``-z_view`` (> 0) of the
+            visible surface, 0 where empty.
+        bary: ``(H, W, 3)`` float32 perspective-correct barycentrics w.r.t.
+            the original face's 3 vertices (sum 1), 0 where empty.
+    """
+
+    tri_id: NDArray[np.int32]
+    depth: NDArray[np.float32]
+    bary: NDArray[np.float32]
+
+    @property
+    def coverage(self) -> NDArray[np.bool_]:
+        """``(H, W)`` bool, True where a triangle covers the pixel."""
+        return self.tri_id >= 0
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """``(H, W)``."""
+        return (int(self.tri_id.shape[0]), int(self.tri_id.shape[1]))
+
+
+def _empty_fragments(height: int, width: int) -> Fragments:
+    return Fragments(
+        tri_id=np.full((height, width), -1, dtype=np.int32),
+        depth=np.zeros((height, width), dtype=np.float32),
+        bary=np.zeros((height, width, 3), dtype=np.float32),
+    )
+
+
+# --------------------------------------------------------------------------
+# Public entry point
+# --------------------------------------------------------------------------
+
+
+def rasterize(
+    vertices: ArrayLike,
+    faces: ArrayLike,
+    view: ArrayLike,
+    proj: ArrayLike,
+    width: int,
+    height: int,
+    cull_backfaces: bool | np.ndarray = True,
+    max_fragments: int = 8_000_000,
+) -> Fragments:
+    """Rasterize a triangle mesh into per-pixel fragments.
+
+    Args:
+        vertices: ``(V, 3)`` world-space positions.
+        faces: ``(F, 3)`` vertex indices.
+        view: 4x4 world→camera matrix (camera looks down -Z, +Y up).
+        proj: 4x4 OpenGL projection matrix (column vectors:
+            ``p_clip = proj @ view @ [x, y, z, 1]``).
+        width, height: image size in pixels.
+        cull_backfaces: True drops faces that are clockwise in NDC, False keeps
+            all, a ``(F,)`` bool array culls per face (True = cull).
+        max_fragments: upper bound on candidate pixels alive at a time.
+
+    Returns:
+        :class:`Fragments`; nearest fragment (smallest depth) wins, only depths
+        between the near and far planes are kept.
+    """
+    width, height = int(width), int(height)
+    if width < 1 or height < 1:
+        raise ValueError(f"image size must be positive, got {width}x{height}")
+    if int(max_fragments) < 1:
+        raise ValueError("max_fragments must be >= 1")
+    verts = np.asarray(vertices, dtype=np.float64)
+    if verts.ndim != 2 or verts.shape[1] != 3:
+        raise ValueError(f"vertices must have shape (V, 3), got {verts.shape}")
+    tris = np.asarray(faces)
+    if tris.size == 0:
+        tris = tris.reshape(0, 3)
+    if tris.ndim != 2 or tris.shape[1] != 3:
+        raise ValueError(f"faces must have shape (F, 3), got {tris.shape}")
+    if tris.dtype.kind not in "iu":
+        raise ValueError(f"faces must be integers, got dtype {tris.dtype}")
+    tris = tris.astype(np.int64, copy=False)
+    n_faces = tris.shape[0]
+    if n_faces and (tris.min() < 0 or tris.max() >= verts.shape[0]):
+        raise ValueError("face indices out of range")
+    view_m = np.asarray(view, dtype=np.float64)
+    proj_m = np.asarray(proj, dtype=np.float64)
+    if view_m.shape != (4, 4) or proj_m.shape != (4, 4):
+        raise ValueError("view and proj must be 4x4 matrices")
+    if isinstance(cull_backfaces, (bool, np.bool_)):
+        cull = np.full(n_faces, bool(cull_backfaces))
+    else:
+        cull = np.asarray(cull_backfaces, dtype=bool)
+        if cull.shape != (n_faces,):
+            raise ValueError(f"cull_backfaces array must have shape ({n_faces},), got {cull.shape}")
+
+    out = _empty_fragments(height, width)
+    if n_faces == 0:
+        return out
+
+    with np.errstate(all="ignore"):  # non-finite input is dropped, never warned about
+        mvp = proj_m @ view_m
+        clip = verts @ mvp[:, :3].T + mvp[:, 3]  # (V, 4)
+        vdepth = -(verts @ view_m[2, :3] + view_m[2, 3])  # (V,) = -z_view
+        vfinite = np.isfinite(clip).all(axis=1) & np.isfinite(vdepth)
+        tris_t = np.ascontiguousarray(tris.T)  # (3, F)
+        vdepth_f = np.take(vdepth, tris_t)  # (3, F)
+        state = _Resolve(width, height, int(max_fragments))
+        for f0 in range(0, n_faces, FACE_BATCH):
+            f1 = min(n_faces, f0 + FACE_BATCH)
+            _raster_batch(state, clip, vdepth_f, vfinite, tris_t, cull, f0, f1, out)
+    return out
+
+
+# --------------------------------------------------------------------------
+# Internals
+# --------------------------------------------------------------------------
+
+
+class _Resolve:
+    """Depth-resolve state shared by all face batches."""
+
+    def __init__(self, width: int, height: int, max_fragments: int) -> None:
+        self.width = width
+        self.height = height
+        self.chunk_cells = min(max_fragments, GRID_CHUNK_CELLS)
+        n_pix = width * height
+        # Quantised depth of the current winner of each pixel (across batches).
+        self.best_q = np.full(n_pix, _EMPTY_KEY, dtype=np.int64)
+        # Packed (depth, triangle) keys of the batch being rasterized.
+        self.keys = np.full(n_pix, _EMPTY_KEY, dtype=np.int64)
+        self.dirty = False
+
+
+@dataclass
+class _Tris:
+    """Screen-space setup of the (clipped) triangles of one batch.
+
+    Per-vertex / per-edge arrays are ``(3, T)`` so that each row is a
+    contiguous 1-D array (fast gathers).
+    """
+
+    face: NDArray[np.int64]  # (T,) original face index
+    persp_a: NDArray[np.float64]  # (3, T) E_i / w_i coefficients: perspective-correct
+    persp_b: NDArray[np.float64]  #   barycentric weights, affine in (X, Y), up to a
+    persp_c: NDArray[np.float64]  #   common factor (normalised per pixel)
+    clip_slot: NDArray[np.int64]  # (T,) row in ``clip_bary`` or -1 (unclipped)
+    clip_bary: NDArray[np.float64]  # (K, 3, 3) [k, vertex, j]: original barycentrics
+    edge_a: NDArray[np.float64]  # (3, T) edge i: E_i = A X + (B Y + C), >= 0 inside
+    edge_b: NDArray[np.float64]
+    edge_c: NDArray[np.float64]
+    edge_thr: NDArray[np.float64]  # (3, T) 0.0 (edge owns ties) or TIE_EPS
+    z_a: NDArray[np.float64]  # (T,) NDC depth plane z = z_a X + (z_b Y + z_c)
+    z_b: NDArray[np.float64]
+    z_c: NDArray[np.float64]
+    col0: NDArray[np.int64]  # (T,) pixel bounding box (inclusive)
+    col1: NDArray[np.int64]
+    row0: NDArray[np.int64]
+    row1: NDArray[np.int64]
+
+
+def _clip_near(
+    p: NDArray[np.float64], dist: NDArray[np.float64], face: NDArray[np.int64]
+) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64]]:
+    """Clip triangles crossing the near plane (Sutherland–Hodgman, one plane).
+
+    Args:
+        p: ``(n, 3, 4)`` clip coordinates; every triangle has one or two
+            vertices with ``dist = z + w < 0`` (outside).
+        dist: ``(n, 3)`` signed distances ``z + w``.
+        face: ``(n,)`` original face indices.
+
+    Returns:
+        ``(p_out (k, 3, 4), face_out (k,), bary (k, 3, 3))`` where
+        ``bary[k, v]`` are the barycentrics of output vertex ``v`` in the
+        original face.  Winding is preserved.  Intersections are always
+        computed from the inside vertex towards the outside one, so two faces
+        sharing a clipped edge get bit-identical new vertices (no cracks).
+    """
+    inside = dist >= 0.0
+    n_in = inside.sum(axis=1)
+    ar = np.arange(3)
+    outs_p: list[NDArray[np.float64]] = []
+    outs_f: list[NDArray[np.int64]] = []
+    outs_b: list[NDArray[np.float64]] = []
+
+    def rotated(mask: NDArray[np.bool_], first: NDArray[np.int64]):
+        # Cyclic rotation (keeps the winding) putting vertex `first` at 0.
+        order = (first[:, None] + ar[None, :]) % 3
+        pr = np.take_along_axis(p[mask], order[:, :, None], axis=1)
+        dr = np.take_along_axis(dist[mask], order, axis=1)
+        return order, pr, dr
+
+    def to_original(order: NDArray[np.int64], bary_rot: NDArray[np.float64]) -> NDArray[np.float64]:
+        # bary_rot[k, v, j] weights rotated vertex j, i.e. original order[k, j].
+        res = np.empty_like(bary_rot)
+        np.put_along_axis(res, np.broadcast_to(order[:, None, :], bary_rot.shape), bary_rot, axis=2)
+        return res
+
+    one = n_in == 1
+    if one.any():  # a inside, b and c outside -> triangle (a, ab, ac)
+        order, pr, dr = rotated(one, np.argmax(inside[one], axis=1))
+        a, b, c = pr[:, 0], pr[:, 1], pr[:, 2]
+        da, db, dc = dr[:, 0], dr[:, 1], dr[:, 2]
+        tb = da / (da - db)
+        tc = da / (da - dc)
+        pab = a + tb[:, None] * (b - a)
+        pac = a + tc[:, None] * (c - a)
+        outs_p.append(np.stack([a, pab, pac], axis=1))
+        outs_f.append(face[one])
+        br = np.zeros((len(tb), 3, 3))
+        br[:, 0, 0] = 1.0
+        br[:, 1, 0] = 1.0 - tb
+        br[:, 1, 1] = tb
+        br[:, 2, 0] = 1.0 - tc
+        br[:, 2, 2] = tc
+        outs_b.append(to_original(order, br))
+
+    two = n_in == 2
+    if two.any():  # a outside -> quad (ab, b, c, ac) -> (ab, b, c) + (ab, c, ac)
+        order, pr, dr = rotated(two, np.argmin(inside[two], axis=1))
+        a, b, c = pr[:, 0], pr[:, 1], pr[:, 2]
+        da, db, dc = dr[:, 0], dr[:, 1], dr[:, 2]
+        tb = db / (db - da)
+        tc = dc / (dc - da)
+        pab = b + tb[:, None] * (a - b)
+        pac = c + tc[:, None] * (a - c)
+        outs_p.append(np.stack([pab, b, c], axis=1))
+        outs_p.append(np.stack([pab, c, pac], axis=1))
+        outs_f += [face[two], face[two]]
+        m = len(tb)
+        q_ab = np.zeros((m, 3))
+        q_ab[:, 0] = tb
+        q_ab[:, 1] = 1.0 - tb
+        q_ac = np.zeros((m, 3))
+        q_ac[:, 0] = tc
+        q_ac[:, 2] = 1.0 - tc
+        e_b = np.broadcast_to(np.array([0.0, 1.0, 0.0]), (m, 3))
+        e_c = np.broadcast_to(np.array([0.0, 0.0, 1.0]), (m, 3))
+        outs_b.append(to_original(order, np.stack([q_ab, e_b, e_c], axis=1)))
+        outs_b.append(to_original(order, np.stack([q_ab, e_c, q_ac], axis=1)))
+
+    if not outs_p:
+        return np.zeros((0, 3, 4)), np.zeros(0, dtype=np.int64), np.zeros((0, 3, 3))
+    return np.concatenate(outs_p), np.concatenate(outs_f), np.concatenate(outs_b)
+
+
+def _all3(a: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """``a.all(axis=0)`` for a ``(3, n)`` array (faster than a reduction)."""
+    return a[0] & a[1] & a[2]
+
+
+def _setup(
+    clip: NDArray[np.float64],
+    vfinite: NDArray[np.bool_],
+    tris_t: NDArray[np.int64],
+    cull: NDArray[np.bool_],
+    f0: int,
+    f1: int,
+    width: int,
+    height: int,
+) -> _Tris | None:
+    """Cull, clip, project and set up edge functions for faces ``f0:f1``."""
+    fv = tris_t[:, f0:f1]  # (3, n)
+    face = np.arange(f0, f1, dtype=np.int64)
+    p = np.take(clip, fv, axis=0).transpose(2, 0, 1).copy()  # (4, 3, n)
+    x, y, z, w = p
+    dist = z + w  # near plane: dist >= 0 is visible
+    inside = dist >= 0.0
+    # Trivial rejects: all 3 vertices outside one frustum plane (a linear
+    # test, valid even for vertices behind the camera).
+    ok = _all3(np.take(vfinite, fv))
+    ok &= inside[0] | inside[1] | inside[2]
+    ok &= ~_all3(z > w)
+    ok &= ~_all3(x > w)
+    ok &= ~_all3(x < -w)
+    ok &= ~_all3(y > w)
+    ok &= ~_all3(y < -w)
+    full = ok & _all3(inside)
+    part = ok & ~full
+    slot_parts = [np.full(int(full.sum()), -1, dtype=np.int64)]
+    p_parts = [p[:, :, full]]
+    f_parts = [face[full]]
+    clip_bary = np.zeros((0, 3, 3))
+    if part.any():
+        pc, fc, clip_bary = _clip_near(p[:, :, part].transpose(2, 1, 0), dist[:, part].T, face[part])
+        p_parts.append(pc.transpose(2, 1, 0))
+        f_parts.append(fc)
+        slot_parts.append(np.arange(len(fc), dtype=np.int64))
+    p = np.concatenate(p_parts, axis=2) if len(p_parts) > 1 else p_parts[0]
+    face = np.concatenate(f_parts)
+    slot = np.concatenate(slot_parts)
+    if len(face) == 0:
+        return None
+
+    x, y, z, w = p
+    inv_w = 1.0 / w
+    sx = (x * inv_w + 1.0) * (0.5 * width)  # (3, T) pixel X, rightwards
+    sy = (1.0 - y * inv_w) * (0.5 * height)  # (3, T) pixel Y, downwards
+    sz = z * inv_w  # (3, T) NDC z
+    e1x, e1y = sx[1] - sx[0], sy[1] - sy[0]
+    e2x, e2y = sx[2] - sx[0], sy[2] - sy[0]
+    area2 = e1x * e2y - e1y * e2x  # Y-down frame: < 0 for CCW-in-NDC (front) faces
+    scale = np.sqrt((e1x * e1x + e1y * e1y) * (e2x * e2x + e2y * e2y))
+    # NDC-depth plane z(X, Y), relative to vertex 0 for accuracy.
+    dz1, dz2 = sz[1] - sz[0], sz[2] - sz[0]
+    za = (dz1 * e2y - dz2 * e1y) / area2
+    zb = (dz2 * e1x - dz1 * e2x) / area2
+    zc = sz[0] - za * sx[0] - zb * sy[0]
+    # Non-finite anything (overflow, w -> 0) makes area2/scale/z-plane non-finite.
+    ok = _all3(w > 0.0) & np.isfinite(area2) & np.isfinite(scale)
+    ok &= np.isfinite(za) & np.isfinite(zb) & np.isfinite(zc)
+    ok &= (area2 != 0.0) & (np.abs(area2) > DEGENERATE_SIN_EPS * scale)
+    ok &= ~(np.take(cull, face) & (area2 > 0.0))  # back face = clockwise in NDC
+    if not ok.all():
+        face, slot, w, sx, sy, area2 = face[ok], slot[ok], w[:, ok], sx[:, ok], sy[:, ok], area2[ok]
+        za, zb, zc = za[ok], zb[ok], zc[ok]
+
+    # Pixel bounding box: centres j + 0.5 within [min, max], clamped to the image.
+    c0 = np.maximum(np.ceil(np.minimum(np.minimum(sx[0], sx[1]), sx[2]) - 0.5), 0.0)
+    c1 = np.minimum(np.floor(np.maximum(np.maximum(sx[0], sx[1]), sx[2]) - 0.5), width - 1.0)
+    r0 = np.maximum(np.ceil(np.minimum(np.minimum(sy[0], sy[1]), sy[2]) - 0.5), 0.0)
+    r1 = np.minimum(np.floor(np.maximum(np.maximum(sy[0], sy[1]), sy[2]) - 0.5), height - 1.0)
+    ok = (c1 >= c0) & (r1 >= r0)  # also False for boxes entirely off-screen
+    if not ok.any():
+        return None
+    if not ok.all():
+        face, slot, w, sx, sy, area2 = face[ok], slot[ok], w[:, ok], sx[:, ok], sy[:, ok], area2[ok]
+        za, zb, zc = za[ok], zb[ok], zc[ok]
+        c0, c1, r0, r1 = c0[ok], c1[ok], r0[ok], r1[ok]
+    # Compact the clipped-vertex table to the surviving clipped triangles.
+    clipped = slot >= 0
+    if clipped.any():
+        clip_bary = clip_bary[slot[clipped]]
+        slot[clipped] = np.arange(int(clipped.sum()))
+
+    # Edge i is opposite vertex i, from vertex a = i+1 to b = i+2 (mod 3):
+    # E_i = A X + (B Y + C), A = Ya - Yb, B = Xb - Xa, C = Xa Yb - Xb Ya.
+    # The reversed edge (b, a) of a neighbour gives exactly -A, -B, -C, hence
+    # exactly -E_i at every pixel: shared edges are watertight.
+    ia, ib = [1, 2, 0], [2, 0, 1]
+    xa, xb, ya, yb = sx[ia], sx[ib], sy[ia], sy[ib]
+    sgn = np.where(area2 > 0.0, 1.0, -1.0)  # make E >= 0 inside (exact)
+    ea = (ya - yb) * sgn
+    eb = (xb - xa) * sgn
+    ec = (xa * yb - xb * ya) * sgn
+    # Top-left rule: an edge owns the pixel centres exactly on it if the
+    # interior is to its right (A > 0: a "left" edge) or, for a horizontal
+    # edge, below it (A == 0, B > 0: a "top" edge).  The two triangles
+    # sharing an edge have negated (A, B), so exactly one of them owns it.
+    owns = (ea > 0.0) | ((ea == 0.0) & (eb > 0.0))
+    thr = np.where(owns, 0.0, TIE_EPS)
+
+    return _Tris(
+        face=face, persp_a=ea / w, persp_b=eb / w, persp_c=ec / w, clip_slot=slot, clip_bary=clip_bary,
+        edge_a=ea, edge_b=eb, edge_c=ec, edge_thr=thr,
+        z_a=za, z_b=zb, z_c=zc,
+        col0=c0.astype(np.int64), col1=c1.astype(np.int64),
+        row0=r0.astype(np.int64), row1=r1.astype(np.int64),
+    )
+
+
+def _make_tiles(t: _Tris) -> tuple[NDArray[np.int64], ...]:
+    """Split pixel boxes into tiles of at most TILE x TILE.
+
+    Returns ``(tri, x0, y0, bw, bh)`` per tile.  Tiles of large triangles
+    lying entirely outside one of their edges are culled.
+    """
+    bw = t.col1 - t.col0 + 1
+    bh = t.row1 - t.row0 + 1
+    big = (bw > TILE) | (bh > TILE)
+    if not big.any():
+        return np.arange(len(bw)), t.col0, t.row0, bw, bh
+    small = np.flatnonzero(~big)
+    bi = np.flatnonzero(big)
+    ntx = (bw[bi] + TILE - 1) >> _TILE_LOG2
+    nty = (bh[bi] + TILE - 1) >> _TILE_LOG2
+    cnt = ntx * nty
+    rep = np.repeat(np.arange(len(bi)), cnt)
+    k = np.arange(int(cnt.sum())) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+    ti = bi[rep]
+    ky, kx = np.divmod(k, ntx[rep])
+    bx0 = t.col0[ti] + (kx << _TILE_LOG2)
+    by0 = t.row0[ti] + (ky << _TILE_LOG2)
+    bbw = np.minimum(TILE, t.col1[ti] - bx0 + 1)
+    bbh = np.minimum(TILE, t.row1[ti] - by0 + 1)
+    # Conservative tile cull: all 4 corner pixel centres outside one edge.
+    xs = (bx0 + 0.5, bx0 + (bbw - 0.5))
+    ys = (by0 + 0.5, by0 + (bbh - 0.5))
+    keep = np.ones(len(ti), dtype=bool)
+    for i in range(3):
+        a, b, c = t.edge_a[i][ti], t.edge_b[i][ti], t.edge_c[i][ti]
+        e_max = np.maximum(np.maximum(a * xs[0] + (b * ys[0] + c), a * xs[1] + (b * ys[0] + c)),
+                           np.maximum(a * xs[0] + (b * ys[1] + c), a * xs[1] + (b * ys[1] + c)))
+        keep &= e_max >= -TILE_CULL_MARGIN_PX * (np.abs(a) + np.abs(b))
+    return (np.concatenate([small, ti[keep]]), np.concatenate([t.col0[small], bx0[keep]]),
+            np.concatenate([t.row0[small], by0[keep]]), np.concatenate([bw[small], bbw[keep]]),
+            np.concatenate([bh[small], bbh[keep]]))
+
+
+_CEIL_LOG2 = np.zeros(TILE + 1, dtype=np.int64)
+for _k in range(1, _TILE_LOG2 + 1):
+    _CEIL_LOG2[(1 << (_k - 1)) + 1: (1 << _k) + 1] = _k
+del _k
+
+
+def _raster_batch(
+    state: _Resolve,
+    clip: NDArray[np.float64],
+    vdepth: NDArray[np.float64],
+    vfinite: NDArray[np.bool_],
+    tris_t: NDArray[np.int64],
+    cull: NDArray[np.bool_],
+    f0: int,
+    f1: int,
+    out: Fragments,
+) -> None:
+    """Rasterize faces ``f0:f1`` and merge their winners into ``out``."""
+    width = state.width
+    t = _setup(clip, vfinite, tris_t, cull, f0, f1, width, state.height)
+    if t is None:
+        return
+    n_tri = len(t.face)
+    tri_bits = max(1, (n_tri - 1).bit_length())
+    # Key = (quantised NDC depth << tri_bits) | triangle: min key = nearest.
+    z_scale = float((1 << (_KEY_BITS - tri_bits)) - 1) * 0.5
+    keys = state.keys
+    if state.dirty:
+        keys.fill(_EMPTY_KEY)
+    state.dirty = True
+
+    tile_tri, tx0, ty0, tbw, tbh = _make_tiles(t)
+    n_cls = _TILE_LOG2 + 1
+    cls = _CEIL_LOG2[tbh] * n_cls + _CEIL_LOG2[tbw]
+    order = np.argsort(cls, kind="stable")
+    counts = np.bincount(cls, minlength=n_cls * n_cls)
+    starts = np.concatenate([[0], np.cumsum(counts)])
+    lo_z, hi_z = -1.0 - NDC_DEPTH_EPS, 1.0 + NDC_DEPTH_EPS
+
+    for c in np.flatnonzero(counts):
+        lsy, lsx = divmod(int(c), n_cls)
+        gx, gy = 1 << lsx, 1 << lsy
+        per_chunk = max(1, state.chunk_cells // (gx * gy))
+        sel_all = order[starts[c]: starts[c + 1]]
+        cols = np.arange(gx)
+        rows = np.arange(gy)
+        for s in range(0, len(sel_all), per_chunk):
+            sel = sel_all[s: s + per_chunk]
+            n = len(sel)
+            ti = tile_tri[sel]
+            xabs = tx0[sel][:, None] + cols  # (n, gx) pixel column
+            yabs = ty0[sel][:, None] + rows  # (n, gy) pixel row
+            xc = xabs + 0.5
+            yc = yabs + 0.5
+            if gx > 1:  # columns beyond the box: NaN fails every edge test
+                xc[cols >= tbw[sel][:, None]] = np.nan
+            if gy > 1:
+                yc[rows >= tbh[sel][:, None]] = np.nan
+            inside = np.empty((n, gy, gx), dtype=bool)
+            tmp_e = np.empty((n, gy, gx), dtype=np.float64)
+            tmp_m = np.empty((n, gy, gx), dtype=bool)
+            for i in range(3):
+                ax = t.edge_a[i][ti][:, None] * xc  # (n, gx)
+                byc = t.edge_b[i][ti][:, None] * yc + t.edge_c[i][ti][:, None]  # (n, gy)
+                np.add(ax[:, None, :], byc[:, :, None], out=tmp_e)
+                thr = t.edge_thr[i][ti][:, None, None]
+                if i == 0:
+                    np.greater_equal(tmp_e, thr, out=inside)
+                else:
+                    np.greater_equal(tmp_e, thr, out=tmp_m)
+                    inside &= tmp_m
+            idx = np.flatnonzero(inside)
+            if len(idx) == 0:
+                continue
+            ri = idx >> lsx  # flat index into (n, gy)
+            tl = idx >> (lsx + lsy)  # tile within the chunk
+            ci = (tl << lsx) | (idx & (gx - 1))  # flat index into (n, gx)
+            zx = t.z_a[ti][:, None] * xc
+            zy = t.z_b[ti][:, None] * yc + t.z_c[ti][:, None]
+            z = zx.ravel()[ci] + zy.ravel()[ri]
+            good = (z >= lo_z) & (z <= hi_z)  # between the near and far planes
+            if not good.all():
+                ri, ci, tl, z = ri[good], ci[good], tl[good], z[good]
+            pix = yabs.ravel()[ri] * width + xabs.ravel()[ci]
+            np.clip(z, -1.0, 1.0, out=z)
+            q = ((z + 1.0) * z_scale).astype(np.int64)
+            np.minimum.at(keys, pix, (q << tri_bits) | ti[tl])
+
+    # Merge with previous batches: strictly nearer wins (ties: earlier batch).
+    hit = np.flatnonzero(keys != _EMPTY_KEY)
+    if len(hit) == 0:
+        return
+    k = keys[hit]
+    kq = k >> tri_bits
+    better = kq < state.best_q[hit]
+    if not better.all():
+        hit, k, kq = hit[better], k[better], kq[better]
+    state.best_q[hit] = kq
+    tri = k & ((1 << tri_bits) - 1)
+    for s in range(0, len(hit), WINNER_CHUNK):  # small chunks stay in cache
+        _write_winners(t, vdepth, out, hit[s: s + WINNER_CHUNK], tri[s: s + WINNER_CHUNK], width)
+
+
+def _write_winners(
+    t: _Tris,
+    vdepth_f: NDArray[np.float64],
+    out: Fragments,
+    pix: NDArray[np.int64],
+    tri: NDArray[np.int64],
+    width: int,
+) -> None:
+    """Perspective-correct barycentrics and depth of the winning fragments.
+
+    ``vdepth_f`` is the ``(3, F)`` view depth of each face's vertices.
+    """
+    py, px = np.divmod(pix, width)
+    px = px + 0.5
+    py = py + 0.5
+    # Screen-space barycentrics (edge functions) divided by clip w are the
+    # perspective-correct weights up to a common factor.
+    b = np.empty((3, len(pix)))
+    for i in range(3):
+        e = t.persp_a[i][tri] * px + (t.persp_b[i][tri] * py + t.persp_c[i][tri])
+        np.maximum(e, 0.0, out=b[i])
+    s = b[0] + b[1] + b[2]
+    # s <= 0 or non-finite: only reachable by round-off/overflow on
+    # near-degenerate slivers or absurd coordinates; fall back to the centroid.
+    bad = ~(s > 0.0) | ~np.isfinite(s)
+    if bad.any():
+        b[:, bad] = 1.0
+        s[bad] = 3.0
+    b /= s
+    slot = t.clip_slot[tri]
+    clipped = np.flatnonzero(slot >= 0)
+    if len(clipped):  # map clipped-vertex weights to the original face
+        b[:, clipped] = np.einsum("vn,nvj->jn", b[:, clipped], t.clip_bary[slot[clipped]])
+    face = t.face[tri]
+    depth = b[0] * vdepth_f[0][face] + b[1] * vdepth_f[1][face] + b[2] * vdepth_f[2][face]
+    out.tri_id.reshape(-1)[pix] = face
+    out.depth.reshape(-1)[pix] = depth
+    out.bary.reshape(-1, 3)[pix] = b.T

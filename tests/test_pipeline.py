@@ -1,0 +1,137 @@
+"""End-to-end pipeline: scene → rasterizer → G-buffer → OpenCL → image."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from clshade import models
+from clshade.cli import main
+from clshade.image import read_image
+from clshade.pipeline import prepare_frame, render
+from clshade.scene import parse_scene
+
+from conftest import SCENES
+
+PLANE_SCENE = """
+[camera]
+position = [0.0, 0.0, 3.0]
+fov = 40.0
+width = 48
+height = 32
+
+[render]
+background = [0.1, 0.2, 0.3]
+
+[[lights]]
+type = "directional"
+direction = [0.0, 0.0, -1.0]
+irradiance = [2.0, 3.0, 4.0]
+
+[materials.m]
+base_color = [0.5, 0.25, 0.75]
+roughness = 0.5
+
+[[objects]]
+primitive = "plane"
+size = 20.0
+rotate = [90.0, 0.0, 0.0]
+material = "m"
+"""
+
+
+def test_lambert_plane_matches_closed_form(runtime):
+    """A plane facing the camera and the light: L = (base/π)·E·cos0 exactly."""
+    scene = parse_scene(PLANE_SCENE)
+    image = render(scene, models.resolve("lambert"), runtime=runtime).image
+    expected = np.array([0.5, 0.25, 0.75]) / math.pi * np.array([2.0, 3.0, 4.0])
+    assert image[..., 3].min() == 1.0                      # the plane covers every pixel
+    np.testing.assert_allclose(image[..., :3].reshape(-1, 3), np.broadcast_to(expected, (48 * 32, 3)), rtol=1e-5)
+
+
+def test_background_where_uncovered(runtime):
+    scene = parse_scene(PLANE_SCENE.replace("size = 20.0", "size = 0.5"))
+    image = render(scene, models.resolve("ggx_correlated"), runtime=runtime).image
+    empty = image[..., 3] == 0
+    assert empty.any() and (~empty).any()
+    np.testing.assert_array_equal(image[empty][:, :3], np.broadcast_to([0.1, 0.2, 0.3], (empty.sum(), 3)).astype(np.float32))
+
+
+@pytest.mark.parametrize("name", ["robot", "sphere_grid", "ground_plane"])
+def test_bundled_scenes_render_finite_and_lit(runtime, name):
+    result = render(SCENES / f"{name}.toml", models.resolve("ggx_correlated"), width=96, height=72, runtime=runtime)
+    rgb, cov = result.image[..., :3], result.image[..., 3] > 0
+    assert np.isfinite(rgb).all() and (rgb >= 0).all()
+    assert cov.mean() > 0.05                               # something is in view
+    assert rgb[cov].max() > 0.05                           # and it is lit
+
+
+def test_every_preset_renders_sphere_grid(runtime):
+    frame = prepare_frame(SCENES / "sphere_grid.toml", 80, 36)
+    lambert = None
+    for model in models.presets():
+        img = render(frame.scene, model, runtime=runtime, frame=frame).image
+        cov = img[..., 3] > 0
+        assert np.isfinite(img).all() and (img[..., :3] >= 0).all(), model.id
+        assert img[cov][:, 0].mean() > img[cov][:, 2].mean(), model.id   # red plastic stays red
+        if model.id == "lambert":
+            lambert = img
+    assert lambert is not None
+
+
+def test_oren_nayar_sigma0_is_lambert(runtime):
+    """Oren–Nayar with σ = 0 is exactly Lambert (a claim of the study)."""
+    scene = parse_scene(PLANE_SCENE.replace("roughness = 0.5", "roughness = 0.0").replace("rotate = [90.0, 0.0, 0.0]",
+                                                                                          "rotate = [70.0, 10.0, 0.0]"))
+    a = render(scene, models.resolve("lambert"), runtime=runtime).image
+    b = render(scene, models.resolve("oren_nayar"), runtime=runtime).image
+    np.testing.assert_allclose(a, b, rtol=1e-6)
+
+
+def test_variant_reads_only_what_the_model_uses(runtime):
+    frame = prepare_frame(SCENES / "sphere_grid.toml", 32, 16)
+    from clshade.shade import Shader, scene_features
+    shader = Shader(runtime, frame.gbuffer, frame.scene)
+    features = scene_features(frame.scene)
+    assert shader.variant(models.resolve("lambert"), features).channels == ("depth", "normal", "base", "metallic")
+    ggx = shader.variant(models.resolve("ggx_correlated"), features)
+    assert "roughness" in ggx.channels and "material" not in ggx.channels
+    # Phong's exponent differs per sphere: the material id channel appears.
+    assert "material" in shader.variant(models.resolve("phong"), features).channels
+
+
+def test_cli_render_png_and_exr(tmp_path, capsys):
+    png, exr = tmp_path / "robot.png", tmp_path / "robot.exr"
+    assert main(["render", str(SCENES / "robot.toml"), "-o", str(png), "--width", "64", "--height", "48"]) == 0
+    out = capsys.readouterr().out
+    assert f"wrote {png}" in out and "rasterize" in out and "shade" in out
+    img = read_image(png)
+    assert img.shape == (48, 64, 3) and img.max() > 0.2
+    assert main(["render", str(SCENES / "robot.toml"), "-o", str(exr), "--width", "64", "--height", "48",
+                 "-m", "oren_nayar+ggx_correlated", "--explain"]) == 0
+    out = capsys.readouterr().out
+    assert "G-buffer channels: depth, normal, base, roughness, metallic" in out
+    assert "NUM_DIR=1 NUM_POINT=1 NUM_SPOT=1" in out
+    linear = read_image(exr)
+    assert linear.shape == (48, 64, 4) and np.isfinite(linear).all()
+    assert linear[..., :3].max() > 0.2             # linear radiance, not tone mapped
+
+
+def test_cli_models_and_devices(capsys):
+    assert main(["models"]) == 0
+    text = capsys.readouterr().out
+    for lobe in models.lobes():
+        assert lobe in text
+    assert main(["devices"]) == 0
+    assert "*" in capsys.readouterr().out
+
+
+def test_model_specs_resolve():
+    m = models.resolve("oren_nayar+ggx_correlated")
+    assert (m.diffuse, m.specular, m.workflow) == ("oren_nayar", "ggx_correlated", "metallic")
+    assert models.resolve("phong").workflow == "kdks"
+    assert models.resolve("cook_torrance@conductor").fresnel == "conductor"
+    assert len(models.resolve_many("all")) == len(models.PRESETS)
+    with pytest.raises(Exception, match="did you mean 'ggx_correlated'"):
+        models.resolve("ggx_corelated")
