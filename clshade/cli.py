@@ -70,7 +70,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 # Modules that add commands: each defines add_parser(sub, checks), where `sub`
 # holds the top-level commands and `checks` the `clshade check ...` commands.
-EXTENSIONS: tuple[str, ...] = ()
+EXTENSIONS: tuple[str, ...] = ("compare",)
 
 
 def _size(value: int | None, name: str) -> int | None:

@@ -1,0 +1,63 @@
+"""Contact sheets and the smoothness sweep."""
+from __future__ import annotations
+
+import numpy as np
+
+from clshade import models
+from clshade.cli import main
+from clshade.compare import LABEL_HEIGHT, MAX_COLUMNS, SHEET_BACKGROUND, compare_sheet, difference, sweep_sheet
+from clshade.image import read_image
+
+from conftest import SCENES
+
+
+def test_sheet_groups_labels_and_timings(runtime):
+    chosen = models.resolve_many("lambert,phong,ggx_correlated")
+    sheet, tiles = compare_sheet(SCENES / "robot.toml", chosen, width=64, height=64, runtime=runtime)
+    assert [t.model.id for t in tiles] == [m.id for m in chosen]
+    assert all(t.ms > 0 for t in tiles)
+    # Three groups → three rows of one tile each, each with a title and a label band.
+    assert sheet.shape[1] == 6 + (64 + 6)
+    assert sheet.shape[0] > 3 * (64 + LABEL_HEIGHT)
+    # The label band under the first tile has text (pixels brighter than the sheet background).
+    band = sheet[30 + 6 + 64: 30 + 6 + 64 + LABEL_HEIGHT, 6:70]
+    assert (band.max(axis=-1) > np.max(SHEET_BACKGROUND) + 0.3).sum() > 20
+    # Tiles differ between models (the metal parts are black under a diffuse-only model).
+    assert not np.allclose(tiles[0].image, tiles[2].image)
+
+
+def test_difference_view_and_wrapping(runtime):
+    chosen = models.resolve_many("all")
+    sheet, tiles = compare_sheet(SCENES / "sphere_grid.toml", chosen, width=40, height=18,
+                                 reference=models.resolve("ggx_correlated"), runtime=runtime)
+    assert sheet.shape[1] == 6 + MAX_COLUMNS * (40 + 6)       # rows wrap at MAX_COLUMNS tiles
+    same = difference(np.zeros((2, 2, 3)), np.zeros((2, 2, 3)))[0]
+    assert np.allclose(same, same[0, 0])                       # no difference → one colour
+
+
+def test_cli_compare_and_sweep(tmp_path, capsys):
+    out = tmp_path / "sheet.png"
+    assert main(["compare", str(SCENES / "robot.toml"), "-m", "diffuse", "-o", str(out), "--tile", "48"]) == 0
+    assert "Oren–Nayar" in capsys.readouterr().out
+    assert read_image(out).shape[1] == 6 + 3 * (48 + 6)
+    sweep = tmp_path / "sweep.png"
+    assert main(["sweep", "-m", "phong,phong_normalized", "--roughness", "0.2,0.8", "--size", "40",
+                 "-o", str(sweep)]) == 0
+    assert read_image(sweep).shape[1] == 6 + 2 * (40 + 6)
+
+
+def test_normalized_highlight_brightens_as_it_narrows(runtime):
+    """The study's Figure 4: a normalised lobe's peak grows as roughness falls; the unnormalised one's does not."""
+    from clshade.compare import shade_all
+    from clshade.pipeline import prepare_frame
+    from clshade.scene import load_scene
+    import dataclasses
+    scene = load_scene(SCENES / "red_ball.toml")
+    peaks = {}
+    for r in (0.3, 0.6):
+        mats = {k: dataclasses.replace(m, roughness=r) for k, m in scene.materials.items()}
+        frame = prepare_frame(dataclasses.replace(scene, materials=mats), 96, 96)
+        for t in shade_all(frame, models.resolve_many("phong,phong_normalized"), runtime, repeats=1):
+            peaks[(t.model.id, r)] = t.image[..., 2].max()       # blue: specular only (red base)
+    assert peaks[("lambert+phong_normalized", 0.3)] > 2 * peaks[("lambert+phong_normalized", 0.6)]
+    assert peaks[("lambert+phong", 0.3)] < 1.5 * peaks[("lambert+phong", 0.6)]
