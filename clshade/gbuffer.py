@@ -13,7 +13,8 @@ import numpy as np
 
 from .meshes import Geometry
 from .raster import Fragments
-from .scene import Scene
+from .scene import Camera, Scene
+from .textures import MIN_TANGENT_LEN2, TextureSet
 from .variants import material_row
 
 # The channels the rasterizer pass can write, with their element type and
@@ -60,8 +61,97 @@ def material_table(scene: Scene) -> np.ndarray:
     return np.stack(rows) if rows else np.zeros((0, 4, 4), np.float32)
 
 
-def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments) -> GBuffer:
-    """Interpolate normals and look up material values for every covered pixel."""
+def uv_derivatives(geometry: Geometry, tri: np.ndarray, pixels: np.ndarray, camera: Camera,
+                   width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+    """Screen-space UV derivatives (∂uv/∂x, ∂uv/∂y per pixel step), analytic on each
+    pixel's own triangle: with A = [c0 c1 c2] the clip (x, y, w) of its corners, the
+    perspective-correct barycentrics at NDC point s are A⁻¹(s, 1) normalised to sum 1;
+    the UVs one pixel right and one pixel down minus the UV at the centre.
+    Valid for any projection with w > 0 (orthographic included)."""
+    mvp = camera.projection_matrix() @ camera.view_matrix()
+    faces, inverse = np.unique(tri, return_inverse=True)
+    corners = geometry.faces[faces]                                   # (U, 3)
+    clip = geometry.vertices[corners] @ mvp[[0, 1, 3], :3].T + mvp[[0, 1, 3], 3]   # (U, 3 corners, xyw)
+    A = np.swapaxes(clip, 1, 2)                                       # columns = corners
+    det = np.linalg.det(A)
+    ok = np.abs(det) > 0
+    inv = np.zeros_like(A)
+    inv[ok] = np.linalg.inv(A[ok])
+    uv_c = geometry.uvs[corners].astype(np.float64)                   # (U, 3, 2)
+    py, px = np.divmod(pixels, width)
+    x = (px + 0.5) / width * 2.0 - 1.0
+    y = 1.0 - (py + 0.5) / height * 2.0
+
+    def uv_at(sx: np.ndarray, sy: np.ndarray) -> np.ndarray:
+        s = np.stack([sx, sy, np.ones_like(sx)], axis=1)
+        b = np.einsum("kij,kj->ki", inv[inverse], s)
+        total = b.sum(axis=1, keepdims=True)
+        b = np.divide(b, total, out=np.full_like(b, 1.0 / 3.0), where=np.abs(total) > 0)
+        return np.einsum("ki,kid->kd", b, uv_c[inverse])
+
+    centre = uv_at(x, y)
+    dx = uv_at(x + 2.0 / width, y) - centre
+    dy = uv_at(x, y - 2.0 / height) - centre
+    bad = ~ok[inverse] | ~np.isfinite(dx).all(1) | ~np.isfinite(dy).all(1)
+    dx[bad] = 0.0
+    dy[bad] = 0.0
+    return dx, dy
+
+
+def _apply_texture_set(t: TextureSet, uv: np.ndarray, dx: np.ndarray, dy: np.ndarray, normal: np.ndarray,
+                       tangent: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Base colour, roughness, metallic and shading normal of K pixels from one texture set."""
+    uv, dx, dy = uv * t.uv_scale, dx * t.uv_scale, dy * t.uv_scale
+    k = len(uv)
+    base = np.broadcast_to(np.asarray(t.base_factor, np.float32), (k, 3)).copy()
+    rough = np.full(k, t.roughness_factor, np.float32)
+    metal = np.full(k, t.metallic_factor, np.float32)
+    if t.base_color is not None:
+        base *= t.base_color.sample(uv, t.base_color.lod(dx, dy))
+    if t.metallic_roughness is not None:
+        mr = t.metallic_roughness.sample(uv, t.metallic_roughness.lod(dx, dy))
+        rough *= mr[:, 1]
+        metal *= mr[:, 2]
+    if t.normal is not None:
+        m = t.normal.sample(uv, t.normal.lod(dx, dy)) * 2.0 - 1.0
+        m[:, :2] *= t.normal_scale
+        T = tangent[:, :3] - normal * np.einsum("ij,ij->i", tangent[:, :3], normal)[:, None]
+        tlen2 = np.einsum("ij,ij->i", T, T)
+        good = tlen2 > MIN_TANGENT_LEN2
+        T = T / np.sqrt(np.where(good, tlen2, 1.0))[:, None]
+        B = np.where(tangent[:, 3:4] < 0.0, -1.0, 1.0) * np.cross(normal, T)
+        mapped = m[:, 0:1] * T + m[:, 1:2] * B + m[:, 2:3] * normal
+        length = np.linalg.norm(mapped, axis=1, keepdims=True)
+        good &= length[:, 0] > 0
+        normal = np.where(good[:, None], mapped / np.where(length > 0, length, 1.0), normal)
+    return base, rough, metal, normal.astype(np.float32)
+
+
+def _texture_pixels(geometry: Geometry, tri: np.ndarray, pixels: np.ndarray, bary: np.ndarray, camera: Camera,
+                    width: int, height: int, normal: np.ndarray, base: np.ndarray, rough: np.ndarray,
+                    metal: np.ndarray) -> None:
+    """Overwrite the channels of textured pixels in place."""
+    tex = geometry.face_texture[tri]
+    sel = np.flatnonzero(tex >= 0)
+    if not len(sel):
+        return
+    t_tri, t_bary = tri[sel], bary[sel].astype(np.float64)
+    corners = geometry.faces[t_tri]
+    uv = np.einsum("kc,kcd->kd", t_bary, geometry.uvs[corners].astype(np.float64))
+    tangent = np.einsum("kc,kcd->kd", t_bary, geometry.tangents[corners].astype(np.float64))
+    dx, dy = uv_derivatives(geometry, t_tri, pixels[sel], camera, width, height)
+    for index in np.unique(tex[sel]):
+        part = tex[sel] == index
+        rows = pixels[sel][part]
+        b, r, m, n = _apply_texture_set(geometry.texture_sets[index], uv[part], dx[part], dy[part],
+                                        normal[rows].astype(np.float64), tangent[part])
+        base[rows], rough[rows], metal[rows], normal[rows] = b, r, m, n
+
+
+def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments, camera: Camera | None = None) -> GBuffer:
+    """Interpolate normals and look up material values for every covered pixel; where a
+    face has a texture set, sample its textures (trilinear, see textures.py). `camera`
+    (default: the scene's, at the fragments' size) gives the UV screen derivatives."""
     h, w = fragments.tri_id.shape
     n = h * w
     cov = fragments.coverage.reshape(-1)
@@ -84,12 +174,17 @@ def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments) -> GBu
         corners = geometry.faces[tri]                       # (K, 3) vertex ids
         nrm = np.einsum("kc,kcd->kd", bary, geometry.normals[corners])
         length = np.linalg.norm(nrm, axis=1, keepdims=True)
-        normal[cov] = np.divide(nrm, length, out=np.zeros_like(nrm), where=length > 0)
+        # NaN stays NaN (counted below as non-finite); only a zero length becomes 0.
+        normal[cov] = np.where(np.isfinite(length), np.divide(nrm, length, out=np.zeros_like(nrm),
+                                                              where=length > 0), np.nan)
         mid = geometry.face_material[tri]
         base[cov] = base_of[mid]
         rough[cov] = rough_of[mid]
         metal[cov] = metal_of[mid]
         matid[cov] = mid.astype(np.uint8)
+        if geometry.face_texture is not None:
+            camera = (camera or scene.camera).with_size(w, h)
+            _texture_pixels(geometry, tri, np.flatnonzero(cov), bary, camera, w, h, normal, base, rough, metal)
 
     # Replace non-finite inputs (from NaN vertices, bad normals in a mesh file):
     # the pixel shades as empty/neutral and is counted; no other pixel is touched.

@@ -8,7 +8,8 @@ from pathlib import Path
 import numpy as np
 
 from .errors import ClshadeError, located
-from .scene import Scene, SceneObject
+from .scene import Material, Scene, SceneObject
+from .textures import TextureSet, load_texture_file, primitive_uvs, texture_from_image, vertex_tangents
 
 MESH_SUFFIXES = (".obj", ".ply", ".stl", ".off", ".glb", ".gltf")
 
@@ -21,10 +22,20 @@ class Geometry:
     face_material: np.ndarray  # (F,) int32 index into Scene.material_names
     face_object: np.ndarray    # (F,) int32 index into Scene.objects
     cull: np.ndarray           # (F,) bool: back faces culled (False for double-sided materials)
+    # Texturing: present only when some material has textures (else None / empty).
+    uvs: np.ndarray | None = None            # (V, 2) float32, V up (see textures.py)
+    tangents: np.ndarray | None = None       # (V, 4) float32 world tangent + handedness
+    face_texture: np.ndarray | None = None   # (F,) int32 index into texture_sets, −1 = untextured
+    texture_sets: tuple[TextureSet, ...] = ()
 
     @property
     def triangle_count(self) -> int:
         return len(self.faces)
+
+    @property
+    def has_textures(self) -> bool:
+        """True when a texture image is mapped (factor-only glTF materials do not count)."""
+        return any(t.has_images for t in self.texture_sets)
 
 
 # Faces meeting at a vertex at more than this angle keep separate normals, so
@@ -89,51 +100,159 @@ def _primitive(obj: SceneObject):
     return split_sharp_edges(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64))
 
 
-def load_mesh(path: Path, scene_file: Path | None = None, key: str = "mesh"):
-    """Vertices, faces and vertex normals of a mesh file (all geometry of a multi-mesh file, flattened)."""
+def load_mesh(path: Path, scene_file: Path | None = None, key: str = "mesh", with_uv: bool = False):
+    """Vertices, faces and vertex normals of a mesh file (all geometry of a multi-mesh file, flattened);
+    with `with_uv`, also its (V, 2) UVs or None when the file has none."""
+    loaded = _load_trimesh(path, scene_file, key)
+    import trimesh
+    if isinstance(loaded, trimesh.Scene):
+        loaded = loaded.to_mesh() if hasattr(loaded, "to_mesh") else loaded.dump(concatenate=True)
+    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
+        raise located("mesh has no triangles", scene_file, key, str(path), has_value=True)
+    out = np.asarray(loaded.vertices, float), np.asarray(loaded.faces, np.int64), np.asarray(loaded.vertex_normals, float)
+    if not with_uv:
+        return out
+    uv = getattr(loaded.visual, "uv", None)
+    return (*out, None if uv is None or len(uv) != len(out[0]) else np.asarray(uv, np.float64))
+
+
+def _load_trimesh(path: Path, scene_file: Path | None, key: str, force: str | None = None):
     import trimesh
     if path.suffix.lower() not in MESH_SUFFIXES:
         raise located(f"unsupported mesh format {path.suffix or '(none)'}; use one of {', '.join(MESH_SUFFIXES)}",
                       scene_file, key, str(path), has_value=True)
     try:
-        loaded = trimesh.load(path, process=False)
+        return trimesh.load(path, process=False, force=force)
     except Exception as exc:  # trimesh raises many kinds
         raise located(f"cannot load mesh ({type(exc).__name__}: {exc})", scene_file, key, str(path), has_value=True) from exc
-    if isinstance(loaded, trimesh.Scene):
-        loaded = loaded.to_mesh() if hasattr(loaded, "to_mesh") else loaded.dump(concatenate=True)
-    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
+
+
+def _gltf_texture_set(material, name: str) -> TextureSet:
+    """A trimesh PBRMaterial → TextureSet. Caveats of trimesh's loader: it stores
+    baseColorFactor quantised to uint8 (so factors are exact to 1/255 only) and
+    drops normalTexture.scale (taken as 1)."""
+    if material is not None and not hasattr(material, "baseColorTexture") and hasattr(material, "to_pbr"):
+        material = material.to_pbr()
+    if material is None:
+        return TextureSet(name=name)
+    factor = getattr(material, "baseColorFactor", None)
+    base = (1.0, 1.0, 1.0) if factor is None else tuple(float(c) / 255.0 for c in np.asarray(factor)[:3])
+    rough = getattr(material, "roughnessFactor", None)
+    metal = getattr(material, "metallicFactor", None)
+    textures = {}
+    for attr, srgb in (("baseColorTexture", True), ("metallicRoughnessTexture", False), ("normalTexture", False)):
+        image = getattr(material, attr, None)
+        textures[attr] = None if image is None else texture_from_image(image, srgb, f"{name}.{attr}")
+    return TextureSet(base_factor=base, roughness_factor=1.0 if rough is None else float(rough),
+                      metallic_factor=1.0 if metal is None else float(metal),
+                      base_color=textures["baseColorTexture"], metallic_roughness=textures["metallicRoughnessTexture"],
+                      normal=textures["normalTexture"], name=name)
+
+
+def load_gltf_parts(path: Path, scene_file: Path | None = None, key: str = "mesh"):
+    """A glTF file as parts (vertices, faces, normals, uvs or None, TextureSet), one per
+    mesh primitive instance, in the file's world frame (node transforms applied)."""
+    loaded = _load_trimesh(path, scene_file, key, force="scene")
+    parts, sets = [], {}
+    for node in loaded.graph.nodes_geometry:
+        transform, gname = loaded.graph[node]
+        g = loaded.geometry[gname]
+        if len(g.faces) == 0:
+            continue
+        m = np.asarray(transform, float)
+        v = np.asarray(g.vertices, float) @ m[:3, :3].T + m[:3, 3]
+        n = np.asarray(g.vertex_normals, float) @ np.linalg.inv(m[:3, :3])
+        f = np.asarray(g.faces, np.int64)
+        if np.linalg.det(m[:3, :3]) < 0:
+            f = f[:, ::-1]
+        material = getattr(g.visual, "material", None)
+        if id(material) not in sets:
+            sets[id(material)] = _gltf_texture_set(material, f"{path.name}:{getattr(material, 'name', None) or gname}")
+        uv = getattr(g.visual, "uv", None)
+        parts.append((v, f, n, None if uv is None or len(uv) != len(v) else np.asarray(uv, float), sets[id(material)]))
+    if not parts:
         raise located("mesh has no triangles", scene_file, key, str(path), has_value=True)
-    return np.asarray(loaded.vertices, float), np.asarray(loaded.faces, np.int64), np.asarray(loaded.vertex_normals, float)
+    return parts
+
+
+def _material_texture_set(material: Material, scene_file: Path | None, where: str) -> TextureSet:
+    """The texture files a scene material names, loaded, with its factors."""
+    def load(key: str, srgb: bool):
+        path = getattr(material, key)
+        return None if path is None else load_texture_file(path, srgb, scene_file, f"{where}.{key}")
+    return TextureSet(base_factor=tuple(material.base_color), roughness_factor=material.roughness,
+                      metallic_factor=material.metallic, base_color=load("base_color_texture", True),
+                      metallic_roughness=load("metallic_roughness_texture", False),
+                      normal=load("normal_texture", False), normal_scale=material.normal_scale,
+                      uv_scale=material.uv_scale, name=material.name)
 
 
 def build_geometry(scene: Scene) -> Geometry:
-    """Transform every object into world space and concatenate."""
+    """Transform every object into world space and concatenate. UVs, tangents and
+    texture sets are carried only when a material has textures or an object uses
+    its glTF materials."""
     names = scene.material_names
-    verts, norms, faces, fmat, fobj, cull = [], [], [], [], [], []
+    textured = any(scene.materials[o.material].textures or o.mesh_material for o in scene.objects)
+    verts, norms, faces, fmat, fobj, cull, uvs, ftex = [], [], [], [], [], [], [], []
+    sets: list[TextureSet] = []
+    set_index: dict[int, int] = {}                 # id(TextureSet) → index in sets
+    material_sets: dict[str, TextureSet] = {}      # scene material → its loaded textures
     offset = 0
     for index, obj in enumerate(scene.objects):
-        if obj.primitive:
-            v, f, n = _primitive(obj)
-        else:
-            v, f, n = load_mesh(obj.mesh, scene.path, f"objects[{index}].mesh")
-        m = obj.matrix()
-        v = np.asarray(v, float) @ m[:3, :3].T + m[:3, 3]
-        # Normals transform by the inverse transpose.
-        n = np.asarray(n, float) @ np.linalg.inv(m[:3, :3])
-        length = np.linalg.norm(n, axis=1, keepdims=True)
-        n = np.divide(n, length, out=np.zeros_like(n), where=length > 0)
-        if np.linalg.det(m[:3, :3]) < 0:     # a mirroring transform flips the winding
-            f = f[:, ::-1]
         material = scene.materials[obj.material]
-        verts.append(v)
-        norms.append(n)
-        faces.append(np.asarray(f, np.int64) + offset)
-        fmat.append(np.full(len(f), names.index(obj.material), np.int32))
-        fobj.append(np.full(len(f), index, np.int32))
-        cull.append(np.full(len(f), not material.double_sided))
-        offset += len(v)
+        key = f"objects[{index}].mesh"
+        if obj.mesh_material:
+            parts = load_gltf_parts(obj.mesh, scene.path, key)
+        else:
+            uv = None
+            if obj.primitive:
+                v, f, n = _primitive(obj)
+                if material.textures:
+                    v, f, corner, uv = primitive_uvs(obj.primitive, v, f, obj.params.get("size", 1.0))
+                    n = np.asarray(n, float)[corner]
+            else:
+                v, f, n, uv = load_mesh(obj.mesh, scene.path, key, with_uv=True)
+                if material.textures and uv is None:
+                    raise located("mesh has no texture coordinates, but its material has textures",
+                                  scene.path, key, str(obj.mesh), has_value=True)
+            tset = None
+            if material.textures:
+                if obj.material not in material_sets:
+                    where = f"objects[{index}].material" if "#" in obj.material else f"materials.{obj.material}"
+                    material_sets[obj.material] = _material_texture_set(material, scene.path, where)
+                tset = material_sets[obj.material]
+            parts = [(v, f, n, uv, tset)]
+        m = obj.matrix()
+        for v, f, n, uv, tset in parts:
+            v = np.asarray(v, float) @ m[:3, :3].T + m[:3, 3]
+            # Normals transform by the inverse transpose.
+            n = np.asarray(n, float) @ np.linalg.inv(m[:3, :3])
+            length = np.linalg.norm(n, axis=1, keepdims=True)
+            # A NaN normal stays NaN so that the G-buffer counts (and contains) its pixels.
+            n = np.where(np.isfinite(length), np.divide(n, length, out=np.zeros_like(n), where=length > 0), np.nan)
+            if np.linalg.det(m[:3, :3]) < 0:     # a mirroring transform flips the winding
+                f = f[:, ::-1]
+            if tset is not None and id(tset) not in set_index:
+                sets.append(tset)
+                set_index[id(tset)] = len(sets) - 1
+            verts.append(v)
+            norms.append(n)
+            faces.append(np.asarray(f, np.int64) + offset)
+            fmat.append(np.full(len(f), names.index(obj.material), np.int32))
+            fobj.append(np.full(len(f), index, np.int32))
+            cull.append(np.full(len(f), not material.double_sided))
+            uvs.append(uv if uv is not None else np.zeros((len(v), 2)))
+            ftex.append(np.full(len(f), set_index[id(tset)] if tset is not None and uv is not None else -1, np.int32))
+            offset += len(v)
     if not verts:
         return Geometry(np.zeros((0, 3)), np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int64),
                         np.zeros(0, np.int32), np.zeros(0, np.int32), np.zeros(0, bool))
-    return Geometry(np.concatenate(verts), np.concatenate(norms).astype(np.float32), np.concatenate(faces),
-                    np.concatenate(fmat), np.concatenate(fobj), np.concatenate(cull))
+    geometry = Geometry(np.concatenate(verts), np.concatenate(norms).astype(np.float32), np.concatenate(faces),
+                        np.concatenate(fmat), np.concatenate(fobj), np.concatenate(cull))
+    if not textured:
+        return geometry
+    from dataclasses import replace
+    uv_all = np.concatenate(uvs)
+    return replace(geometry, uvs=uv_all.astype(np.float32),
+                   tangents=vertex_tangents(geometry.vertices, geometry.faces, geometry.normals, uv_all),
+                   face_texture=np.concatenate(ftex), texture_sets=tuple(sets))

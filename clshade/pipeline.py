@@ -16,6 +16,7 @@ from .raster import Fragments, rasterize
 from .runtime import Runtime, get_runtime
 from .scene import Camera, Scene, load_scene
 from .shade import Shader, scene_features
+from .shadows import ShadowMaps, build_shadow_maps
 from .variants import Features
 
 
@@ -42,6 +43,7 @@ class Frame:
     geometry: Geometry
     fragments: Fragments
     gbuffer: GBuffer
+    shadows: ShadowMaps | None = None
     timings: Timings = field(default_factory=Timings)
 
 
@@ -59,8 +61,12 @@ def prepare_frame(scene: Scene | str | Path, width: int | None = None, height: i
         fragments = rasterize(geometry.vertices, geometry.faces, camera.view_matrix(), camera.projection_matrix(),
                               camera.width, camera.height, cull_backfaces=geometry.cull)
     with timings.stage("g-buffer"):
-        gbuffer = build_gbuffer(scene, geometry, fragments)
-    return Frame(scene, camera, geometry, fragments, gbuffer, timings)
+        gbuffer = build_gbuffer(scene, geometry, fragments, camera)
+    shadows = None
+    if scene.shadow_lights:
+        with timings.stage("shadow maps"):
+            shadows = build_shadow_maps(scene, geometry)
+    return Frame(scene, camera, geometry, fragments, gbuffer, shadows, timings)
 
 
 @dataclass
@@ -75,14 +81,15 @@ class Render:
 
 def render(scene: Scene | str | Path, model: Model, *, width: int | None = None, height: int | None = None,
            device: str | None = None, runtime: Runtime | None = None, half_gbuffer: bool = False,
-           fast_math: bool = False, frame: Frame | None = None) -> Render:
-    """Render one model; the returned Render keeps the frame and shader for reuse."""
+           fast_math: bool = False, frame: Frame | None = None, general: bool = False) -> Render:
+    """Render one model; the returned Render keeps the frame and shader for reuse.
+    `general` renders with the general kernel (same result, slower)."""
     timings = Timings()
     frame = frame or prepare_frame(scene, width, height, timings)
     with timings.stage("opencl setup"):
         rt = runtime or get_runtime(device)
-        shader = Shader(rt, frame.gbuffer, frame.scene, frame.camera)
-        features = scene_features(frame.scene, half_gbuffer, fast_math)
+        shader = Shader(rt, frame.gbuffer, frame.scene, frame.camera, frame.shadows)
+        features = scene_features(frame.scene, half_gbuffer and not general, fast_math, frame.geometry, general)
     with timings.stage("kernel build"):
         dispatch = shader.prepare(model, features)
     with timings.stage("shade"):

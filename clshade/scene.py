@@ -9,7 +9,7 @@ from __future__ import annotations
 import difflib
 import math
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -21,6 +21,12 @@ TONEMAPS = ("none", "reinhard", "aces")
 PRIMITIVES = ("sphere", "box", "cylinder", "cone", "plane", "torus", "capsule")
 MAX_MATERIALS = 256          # the material id channel is one byte
 MAX_RESOLUTION = 16384
+# Shadow maps: 1024² resolves a 10 m ground plane to 1 cm texels and costs
+# about 0.3 s to rasterise on the host; PCF 3 (3×3 taps) softens the texel stairs.
+DEFAULT_SHADOW_MAP_SIZE = 1024
+SHADOW_MAP_SIZES = (64, 8192)
+DEFAULT_SHADOW_PCF = 3
+SHADOW_PCF_SIZES = (1, 3, 5, 7)     # odd kernel widths; 1 = a single tap (no filtering)
 # Default conductor: gold at R, G, B ≈ 650, 550, 450 nm (Johnson & Christy 1972).
 GOLD_ETA = (0.18, 0.42, 1.37)
 GOLD_K = (3.42, 2.35, 1.77)
@@ -81,6 +87,7 @@ class Light:
     position: np.ndarray | None = None
     inner_angle: float = 0.0   # spot: full intensity inside, degrees from the axis
     outer_angle: float = 0.0   # spot: zero outside
+    shadows: bool = False      # casts shadows (directional and spot lights; shadow maps)
 
 
 @dataclass(frozen=True)
@@ -98,6 +105,18 @@ class Material:
     eta: tuple[float, float, float] = GOLD_ETA
     k: tuple[float, float, float] = GOLD_K
     double_sided: bool = False
+    # Texture files (resolved paths), glTF metallic-roughness semantics: the
+    # texture multiplies the factor (base_color, roughness, metallic) above.
+    base_color_texture: Path | None = None          # sRGB RGB(A)
+    metallic_roughness_texture: Path | None = None  # linear: G = roughness, B = metallic
+    normal_texture: Path | None = None              # linear tangent-space normal, +Y = +V (glTF)
+    normal_scale: float = 1.0                       # scales the map's X and Y (glTF normalTexture.scale)
+    uv_scale: float = 1.0                           # texture repeats per unit of UV
+
+    @property
+    def textures(self) -> dict[str, Path]:
+        """Texture key → file, for the textures this material names."""
+        return {k: getattr(self, k) for k in TEXTURE_KEYS if getattr(self, k) is not None}
 
     @property
     def exponent(self) -> float:
@@ -111,6 +130,9 @@ class Material:
     def constants(self) -> dict[str, Any]:
         return dict(kd=1.0 - self.ks if self.kd is None else self.kd, ks=self.ks, ka=self.ka,
                     shininess=self.exponent, ior=self.ior, f90=self.f90, eta=self.eta, k=self.k)
+
+
+TEXTURE_KEYS = ("base_color_texture", "metallic_roughness_texture", "normal_texture")
 
 
 # Roughness 0 maps to an infinitely sharp Phong lobe; the cap keeps it a lobe
@@ -128,6 +150,7 @@ class SceneObject:
     translate: tuple[float, float, float] = (0.0, 0.0, 0.0)
     rotate: tuple[float, float, float] = (0.0, 0.0, 0.0)   # degrees about X, then Y, then Z
     scale: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    mesh_material: bool = False   # use the mesh file's glTF PBR materials (factors, textures)
 
     def matrix(self) -> np.ndarray:
         """Object → world: translate · Rz · Ry · Rx · scale."""
@@ -154,6 +177,13 @@ class Scene:
     exposure: float = 0.0
     tonemap: str = "aces"
     model: str = "ggx_correlated"
+    shadow_map_size: int = DEFAULT_SHADOW_MAP_SIZE
+    shadow_pcf: int = DEFAULT_SHADOW_PCF
+
+    @property
+    def shadow_lights(self) -> tuple[int, ...]:
+        """Indices of the lights that cast shadows."""
+        return tuple(i for i, l in enumerate(self.lights) if l.shadows)
 
     @property
     def material_names(self) -> list[str]:
@@ -163,6 +193,7 @@ class Scene:
         """Files the scene reads: the scene itself and its meshes."""
         out = [self.path] if self.path else []
         out += [o.mesh for o in self.objects if o.mesh is not None]
+        out += [p for m in self.materials.values() for p in m.textures.values()]
         return out
 
 
@@ -289,14 +320,34 @@ def _material(file: Path | str, table: Any, name: str, where: str) -> Material:
         eta=r.vector("eta", GOLD_ETA, 0.0, 100.0),
         k=r.vector("k", GOLD_K, 0.0, 100.0),
         double_sided=r.boolean("double_sided", False),
+        **{key: _texture_path(file, r, key) for key in TEXTURE_KEYS},
+        normal_scale=r.number("normal_scale", 1.0, 0.0, 100.0),
+        uv_scale=r.number("uv_scale", 1.0, 1e-6, 1e6),
     )
     r.finish()
     return m
 
 
-def _light(file: Path | str, table: Any, where: str) -> Light:
+def _texture_path(file: Path | str, r: "_Reader", key: str) -> Path | None:
+    """A texture file named relative to the scene file; it must exist."""
+    value = r.string(key)
+    if value is None:
+        return None
+    path = Path(value) if Path(value).is_absolute() else (Path(file).parent / value).resolve()
+    if not path.is_file():
+        raise r.error(key, "texture file not found")
+    return path
+
+
+def _light(file: Path | str, table: Any, where: str, shadows_default: bool = False) -> Light:
     r = _Reader(file, table, where)
     kind = r.string("type", required=True, choices=("directional", "point", "spot"))
+    shadows = r.boolean("shadows", shadows_default)
+    if shadows and kind == "point":
+        hint = ("set shadows = false on this light" if "shadows" not in r.table
+                else "remove shadows = true")
+        raise located(f"point lights cannot cast shadows (cube shadow maps are not supported); {hint}",
+                      file, f"{where}.shadows", shadows, has_value=True)
     if kind == "directional":
         d = np.array(r.vector("direction", required=True, nonzero=True))
         light = Light(kind, np.array(r.vector("irradiance", (1.0, 1.0, 1.0), 0.0, 1e30, allow_scalar=True)),
@@ -313,7 +364,7 @@ def _light(file: Path | str, table: Any, where: str) -> Light:
             light = Light(kind, color, direction=d / np.linalg.norm(d), position=pos,
                           inner_angle=inner, outer_angle=outer)
     r.finish()
-    return light
+    return replace(light, shadows=shadows)
 
 
 def _object(file: Path, table: Any, where: str, materials: dict[str, Material]) -> SceneObject:
@@ -354,7 +405,12 @@ def _object(file: Path, table: Any, where: str, materials: dict[str, Material]) 
         translate=r.vector("translate", (0.0, 0.0, 0.0)),
         rotate=r.vector("rotate", (0.0, 0.0, 0.0), -360.0, 360.0),
         scale=r.vector("scale", (1.0, 1.0, 1.0), 1e-9, 1e9, allow_scalar=True),
+        mesh_material=r.boolean("mesh_material", False),
     )
+    if obj.mesh_material and mesh_path is not None and mesh_path.suffix.lower() not in (".gltf", ".glb"):
+        raise located("needs a glTF mesh (.gltf or .glb)", file, f"{where}.mesh_material", True, has_value=True)
+    if obj.mesh_material and primitive:
+        raise located("applies to mesh files only", file, f"{where}.mesh_material", True, has_value=True)
     r.finish()
     return obj
 
@@ -365,7 +421,11 @@ def parse_scene(text: str, file: Path | str = "<scene>") -> Scene:
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise ClshadeError(f"{file}: malformed TOML: {exc}") from exc
+        message = str(exc)
+        if "line" not in message:   # "(at end of document)": give the position too
+            lines = text.split("\n")
+            message += f" (line {len(lines)}, column {len(lines[-1]) + 1})"
+        raise ClshadeError(f"{file}: malformed TOML: {message}") from exc
     top = _Reader(file, data, "")
     cam = _Reader(file, top.raw("camera", None) or _missing(file, "camera"), "camera")
     camera = Camera(
@@ -393,12 +453,17 @@ def parse_scene(text: str, file: Path | str = "<scene>") -> Scene:
     exposure = rnd.number("exposure", 0.0, -64.0, 64.0)
     tonemap = rnd.string("tonemap", "aces", TONEMAPS)
     model = rnd.string("model", "ggx_correlated")
+    shadows = rnd.boolean("shadows", False)
+    shadow_map_size = rnd.integer("shadow_map_size", DEFAULT_SHADOW_MAP_SIZE, *SHADOW_MAP_SIZES)
+    shadow_pcf = rnd.integer("shadow_pcf", DEFAULT_SHADOW_PCF, SHADOW_PCF_SIZES[0], SHADOW_PCF_SIZES[-1])
+    if shadow_pcf not in SHADOW_PCF_SIZES:
+        raise rnd.error("shadow_pcf", f"must be one of {', '.join(map(str, SHADOW_PCF_SIZES))} (an odd kernel width)")
     rnd.finish()
 
     lights_raw = top.raw("lights", [])
     if not isinstance(lights_raw, list):
         raise located("must be an array of tables ([[lights]])", file, "lights")
-    lights = tuple(_light(file, t, f"lights[{i}]") for i, t in enumerate(lights_raw))
+    lights = tuple(_light(file, t, f"lights[{i}]", shadows) for i, t in enumerate(lights_raw))
 
     mats_raw = top.raw("materials", {})
     mats_reader = _Reader(file, mats_raw, "materials")
@@ -413,7 +478,7 @@ def parse_scene(text: str, file: Path | str = "<scene>") -> Scene:
         raise located(f"at most {MAX_MATERIALS} materials are supported, got {len(materials)}", file, "materials")
     return Scene(path=file if file.exists() else None, camera=camera, lights=lights, materials=materials,
                  objects=objects, background=background, ambient=ambient, exposure=exposure,
-                 tonemap=tonemap, model=model)
+                 tonemap=tonemap, model=model, shadow_map_size=shadow_map_size, shadow_pcf=shadow_pcf)
 
 
 def _missing(file: Path, key: str) -> None:

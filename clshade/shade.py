@@ -13,35 +13,65 @@ from dataclasses import dataclass
 import numpy as np
 
 from .gbuffer import GBuffer
+from .meshes import Geometry
 from .models import Model
 from .runtime import Runtime
 from .scene import Camera, Light, Scene
+from .shadows import ShadowMaps
 from .variants import Features, Variant
 
 LIGHT_ORDER = ("directional", "point", "spot")
+LIGHT_KIND = {"directional": 0, "point": 1, "spot": 2}      # LIGHT_* in shade.cl (general kernel)
 
 
-def scene_features(scene: Scene, half_gbuffer: bool = False, fast_math: bool = False) -> Features:
-    """The feature set a scene calls for."""
+def scene_features(scene: Scene, half_gbuffer: bool = False, fast_math: bool = False,
+                   geometry: Geometry | None = None, general: bool = False) -> Features:
+    """The feature set a scene calls for (textures need the geometry: glTF materials are
+    known only once the meshes are loaded). `general` asks for the general kernel with
+    these effects as its runtime switches."""
     count = {k: sum(1 for l in scene.lights if l.kind == k) for k in LIGHT_ORDER}
+    shadows = bool(scene.shadow_lights)
     return Features(num_dir=count["directional"], num_point=count["point"], num_spot=count["spot"],
-                    ambient=any(a > 0 for a in scene.ambient), half_gbuffer=half_gbuffer, fast_math=fast_math)
+                    ambient=any(a > 0 for a in scene.ambient), shadows=shadows,
+                    shadow_pcf=scene.shadow_pcf if shadows else 1,
+                    textures=bool(geometry is not None and geometry.has_textures),
+                    half_gbuffer=half_gbuffer, fast_math=fast_math, general=general)
 
 
-def pack_lights(lights: tuple[Light, ...] | list[Light]) -> np.ndarray:
-    """Lights as float4 rows in the layout of shade.cl (directional, point, spot)."""
+def _slot(slots: tuple[int, ...] | None, index: int) -> float:
+    return float(slots[index]) if slots is not None else -1.0
+
+
+def pack_lights(lights: tuple[Light, ...] | list[Light], slots: tuple[int, ...] | None = None) -> np.ndarray:
+    """Lights as float4 rows in the layout of shade.cl (directional, point, spot);
+    `slots` gives each light's shadow map index (−1 = none)."""
     rows: list[list[float]] = []
     for kind in LIGHT_ORDER:
-        for light in (l for l in lights if l.kind == kind):
+        for index, light in ((i, l) for i, l in enumerate(lights) if l.kind == kind):
             color = [float(c) for c in light.color]
             if kind == "directional":
-                rows += [[*light.direction, 0.0], [*color, 0.0]]
+                rows += [[*light.direction, 0.0], [*color, _slot(slots, index)]]
             elif kind == "point":
                 rows += [[*light.position, 0.0], [*color, 0.0]]
             else:
                 cos_outer = math.cos(math.radians(light.outer_angle))
                 cos_inner = math.cos(math.radians(light.inner_angle))
-                rows += [[*light.position, cos_outer], [*color, cos_inner], [*light.direction, 0.0]]
+                rows += [[*light.position, cos_outer], [*color, cos_inner], [*light.direction, _slot(slots, index)]]
+    return np.array(rows or [[0.0] * 4], np.float32)
+
+
+def pack_lights_general(lights: tuple[Light, ...] | list[Light], slots: tuple[int, ...] | None = None) -> np.ndarray:
+    """Lights for the general kernel: 4 float4 per light with its kind (shade.cl), in
+    the order of the specialised layout so that sums run in the same order."""
+    rows: list[list[float]] = []
+    for kind in LIGHT_ORDER:
+        for index, light in ((i, l) for i, l in enumerate(lights) if l.kind == kind):
+            where = light.direction if kind == "directional" else light.position
+            axis = light.direction if kind == "spot" else np.zeros(3)
+            cos_outer = math.cos(math.radians(light.outer_angle)) if kind == "spot" else 0.0
+            cos_inner = math.cos(math.radians(light.inner_angle)) if kind == "spot" else 0.0
+            rows += [[*where, LIGHT_KIND[kind]], [*(float(c) for c in light.color), _slot(slots, index)],
+                     [*axis, cos_outer], [cos_inner, 0.0, 0.0, 0.0]]
     return np.array(rows or [[0.0] * 4], np.float32)
 
 
@@ -64,11 +94,21 @@ class Dispatch:
 class Shader:
     """Device-side state for shading one G-buffer with one or more variants."""
 
-    def __init__(self, runtime: Runtime, gbuffer: GBuffer, scene: Scene, camera: Camera | None = None) -> None:
+    def __init__(self, runtime: Runtime, gbuffer: GBuffer, scene: Scene, camera: Camera | None = None,
+                 shadows: ShadowMaps | None = None) -> None:
         self.rt, self.gb, self.scene = runtime, gbuffer, scene
         self.camera = camera or scene.camera
+        self.shadows = shadows
         self._buffers: dict[tuple[str, bool], object] = {}
-        self.lights = runtime.to_device(pack_lights(scene.lights))
+        slots = shadows.light_slot if shadows is not None else None
+        self.lights = runtime.to_device(pack_lights(scene.lights, slots))
+        self.lights_general = runtime.to_device(pack_lights_general(scene.lights, slots))
+        if shadows is not None:
+            self.shadow_maps = runtime.to_device(shadows.maps.reshape(-1))
+            self.shadow_params = runtime.to_device(shadows.params.reshape(-1, 4))
+        else:   # the general kernel binds these even with its shadow switch off
+            self.shadow_maps = runtime.to_device(np.zeros(1, np.float32))
+            self.shadow_params = runtime.to_device(np.zeros((1, 4), np.float32))
         table = gbuffer.materials if len(gbuffer.materials) else np.zeros((1, 4, 4), np.float32)
         self.materials = runtime.to_device(table.astype(np.float32))
         self.out = runtime.empty(gbuffer.pixels * 16)
@@ -89,10 +129,15 @@ class Shader:
     def prepare(self, model: Model, features: Features, entry: str = "shade") -> Dispatch:
         """Build (once) and bind the kernel for (model, features); `entry` is shade or copy."""
         variant = self.variant(model, features)
-        key = (variant.key, entry)
+        key = (variant.key, entry, self.rt.info.spec)
         if key in self._dispatches:
             return self._dispatches[key]
-        kernel = self.rt.kernel(variant.source(f"{entry}.cl"), entry, variant.options(), label=f"{model.id} ({entry})")
+        built = self.rt.kernel(variant.source(f"{entry}.cl"), entry, variant.options(), label=f"{model.id} ({entry})")
+        # The runtime shares one kernel object per program; arguments are state of the
+        # kernel object, so every dispatch binds its own (another Shader, or the same
+        # program with other runtime switches, must not rebind ours).
+        cl = self.rt.cl
+        kernel = cl.Kernel(built.get_info(cl.kernel_info.PROGRAM), entry)
         half = features.half_gbuffer
         n = self.gb.pixels
         args: list[object] = [np.uint32(n)]
@@ -103,10 +148,20 @@ class Shader:
         if entry == "shade":
             if variant.has_material:
                 args.append(self.materials)
-            if features.num_lights:
-                args.append(self.lights)
-            if features.ambient:
-                args.append(self.ambient)
+            if features.shadows and self.shadows is None:
+                raise ValueError("a variant with shadows needs the shadow maps (Shader(..., shadows=...))")
+            if features.general:
+                args += [np.uint32(len(self.scene.lights)), self.lights_general,
+                         np.uint32(features.ambient), self.ambient,
+                         np.uint32(features.shadows), np.int32(features.shadow_pcf // 2),
+                         np.uint32(self.shadows.size if self.shadows else 0), self.shadow_maps, self.shadow_params]
+            else:
+                if features.num_lights:
+                    args.append(self.lights)
+                if features.shadows:
+                    args += [np.uint32(self.shadows.size), self.shadow_maps, self.shadow_params]
+                if features.ambient:
+                    args.append(self.ambient)
             args.append(self.background)
         args.append(self.out)
         kernel.set_args(*args)

@@ -1,10 +1,18 @@
 """Kernel variants: a lighting model specialised for a scene's feature set.
 
-The scene decides the features (light counts by kind, ambient, storage
-precision, math mode); the model decides which G-buffer channels and material
-constants it reads. A variant carries exactly those: the defines are written
-at the top of the assembled source, so code, kernel arguments and channels of
-unused effects are absent from the program PoCL compiles.
+The scene decides the features (light counts by kind, ambient, shadows,
+textures, storage precision, math mode); the model decides which G-buffer
+channels and material constants it reads. A variant carries exactly those: the
+defines are written at the top of the assembled source, so code, kernel
+arguments and channels of unused effects are absent from the program PoCL
+compiles (shadow.h is not even assembled without shadows).
+
+The *general kernel* (`Features.general`, -D GENERAL=1) is the opposite: one
+program per model that reads every channel and takes the light list (with a
+kind per light), the ambient switch and the shadow switch as runtime
+arguments; a general Features keeps the scene's effects as the values of those
+switches. Specialisation must never change results: every specialised variant
+equals the general kernel with the same switches (tests/test_specialisation.py).
 """
 from __future__ import annotations
 
@@ -34,18 +42,28 @@ class Features:
     num_point: int = 0
     num_spot: int = 0
     ambient: bool = False
+    shadows: bool = False          # shadow-map lookups (some light casts shadows)
+    shadow_pcf: int = 1            # PCF kernel width (odd; 1 = one tap), compile-time
+    textures: bool = False         # textures sampled into the G-buffer (host side; no kernel code)
     half_gbuffer: bool = False
     fast_math: bool = False
+    general: bool = False          # the general kernel; the fields above are its runtime switches
 
     @property
     def num_lights(self) -> int:
         return self.num_dir + self.num_point + self.num_spot
 
     def describe(self) -> list[str]:
-        out = [f"lights: {self.num_dir} directional, {self.num_point} point, {self.num_spot} spot"]
+        out = []
+        if self.general:
+            out.append("kernel: GENERAL (runtime light loop, ambient and shadow switches, every channel read)")
+        out.append(f"lights: {self.num_dir} directional, {self.num_point} point, {self.num_spot} spot")
         out.append(f"ambient: {'on' if self.ambient else 'off'}")
+        out.append(f"shadows: {f'on (shadow maps, PCF {self.shadow_pcf}x{self.shadow_pcf})' if self.shadows else 'off'}")
+        out.append(f"textures: {'on (sampled into the G-buffer on the host, trilinear mipmaps)' if self.textures else 'off'}")
         out.append(f"G-buffer storage: {'half (normal, base colour)' if self.half_gbuffer else 'float32'}")
         out.append(f"math: {'fast-relaxed' if self.fast_math else 'precise'}")
+        out.append("output: exposure, tone map and sRGB encoding on the host (clshade/image.py)")
         return out
 
 
@@ -96,6 +114,8 @@ class Variant:
         """Choose channels: roughness/metallic when the model reads them; the material id
         channel only when the materials differ in a constant the model reads (otherwise
         those constants are compiled in)."""
+        if features.general:
+            return cls(model, features, ("depth", "normal", "base", "roughness", "metallic", "material"), None)
         uses = model.uses
         channels = ["depth", "normal", "base"]
         if "roughness" in uses:
@@ -119,9 +139,14 @@ class Variant:
 
     def defines(self) -> dict[str, str]:
         f, m = self.features, self.model
+        if f.general:
+            return {"GENERAL": "1", "HAS_DIFFUSE": str(int(m.diffuse != NONE)),
+                    "HAS_SPECULAR": str(int(m.specular != NONE)),
+                    "FRESNEL": FRESNEL_DEFINES[m.fresnel], "WORKFLOW": WORKFLOW_DEFINES[m.workflow]}
         d = {
             "NUM_DIR": str(f.num_dir), "NUM_POINT": str(f.num_point), "NUM_SPOT": str(f.num_spot),
             "HAS_AMBIENT": str(int(f.ambient)),
+            "HAS_SHADOWS": str(int(f.shadows)),
             "HAS_ROUGHNESS": str(int("roughness" in self.channels)),
             "HAS_METALLIC": str(int("metallic" in self.channels)),
             "HAS_MATERIAL": str(int(self.has_material)),
@@ -130,6 +155,8 @@ class Variant:
             "FRESNEL": FRESNEL_DEFINES[m.fresnel],
             "WORKFLOW": WORKFLOW_DEFINES[m.workflow],
         }
+        if f.shadows:
+            d["SHADOW_PCF"] = str(f.shadow_pcf)
         if f.half_gbuffer:
             d["HALF_GBUFFER"] = "1"
         if self.baked_material is not None:
@@ -142,11 +169,14 @@ class Variant:
         return (FAST_MATH,) if self.features.fast_math else ()
 
     def source(self, entry: str = "shade.cl") -> str:
-        return assemble(self.model, self.defines(), entry)
+        shadows = self.features.shadows or self.features.general
+        return assemble(self.model, self.defines(), entry, headers=("shadow.h",) if shadows and entry == "shade.cl" else ())
 
     @property
     def key(self) -> tuple:
-        return (self.model.id, self.features, self.channels, self.baked_material)
+        """What makes a variant distinct (the cache adds the device): model, features,
+        channels, baked constants and build options."""
+        return (self.model.id, self.features, self.channels, self.baked_material, self.options())
 
 
 def _read(name: str) -> str:
@@ -154,14 +184,15 @@ def _read(name: str) -> str:
     return f'#line 1 "{name}"\n' + path.read_text(encoding="utf-8") + "\n"
 
 
-def assemble(model: Model, defines: dict[str, str], entry: str) -> str:
+def assemble(model: Model, defines: dict[str, str], entry: str, headers: tuple[str, ...] = ()) -> str:
     """Concatenate the kernel sources in dependency order, with #line markers so
     that build errors name the file: defines, brdf.h, surface.h, the diffuse and
-    specular model files, compose.h, then the entry file."""
+    specular model files, compose.h, the effect `headers` (e.g. shadow.h), then
+    the entry file."""
     head = "".join(f"#define {k} {v}\n" for k, v in defines.items())
     parts = [head, _read("brdf.h"), _read("surface.h")]
     for lobe in (model.diffuse, model.specular):
         if lobe != NONE:
             parts.append(_read(f"models/{lobe}.cl"))
-    parts += [_read("compose.h"), _read(entry)]
+    parts += [_read("compose.h"), *(_read(h) for h in headers), _read(entry)]
     return "".join(parts)

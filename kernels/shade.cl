@@ -12,6 +12,11 @@
  *   MAT_M0..MAT_M3                 the material constants when HAS_MATERIAL is 0
  *   HAS_AMBIENT                    constant ambient radiance
  *   HALF_GBUFFER                   normal and base colour stored as half floats
+ *   HAS_SHADOWS, SHADOW_PCF        shadow-map lookup (shadow.h), PCF kernel width
+ *   GENERAL                        the general kernel: every channel read, the
+ *                                  light count, ambient and shadows runtime
+ *                                  switches; the reference every specialised
+ *                                  variant must match (tests/test_specialisation.py)
  *
  * Channel layout (struct of arrays, one entry per pixel, row 0 at the top):
  *   depth     float   view-space depth along the camera axis, ≤ 0 = empty
@@ -23,8 +28,33 @@
  * Lights (__constant float4, directional first, then point, then spot):
  *   directional: (direction of travel, 0), (irradiance RGB, 0)
  *   point:       (position, 0), (intensity RGB [W/sr], 0)
- *   spot:        (position, cos outer), (intensity RGB, cos inner), (axis, 0)
+ *   spot:        (position, cos outer), (intensity RGB, cos inner), (axis, shadow slot)
+ *   The shadow slot (index of the light's shadow map, −1 = none) sits in the
+ *   .w of the colour row of directional lights and of the axis row of spots.
+ * General kernel lights (num_lights × 4 float4, any order):
+ *   (position or direction of travel, kind), (colour, shadow slot),
+ *   (axis, cos outer), (cos inner, 0, 0, 0); kind: LIGHT_* below.
  */
+
+#define LIGHT_DIRECTIONAL 0
+#define LIGHT_POINT       1
+#define LIGHT_SPOT        2
+
+#ifndef GENERAL
+#define GENERAL 0
+#endif
+#ifndef HAS_SHADOWS
+#define HAS_SHADOWS 0
+#endif
+#if GENERAL
+/* The general kernel reads every channel; its switches are runtime arguments. */
+#undef HAS_ROUGHNESS
+#undef HAS_METALLIC
+#undef HAS_MATERIAL
+#define HAS_ROUGHNESS 1
+#define HAS_METALLIC 1
+#define HAS_MATERIAL 1
+#endif
 
 /* Smallest squared light distance: keeps I/r² finite when a point light sits
  * on a surface. Bias: none beyond 1e-4 scene units. */
@@ -62,11 +92,21 @@ __kernel void shade(
 #if HAS_MATERIAL
     , __global const uchar* material, __constant float4* materials
 #endif
+#if GENERAL
+    , const uint num_lights, __constant float4* lights
+    , const uint has_ambient, const float4 ambient
+    , const uint has_shadows, const int pcf_radius, const uint shadow_size
+    , __global const float* shadow_maps, __constant float4* shadow_params
+#else
 #if NUM_DIR + NUM_POINT + NUM_SPOT > 0
     , __constant float4* lights
 #endif
+#if HAS_SHADOWS
+    , const uint shadow_size, __global const float* shadow_maps, __constant float4* shadow_params
+#endif
 #if HAS_AMBIENT
     , const float4 ambient
+#endif
 #endif
     , const float4 background,
     __global float4* out)
@@ -104,13 +144,50 @@ __kernel void shade(
 #endif
 
     float3 L = (float3)(0.0f);
-#if NUM_POINT + NUM_SPOT > 0
+#if GENERAL || NUM_POINT + NUM_SPOT > 0 || HAS_SHADOWS
     float3 P = cam_pos.xyz + z * ray;
+#endif
+#if GENERAL
+    for (uint k = 0; k < num_lights; ++k) {
+        float4 a = lights[4 * k], c = lights[4 * k + 1];
+        int kind = (int)a.w;
+        float3 l, E;
+        if (kind == LIGHT_DIRECTIONAL) {
+            l = -a.xyz;
+            E = c.xyz;
+        } else {
+            float3 d = a.xyz - P;
+            float d2 = fmax(dot(d, d), MIN_LIGHT_DIST2);
+            l = d * rsqrt(d2);
+            if (kind == LIGHT_SPOT) {
+                float4 e = lights[4 * k + 2];
+                float cos_inner = lights[4 * k + 3].x;
+                float t = saturate((dot(-l, e.xyz) - e.w) / fmax(cos_inner - e.w, 1.0e-6f));
+                E = c.xyz * (t * t / d2);
+            } else {
+                E = c.xyz / d2;
+            }
+        }
+        if (has_shadows && c.w >= 0.0f)
+            E *= shadow_factor(shadow_maps, shadow_params, (int)c.w, shadow_size, P, n, pcf_radius);
+        L += shade_light(n, v, l, E, s);
+    }
+    if (has_ambient)
+        L += ambient_term(ambient.xyz, s);
+#else
+#if HAS_SHADOWS
+#define SHADOW(E, slot) \
+    if ((slot) >= 0.0f) (E) *= shadow_factor(shadow_maps, shadow_params, (int)(slot), shadow_size, P, n, SHADOW_PCF / 2)
+#else
+#define SHADOW(E, slot)
 #endif
 #if NUM_DIR > 0
     for (int k = 0; k < NUM_DIR; ++k) {
         float3 l = -lights[2 * k].xyz;
-        L += shade_light(n, v, l, lights[2 * k + 1].xyz, s);
+        float4 c = lights[2 * k + 1];
+        float3 E = c.xyz;
+        SHADOW(E, c.w);
+        L += shade_light(n, v, l, E, s);
     }
 #endif
 #if NUM_POINT > 0
@@ -125,17 +202,20 @@ __kernel void shade(
 #if NUM_SPOT > 0
     for (int k = 0; k < NUM_SPOT; ++k) {
         int o = 2 * NUM_DIR + 2 * NUM_POINT + 3 * k;
-        float4 p = lights[o], e = lights[o + 1];
+        float4 p = lights[o], e = lights[o + 1], a = lights[o + 2];
         float3 d = p.xyz - P;
         float d2 = fmax(dot(d, d), MIN_LIGHT_DIST2);
         float3 l = d * rsqrt(d2);
         /* Smooth cone: 0 outside the outer cone, 1 inside the inner, t² between. */
-        float t = saturate((dot(-l, lights[o + 2].xyz) - p.w) / fmax(e.w - p.w, 1.0e-6f));
-        L += shade_light(n, v, l, e.xyz * (t * t / d2), s);
+        float t = saturate((dot(-l, a.xyz) - p.w) / fmax(e.w - p.w, 1.0e-6f));
+        float3 E = e.xyz * (t * t / d2);
+        SHADOW(E, a.w);
+        L += shade_light(n, v, l, E, s);
     }
 #endif
 #if HAS_AMBIENT
     L += ambient_term(ambient.xyz, s);
+#endif
 #endif
     L = fmin(L, MAX_RADIANCE);
     out[i] = z > 0.0f ? (float4)(L, 1.0f) : background;

@@ -1,0 +1,255 @@
+"""What each scene effect costs, per lighting model, and what specialisation gains.
+
+    python benchmarks/effects_bench.py [--rounds N] [--width W --height H]
+
+Writes benchmarks/results/effects.json and effects.md. One G-buffer per scene
+configuration (lights 1 / 4 / 16 × shadows off / on × textures off / on); every
+case (model × configuration × specialised or general kernel) is dispatched once
+per round, cases interleaved within a round and the rounds repeated, so machine
+noise hits every case alike; a case's time is the median of its rounds' device
+times (OpenCL event profile, end − start). Ratios are paired: the median over
+rounds of (time of case A ÷ time of case B in the same round), which cancels
+slow drift in machine load (the 2-core development host is shared). All
+ratios come from this one run.
+
+Light sets: light 0 is a directional sun; the others alternate spot and point
+lights on a ring. With shadows on, the sun and every spot cast shadows (point
+lights cannot: no cube maps). Textures are sampled on the host into the
+G-buffer, so their cost is the G-buffer stage's host time; the kernel is the
+same program (its time is measured too, as a check).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import platform
+import statistics
+import sys
+import time
+from dataclasses import replace
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from clshade import models  # noqa: E402
+from clshade.pipeline import Timings, prepare_frame  # noqa: E402
+from clshade.runtime import get_runtime  # noqa: E402
+from clshade.scene import parse_scene  # noqa: E402
+from clshade.shade import Shader, scene_features  # noqa: E402
+
+MODELS = ("lambert", "phong", "ggx_correlated")
+LIGHT_COUNTS = (1, 4, 16)
+ROUNDS = 15                   # odd: the median is one measured frame
+WARMUP = 1                    # untimed dispatches per case (first-touch of buffers)
+SHADOW_MAP_SIZE = 512         # smaller than the scene default: 9 maps at 16 lights
+TARGET_GAIN = 1.5             # the issue's target: GGX, one light, specialised vs general
+OUT = ROOT / "benchmarks" / "results"
+# Observed on PoCL 3.0 (CPU, LLVM 14), written out because the number alone misleads.
+NOT_MET_NOTE = (
+    "Specialisation removes work the general kernel does per pixel (the runtime light loop and its kind "
+    "branch, the material-id read and table lookup, the ambient/shadow switches), but on this device that work is "
+    "small next to the BRDF: PoCL vectorises neither kernel across work-items (POCL_VECTORIZER_REMARKS=1: "
+    "'loop not vectorized: control flow cannot be substituted for a select', 'instruction return type cannot be "
+    "vectorized' for the non-inlined float3 builtins), so both run one pixel at a time, where the general "
+    "kernel's branches (the same for every pixel) are cheap. The two kernels give identical images "
+    "(tests/test_specialisation.py); on this device the gain is the measured ratio above, not 1.5×.")
+
+
+def scene_text(lights: int, shadows: bool, textures: bool, width: int, height: int) -> str:
+    """A floor, a sphere and a box under `lights` lights (sun + alternating spot/point ring)."""
+    ring = []
+    for k in range(1, lights):
+        a = 2 * math.pi * k / max(lights - 1, 1)
+        x, z = 3.0 * math.cos(a), 3.0 * math.sin(a)
+        if k % 2:
+            ring.append(f'[[lights]]\ntype = "spot"\nposition = [{x:.4f}, 3.5, {z:.4f}]\n'
+                        f'direction = [{-x:.4f}, -3.5, {-z:.4f}]\nintensity = {24.0 / lights:.4f}\n'
+                        f'outer_angle = 40.0\ninner_angle = 30.0\n')
+        else:
+            ring.append(f'[[lights]]\ntype = "point"\nposition = [{x:.4f}, 2.0, {z:.4f}]\n'
+                        f'intensity = {8.0 / lights:.4f}\nshadows = false\n')
+    tex = ('base_color = [1.0, 1.0, 1.0]\nbase_color_texture = "textures/checker_base.png"\nuv_scale = 4.0\n'
+           'normal_texture = "textures/bumps_normal.png"\nmetallic_roughness_texture = "textures/roughness_mr.png"\n'
+           'roughness = 1.0\nmetallic = 1.0\n' if textures else 'base_color = [0.6, 0.6, 0.6]\nroughness = 0.6\n')
+    return f"""
+[camera]
+position = [0.0, 2.4, 5.5]
+target = [0.0, 0.5, 0.0]
+fov = 45.0
+width = {width}
+height = {height}
+
+[render]
+ambient = 0.05
+shadows = {str(shadows).lower()}
+shadow_map_size = {SHADOW_MAP_SIZE}
+shadow_pcf = 3
+
+[[lights]]
+type = "directional"
+direction = [0.4, -1.0, -0.5]
+irradiance = 2.5
+
+{chr(10).join(ring)}
+
+[materials.floor]
+{tex}
+
+[materials.ball]
+base_color = [0.8, 0.2, 0.1]
+roughness = 0.3
+ks = 0.4
+
+[[objects]]
+primitive = "plane"
+size = 12.0
+material = "floor"
+
+[[objects]]
+primitive = "sphere"
+radius = 0.7
+subdivisions = 4
+translate = [-0.9, 0.7, 0.0]
+material = "ball"
+
+[[objects]]
+primitive = "box"
+size = 0.9
+rotate = [0.0, 30.0, 0.0]
+translate = [1.0, 0.45, -0.2]
+material = "{'floor' if textures else 'ball'}"
+"""
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--rounds", type=int, default=ROUNDS)
+    ap.add_argument("--width", type=int, default=384)
+    ap.add_argument("--height", type=int, default=256)
+    ap.add_argument("--out", type=Path, default=OUT)
+    args = ap.parse_args(argv)
+    started = time.perf_counter()
+    rt = get_runtime()
+
+    # ---- frames (host stages timed per configuration)
+    configs = [(n, s, False) for n in LIGHT_COUNTS for s in (False, True)] + [(1, False, True)]
+    frames, shaders, host = {}, {}, {}
+    for n, shadows, textures in configs:
+        timings = Timings()
+        scene = parse_scene(scene_text(n, shadows, textures, args.width, args.height), ROOT / "scenes" / "bench.toml")
+        frame = prepare_frame(scene, timings=timings)
+        frames[(n, shadows, textures)] = frame
+        shaders[(n, shadows, textures)] = Shader(rt, frame.gbuffer, frame.scene, frame.camera, frame.shadows)
+        host[(n, shadows, textures)] = {k: round(v * 1e3, 2) for k, v in timings.items()}
+
+    # ---- cases
+    cases = []
+    for name in MODELS:
+        model = models.resolve(name)
+        for key in configs:
+            frame = frames[key]
+            features = scene_features(frame.scene, geometry=frame.geometry)
+            kinds = ("specialised", "general") if not key[2] else ("specialised",)
+            for kind in kinds:
+                f = replace(features, general=kind == "general")
+                cases.append(dict(model=name, lights=key[0], shadows=key[1], textures=key[2], kernel=kind,
+                                  dispatch=shaders[key].prepare(model, f), shader=shaders[key], times=[]))
+    build_s = time.perf_counter() - started
+
+    for case in cases:
+        for _ in range(WARMUP):
+            case["shader"].enqueue(case["dispatch"]).wait()
+    for _ in range(args.rounds):
+        for case in cases:
+            event = case["shader"].enqueue(case["dispatch"])
+            event.wait()
+            case["times"].append((event.profile.end - event.profile.start) * 1e-6)
+
+    rows = [{k: c[k] for k in ("model", "lights", "shadows", "textures", "kernel")}
+            | {"median_ms": round(statistics.median(c["times"]), 4),
+               "min_ms": round(min(c["times"]), 4), "max_ms": round(max(c["times"]), 4)} for c in cases]
+
+    def key(model: str, n: int, shadows: bool = False, textures: bool = False, kernel: str = "specialised"):
+        return (model, n, shadows, textures, kernel)
+
+    times = {(c["model"], c["lights"], c["shadows"], c["textures"], c["kernel"]): c["times"] for c in cases}
+
+    def t(*args, **kw) -> float:
+        return round(statistics.median(times[key(*args, **kw)]), 4)
+
+    def ratio(a: tuple, b: tuple) -> float:
+        """Paired ratio: median over rounds of time(a) / time(b)."""
+        return round(statistics.median(x / y for x, y in zip(times[a], times[b])), 3)
+
+    effects = []
+    for name in MODELS:
+        base = key(name, 1)
+        effects.append({
+            "model": name, "base_ms": t(name, 1),
+            "lights_4_ratio": ratio(key(name, 4), base), "lights_16_ratio": ratio(key(name, 16), base),
+            "ms_per_extra_light": round((t(name, 16) - t(name, 1)) / 15, 4),
+            "shadows_ratio": {str(n): ratio(key(name, n, True), key(name, n)) for n in LIGHT_COUNTS},
+            "textures_kernel_ratio": ratio(key(name, 1, textures=True), base),
+            "general_over_specialised": {f"{n}{'+shadows' if s else ''}": ratio(key(name, n, s, kernel="general"),
+                                                                                key(name, n, s))
+                                         for n in LIGHT_COUNTS for s in (False, True)},
+        })
+    gain = ratio(key("ggx_correlated", 1, kernel="general"), key("ggx_correlated", 1))
+    result = {
+        "schema": "clshade-effects/1",
+        "device": rt.info.description, "host": platform.processor() or platform.machine(),
+        "pixels": args.width * args.height, "size": [args.width, args.height], "rounds": args.rounds,
+        "shadow_map_size": SHADOW_MAP_SIZE, "shadow_pcf": 3,
+        "target": {"case": "ggx_correlated, 1 light, no shadows", "specialised_gain": round(gain, 3),
+                   "required": TARGET_GAIN, "met": gain >= TARGET_GAIN},
+        "effects": effects,
+        "host_stages_ms": {f"{n} lights{', shadows' if s else ''}{', textures' if x else ''}": host[(n, s, x)]
+                           for (n, s, x) in configs},
+        "note": None if gain >= TARGET_GAIN else NOT_MET_NOTE,
+        "cases": rows,
+        "build_s": round(build_s, 1), "total_s": round(time.perf_counter() - started, 1),
+    }
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "effects.json").write_text(json.dumps(result, indent=2) + "\n")
+    (args.out / "effects.md").write_text(markdown(result))
+    print(markdown(result))
+    return 0
+
+
+def markdown(r: dict) -> str:
+    w, h = r["size"]
+    lines = [f"# Effect costs ({r['device']})", "",
+             f"{w}×{h} pixels, device time per frame (median of {r['rounds']} interleaved rounds; ratios are "
+             "paired per round, then the median); "
+             f"shadow maps {r['shadow_map_size']}², PCF {r['shadow_pcf']}×{r['shadow_pcf']}. "
+             "Generated by `benchmarks/effects_bench.py`.", "",
+             f"**Specialisation gain, {r['target']['case']}: {r['target']['specialised_gain']:.2f}× "
+             f"(target ≥ {r['target']['required']}×: {'met' if r['target']['met'] else 'NOT met'})**", "",
+             "## What each effect adds (specialised kernels; ratios to the same model's 1-light frame)", "",
+             "| model | 1 light ms | 4 lights | 16 lights | ms / extra light | shadows ×(1 / 4 / 16 lights) "
+             "| textures (kernel) |", "|---|---|---|---|---|---|---|"]
+    for e in r["effects"]:
+        s = e["shadows_ratio"]
+        lines.append(f"| {e['model']} | {e['base_ms']:.2f} | {e['lights_4_ratio']:.2f}× | {e['lights_16_ratio']:.2f}× "
+                     f"| {e['ms_per_extra_light']:.3f} | {s['1']:.2f}× / {s['4']:.2f}× / {s['16']:.2f}× "
+                     f"| {e['textures_kernel_ratio']:.2f}× |")
+    keys = list(r["effects"][0]["general_over_specialised"])
+    lines += ["", "## General kernel time ÷ specialised kernel time", "",
+              "| model | " + " | ".join(keys) + " |", "|---|" + "---|" * len(keys)]
+    for e in r["effects"]:
+        lines.append(f"| {e['model']} | " + " | ".join(f"{e['general_over_specialised'][k]:.2f}×" for k in keys) + " |")
+    lines += ["", "## Host stages (ms): textures cost here (sampled into the G-buffer), shadows add the map rasterisation",
+              "", "| configuration | geometry | rasterize | g-buffer | shadow maps |", "|---|---|---|---|---|"]
+    for name, st in r["host_stages_ms"].items():
+        lines.append(f"| {name} | {st.get('geometry', 0):.1f} | {st.get('rasterize', 0):.1f} | "
+                     f"{st.get('g-buffer', 0):.1f} | {st.get('shadow maps', 0):.1f} |")
+    if not r["target"]["met"]:
+        lines += ["", "**Why the target is not met here.** " + NOT_MET_NOTE]
+    lines += ["", f"Kernel builds and frames: {r['build_s']} s; whole run {r['total_s']} s.", ""]
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,134 @@
+"""Shadow maps: the scene's depth seen from each shadow-casting light, rasterised
+with clshade.raster.rasterize, for the lookup in the shading kernel (kernels/shadow.h).
+
+Directional lights get an orthographic map fitted to the scene's bounding box
+(seen along the light), spot lights a perspective map covering their outer
+cone. Point lights would need cube maps: scene.py rejects `shadows = true` on
+them. A map stores the light-view depth −z_view of the nearest surface (front
+and back faces both: back faces culled would leak light through single-sided
+planes), SHADOW_EMPTY_DEPTH where nothing was hit.
+
+Per shadow map the kernel receives SHADOW_ROWS float4 (see shadow.h):
+  rows 0–3  the light's proj · view (clip = M · (P, 1))
+  row  4    the depth row: light-view depth = dot(row.xyz, P) + row.w
+  row  5    (texel, perspective, 0, 0): the world size of one texel, at unit
+            depth when perspective = 1 (spot), everywhere when 0 (directional)
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .meshes import Geometry
+from .raster import rasterize
+from .scene import Light, Scene
+
+SHADOW_ROWS = 6
+# Depth written where a map sees no surface: any receiver is nearer, so lit.
+SHADOW_EMPTY_DEPTH = 3.0e38
+# Relative margin added around the fitted depth range and footprint, so the
+# bounding box's own corners are not clipped by round-off.
+FIT_MARGIN = 1e-3
+# A spot map covers the outer cone plus this many degrees; the field of view is
+# capped at MAX_SPOT_FOV (a perspective map cannot cover a hemisphere: receivers
+# beyond it are treated as lit). Spots with outer_angle ≤ 80° are fully covered.
+SPOT_FOV_MARGIN_DEG = 2.0
+MAX_SPOT_FOV_DEG = 164.0
+# Near plane of a spot map as a fraction of its far plane: the rasterizer's
+# depth keys have ~2⁴⁰ levels, so the usual precision worry does not apply;
+# surfaces nearer than far/10⁴ to the light do not cast shadows.
+SPOT_NEAR_RATIO = 1e-4
+
+
+@dataclass(frozen=True)
+class ShadowMaps:
+    """All shadow maps of a frame, stacked, with the per-map parameters."""
+    size: int
+    pcf: int                        # odd PCF kernel width (1 = one tap)
+    maps: np.ndarray                # (count, size, size) float32 light-view depth
+    params: np.ndarray              # (count, SHADOW_ROWS, 4) float32
+    light_slot: tuple[int, ...]     # per scene light: its map index, −1 = no shadows
+
+    @property
+    def count(self) -> int:
+        return int(self.maps.shape[0])
+
+
+def _look_along(eye: np.ndarray, forward: np.ndarray) -> np.ndarray:
+    """World → light view (looking down −Z along `forward`)."""
+    f = forward / np.linalg.norm(forward)
+    up = np.array([0.0, 1.0, 0.0]) if abs(f[1]) < 0.99 else np.array([1.0, 0.0, 0.0])
+    right = np.cross(f, up)
+    right /= np.linalg.norm(right)
+    up = np.cross(right, f)
+    m = np.eye(4)
+    m[0, :3], m[1, :3], m[2, :3] = right, up, -f
+    m[:3, 3] = -m[:3, :3] @ eye
+    return m
+
+
+def _orthographic(left: float, right: float, bottom: float, top: float, near: float, far: float) -> np.ndarray:
+    m = np.zeros((4, 4))
+    m[0, 0], m[0, 3] = 2 / (right - left), -(right + left) / (right - left)
+    m[1, 1], m[1, 3] = 2 / (top - bottom), -(top + bottom) / (top - bottom)
+    m[2, 2], m[2, 3] = -2 / (far - near), -(far + near) / (far - near)
+    m[3, 3] = 1.0
+    return m
+
+
+def _perspective(fov_deg: float, near: float, far: float) -> np.ndarray:
+    f = 1.0 / math.tan(math.radians(fov_deg) / 2)
+    m = np.zeros((4, 4))
+    m[0, 0] = m[1, 1] = f
+    m[2, 2], m[2, 3] = (far + near) / (near - far), 2 * far * near / (near - far)
+    m[3, 2] = -1.0
+    return m
+
+
+def light_projection(light: Light, lo: np.ndarray, hi: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray, float, bool]:
+    """(view, proj, texel, perspective) of a light's shadow map over the box [lo, hi]."""
+    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    extent = max(float(np.linalg.norm(hi - lo)), 1e-6)
+    if light.kind == "directional":
+        centre = 0.5 * (lo + hi)
+        view = _look_along(centre - light.direction * extent, light.direction)
+        p = corners @ view[:3, :3].T + view[:3, 3]
+        pad = FIT_MARGIN * extent
+        x0, x1 = p[:, 0].min() - pad, p[:, 0].max() + pad
+        y0, y1 = p[:, 1].min() - pad, p[:, 1].max() + pad
+        near, far = max(-p[:, 2].max() - pad, pad), -p[:, 2].min() + pad
+        proj = _orthographic(x0, x1, y0, y1, near, far)
+        return view, proj, max(x1 - x0, y1 - y0) / size, False
+    view = _look_along(light.position, light.direction)
+    far = float(np.linalg.norm(corners - light.position, axis=1).max()) * (1 + FIT_MARGIN) + 1e-6
+    fov = min(2.0 * light.outer_angle + SPOT_FOV_MARGIN_DEG, MAX_SPOT_FOV_DEG)
+    proj = _perspective(fov, far * SPOT_NEAR_RATIO, far)
+    return view, proj, 2.0 * math.tan(math.radians(fov) / 2) / size, True
+
+
+def build_shadow_maps(scene: Scene, geometry: Geometry) -> ShadowMaps | None:
+    """Rasterise one depth map per shadow-casting light; None when no light casts shadows."""
+    casters = scene.shadow_lights
+    if not casters:
+        return None
+    size = scene.shadow_map_size
+    slots = [-1] * len(scene.lights)
+    if geometry.triangle_count:
+        lo, hi = geometry.vertices.min(axis=0), geometry.vertices.max(axis=0)
+    else:
+        lo, hi = -np.ones(3), np.ones(3)
+    maps = np.full((len(casters), size, size), SHADOW_EMPTY_DEPTH, np.float32)
+    params = np.zeros((len(casters), SHADOW_ROWS, 4), np.float32)
+    for slot, index in enumerate(casters):
+        light = scene.lights[index]
+        view, proj, texel, perspective = light_projection(light, lo, hi, size)
+        if geometry.triangle_count:
+            frags = rasterize(geometry.vertices, geometry.faces, view, proj, size, size, cull_backfaces=False)
+            maps[slot][frags.coverage] = frags.depth[frags.coverage]
+        params[slot, :4] = proj @ view
+        params[slot, 4] = -view[2]
+        params[slot, 5] = [texel, float(perspective), 0.0, 0.0]
+        slots[index] = slot
+    return ShadowMaps(size, scene.shadow_pcf, maps, params, tuple(slots))

@@ -1,0 +1,287 @@
+"""The scene-driven effects: textures (sampling, mipmaps, sRGB, normal maps, glTF
+materials), shadow maps (directional and spot, bias, PCF) and their scene keys."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from clshade import models
+from clshade.errors import ClshadeError
+from clshade.meshes import build_geometry
+from clshade.pipeline import prepare_frame, render
+from clshade.raster import rasterize
+from clshade.scene import parse_scene
+from clshade.shadows import _orthographic
+from clshade.textures import Texture, srgb_decode
+
+from conftest import ASSETS, SCENES
+
+GGX = models.resolve("ggx_correlated")
+LAMBERT = models.resolve("lambert")
+
+# A plane facing the camera (+Z), lit head-on; UVs run u → +X, v → +Y over it.
+FACING_PLANE = """
+[camera]
+position = [0.0, 0.0, 3.0]
+fov = 40.0
+width = {w}
+height = {h}
+
+[[lights]]
+type = "directional"
+direction = [0.0, 0.0, -1.0]
+irradiance = 3.0
+
+[materials.m]
+base_color = [1.0, 1.0, 1.0]
+roughness = 1.0
+{material}
+
+[[objects]]
+primitive = "plane"
+size = 2.0
+rotate = [90.0, 0.0, 0.0]
+material = "m"
+"""
+
+
+def _write_texture(path: Path, pixels: np.ndarray) -> Path:
+    """Write float pixels as a float EXR (exact values) or 8-bit PNG, via OpenImageIO."""
+    import OpenImageIO as oiio
+    pixels = np.ascontiguousarray(pixels)
+    fmt = oiio.FLOAT if pixels.dtype == np.float32 else oiio.UINT8
+    out = oiio.ImageOutput.create(str(path))
+    assert out.open(str(path), oiio.ImageSpec(pixels.shape[1], pixels.shape[0], pixels.shape[2], fmt))
+    assert out.write_image(pixels)
+    out.close()
+    return path
+
+
+# ---------------------------------------------------------------- texture sampling
+
+
+def test_srgb_decode_and_8bit_base_colour(tmp_path):
+    assert srgb_decode(np.array([0.0, 1.0]))[1] == pytest.approx(1.0)
+    assert srgb_decode(np.array([188 / 255]))[0] == pytest.approx(0.5029, abs=1e-3)
+    tex = _write_texture(tmp_path / "grey.png", np.full((4, 4, 3), 188, np.uint8))
+    scene = parse_scene(FACING_PLANE.format(w=8, h=8, material=f'base_color_texture = "{tex}"'), tmp_path / "s.toml")
+    base = prepare_frame(scene).gbuffer.channels["base"].reshape(-1, 3)
+    np.testing.assert_allclose(base, srgb_decode(np.array(188 / 255)), rtol=1e-5)   # decoded, not raw 0.737
+
+
+def test_mip_level_from_footprint_and_trilinear_average():
+    tex = Texture.from_pixels(np.indices((64, 64)).sum(0)[..., None] % 2 * 1.0)   # 1-texel checker
+    assert len(tex.levels) == 7 and tex.levels[-1].shape == (1, 1, 1)
+    one, four = np.array([[1 / 64, 0.0]]), np.array([[4 / 64, 0.0]])
+    assert tex.lod(one, one * 0)[0] == pytest.approx(0.0) and tex.lod(four, four * 0)[0] == pytest.approx(2.0)
+    uv = np.random.default_rng(1).random((100, 2))
+    np.testing.assert_allclose(tex.sample(uv, np.full(100, 1.0)), 0.5, atol=1e-6)   # level 1 is uniform grey
+    assert np.ptp(tex.sample(uv, np.zeros(100))) > 0.5                               # level 0 is not
+
+
+def test_minified_checker_is_filtered_not_aliased(tmp_path):
+    """A 128-cell checker squeezed into 32 pixels: mipmapping gives the mean (18 % grey
+    in linear sRGB terms) instead of aliasing noise."""
+    pixels = (np.indices((256, 256)).sum(0) // 2 % 2 * 255).astype(np.uint8)[..., None].repeat(3, 2)
+    tex = _write_texture(tmp_path / "checker.png", pixels)
+    scene = parse_scene(FACING_PLANE.format(w=32, h=32, material=f'base_color_texture = "{tex}"'), tmp_path / "s.toml")
+    frame = prepare_frame(scene)
+    base = frame.gbuffer.channels["base"].reshape(32, 32, 3)[frame.gbuffer.coverage]
+    assert base.std() < 0.02 and base.mean() == pytest.approx(0.5, abs=0.03)
+
+
+def test_neutral_textures_equal_untextured(tmp_path):
+    """White base colour, metallic-roughness (1, 1, 1) and a flat normal map (float EXR,
+    exact (0.5, 0.5, 1)) render exactly like the untextured material."""
+    white = _write_texture(tmp_path / "white.exr", np.ones((8, 8, 3), np.float32))
+    flat = _write_texture(tmp_path / "flat.exr", np.tile(np.float32([0.5, 0.5, 1.0]), (8, 8, 1)))
+    keys = f'base_color_texture = "{white}"\nmetallic_roughness_texture = "{white}"\nnormal_texture = "{flat}"'
+    plain = parse_scene(FACING_PLANE.format(w=24, h=16, material="metallic = 1.0"), tmp_path / "a.toml")
+    textured = parse_scene(FACING_PLANE.format(w=24, h=16, material="metallic = 1.0\n" + keys), tmp_path / "b.toml")
+    a, b = render(plain, GGX), render(textured, GGX)
+    assert not a.features.textures and b.features.textures
+    np.testing.assert_allclose(b.image, a.image, rtol=1e-5, atol=1e-7)
+
+
+def test_normal_map_green_is_plus_v(tmp_path):
+    """glTF convention: a map texel leaning to +Y (green > 0.5) tilts the normal
+    towards +V, here world +Y; red > 0.5 towards +U = world +X."""
+    lean = _write_texture(tmp_path / "lean.exr", np.tile(np.float32([0.5 + 0.3, 0.5 + 0.2, 0.9]), (4, 4, 1)))
+    scene = parse_scene(FACING_PLANE.format(w=8, h=8, material=f'normal_texture = "{lean}"'), tmp_path / "s.toml")
+    n = prepare_frame(scene).gbuffer.channels["normal"].reshape(-1, 3)
+    expected = np.array([0.6, 0.4, 0.8]) / np.linalg.norm([0.6, 0.4, 0.8])
+    np.testing.assert_allclose(n, np.broadcast_to(expected, n.shape), atol=1e-5)
+
+
+def test_texture_errors_name_file_key_value(tmp_path):
+    with pytest.raises(ClshadeError, match=r"s\.toml: materials\.m\.normal_texture = 'missing\.png': texture file not found"):
+        parse_scene(FACING_PLANE.format(w=8, h=8, material='normal_texture = "missing.png"'), tmp_path / "s.toml")
+    (tmp_path / "bad.png").write_bytes(b"not a png")
+    scene = parse_scene(FACING_PLANE.format(w=8, h=8, material='base_color_texture = "bad.png"'), tmp_path / "s.toml")
+    with pytest.raises(ClshadeError, match=r"materials\.m\.base_color_texture = '.*bad\.png': cannot read texture"):
+        build_geometry(scene)
+
+
+def test_textured_scene_renders(tmp_path):
+    result = render(SCENES / "textured.toml", GGX, width=160, height=100)
+    assert result.features.textures and result.features.shadows
+    assert result.frame.geometry.uvs is not None and np.isfinite(result.image).all()
+    untextured = build_geometry(parse_scene((SCENES / "shadows.toml").read_text(), SCENES / "shadows.toml"))
+    assert untextured.uvs is None and untextured.face_texture is None      # no texture data without textures
+
+
+# ---------------------------------------------------------------- glTF samples
+
+GLTF = ASSETS / "gltf"
+
+
+def _gltf_scene(path: Path, position: str, target: str, w: int, h: int) -> str:
+    return f"""
+[camera]
+position = {position}
+target = {target}
+fov = 40.0
+near = 0.01
+width = {w}
+height = {h}
+
+[render]
+background = [0.2, 0.22, 0.25]
+ambient = [0.25, 0.25, 0.28]
+
+[[lights]]
+type = "directional"
+direction = [-0.6, -0.5, -0.7]
+irradiance = 3.0
+
+[materials.gltf]
+roughness = 1.0
+
+[[objects]]
+mesh = "{path}"
+mesh_material = true
+material = "gltf"
+"""
+
+
+def test_waterbottle_textures_and_normal_map(assets):
+    path = GLTF / "WaterBottle" / "WaterBottle.gltf"
+    if not path.is_file():
+        pytest.skip(f"{path} not present")
+    scene = parse_scene(_gltf_scene(path, "[0.12, 0.06, 0.42]", "[0.0, 0.0, 0.0]", 120, 160))
+    result = render(scene, GGX)
+    geo = result.frame.geometry
+    (tset,) = geo.texture_sets
+    assert tset.base_color and tset.metallic_roughness and tset.normal and result.features.textures
+    cov = result.frame.gbuffer.coverage.reshape(-1)
+    base = result.frame.gbuffer.channels["base"].reshape(-1, 3)[cov]
+    metal = result.frame.gbuffer.channels["metallic"][cov]
+    assert cov.sum() > 4000 and np.isfinite(result.image).all()
+    assert base[:, 0].mean() > 1.5 * base[:, 2].mean()              # the pale yellow body and red cap
+    assert metal.max() > 0.9 and metal.min() < 0.1                  # metal body, rubber grip
+    # The normal map perturbs the interpolated normals.
+    plain = parse_scene(_gltf_scene(path, "[0.12, 0.06, 0.42]", "[0.0, 0.0, 0.0]", 120, 160)
+                        .replace("mesh_material = true", "mesh_material = false"))
+    n_plain = prepare_frame(plain).gbuffer.channels["normal"].reshape(-1, 3)[cov]
+    n_mapped = result.frame.gbuffer.channels["normal"].reshape(-1, 3)[cov]
+    assert np.median(np.einsum("ij,ij->i", n_plain, n_mapped)) < 0.99999
+
+
+def test_avocado(assets):
+    path = GLTF / "Avocado" / "Avocado.gltf"
+    if not path.is_file():
+        pytest.skip(f"{path} not present")
+    scene = parse_scene(_gltf_scene(path, "[0.05, 0.09, 0.12]", "[0.0, 0.03, 0.0]", 80, 80))
+    result = render(scene, GGX)
+    cov = result.frame.gbuffer.coverage
+    rgb = result.image[cov][:, :3]
+    assert cov.sum() > 800 and np.isfinite(rgb).all()
+    assert rgb[:, 1].mean() > rgb[:, 2].mean()                      # green skin, yellow flesh, brown seed
+
+
+# ---------------------------------------------------------------- shadows
+
+SHADOW_SCENE = """
+[camera]
+position = [0.0, 6.0, 0.01]
+target = [0.0, 0.0, 0.0]
+fov = 50.0
+width = 64
+height = 64
+
+[render]
+shadows = {shadows}
+shadow_map_size = 256
+shadow_pcf = 3
+
+[[lights]]
+type = "{kind}"
+{extra}
+
+[materials.m]
+base_color = [0.5, 0.5, 0.5]
+
+[[objects]]
+primitive = "plane"
+size = 6.0
+material = "m"
+
+[[objects]]
+primitive = "box"
+size = [1.0, 0.2, 1.0]
+translate = [0.0, 1.0, 0.0]
+material = "m"
+"""
+
+
+@pytest.mark.parametrize("kind, extra", [
+    ("directional", "direction = [1.0, -1.0, 0.0]\nirradiance = 2.0"),
+    ("spot", "position = [-3.0, 4.0, 0.0]\ndirection = [0.75, -1.0, 0.0]\nintensity = 20.0\n"
+             "outer_angle = 40.0\ninner_angle = 39.0")])
+def test_shadow_under_occluder_and_no_acne(kind, extra):
+    """A slanted light, a slab above a plane: where the slab's shadow falls (worked out
+    by hand: x in [0.5, 1.5] for the sun, [0.45, 1.5] for the spot) the plane gets no
+    light; far from it the shadowed image equals the unshadowed one exactly (no acne)."""
+    on = render(parse_scene(SHADOW_SCENE.format(shadows="true", kind=kind, extra=extra)), LAMBERT)
+    off = render(parse_scene(SHADOW_SCENE.format(shadows="false", kind=kind, extra=extra)), LAMBERT)
+    assert on.features.shadows and not off.features.shadows
+    frags, geo = on.frame.fragments, on.frame.geometry
+    tri = frags.tri_id
+    on_plane = (tri >= 0) & (geo.face_object[np.maximum(tri, 0)] == 0)
+    world = np.einsum("hwc,hwcd->hwd", frags.bary, geo.vertices[geo.faces[np.maximum(tri, 0)]])
+    x, z = world[..., 0], world[..., 2]
+    under = on_plane & (x > 0.65) & (x < 1.3) & (np.abs(z) < 0.35)
+    clear = on_plane & ((x < -1.0) | (np.abs(z) > 1.0))
+    assert under.sum() > 20 and clear.sum() > 200
+    assert on.image[under][:, :3].max() == 0.0                      # fully shadowed (no ambient)
+    assert off.image[under][:, :3].min() > 0.0
+    np.testing.assert_array_equal(on.image[clear], off.image[clear])  # lit plane: factor exactly 1
+    assert np.array_equal(on.image[tri < 0], off.image[tri < 0])
+
+
+def test_orthographic_raster_depth_and_near_clip():
+    """The rasterizer with an orthographic matrix (clip w = 1): depth is −z_view, and
+    a triangle crossing the near plane is clipped at it, not dropped."""
+    view = np.eye(4)
+    proj = _orthographic(-1, 1, -1, 1, 1.0, 5.0)
+    tri = np.array([[-0.9, -0.9, -3.0], [0.9, -0.9, -3.0], [0.0, 0.9, -3.0]])
+    f = rasterize(tri, [[0, 1, 2]], view, proj, 16, 16)
+    assert f.coverage.sum() > 50 and np.allclose(f.depth[f.coverage], 3.0)
+    slanted = np.array([[-0.9, -0.9, 0.0], [0.9, -0.9, 0.0], [0.0, 0.9, -4.0]])    # z from 0 (behind near) to −4
+    g = rasterize(slanted, [[0, 1, 2]], view, proj, 16, 16)
+    assert g.coverage.any() and g.depth[g.coverage].min() >= 1.0 - 1e-9
+
+
+def test_shadow_keys_are_validated(tmp_path):
+    base = SHADOW_SCENE.format(shadows="true", kind="directional", extra="direction = [0.0, -1.0, 0.0]")
+    with pytest.raises(ClshadeError, match=r"render\.shadow_pcf = 4: must be one of 1, 3, 5, 7"):
+        parse_scene(base.replace("shadow_pcf = 3", "shadow_pcf = 4"))
+    point = base.replace('type = "directional"\ndirection = [0.0, -1.0, 0.0]', 'type = "point"\nposition = [0, 3, 0]')
+    with pytest.raises(ClshadeError, match=r"lights\[0\]\.shadows = True: point lights cannot cast shadows"):
+        parse_scene(point)
+    assert not parse_scene(point.replace("[[lights]]", "[[lights]]\nshadows = false")).lights[0].shadows
+    with pytest.raises(ClshadeError, match=r"objects\[0\]\.mesh_material = True: applies to mesh files only"):
+        parse_scene(base.replace('primitive = "plane"', 'primitive = "plane"\nmesh_material = true', 1))

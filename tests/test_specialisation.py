@@ -1,0 +1,175 @@
+"""Specialisation never changes results: every specialised kernel variant equals the
+general kernel (-D GENERAL=1: runtime light loop, ambient/shadow switches, every
+channel read) with the same effects, and a variant without an effect equals the
+general kernel with that effect neutral (no shadows = factor 1, no ambient = 0).
+A scene without shadows compiles no shadow code and binds no shadow argument."""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pyopencl as cl
+import pytest
+
+from clshade import models
+from clshade.pipeline import prepare_frame
+from clshade.scene import parse_scene
+from clshade.shade import Shader, scene_features
+
+# float32 kernels that run the same operations in the same order agree to
+# round-off; what remains is the compiler contracting differently (FMA) in two
+# programs: a few ulp of the radiance.
+RTOL = 2e-5
+ATOL_REL = 1e-6        # absolute tolerance as a fraction of the image maximum
+
+SCENE = """
+[camera]
+position = [0.0, 2.5, 5.0]
+target = [0.0, 0.4, 0.0]
+fov = 45.0
+width = 64
+height = 48
+
+[render]
+background = [0.1, 0.1, 0.12]
+ambient = [0.05, 0.06, 0.07]
+shadows = true
+shadow_map_size = 128
+shadow_pcf = 3
+
+[[lights]]
+type = "directional"
+direction = [0.4, -1.0, -0.3]
+irradiance = [2.0, 2.0, 1.8]
+
+[[lights]]
+type = "point"
+position = [-2.0, 1.5, 1.5]
+intensity = [3.0, 2.0, 1.0]
+shadows = false
+
+[[lights]]
+type = "spot"
+position = [1.5, 3.0, 1.5]
+direction = [-0.4, -1.0, -0.4]
+intensity = [20.0, 20.0, 24.0]
+inner_angle = 20.0
+outer_angle = 35.0
+
+[materials.floor]
+base_color = [0.6, 0.6, 0.6]
+roughness = 0.7
+ks = 0.2
+
+[materials.ball]
+base_color = [0.8, 0.2, 0.1]
+roughness = 0.3
+metallic = 0.5
+ks = 0.5
+
+[[objects]]
+primitive = "plane"
+size = 8.0
+material = "floor"
+
+[[objects]]
+primitive = "sphere"
+radius = 0.6
+subdivisions = 3
+translate = [0.0, 0.6, 0.0]
+material = "ball"
+"""
+
+
+@pytest.fixture(scope="module")
+def frame():
+    return prepare_frame(parse_scene(SCENE))
+
+
+@pytest.fixture(scope="module")
+def shader(runtime, frame):
+    return Shader(runtime, frame.gbuffer, frame.scene, frame.camera, frame.shadows)
+
+
+def _close(a: np.ndarray, b: np.ndarray) -> None:
+    np.testing.assert_allclose(a, b, rtol=RTOL, atol=ATOL_REL * float(np.abs(b).max()))
+
+
+@pytest.mark.parametrize("model", ["ggx_correlated", "lambert", "phong"])
+def test_specialised_equals_general(shader, frame, model):
+    """All effects on: the specialised variant (compile-time counts, PCF, baked or
+    table constants) equals the general kernel with the same runtime switches."""
+    m = models.resolve(model)
+    features = scene_features(frame.scene, geometry=frame.geometry)
+    assert features.shadows and features.ambient and features.num_lights == 3
+    special = shader.render(m, features)
+    general = shader.render(m, replace(features, general=True))
+    assert np.isfinite(special).all()
+    _close(special, general)
+
+
+@pytest.mark.parametrize("effect, neutral", [
+    ("shadows", dict(shadows=False, shadow_pcf=1)),
+    ("ambient", dict(ambient=False)),
+])
+def test_effect_off_equals_general_neutral(shader, frame, effect, neutral):
+    """A variant compiled without an effect equals the general kernel with the effect
+    switched to its neutral value, and differs from the one with the effect."""
+    m = models.resolve("ggx_correlated")
+    full = scene_features(frame.scene, geometry=frame.geometry)
+    without = replace(full, **neutral)
+    special = shader.render(m, without)
+    general = shader.render(m, replace(without, general=True))
+    _close(special, general)
+    assert np.abs(special - shader.render(m, full)).max() > 1e-3      # the effect is visible
+
+
+def test_light_counts_are_runtime_in_general(runtime):
+    """16 lights of two kinds: compile-time loops equal the runtime loop."""
+    lights = "".join(
+        f'\n[[lights]]\ntype = "point"\nposition = [{np.cos(k):.3f}, 1.5, {np.sin(k):.3f}]\nintensity = 0.4\n'
+        if k % 2 else
+        f'\n[[lights]]\ntype = "spot"\nposition = [{2 * np.cos(k):.3f}, 2.0, {2 * np.sin(k):.3f}]\n'
+        f'direction = [{-np.cos(k):.3f}, -1.0, {-np.sin(k):.3f}]\nintensity = 3.0\nouter_angle = 40.0\n'
+        for k in range(16))
+    text = SCENE.split("[[lights]]")[0].replace("shadows = true", "shadows = false") + lights \
+        + "[materials" + SCENE.split("[materials", 1)[1]
+    frame = prepare_frame(parse_scene(text))
+    shader = Shader(runtime, frame.gbuffer, frame.scene, frame.camera, frame.shadows)
+    features = scene_features(frame.scene)
+    assert (features.num_point, features.num_spot) == (8, 8)
+    m = models.resolve("ggx_correlated")
+    _close(shader.render(m, features), shader.render(m, replace(features, general=True)))
+
+
+def test_no_shadow_code_or_arguments_without_shadows(shader, frame, runtime):
+    """Shadows off: HAS_SHADOWS=0, shadow.h not assembled, no shadow identifier in the
+    source, and the kernel has exactly 3 arguments fewer (size, maps, parameters)."""
+    m = models.resolve("ggx_correlated")
+    on = scene_features(frame.scene)
+    off = replace(on, shadows=False, shadow_pcf=1)
+    v_off, v_on = shader.variant(m, off), shader.variant(m, on)
+    src_off, src_on = v_off.source(), v_on.source()
+    assert v_off.defines()["HAS_SHADOWS"] == "0" and "SHADOW_PCF" not in v_off.defines()
+    assert '#line 1 "shadow.h"' not in src_off and "shadow_factor" not in src_off.split('#line 1 "shade.cl"')[0]
+    assert '#line 1 "shadow.h"' in src_on
+
+    def arg_names(source: str) -> list[str]:
+        kernel = runtime.kernel(source, "shade", ("-cl-kernel-arg-info",))
+        count = kernel.get_info(cl.kernel_info.NUM_ARGS)
+        return [kernel.get_arg_info(i, cl.kernel_arg_info.NAME) for i in range(count)]
+
+    names_off, names_on = arg_names(src_off), arg_names(src_on)
+    assert not [n for n in names_off if "shadow" in n]
+    assert [n for n in names_on if "shadow" in n] == ["shadow_size", "shadow_maps", "shadow_params"]
+    assert len(names_on) - len(names_off) == 3
+    # The bound dispatch of the real (option-free) build agrees.
+    assert shader.prepare(m, off).kernel.get_info(cl.kernel_info.NUM_ARGS) == len(names_off)
+
+
+def test_variant_key_includes_effects_and_options(shader, frame):
+    m = models.resolve("ggx_correlated")
+    f = scene_features(frame.scene)
+    keys = {shader.variant(m, x).key for x in (f, replace(f, shadows=False), replace(f, ambient=False),
+                                                replace(f, fast_math=True), replace(f, shadow_pcf=5))}
+    assert len(keys) == 5
