@@ -36,10 +36,14 @@
  * Same reason and value as MIN_N_DOT_V: the V terms divide by 4(n·l)(n·v). */
 #define MIN_N_DOT_L 1.0e-4f
 
-/* |l + v|² below which the half vector is undefined (l = −v). Such a pair
- * always has n·l ≤ 0 or n·v ≤ 0, so the light contributes nothing; the floor
- * only keeps rsqrt finite. */
-#define MIN_HALF_LEN2 1.0e-12f
+/* |l + v|² below which the half vector is undefined (l = −v). The floor keeps
+ * rsqrt finite (≤ 1e15, a normal float32 even with denormals flushed) and is
+ * this small because valid pairs reach it: n·l = n·v = 1e-7 at the mirror has
+ * |l + v|² = 4e-14 (a floor of 1e-12 shortened h there and made D_GGX 600×
+ * too large at α = 1). With n·l, n·v > 0, |l + v| ≥ n·l + n·v, so the floor
+ * acts only when both cosines are below 1e-15 (radiance ≤ 1e-15 · f · E).
+ * make_geometry() treats a half vector below it as perpendicular to n. */
+#define MIN_HALF_LEN2 1.0e-30f
 
 /* Beckmann D below this n·h is exactly 0 in float32 for m ≤ 1:
  * exp(−tan²θ/m²) < exp(−1e6). Flooring avoids 0/0 from cos⁴θ underflow. */
@@ -142,12 +146,23 @@ inline float F_Dielectric(float c, float eta) {
 inline float3 F_Conductor(float c, float3 eta, float3 k) {
     float c2 = c * c;
     float s2 = 1.0f - c2;
-    float3 t0 = eta * eta - k * k - s2;
+    /* t0 = η² − k² − s², summed as (η² − k² − 1) + c² so that an index-matched
+     * interface (η = 1, k = 0) gives t0 = c² exactly instead of cancelling. */
+    float3 t0 = (eta * eta - k * k - 1.0f) + c2;
     float3 a2b2 = sqrt(t0 * t0 + 4.0f * eta * eta * k * k);
     float3 t1 = a2b2 + c2;
-    float3 a = sqrt(fmax(0.5f * (a2b2 + t0), 0.0f));
+    /* a² = (a2b2 + t0)/2 and b² = (a2b2 − t0)/2, each from whichever form does
+     * not cancel, using (a2b2 + t0)(a2b2 − t0) = 4η²k²: the difference form lost
+     * 4.5e-4 relative in F for η < 1 and k → 0 (measured, tests/test_terms.py). */
+    float3 big = 0.5f * (a2b2 + fabs(t0));
+    float3 small = (2.0f * eta * eta * k * k) / fmax(a2b2 + fabs(t0), FLT_MIN);
+    float3 a = sqrt(select(small, big, t0 >= 0.0f));
+    float3 b2 = select(big, small, t0 >= 0.0f);
     float3 t2 = 2.0f * c * a;
-    float3 rs = (t1 - t2) / (t1 + t2);
+    /* t1 − t2 = (a − c)² + b²: no cancellation when F → 0
+     * (the grazing mirror lobe, D·V ≈ 1e13, multiplies F's absolute error).
+     * t1 + t2 = 0 only for η = 1, k = 0 at c = 0 (l = −v), where rs is 0, not 0/0. */
+    float3 rs = ((a - c) * (a - c) + b2) / fmax(t1 + t2, FLT_MIN);
     float3 t3 = c2 * a2b2 + s2 * s2;
     float3 t4 = t2 * s2;
     float3 rp = rs * (t3 - t4) / (t3 + t4);

@@ -1,0 +1,42 @@
+/* terms.cl — each term function of brdf.h on its own, for arrays of scalar
+ * inputs: the device side of the per-term accuracy tests (tests/test_terms.py,
+ * clshade/accuracy.py), in the spirit of BRDF Explorer's single-term files.
+ *
+ * One kernel per term, named term_<function>; all share one signature:
+ *   x[i]  float4  the scalar arguments in the function's order
+ *   y[i]  float4  a colour argument (f0, or the conductor's η), rgb
+ *   z[i]  float4  a second colour argument (the conductor's k), rgb
+ *   out[i] float4 the term: scalar terms in .x, colour terms in .xyz
+ * The Python side (clshade.accuracy.TERMS) says which slots each term reads.
+ * Assembled after brdf.h (clshade.accuracy.term_source).
+ */
+#define TERM_KERNEL(NAME, EXPR)                                               \
+__kernel void term_##NAME(const uint count, __global const float4* x,         \
+                          __global const float4* y, __global const float4* z, \
+                          __global float4* out)                               \
+{                                                                             \
+    uint i = get_global_id(0);                                                \
+    if (i >= count) return;                                                   \
+    float4 a = x[i];                                                          \
+    float3 b = y[i].xyz;                                                      \
+    float3 c = z[i].xyz;                                                      \
+    out[i] = EXPR;                                                            \
+}
+
+#define SCALAR(value) (float4)((value), 0.0f, 0.0f, 0.0f)
+#define COLOUR(value) (float4)((value), 0.0f)
+
+TERM_KERNEL(D_GGX,               SCALAR(D_GGX(a.x, a.y, a.z)))
+TERM_KERNEL(D_Beckmann,          SCALAR(D_Beckmann(a.x, a.y, a.z)))
+TERM_KERNEL(V_SmithGGXCorrelated, SCALAR(V_SmithGGXCorrelated(a.x, a.y, a.z)))
+TERM_KERNEL(V_SmithGGXSeparable, SCALAR(V_SmithGGXSeparable(a.x, a.y, a.z)))
+TERM_KERNEL(V_SmithSchlickGGX,   SCALAR(V_SmithSchlickGGX(a.x, a.y, a.z)))
+TERM_KERNEL(V_CookTorrance,      SCALAR(V_CookTorrance(a.x, a.y, a.z, a.w)))
+TERM_KERNEL(F_Schlick,           COLOUR(F_Schlick(a.x, b, a.y)))
+TERM_KERNEL(F_Dielectric,        SCALAR(F_Dielectric(a.x, a.y)))
+TERM_KERNEL(F_Conductor,         COLOUR(F_Conductor(a.x, b, c)))
+TERM_KERNEL(Fd_Lambert,          SCALAR(Fd_Lambert()))
+TERM_KERNEL(Fd_Burley,           SCALAR(Fd_Burley(a.x, a.y, a.z, a.w)))
+TERM_KERNEL(Fd_OrenNayar,        SCALAR(Fd_OrenNayar(a.x, a.y, a.z, a.w)))
+TERM_KERNEL(Fs_Phong,            SCALAR(Fs_Phong(a.x, a.y)))
+TERM_KERNEL(Fs_BlinnPhong,       SCALAR(Fs_BlinnPhong(a.x, a.y)))
