@@ -47,6 +47,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--tonemap", choices=("none", "reinhard", "aces"), help="tone map for PNG/JPEG")
     p.add_argument("--explain", action="store_true",
                    help="print the feature set, build options and G-buffer channels of the kernel variant")
+    p.add_argument("--general", action="store_true",
+                   help="shade with the general kernel (runtime light loop and effect switches): same image, slower")
     _add_model_options(p)
     _add_device(p)
     p.set_defaults(func=cmd_render)
@@ -70,7 +72,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 # Modules that add commands: each defines add_parser(sub, checks), where `sub`
 # holds the top-level commands and `checks` the `clshade check ...` commands.
-EXTENSIONS: tuple[str, ...] = ("compare",)
+EXTENSIONS: tuple[str, ...] = ("compare", "bench", "stability", "plausibility")
 
 
 def _size(value: int | None, name: str) -> int | None:
@@ -93,7 +95,8 @@ def cmd_render(args: argparse.Namespace) -> int:
     check_output_path(out, protected)
     model = resolve(args.model or scene.model, args.fresnel, args.workflow)
     frame = prepare_frame(scene, _size(args.width, "width"), _size(args.height, "height"), timings)
-    result = render(scene, model, device=args.device, half_gbuffer=args.half, fast_math=args.fast_math, frame=frame)
+    result = render(scene, model, device=args.device, half_gbuffer=args.half, fast_math=args.fast_math, frame=frame,
+                    general=args.general)
     timings.update(result.timings)
     if args.explain:
         variant = result.shader.variant(model, result.features)
@@ -103,6 +106,12 @@ def cmd_render(args: argparse.Namespace) -> int:
             print(f"feature {line}")
         print(f"G-buffer channels: {', '.join(variant.channels)} "
               f"({frame.gbuffer.bytes_per_pixel(variant.channels, result.features.half_gbuffer)} B/pixel read, 16 B written)")
+        if frame.shadows is not None:
+            print(f"shadow maps: {frame.shadows.count} x {frame.shadows.size}² (lights "
+                  f"{', '.join(str(i) for i in frame.scene.shadow_lights)}; directional: orthographic fitted to the "
+                  f"scene bounds, spot: perspective), PCF {frame.shadows.pcf}x{frame.shadows.pcf} in the shade kernel")
+        for tset in frame.geometry.texture_sets:
+            print(f"texture set {tset.describe()}")
         print(f"build options: {' '.join(variant.options()) or '(none)'}")
         print("defines: " + " ".join(f"{k}={v}" for k, v in variant.defines().items()))
         print(f"device: {result.shader.rt.info.description}")
@@ -121,10 +130,17 @@ def cmd_render(args: argparse.Namespace) -> int:
 
 def cmd_models(args: argparse.Namespace) -> int:
     from .models import GROUPS, lobes, presets
+    from .plausibility import physically_based
+    try:  # measured on the device with a reduced sweep (`clshade check plausibility` for the full one)
+        measured: dict[str, bool] = physically_based()
+    except ClshadeError as exc:
+        print(f"clshade: warning: physically_based not measured ({exc})", file=sys.stderr)
+        measured = {}
     if args.json:
         data = {
             "presets": [{"id": m.id, "name": m.label, "diffuse": m.diffuse, "specular": m.specular,
-                         "family": m.family, "workflow": m.workflow, "fresnel": m.fresnel if m.uses_fresnel else None}
+                         "family": m.family, "workflow": m.workflow, "fresnel": m.fresnel if m.uses_fresnel else None,
+                         "physically_based": measured.get(m.id)}
                         for m in presets()],
             "lobes": [{"id": l.id, "name": l.name, "kind": l.kind, "family": l.family, "formula": l.formula,
                        "source": l.source, "uses": sorted(l.uses), "notes": list(l.notes),
@@ -138,7 +154,8 @@ def cmd_models(args: argparse.Namespace) -> int:
         return 0
     print("Presets (the study's shaders):")
     for m in presets():
-        print(f"  {m.id:32s} {m.label:26s} {m.family:10s} workflow={m.workflow}")
+        pb = {True: "physically based", False: "not physically based", None: "unmeasured"}[measured.get(m.id)]
+        print(f"  {m.id:32s} {m.label:26s} {m.family:10s} workflow={m.workflow:8s} {pb} (measured)")
     print("\nLobes (combine as diffuse+specular, e.g. oren_nayar+ggx_correlated; append @dielectric or "
           "@conductor for exact Fresnel):")
     for l in lobes().values():

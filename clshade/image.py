@@ -53,14 +53,15 @@ def check_output_path(path: Path, protected: list[Path] | tuple[Path, ...] = ())
     """Refuse outputs that would overwrite an input, have no supported format, or
     sit in a folder that does not exist or cannot be written."""
     path = Path(path)
+    resolved = path.resolve()
+    # Inputs first: `-o scene.toml` must say why it is refused, not only that .toml is no image format.
+    for p in protected:
+        if p is not None and Path(p).resolve() == resolved:
+            raise ClshadeError(f"{path}: refusing to overwrite an input of the scene ({p})")
     suffix = path.suffix.lower()
     if suffix not in LINEAR_SUFFIXES + DISPLAY_SUFFIXES:
         raise ClshadeError(f"{path}: unsupported output format {suffix or '(none)'}; "
                            f"use .exr (linear float), .png or .jpg (sRGB 8-bit)")
-    resolved = path.resolve()
-    for p in protected:
-        if p is not None and Path(p).resolve() == resolved:
-            raise ClshadeError(f"{path}: refusing to overwrite an input of the scene ({p})")
     folder = resolved.parent
     if not folder.is_dir():
         raise ClshadeError(f"{path}: output folder {folder} does not exist")

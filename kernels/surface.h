@@ -60,10 +60,14 @@ inline Geometry make_geometry(float3 n, float3 l, float3 v) {
     g.nl = fmax(g.nl_raw, MIN_N_DOT_L);
     g.nv = fmax(nv_raw, MIN_N_DOT_V);
     float3 h = l + v;
-    h = h * rsqrt(fmax(dot(h, h), MIN_HALF_LEN2));
+    float h_len2 = dot(h, h);
+    h = h * rsqrt(fmax(h_len2, MIN_HALF_LEN2));
     g.nh = saturate(dot(n, h));
     float3 c = cross(n, h);
-    g.sin2_nh = saturate(dot(c, c));
+    /* l = −v: no half vector. Treat h as perpendicular to n (n·h = 0 already,
+     * sin² = 1) so that D_GGX sees 1, not the 0 that made α²/0 = Inf and,
+     * times F = 0, NaN. A select, not a branch. */
+    g.sin2_nh = h_len2 < MIN_HALF_LEN2 ? 1.0f : saturate(dot(c, c));
     g.vh = saturate(dot(v, h));
     g.lv = dot(l, v);
     g.rv = 2.0f * g.nl_raw * nv_raw - g.lv;
