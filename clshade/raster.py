@@ -18,13 +18,15 @@ Pipeline (no Python loop per triangle or per pixel):
    edge shared by two triangles gives exactly negated values, plus a top-left
    tie rule: watertight, no pixel covered twice), a depth plane, a pixel
    bounding box; boxes larger than :data:`TILE` are split into tiles;
-5. boxes/tiles are grouped by power-of-two size class and tested against the
-   pixel centres of a dense ``(n, sy, sx)`` grid by broadcasting (about one
-   add, one compare and one ``and`` per edge and candidate pixel), in chunks of
-   at most ``max_fragments`` candidate pixels;
-6. covered fragments are resolved with one ``np.minimum.at`` on int64 keys
-   packing (quantised NDC depth, triangle index); only the winning fragments
-   get their perspective-correct barycentrics and view depth computed.
+5. boxes/tiles are grouped by power-of-two size class ``(sy, sx)`` and tested
+   against the pixel centres of a dense ``(sy, sx, n)`` grid by broadcasting
+   (one add, one compare and one ``and`` per edge and candidate pixel; the
+   tile axis is innermost so NumPy's loops are long), in chunks of at most
+   ``min(max_fragments, GRID_CHUNK_CELLS)`` candidate pixels;
+6. covered fragments are depth-resolved with one ``np.minimum.at`` on int64
+   keys packing (NDC depth quantised to 2**-44, triangle index; equal keys:
+   the lower index wins); only the winning fragments of a batch get their
+   perspective-correct barycentrics and view depth computed.
 
 Pixel conventions: row 0 is the top of the image; pixel ``(i, j)`` has its
 centre at NDC ``x = (j + 0.5) / W * 2 - 1``, ``y = 1 - (i + 0.5) / H * 2``.
@@ -75,18 +77,24 @@ TILE_CULL_MARGIN_PX: float = 1e-6
 TILE: int = 64
 _TILE_LOG2: int = TILE.bit_length() - 1
 
-#: Faces per batch: bounds the per-triangle working memory (a few hundred
-#: bytes per face) independently of the mesh size.
-FACE_BATCH: int = 1 << 17
+#: Maximum faces per batch: bounds the per-triangle working memory (a few
+#: hundred bytes per face) independently of the mesh size.  Small enough for
+#: the batch temporaries to be recycled by malloc instead of being returned to
+#: the OS and page-faulted in again (a large cost on virtual machines).
+FACE_BATCH: int = 1 << 16
 
 #: Preferred number of candidate pixels per dense grid chunk (cache friendly);
 #: the effective chunk is ``min(max_fragments, GRID_CHUNK_CELLS)`` (but at
 #: least one grid of the size class being processed).
-GRID_CHUNK_CELLS: int = 1 << 19
+GRID_CHUNK_CELLS: int = 1 << 17
+
+#: Tiles generated at a time (bounds memory when many triangles are large).
+MAX_TILES: int = 1 << 18
 
 #: Winning fragments whose barycentrics are computed at a time (cache sized).
 WINNER_CHUNK: int = 1 << 16
 
+_BARY_RECORD = np.dtype((np.void, 12))  # one pixel's 3 float32 barycentrics
 _EMPTY_KEY = np.iinfo(np.int64).max
 _KEY_BITS = 62  # packed keys stay below 2**62: non-negative, no overflow
 
@@ -157,7 +165,14 @@ def rasterize(
 
     Returns:
         :class:`Fragments`; nearest fragment (smallest depth) wins, only depths
-        between the near and far planes are kept.
+        between the near and far planes are kept.  A pixel is covered when its
+        centre is inside a triangle; centres exactly on an edge follow the
+        top-left rule, so adjacent triangles never both (or neither) cover it.
+        Faces crossing the near plane are clipped; faces behind the camera,
+        degenerate or with non-finite vertices are dropped silently.
+
+    Raises:
+        ValueError: on malformed shapes, non-integer or out-of-range faces.
     """
     width, height = int(width), int(height)
     if width < 1 or height < 1:
@@ -195,15 +210,21 @@ def rasterize(
 
     with np.errstate(all="ignore"):  # non-finite input is dropped, never warned about
         mvp = proj_m @ view_m
-        clip = verts @ mvp[:, :3].T + mvp[:, 3]  # (V, 4)
-        vdepth = -(verts @ view_m[2, :3] + view_m[2, 3])  # (V,) = -z_view
-        vfinite = np.isfinite(clip).all(axis=1) & np.isfinite(vdepth)
-        tris_t = np.ascontiguousarray(tris.T)  # (3, F)
-        vdepth_f = np.take(vdepth, tris_t)  # (3, F)
-        state = _Resolve(width, height, int(max_fragments))
-        for f0 in range(0, n_faces, FACE_BATCH):
-            f1 = min(n_faces, f0 + FACE_BATCH)
-            _raster_batch(state, clip, vdepth_f, vfinite, tris_t, cull, f0, f1, out)
+        vx, vy, vz = verts[:, 0], verts[:, 1], verts[:, 2]
+        # Per-row products (not a BLAS matmul: no thread pool, no extra copy).
+        clip_t = np.empty((4, len(verts)))  # (4, V) clip coordinates
+        for k in range(4):
+            clip_t[k] = vx * mvp[k, 0] + vy * mvp[k, 1] + vz * mvp[k, 2] + mvp[k, 3]
+        vdepth = -(vx * view_m[2, 0] + vy * view_m[2, 1] + vz * view_m[2, 2] + view_m[2, 3])  # -z_view
+        vfinite = np.isfinite(vdepth)
+        for k in range(4):
+            vfinite &= np.isfinite(clip_t[k])
+        w_is_depth = bool(np.array_equal(proj_m[3], [0.0, 0.0, -1.0, 0.0]))
+        state = _Resolve(width, height, int(max_fragments), w_is_depth)
+        n_batches = -(-n_faces // FACE_BATCH)
+        bounds = np.linspace(0, n_faces, n_batches + 1).round().astype(int)  # balanced batches
+        for f0, f1 in zip(bounds[:-1].tolist(), bounds[1:].tolist()):
+            _raster_batch(state, clip_t, vdepth, vfinite, tris, cull, f0, f1, out)
     return out
 
 
@@ -215,16 +236,20 @@ def rasterize(
 class _Resolve:
     """Depth-resolve state shared by all face batches."""
 
-    def __init__(self, width: int, height: int, max_fragments: int) -> None:
+    def __init__(self, width: int, height: int, max_fragments: int, w_is_depth: bool) -> None:
         self.width = width
         self.height = height
+        self.w_is_depth = w_is_depth
         self.chunk_cells = min(max_fragments, GRID_CHUNK_CELLS)
         n_pix = width * height
         # Quantised depth of the current winner of each pixel (across batches).
         self.best_q = np.full(n_pix, _EMPTY_KEY, dtype=np.int64)
-        # Packed (depth, triangle) keys of the batch being rasterized.
+        # Packed (depth, triangle) keys of the batch being rasterized; reset
+        # to empty (only where touched) after each batch.
         self.keys = np.full(n_pix, _EMPTY_KEY, dtype=np.int64)
-        self.dirty = False
+        # Bits of a packed key holding the triangle index: near-plane
+        # clipping at most doubles a batch's FACE_BATCH faces.
+        self.tri_bits = max(1, (2 * FACE_BATCH - 1).bit_length())
 
 
 @dataclass
@@ -236,6 +261,8 @@ class _Tris:
     """
 
     face: NDArray[np.int64]  # (T,) original face index
+    face0: int  # first face of the batch
+    face_depth: NDArray[np.float64]  # (3, n_batch) view depth of the batch's face vertices
     persp_a: NDArray[np.float64]  # (3, T) E_i / w_i coefficients: perspective-correct
     persp_b: NDArray[np.float64]  #   barycentric weights, affine in (X, Y), up to a
     persp_c: NDArray[np.float64]  #   common factor (normalised per pixel)
@@ -245,6 +272,7 @@ class _Tris:
     edge_b: NDArray[np.float64]
     edge_c: NDArray[np.float64]
     edge_thr: NDArray[np.float64]  # (3, T) 0.0 (edge owns ties) or TIE_EPS
+    area2: NDArray[np.float64]  # (T,) twice the screen-space area (pixels^2)
     z_a: NDArray[np.float64]  # (T,) NDC depth plane z = z_a X + (z_b Y + z_c)
     z_b: NDArray[np.float64]
     z_c: NDArray[np.float64]
@@ -340,15 +368,21 @@ def _clip_near(
     return np.concatenate(outs_p), np.concatenate(outs_f), np.concatenate(outs_b)
 
 
+def _cols(a: NDArray, idx: NDArray[np.int64]) -> NDArray:
+    """``a[:, idx]`` (np.take along axis 1 is several times faster)."""
+    return np.take(a, idx, axis=1)
+
+
 def _all3(a: NDArray[np.bool_]) -> NDArray[np.bool_]:
     """``a.all(axis=0)`` for a ``(3, n)`` array (faster than a reduction)."""
     return a[0] & a[1] & a[2]
 
 
 def _setup(
-    clip: NDArray[np.float64],
+    clip_t: NDArray[np.float64],
     vfinite: NDArray[np.bool_],
-    tris_t: NDArray[np.int64],
+    vdepth: NDArray[np.float64],
+    tris: NDArray[np.int64],
     cull: NDArray[np.bool_],
     f0: int,
     f1: int,
@@ -356,16 +390,14 @@ def _setup(
     height: int,
 ) -> _Tris | None:
     """Cull, clip, project and set up edge functions for faces ``f0:f1``."""
-    fv = tris_t[:, f0:f1]  # (3, n)
+    fv = np.ascontiguousarray(tris[f0:f1].T)  # (3, n) vertex indices
     face = np.arange(f0, f1, dtype=np.int64)
-    p = np.take(clip, fv, axis=0).transpose(2, 0, 1).copy()  # (4, 3, n)
-    x, y, z, w = p
+    x, y, z, w = (clip_t[k][fv] for k in range(4))  # (3, n) each
     dist = z + w  # near plane: dist >= 0 is visible
     inside = dist >= 0.0
     # Trivial rejects: all 3 vertices outside one frustum plane (a linear
     # test, valid even for vertices behind the camera).
-    ok = _all3(np.take(vfinite, fv))
-    ok &= inside[0] | inside[1] | inside[2]
+    ok = _all3(vfinite[fv]) & (inside[0] | inside[1] | inside[2])
     ok &= ~_all3(z > w)
     ok &= ~_all3(x > w)
     ok &= ~_all3(x < -w)
@@ -373,56 +405,62 @@ def _setup(
     ok &= ~_all3(y < -w)
     full = ok & _all3(inside)
     part = ok & ~full
-    slot_parts = [np.full(int(full.sum()), -1, dtype=np.int64)]
-    p_parts = [p[:, :, full]]
-    f_parts = [face[full]]
+    x0, y0, z0, w0, face0 = x, y, z, w, face
+    if not full.all():
+        keep = np.flatnonzero(full)
+        x, y, z, w, face = _cols(x, keep), _cols(y, keep), _cols(z, keep), _cols(w, keep), face[keep]
+    slot = np.full(len(face), -1, dtype=np.int64)
     clip_bary = np.zeros((0, 3, 3))
-    if part.any():
-        pc, fc, clip_bary = _clip_near(p[:, :, part].transpose(2, 1, 0), dist[:, part].T, face[part])
-        p_parts.append(pc.transpose(2, 1, 0))
-        f_parts.append(fc)
-        slot_parts.append(np.arange(len(fc), dtype=np.int64))
-    p = np.concatenate(p_parts, axis=2) if len(p_parts) > 1 else p_parts[0]
-    face = np.concatenate(f_parts)
-    slot = np.concatenate(slot_parts)
+    if part.any():  # near-plane clipping (rare, so done on (m, 3, 4) stacks)
+        sub = np.flatnonzero(part)
+        pc, fc, clip_bary = _clip_near(
+            np.stack([_cols(a, sub).T for a in (x0, y0, z0, w0)], axis=-1), _cols(dist, sub).T, face0[sub])
+        x, y, z, w = (np.concatenate([a, pc[:, :, k].T], axis=1) for k, a in enumerate((x, y, z, w)))
+        face = np.concatenate([face, fc])
+        slot = np.concatenate([slot, np.arange(len(fc), dtype=np.int64)])
     if len(face) == 0:
         return None
 
-    x, y, z, w = p
     inv_w = 1.0 / w
     sx = (x * inv_w + 1.0) * (0.5 * width)  # (3, T) pixel X, rightwards
     sy = (1.0 - y * inv_w) * (0.5 * height)  # (3, T) pixel Y, downwards
-    sz = z * inv_w  # (3, T) NDC z
     e1x, e1y = sx[1] - sx[0], sy[1] - sy[0]
     e2x, e2y = sx[2] - sx[0], sy[2] - sy[0]
     area2 = e1x * e2y - e1y * e2x  # Y-down frame: < 0 for CCW-in-NDC (front) faces
     scale = np.sqrt((e1x * e1x + e1y * e1y) * (e2x * e2x + e2y * e2y))
-    # NDC-depth plane z(X, Y), relative to vertex 0 for accuracy.
-    dz1, dz2 = sz[1] - sz[0], sz[2] - sz[0]
-    za = (dz1 * e2y - dz2 * e1y) / area2
-    zb = (dz2 * e1x - dz1 * e2x) / area2
-    zc = sz[0] - za * sx[0] - zb * sy[0]
-    # Non-finite anything (overflow, w -> 0) makes area2/scale/z-plane non-finite.
-    ok = _all3(w > 0.0) & np.isfinite(area2) & np.isfinite(scale)
-    ok &= np.isfinite(za) & np.isfinite(zb) & np.isfinite(zc)
-    ok &= (area2 != 0.0) & (np.abs(area2) > DEGENERATE_SIN_EPS * scale)
-    ok &= ~(np.take(cull, face) & (area2 > 0.0))  # back face = clockwise in NDC
-    if not ok.all():
-        face, slot, w, sx, sy, area2 = face[ok], slot[ok], w[:, ok], sx[:, ok], sy[:, ok], area2[ok]
-        za, zb, zc = za[ok], zb[ok], zc[ok]
-
     # Pixel bounding box: centres j + 0.5 within [min, max], clamped to the image.
     c0 = np.maximum(np.ceil(np.minimum(np.minimum(sx[0], sx[1]), sx[2]) - 0.5), 0.0)
     c1 = np.minimum(np.floor(np.maximum(np.maximum(sx[0], sx[1]), sx[2]) - 0.5), width - 1.0)
     r0 = np.maximum(np.ceil(np.minimum(np.minimum(sy[0], sy[1]), sy[2]) - 0.5), 0.0)
     r1 = np.minimum(np.floor(np.maximum(np.maximum(sy[0], sy[1]), sy[2]) - 0.5), height - 1.0)
-    ok = (c1 >= c0) & (r1 >= r0)  # also False for boxes entirely off-screen
-    if not ok.any():
-        return None
+    # Drop: non-finite (overflow, w -> 0: area2/scale become inf/nan and the
+    # comparisons below False), degenerate, culled, or covering no pixel centre.
+    ok = _all3(w > 0.0) & np.isfinite(area2) & np.isfinite(scale)
+    ok &= (area2 != 0.0) & (np.abs(area2) > DEGENERATE_SIN_EPS * scale)
+    ok &= ~(cull[face] & (area2 > 0.0))  # back face = clockwise in NDC
+    ok &= (c1 >= c0) & (r1 >= r0)
     if not ok.all():
-        face, slot, w, sx, sy, area2 = face[ok], slot[ok], w[:, ok], sx[:, ok], sy[:, ok], area2[ok]
-        za, zb, zc = za[ok], zb[ok], zc[ok]
-        c0, c1, r0, r1 = c0[ok], c1[ok], r0[ok], r1[ok]
+        keep = np.flatnonzero(ok)
+        if len(keep) == 0:
+            return None
+        face, slot, area2 = face[keep], slot[keep], area2[keep]
+        w, z, inv_w, sx, sy = (_cols(a, keep) for a in (w, z, inv_w, sx, sy))
+        e1x, e1y, e2x, e2y = e1x[keep], e1y[keep], e2x[keep], e2y[keep]
+        c0, c1, r0, r1 = c0[keep], c1[keep], r0[keep], r1[keep]
+    # NDC-depth plane z(X, Y) = za X + (zb Y + zc), relative to vertex 0 for accuracy.
+    sz = z * inv_w
+    dz1, dz2 = sz[1] - sz[0], sz[2] - sz[0]
+    za = (dz1 * e2y - dz2 * e1y) / area2
+    zb = (dz2 * e1x - dz1 * e2x) / area2
+    zc = sz[0] - za * sx[0] - zb * sy[0]
+    ok = np.isfinite(za) & np.isfinite(zb) & np.isfinite(zc)
+    if not ok.all():  # only with absurd depth ranges (overflow)
+        keep = np.flatnonzero(ok)
+        if len(keep) == 0:
+            return None
+        face, slot, area2, za, zb, zc = face[keep], slot[keep], area2[keep], za[keep], zb[keep], zc[keep]
+        w, sx, sy = (_cols(a, keep) for a in (w, sx, sy))
+        c0, c1, r0, r1 = c0[keep], c1[keep], r0[keep], r1[keep]
     # Compact the clipped-vertex table to the surviving clipped triangles.
     clipped = slot >= 0
     if clipped.any():
@@ -447,25 +485,27 @@ def _setup(
     thr = np.where(owns, 0.0, TIE_EPS)
 
     return _Tris(
-        face=face, persp_a=ea / w, persp_b=eb / w, persp_c=ec / w, clip_slot=slot, clip_bary=clip_bary,
-        edge_a=ea, edge_b=eb, edge_c=ec, edge_thr=thr,
+        face=face, face0=f0, face_depth=np.take(vdepth, fv),
+        persp_a=ea / w, persp_b=eb / w, persp_c=ec / w, clip_slot=slot, clip_bary=clip_bary,
+        edge_a=ea, edge_b=eb, edge_c=ec, edge_thr=thr, area2=np.abs(area2),
         z_a=za, z_b=zb, z_c=zc,
         col0=c0.astype(np.int64), col1=c1.astype(np.int64),
         row0=r0.astype(np.int64), row1=r1.astype(np.int64),
     )
 
 
-def _make_tiles(t: _Tris) -> tuple[NDArray[np.int64], ...]:
-    """Split pixel boxes into tiles of at most TILE x TILE.
+def _make_tiles(t: _Tris, t0: int, t1: int) -> tuple[NDArray[np.int64], ...]:
+    """Split the pixel boxes of triangles ``t0:t1`` into tiles of at most TILE x TILE.
 
     Returns ``(tri, x0, y0, bw, bh)`` per tile.  Tiles of large triangles
     lying entirely outside one of their edges are culled.
     """
-    bw = t.col1 - t.col0 + 1
-    bh = t.row1 - t.row0 + 1
+    col0, row0 = t.col0[t0:t1], t.row0[t0:t1]
+    bw = t.col1[t0:t1] - col0 + 1
+    bh = t.row1[t0:t1] - row0 + 1
     big = (bw > TILE) | (bh > TILE)
     if not big.any():
-        return np.arange(len(bw)), t.col0, t.row0, bw, bh
+        return np.arange(t0, t1), col0, row0, bw, bh
     small = np.flatnonzero(~big)
     bi = np.flatnonzero(big)
     ntx = (bw[bi] + TILE - 1) >> _TILE_LOG2
@@ -473,7 +513,7 @@ def _make_tiles(t: _Tris) -> tuple[NDArray[np.int64], ...]:
     cnt = ntx * nty
     rep = np.repeat(np.arange(len(bi)), cnt)
     k = np.arange(int(cnt.sum())) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-    ti = bi[rep]
+    ti = bi[rep] + t0
     ky, kx = np.divmod(k, ntx[rep])
     bx0 = t.col0[ti] + (kx << _TILE_LOG2)
     by0 = t.row0[ti] + (ky << _TILE_LOG2)
@@ -488,8 +528,8 @@ def _make_tiles(t: _Tris) -> tuple[NDArray[np.int64], ...]:
         e_max = np.maximum(np.maximum(a * xs[0] + (b * ys[0] + c), a * xs[1] + (b * ys[0] + c)),
                            np.maximum(a * xs[0] + (b * ys[1] + c), a * xs[1] + (b * ys[1] + c)))
         keep &= e_max >= -TILE_CULL_MARGIN_PX * (np.abs(a) + np.abs(b))
-    return (np.concatenate([small, ti[keep]]), np.concatenate([t.col0[small], bx0[keep]]),
-            np.concatenate([t.row0[small], by0[keep]]), np.concatenate([bw[small], bbw[keep]]),
+    return (np.concatenate([small + t0, ti[keep]]), np.concatenate([col0[small], bx0[keep]]),
+            np.concatenate([row0[small], by0[keep]]), np.concatenate([bw[small], bbw[keep]]),
             np.concatenate([bh[small], bbh[keep]]))
 
 
@@ -501,10 +541,10 @@ del _k
 
 def _raster_batch(
     state: _Resolve,
-    clip: NDArray[np.float64],
+    clip_t: NDArray[np.float64],
     vdepth: NDArray[np.float64],
     vfinite: NDArray[np.bool_],
-    tris_t: NDArray[np.int64],
+    tris: NDArray[np.int64],
     cull: NDArray[np.bool_],
     f0: int,
     f1: int,
@@ -512,19 +552,53 @@ def _raster_batch(
 ) -> None:
     """Rasterize faces ``f0:f1`` and merge their winners into ``out``."""
     width = state.width
-    t = _setup(clip, vfinite, tris_t, cull, f0, f1, width, state.height)
+    t = _setup(clip_t, vfinite, vdepth, tris, cull, f0, f1, width, state.height)
     if t is None:
         return
-    n_tri = len(t.face)
-    tri_bits = max(1, (n_tri - 1).bit_length())
     # Key = (quantised NDC depth << tri_bits) | triangle: min key = nearest.
+    # The quantisation is the same for every batch (depths are compared
+    # across batches): tri_bits covers the largest possible batch.
+    tri_bits = state.tri_bits
     z_scale = float((1 << (_KEY_BITS - tri_bits)) - 1) * 0.5
     keys = state.keys
-    if state.dirty:
-        keys.fill(_EMPTY_KEY)
-    state.dirty = True
 
-    tile_tri, tx0, ty0, tbw, tbh = _make_tiles(t)
+    # Triangle groups of at most ~MAX_TILES tiles bound the tile arrays'
+    # memory even when many triangles are large.
+    n_tiles = (((t.col1 - t.col0) >> _TILE_LOG2) + 1) * (((t.row1 - t.row0) >> _TILE_LOG2) + 1)
+    cum = np.cumsum(n_tiles)
+    t0 = 0
+    while t0 < len(cum):
+        base = int(cum[t0 - 1]) if t0 else 0
+        t1 = max(t0 + 1, int(np.searchsorted(cum, base + MAX_TILES, side="right")))
+        _raster_tiles(state, t, _make_tiles(t, t0, t1), tri_bits, z_scale)
+        t0 = t1
+
+    # Merge with previous batches: strictly nearer wins (ties: earlier batch).
+    # Only the rows this batch can have touched are scanned.
+    lo = int(t.row0.min()) * width
+    hi = (int(t.row1.max()) + 1) * width
+    hit = np.flatnonzero(keys[lo:hi] != _EMPTY_KEY)
+    hit += lo
+    if len(hit) == 0:
+        return
+    k = keys[hit]
+    keys[hit] = _EMPTY_KEY
+    kq = k >> tri_bits
+    better = kq < state.best_q[hit]
+    if not better.all():
+        hit, k, kq = hit[better], k[better], kq[better]
+    state.best_q[hit] = kq
+    tri = k & ((1 << tri_bits) - 1)
+    for s in range(0, len(hit), WINNER_CHUNK):  # small chunks stay in cache
+        _write_winners(t, out, hit[s: s + WINNER_CHUNK], tri[s: s + WINNER_CHUNK], width, state.w_is_depth)
+
+
+def _raster_tiles(
+    state: _Resolve, t: _Tris, tiles: tuple[NDArray[np.int64], ...], tri_bits: int, z_scale: float
+) -> None:
+    """Test the pixel centres of ``tiles`` against their triangles; resolve into ``state.keys``."""
+    tile_tri, tx0, ty0, tbw, tbh = tiles
+    width, keys = state.width, state.keys
     n_cls = _TILE_LOG2 + 1
     cls = _CEIL_LOG2[tbh] * n_cls + _CEIL_LOG2[tbw]
     order = np.argsort(cls, kind="stable")
@@ -537,28 +611,30 @@ def _raster_batch(
         gx, gy = 1 << lsx, 1 << lsy
         per_chunk = max(1, state.chunk_cells // (gx * gy))
         sel_all = order[starts[c]: starts[c + 1]]
-        cols = np.arange(gx)
-        rows = np.arange(gy)
+        cols = np.arange(gx)[:, None]
+        rows = np.arange(gy)[:, None]
         for s in range(0, len(sel_all), per_chunk):
             sel = sel_all[s: s + per_chunk]
             n = len(sel)
             ti = tile_tri[sel]
-            xabs = tx0[sel][:, None] + cols  # (n, gx) pixel column
-            yabs = ty0[sel][:, None] + rows  # (n, gy) pixel row
+            # Grids are laid out (row, column, tile): the innermost axis runs
+            # over the n tiles, so every broadcast loop is long and contiguous.
+            xabs = tx0[sel] + cols  # (gx, n) pixel column
+            yabs = ty0[sel] + rows  # (gy, n) pixel row
             xc = xabs + 0.5
             yc = yabs + 0.5
             if gx > 1:  # columns beyond the box: NaN fails every edge test
-                xc[cols >= tbw[sel][:, None]] = np.nan
+                xc[cols >= tbw[sel]] = np.nan
             if gy > 1:
-                yc[rows >= tbh[sel][:, None]] = np.nan
-            inside = np.empty((n, gy, gx), dtype=bool)
-            tmp_e = np.empty((n, gy, gx), dtype=np.float64)
-            tmp_m = np.empty((n, gy, gx), dtype=bool)
+                yc[rows >= tbh[sel]] = np.nan
+            inside = np.empty((gy, gx, n), dtype=bool)
+            tmp_e = np.empty((gy, gx, n), dtype=np.float64)
+            tmp_m = np.empty((gy, gx, n), dtype=bool)
             for i in range(3):
-                ax = t.edge_a[i][ti][:, None] * xc  # (n, gx)
-                byc = t.edge_b[i][ti][:, None] * yc + t.edge_c[i][ti][:, None]  # (n, gy)
-                np.add(ax[:, None, :], byc[:, :, None], out=tmp_e)
-                thr = t.edge_thr[i][ti][:, None, None]
+                ax = t.edge_a[i][ti] * xc  # (gx, n)
+                byc = t.edge_b[i][ti] * yc + t.edge_c[i][ti]  # (gy, n)
+                np.add(ax[None, :, :], byc[:, None, :], out=tmp_e)
+                thr = t.edge_thr[i][ti]
                 if i == 0:
                     np.greater_equal(tmp_e, thr, out=inside)
                 else:
@@ -567,46 +643,33 @@ def _raster_batch(
             idx = np.flatnonzero(inside)
             if len(idx) == 0:
                 continue
-            ri = idx >> lsx  # flat index into (n, gy)
-            tl = idx >> (lsx + lsy)  # tile within the chunk
-            ci = (tl << lsx) | (idx & (gx - 1))  # flat index into (n, gx)
-            zx = t.z_a[ti][:, None] * xc
-            zy = t.z_b[ti][:, None] * yc + t.z_c[ti][:, None]
+            rc, tl = np.divmod(idx, n)  # rc = row * gx + column; tl = tile in chunk
+            ri = (rc >> lsx) * n + tl  # flat index into (gy, n)
+            ci = (rc & (gx - 1)) * n + tl  # flat index into (gx, n)
+            zx = t.z_a[ti] * xc
+            zy = t.z_b[ti] * yc + t.z_c[ti]
             z = zx.ravel()[ci] + zy.ravel()[ri]
             good = (z >= lo_z) & (z <= hi_z)  # between the near and far planes
             if not good.all():
                 ri, ci, tl, z = ri[good], ci[good], tl[good], z[good]
-            pix = yabs.ravel()[ri] * width + xabs.ravel()[ci]
+            pix = (yabs * width).ravel()[ri] + xabs.ravel()[ci]
             np.clip(z, -1.0, 1.0, out=z)
             q = ((z + 1.0) * z_scale).astype(np.int64)
             np.minimum.at(keys, pix, (q << tri_bits) | ti[tl])
 
-    # Merge with previous batches: strictly nearer wins (ties: earlier batch).
-    hit = np.flatnonzero(keys != _EMPTY_KEY)
-    if len(hit) == 0:
-        return
-    k = keys[hit]
-    kq = k >> tri_bits
-    better = kq < state.best_q[hit]
-    if not better.all():
-        hit, k, kq = hit[better], k[better], kq[better]
-    state.best_q[hit] = kq
-    tri = k & ((1 << tri_bits) - 1)
-    for s in range(0, len(hit), WINNER_CHUNK):  # small chunks stay in cache
-        _write_winners(t, vdepth, out, hit[s: s + WINNER_CHUNK], tri[s: s + WINNER_CHUNK], width)
-
 
 def _write_winners(
     t: _Tris,
-    vdepth_f: NDArray[np.float64],
     out: Fragments,
     pix: NDArray[np.int64],
     tri: NDArray[np.int64],
     width: int,
+    w_is_depth: bool,
 ) -> None:
     """Perspective-correct barycentrics and depth of the winning fragments.
 
-    ``vdepth_f`` is the ``(3, F)`` view depth of each face's vertices.
+    ``w_is_depth``: the projection's last row is ``(0, 0, -1, 0)`` (any
+    perspective matrix), so clip ``w`` is the view depth.
     """
     py, px = np.divmod(pix, width)
     px = px + 0.5
@@ -624,13 +687,29 @@ def _write_winners(
     if bad.any():
         b[:, bad] = 1.0
         s[bad] = 3.0
+    if w_is_depth:
+        # w_clip = -z_view: the perspective-correct depth 1 / sum(lambda_i / w_i)
+        # is sum(E_i) / sum(E_i / w_i), and sum(E_i) is twice the triangle area.
+        depth = t.area2[tri] / s
     b /= s
     slot = t.clip_slot[tri]
     clipped = np.flatnonzero(slot >= 0)
     if len(clipped):  # map clipped-vertex weights to the original face
         b[:, clipped] = np.einsum("vn,nvj->jn", b[:, clipped], t.clip_bary[slot[clipped]])
     face = t.face[tri]
-    depth = b[0] * vdepth_f[0][face] + b[1] * vdepth_f[1][face] + b[2] * vdepth_f[2][face]
+    if not w_is_depth or bad.any():  # general projection: interpolate -z_view
+        sel = slice(None) if not w_is_depth else np.flatnonzero(bad)
+        local = face[sel] - t.face0
+        vd = t.face_depth
+        bs = b[:, sel]
+        d = bs[0] * vd[0][local] + bs[1] * vd[1][local] + bs[2] * vd[2][local]
+        if w_is_depth:
+            depth[sel] = d
+        else:
+            depth = d
     out.tri_id.reshape(-1)[pix] = face
     out.depth.reshape(-1)[pix] = depth
-    out.bary.reshape(-1, 3)[pix] = b.T
+    # Scatter whole (3 x float32) records: much faster than a row scatter.
+    rec = np.empty((len(pix), 3), dtype=np.float32)
+    rec[:, 0], rec[:, 1], rec[:, 2] = b
+    out.bary.reshape(-1, 3).view(_BARY_RECORD)[pix, 0] = rec.view(_BARY_RECORD)[:, 0]

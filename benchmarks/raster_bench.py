@@ -1,0 +1,283 @@
+#!/usr/bin/env python
+"""Benchmark the NumPy rasterizer against Embree first-hit ray casting.
+
+Usage::
+
+    python benchmarks/raster_bench.py [--out benchmarks/results/raster.json]
+
+For each scene (the Stanford bunny from ``../shared/assets`` when present, and
+a displaced 327,680-triangle icosphere) at 1920x1080 it times, in the same
+run and interleaved (so machine noise hits both alike):
+
+* ``clshade.raster.rasterize`` (everything: transform, clip, raster, resolve,
+  barycentrics), with back faces kept (same visibility as the ray caster) and
+  with back-face culling;
+* trimesh + embreex ``mesh.ray.intersects_first`` for all pixel-centre rays
+  (rays built beforehand, BVH built beforehand: both excluded from the time).
+
+It also rasterizes a 1,310,720-triangle mesh and reports the peak memory
+allocated during the call (tracemalloc sees NumPy's allocations).  Results go
+to a JSON file and a Markdown table next to it (same name, ``.md``).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import resource
+import sys
+import time
+import tracemalloc
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+ROOT = Path(__file__).resolve().parents[1]
+try:
+    from clshade.raster import rasterize
+except ImportError:  # running from a checkout without installing
+    sys.path.insert(0, str(ROOT))
+    from clshade.raster import rasterize
+
+ASSETS = ROOT.parent / "shared" / "assets"
+BUNNY = ASSETS / "stanford-bunny" / "stanford-bunny.obj"
+
+
+def look_at(eye, target, up=(0.0, 1.0, 0.0)) -> np.ndarray:
+    """OpenGL-style world->camera matrix."""
+    eye, target, up = (np.asarray(a, dtype=np.float64) for a in (eye, target, up))
+    f = target - eye
+    f /= np.linalg.norm(f)
+    s = np.cross(f, up)
+    s /= np.linalg.norm(s)
+    u = np.cross(s, f)
+    m = np.eye(4)
+    m[0, :3], m[1, :3], m[2, :3] = s, u, -f
+    m[:3, 3] = -m[:3, :3] @ eye
+    return m
+
+
+def perspective(fovy_deg: float, aspect: float, near: float, far: float) -> np.ndarray:
+    """gluPerspective."""
+    t = 1.0 / np.tan(np.radians(fovy_deg) / 2.0)
+    m = np.zeros((4, 4))
+    m[0, 0], m[1, 1] = t / aspect, t
+    m[2, 2] = (far + near) / (near - far)
+    m[2, 3] = 2.0 * far * near / (near - far)
+    m[3, 2] = -1.0
+    return m
+
+
+def pixel_rays(view, proj, width, height):
+    """Pixel-centre rays (origins on the near plane), by inverting proj @ view."""
+    inv = np.linalg.inv(proj @ view)
+    j, i = np.meshgrid(np.arange(width), np.arange(height))
+    x = (j + 0.5) / width * 2.0 - 1.0
+    y = 1.0 - (i + 0.5) / height * 2.0
+    ends = []
+    for z in (-1.0, 1.0):
+        p = np.stack([x, y, np.full_like(x, z), np.ones_like(x)], -1).reshape(-1, 4) @ inv.T
+        ends.append(p[:, :3] / p[:, 3:])
+    d = ends[1] - ends[0]
+    return ends[0], d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+def cpu_model() -> str:
+    """CPU model name from /proc/cpuinfo ('' where unavailable)."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return ""
+
+
+def scenes(width: int, height: int):
+    """(name, mesh, view, proj) of the benchmark scenes."""
+    out = []
+    if BUNNY.is_file():
+        bunny = trimesh.load(BUNNY, process=False, force="mesh")
+        c = bunny.bounds.mean(axis=0)
+        r = np.linalg.norm(bunny.bounds[1] - bunny.bounds[0]) / 2
+        out.append(("stanford-bunny", bunny,
+                    look_at(c + np.array([0.15, 0.1, 1.0]) * 1.9 * r, c),
+                    perspective(40.0, width / height, 0.01, 10.0)))
+    else:
+        print(f"skipping the Stanford bunny: {BUNNY} not found (assets live beside the checkout)")
+    sphere = trimesh.creation.icosphere(subdivisions=7)
+    v = sphere.vertices
+    v = v * (1.0 + 0.06 * np.sin(9.0 * v[:, 0]) * np.cos(7.0 * v[:, 1]) * np.sin(5.0 * v[:, 2]))[:, None]
+    out.append(("displaced-icosphere-7", trimesh.Trimesh(v, sphere.faces, process=False),
+                look_at((0.4, 0.3, 2.6), (0.0, 0.0, 0.0)),
+                perspective(45.0, width / height, 0.1, 100.0)))
+    return out
+
+
+def bench_scene(name, mesh, view, proj, width, height, repeats):
+    verts = np.ascontiguousarray(mesh.vertices, dtype=np.float64)
+    faces = np.ascontiguousarray(mesh.faces, dtype=np.int64)
+    origins, dirs = pixel_rays(view, proj, width, height)
+    intersector = mesh.ray
+    t0 = time.perf_counter()
+    intersector.intersects_first(origins[:1], dirs[:1])  # builds the BVH
+    bvh_s = time.perf_counter() - t0
+    ids = intersector.intersects_first(origins, dirs).reshape(height, width)
+    frag = rasterize(verts, faces, view, proj, width, height, cull_backfaces=False)
+    rasterize(verts, faces, view, proj, width, height, cull_backfaces=True)
+    union = frag.coverage | (ids >= 0)
+    agreement = float((frag.tri_id == ids)[union].mean())
+
+    t_keep, t_cull, t_embree = [], [], []
+    for _ in range(repeats):  # interleaved: noise affects all three alike
+        t0 = time.perf_counter()
+        rasterize(verts, faces, view, proj, width, height, cull_backfaces=False)
+        t_keep.append(time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        rasterize(verts, faces, view, proj, width, height, cull_backfaces=True)
+        t_cull.append(time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        intersector.intersects_first(origins, dirs)
+        t_embree.append(time.perf_counter() - t0)
+    res = {
+        "scene": name,
+        "triangles": int(len(faces)),
+        "width": width,
+        "height": height,
+        "coverage": float(frag.coverage.mean()),
+        "id_agreement_vs_embree": agreement,
+        "raster_median_s": float(np.median(t_keep)),
+        "raster_min_s": float(np.min(t_keep)),
+        "raster_times_s": t_keep,
+        "raster_cull_median_s": float(np.median(t_cull)),
+        "raster_cull_times_s": t_cull,
+        "embree_median_s": float(np.median(t_embree)),
+        "embree_min_s": float(np.min(t_embree)),
+        "embree_times_s": t_embree,
+        "embree_bvh_build_s": bvh_s,
+        "speedup_vs_embree": float(np.median(t_embree) / np.median(t_keep)),
+        "speedup_cull_vs_embree": float(np.median(t_embree) / np.median(t_cull)),
+        "ray_backend": type(intersector).__module__,
+    }
+    print(f"{name}: {len(faces)} tris, coverage {res['coverage']:.1%}, raster {res['raster_median_s']:.3f} s "
+          f"(cull {res['raster_cull_median_s']:.3f} s), embree {res['embree_median_s']:.3f} s, "
+          f"speedup x{res['speedup_vs_embree']:.2f}, id agreement {agreement:.4%}")
+    return res
+
+
+def bench_memory(width, height):
+    sphere = trimesh.creation.icosphere(subdivisions=8)
+    verts = np.ascontiguousarray(sphere.vertices)
+    faces = np.ascontiguousarray(sphere.faces, dtype=np.int64)
+    view = look_at((0.3, 0.2, 2.4), (0.0, 0.0, 0.0))
+    proj = perspective(45.0, width / height, 0.1, 100.0)
+    t0 = time.perf_counter()
+    frag = rasterize(verts, faces, view, proj, width, height)
+    elapsed = time.perf_counter() - t0
+    rss_before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    tracemalloc.start()
+    frag = rasterize(verts, faces, view, proj, width, height)
+    _, peak = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    out_bytes = frag.tri_id.nbytes + frag.depth.nbytes + frag.bary.nbytes
+    res = {
+        "scene": "icosphere-8",
+        "triangles": int(len(faces)),
+        "width": width,
+        "height": height,
+        "time_s": elapsed,
+        "coverage": float(frag.coverage.mean()),
+        "peak_alloc_during_call_MiB": peak / 2**20,
+        "output_MiB": out_bytes / 2**20,
+        "input_MiB": (verts.nbytes + faces.nbytes) / 2**20,
+        "process_max_rss_MiB": max(rss_before, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss) / 1024,
+    }
+    print(f"memory: {len(faces)} tris in {elapsed:.3f} s, peak allocated during the call "
+          f"{res['peak_alloc_during_call_MiB']:.0f} MiB (output {res['output_MiB']:.0f} MiB, "
+          f"input {res['input_MiB']:.0f} MiB), process max RSS {res['process_max_rss_MiB']:.0f} MiB")
+    return res
+
+
+def write_markdown(path: Path, data: dict) -> None:
+    m = data["machine"]
+    lines = [
+        "# Rasterizer benchmark (`benchmarks/raster_bench.py`)",
+        "",
+        f"Machine: {m['cpu_model'] or m['processor'] or m['machine']}, {m['cpu_count']} CPUs, Python {m['python']}, "
+        f"NumPy {m['numpy']}, trimesh {m['trimesh']}, embreex {m['embreex']}; {m['platform']}.",
+        f"Median of {data['repeats']} interleaved repeats; times in seconds.  `raster` keeps back faces "
+        "(same visibility as the ray caster), `raster (cull)` drops them.  Embree times exclude ray "
+        "generation and the BVH build.",
+        "",
+        "| scene | triangles | resolution | coverage | raster | raster (cull) | embree first hit "
+        "| speedup | speedup (cull) | id agreement |",
+        "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for r in data["scenes"]:
+        lines.append(
+            f"| {r['scene']} | {r['triangles']:,} | {r['width']}x{r['height']} | {r['coverage']:.1%} "
+            f"| {r['raster_median_s']:.3f} | {r['raster_cull_median_s']:.3f} | {r['embree_median_s']:.3f} "
+            f"| x{r['speedup_vs_embree']:.2f} | x{r['speedup_cull_vs_embree']:.2f} "
+            f"| {r['id_agreement_vs_embree']:.3%} |")
+    for s in data.get("skipped", []):
+        lines.append(f"| {s} | skipped | | | | | | | | |")
+    mem = data.get("memory")
+    if mem:
+        lines += [
+            "",
+            f"Memory: {mem['triangles']:,} triangles at {mem['width']}x{mem['height']} rasterized in "
+            f"{mem['time_s']:.3f} s; peak memory allocated during the call "
+            f"**{mem['peak_alloc_during_call_MiB']:.0f} MiB** (tracemalloc; includes the "
+            f"{mem['output_MiB']:.0f} MiB output, excludes the {mem['input_MiB']:.0f} MiB input); "
+            f"process max RSS {mem['process_max_rss_MiB']:.0f} MiB.",
+        ]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results" / "raster.json")
+    ap.add_argument("--repeats", type=int, default=7)
+    ap.add_argument("--width", type=int, default=1920)
+    ap.add_argument("--height", type=int, default=1080)
+    ap.add_argument("--no-memory", action="store_true", help="skip the 1.3M-triangle memory run")
+    args = ap.parse_args(argv)
+    if args.repeats < 5:
+        ap.error("--repeats must be >= 5")
+    try:
+        import embreex  # noqa: F401
+        embreex_version = getattr(embreex, "__version__", "installed")
+    except ImportError:
+        embreex_version = None
+        print("warning: embreex not installed; trimesh falls back to its slow pure-NumPy ray caster")
+    data = {
+        "machine": {
+            "processor": platform.processor(),
+            "cpu_model": cpu_model(),
+            "machine": platform.machine(),
+            "platform": platform.platform(),
+            "cpu_count": os.cpu_count(),
+            "python": platform.python_version(),
+            "numpy": np.__version__,
+            "trimesh": trimesh.__version__,
+            "embreex": embreex_version,
+        },
+        "repeats": args.repeats,
+        "scenes": [],
+        "skipped": [] if BUNNY.is_file() else ["stanford-bunny (assets absent)"],
+    }
+    for name, mesh, view, proj in scenes(args.width, args.height):
+        data["scenes"].append(bench_scene(name, mesh, view, proj, args.width, args.height, args.repeats))
+    if not args.no_memory:
+        data["memory"] = bench_memory(args.width, args.height)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps(data, indent=2) + "\n")
+    md = args.out.with_suffix(".md")
+    write_markdown(md, data)
+    print(f"wrote {args.out} and {md}")
+
+
+if __name__ == "__main__":
+    main()
