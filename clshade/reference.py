@@ -592,7 +592,10 @@ def brdf(
       'conductor'  -- ``f_conductor(v.h, eta, k)`` (eta, k required).
 
     workflow 'metallic' (microfacet lobes or specular 'none'):
-      ``f = base (1 - metallic) fd + D G F / (4 n.l n.v)``.
+      ``f = (1 - F(n.l)) (1 - F(n.v)) base (1 - metallic) fd + D G F(v.h) / (4 n.l n.v)``:
+      light the specular interface reflects on the way in or out does not
+      reach the diffuse substrate (Shirley et al. 1997); without a
+      microfacet lobe the weight is 1.
     workflow 'kdks' (the k_d + k_s = 1 study rule; any lobe):
       ``f = kd base fd + ks spec``; empirical lobes are white (no F),
       microfacet lobes still include F.
@@ -651,14 +654,17 @@ def brdf(
                 f0_c = DIELECTRIC_F0 * (1.0 - m) + base * m
             else:
                 f0_c = _channels(f0)
-            fr = f_schlick(g.vh, f0_c)
+            fres = lambda c: f_schlick(c, f0_c)  # noqa: E731
         elif fresnel == "dielectric":
-            fr = f_dielectric(g.vh, _f(ior)[..., None])
+            fres = lambda c: f_dielectric(c, _f(ior)[..., None])  # noqa: E731
         else:
-            fr = f_conductor(g.vh, _channels(eta), _channels(k))
+            fres = lambda c: f_conductor(c, _channels(eta), _channels(k))  # noqa: E731
+        fr = fres(g.vh)
         lobe = _MICROFACET_FN[specular](g.nl, g.nv, g.nh, g.vh, alpha, fr)
         lobe = np.where(g.h_ok[..., None], lobe, 0.0)
         f_spec = lobe if workflow == "metallic" else _mul0(_f(ks)[..., None], lobe)
+        if workflow == "metallic":
+            f_diffuse = f_diffuse * (1.0 - fres(g.nl)) * (1.0 - fres(g.nv))
 
     with np.errstate(**_ERR):
         out = f_diffuse + f_spec

@@ -202,6 +202,19 @@ def reference_f(model: Model, s: Samples, alpha_floor: float = MIN_ALPHA) -> np.
         if model.specular == "none" or model.workflow == "kdks" and not model.uses_fresnel:
             return R.brdf(model.diffuse, model.specular, n, l, v, **kw)
         diffuse = R.brdf(model.diffuse, "none", n, l, v, **kw) if model.diffuse != "none" else 0.0
+        if model.workflow == "metallic":
+            # The metallic workflow weights diffuse by (1 − F(n·l))(1 − F(n·v)) (compose.h),
+            # with the kernel's cosine floors.
+            geo = R.geometry(n, l, v)
+
+            def fres(c: np.ndarray) -> np.ndarray:
+                if model.fresnel == "schlick":
+                    f0 = 0.04 * (1.0 - metal[:, None]) + base * metal[:, None]
+                    return f0 + (m[:, 1, 1][:, None] - f0) * (1.0 - np.clip(c, 0, 1))[:, None] ** 5
+                if model.fresnel == "dielectric":
+                    return R.f_dielectric(c, m[:, 1, 0])[:, None]
+                return R.f_conductor(c, m[:, 2, :3], m[:, 3, :3])
+            diffuse = diffuse * (1.0 - fres(np.maximum(geo.nl, MIN_COSINE))) * (1.0 - fres(np.maximum(geo.nv, MIN_COSINE)))
         if model.fresnel == "schlick":
             f0 = 0.04 * (1.0 - metal[:, None]) + base * metal[:, None]
             one = R.brdf("none", model.specular, n, l, v, f0=np.ones_like(base), **kw)

@@ -142,6 +142,7 @@ class Variant:
         if f.general:
             return {"GENERAL": "1", "HAS_DIFFUSE": str(int(m.diffuse != NONE)),
                     "HAS_SPECULAR": str(int(m.specular != NONE)),
+                    "SPECULAR_FRESNEL": str(int(m.uses_fresnel)),
                     "FRESNEL": FRESNEL_DEFINES[m.fresnel], "WORKFLOW": WORKFLOW_DEFINES[m.workflow]}
         d = {
             "NUM_DIR": str(f.num_dir), "NUM_POINT": str(f.num_point), "NUM_SPOT": str(f.num_spot),
@@ -152,6 +153,7 @@ class Variant:
             "HAS_MATERIAL": str(int(self.has_material)),
             "HAS_DIFFUSE": str(int(m.diffuse != NONE)),
             "HAS_SPECULAR": str(int(m.specular != NONE)),
+            "SPECULAR_FRESNEL": str(int(m.uses_fresnel)),
             "FRESNEL": FRESNEL_DEFINES[m.fresnel],
             "WORKFLOW": WORKFLOW_DEFINES[m.workflow],
         }

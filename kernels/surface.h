@@ -99,14 +99,18 @@ inline Surface make_surface(float3 base, float roughness, float metallic,
     return s;
 }
 
-inline float3 fresnel(const Geometry g, const Surface s) {
+/* The Fresnel term chosen at compile time, at incidence cosine c. */
+inline float3 fresnel_cos(float c, const Surface s) {
 #if FRESNEL == FRESNEL_DIELECTRIC
-    return (float3)(F_Dielectric(g.vh, s.ior));
+    return (float3)(F_Dielectric(c, s.ior));
 #elif FRESNEL == FRESNEL_CONDUCTOR
-    return F_Conductor(g.vh, s.eta, s.k);
+    return F_Conductor(c, s.eta, s.k);
 #else
-    return F_Schlick(g.vh, s.f0, s.f90);
+    return F_Schlick(c, s.f0, s.f90);
 #endif
 }
+
+/* The microfacet lobes' F, at the microfacet incidence v·h. */
+inline float3 fresnel(const Geometry g, const Surface s) { return fresnel_cos(g.vh, s); }
 
 #endif
