@@ -1,0 +1,87 @@
+"""`clshade bench` end to end on a tiny frame: the JSON has every documented key and
+sane values (no timing assertions: the machine is shared and noisy)."""
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from clshade.bench import frame_stats, pareto
+from clshade.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+SCHEMA_DOC = ROOT / "docs" / "bench-schema.md"
+
+
+def documented_keys(section: str) -> set[str]:
+    """Keys listed as `| `key` |` rows under the '## <section>' heading of the schema doc."""
+    text = SCHEMA_DOC.read_text(encoding="utf-8")
+    body = text.split(f"## {section}", 1)[1].split("\n## ", 1)[0]
+    return set(re.findall(r"^\| `([a-z0-9_.]+)` \|", body, re.M))
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory) -> dict:
+    out = tmp_path_factory.mktemp("bench") / "bench.json"
+    rc = main(["bench", str(ROOT / "scenes" / "sphere_grid.toml"), "-m", "lambert,ggx_correlated",
+               "--frames", "20", "--warmup", "2", "--width", "64", "--height", "48", "--numpy-frames", "1",
+               "--no-progress", "--json", str(out)])
+    assert rc == 0
+    return json.loads(out.read_text(encoding="utf-8"))
+
+
+def test_top_level_keys(report):
+    keys = documented_keys("Top level")
+    assert keys, "schema doc lists no top-level keys"
+    assert keys <= set(report)
+    for section, sub in (("machine", "Machine"), ("device", "Device")):
+        assert documented_keys(sub) <= set(report[section])
+    assert report["width"] == 64 and report["height"] == 48 and report["frames"] == 20
+
+
+def test_model_rows(report):
+    keys = documented_keys("Per model")
+    assert {"model", "mean_ms", "avg_fps", "low1_fps", "low01_fps", "median_ms", "p99_ms", "host_overhead_ms",
+            "bytes_per_pixel", "copy_ratio", "numpy_ratio", "max_rel_error", "mean_rel_error"} <= keys
+    assert [r["model"] for r in report["models"]] == ["lambert", "lambert+ggx_correlated"]
+    for row in report["models"]:
+        assert keys <= set(row)
+        assert row["frames"] == 20
+        assert 0 < row["low01_fps"] <= row["low1_fps"] <= row["avg_fps"] * (1 + 1e-9)
+        assert row["copy_ratio"] > 0 and row["numpy_ratio"] > 0 and row["lambert_ratio"] > 0
+        assert row["p99_ms"] >= row["median_ms"] > 0
+        assert 16 < row["bytes_per_pixel"] <= 64
+        assert 0 <= row["mean_rel_error"] <= row["max_rel_error"] < 0.1
+
+
+def test_frame_stats_lows():
+    frames = np.r_[np.full(999, 10.0), 100.0]
+    s = frame_stats(frames, frames + 0.05)
+    assert s["low01_fps"] == pytest.approx(10.0)          # the one 100 ms frame
+    assert s["low1_fps"] == pytest.approx(1e3 / 19.0)      # ten slowest: 9 × 10 ms + 100 ms
+    assert s["host_overhead_ms"] == pytest.approx(0.05)
+
+
+def test_pareto():
+    assert pareto([(1, 1), (2, 0.5), (2, 2), (0.5, 3)]) == [True, True, False, True]
+
+
+@pytest.mark.parametrize("spec", ["lambert", "oren_nayar", "burley", "blinn_phong_normalized", "cook_torrance",
+                                  "ggx_correlated@conductor"])
+def test_numpy_baseline_matches_kernel(spec):
+    """The NumPy float32 baseline is the same shading as shade.cl (within float32 noise)."""
+    from clshade.bench import Bench
+    from clshade.models import resolve
+    from clshade.numpy_shading import shade_numpy
+    bench = Bench.prepare(ROOT / "scenes" / "sphere_grid.toml", 64, 48)
+    model = resolve(spec)
+    case = bench.case(model)
+    image = case.shader.render(model, case.features)
+    mine = shade_numpy(model, bench.frame.gbuffer, bench.frame.scene, bench.frame.camera)
+    cov = bench.frame.gbuffer.coverage
+    peak = np.abs(mine[cov, :3]).max()
+    assert np.abs(image[cov] - mine[cov]).max() <= 1e-4 * peak
+    assert np.array_equal(image[~cov], mine[~cov])
