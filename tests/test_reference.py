@@ -248,7 +248,9 @@ def test_brdf_composition() -> None:
     a = r * r
     f0 = 0.04 * (1 - m) + base * m
     spec = R.ggx_correlated(g.nl, g.nv, g.nh, g.vh, a, R.f_schlick(g.vh, f0))
-    expected = base * (1 - m) * R.fd_burley(g.nl, g.nv, g.vh, a) + spec
+    # the diffuse lobe is weighted by (1 − F(n·l))(1 − F(n·v)) (Shirley et al. 1997)
+    kd = (1 - R.f_schlick(g.nl, f0)) * (1 - R.f_schlick(g.nv, f0))
+    expected = kd * base * (1 - m) * R.fd_burley(g.nl, g.nv, g.vh, a) + spec
     got = R.brdf("burley", "ggx_correlated", Z, l, v, base_color=base, roughness=r, metallic=m)
     np.testing.assert_allclose(got, expected, rtol=1e-14)
     # explicit f0, dielectric and conductor Fresnel
