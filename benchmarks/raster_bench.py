@@ -40,34 +40,10 @@ try:
 except ImportError:  # running from a checkout without installing
     sys.path.insert(0, str(ROOT))
     from clshade.raster import rasterize
+from clshade.transforms import look_at, perspective  # noqa: E402
 
 ASSETS = ROOT.parent / "shared" / "assets"
 BUNNY = ASSETS / "stanford-bunny" / "stanford-bunny.obj"
-
-
-def look_at(eye, target, up=(0.0, 1.0, 0.0)) -> np.ndarray:
-    """OpenGL-style world->camera matrix."""
-    eye, target, up = (np.asarray(a, dtype=np.float64) for a in (eye, target, up))
-    f = target - eye
-    f /= np.linalg.norm(f)
-    s = np.cross(f, up)
-    s /= np.linalg.norm(s)
-    u = np.cross(s, f)
-    m = np.eye(4)
-    m[0, :3], m[1, :3], m[2, :3] = s, u, -f
-    m[:3, 3] = -m[:3, :3] @ eye
-    return m
-
-
-def perspective(fovy_deg: float, aspect: float, near: float, far: float) -> np.ndarray:
-    """gluPerspective."""
-    t = 1.0 / np.tan(np.radians(fovy_deg) / 2.0)
-    m = np.zeros((4, 4))
-    m[0, 0], m[1, 1] = t / aspect, t
-    m[2, 2] = (far + near) / (near - far)
-    m[2, 3] = 2.0 * far * near / (near - far)
-    m[3, 2] = -1.0
-    return m
 
 
 def pixel_rays(view, proj, width, height):

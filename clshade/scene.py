@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from .errors import ClshadeError, located
+from .transforms import look_at, perspective
 
 TONEMAPS = ("none", "reinhard", "aces")
 PRIMITIVES = ("sphere", "box", "cylinder", "cone", "plane", "torus", "capsule")
@@ -48,31 +49,18 @@ class Camera:
         return self.width / self.height
 
     def basis(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Unit forward, right and up vectors (right-handed, +Y up by default)."""
-        fwd = self.target - self.position
-        fwd = fwd / np.linalg.norm(fwd)
-        right = np.cross(fwd, self.up)
-        right = right / np.linalg.norm(right)
-        up = np.cross(right, fwd)
-        return fwd, right, up
+        """Unit forward, right and up vectors (right-handed, +Y up by default): the
+        rows of the view matrix, so rasterizer and shading kernel agree."""
+        m = self.view_matrix()
+        return -m[2, :3], m[0, :3], m[1, :3]
 
     def view_matrix(self) -> np.ndarray:
         """World → camera (camera looks down −Z)."""
-        fwd, right, up = self.basis()
-        m = np.eye(4)
-        m[0, :3], m[1, :3], m[2, :3] = right, up, -fwd
-        m[:3, 3] = -m[:3, :3] @ self.position
-        return m
+        return look_at(self.position, self.target, self.up)
 
     def projection_matrix(self) -> np.ndarray:
         """OpenGL perspective projection (clip space, NDC z in [−1, 1])."""
-        f = 1.0 / math.tan(math.radians(self.fov) / 2)
-        n, fa = self.near, self.far
-        m = np.zeros((4, 4))
-        m[0, 0], m[1, 1] = f / self.aspect, f
-        m[2, 2], m[2, 3] = (fa + n) / (n - fa), 2 * fa * n / (n - fa)
-        m[3, 2] = -1.0
-        return m
+        return perspective(self.fov, self.aspect, self.near, self.far)
 
     def with_size(self, width: int | None, height: int | None) -> "Camera":
         from dataclasses import replace

@@ -24,6 +24,7 @@ import numpy as np
 from .meshes import Geometry
 from .raster import rasterize
 from .scene import Light, Scene
+from .transforms import look_along, orthographic, perspective
 
 SHADOW_ROWS = 6
 # Depth written where a map sees no surface: any receiver is nearer, so lit.
@@ -56,55 +57,24 @@ class ShadowMaps:
         return int(self.maps.shape[0])
 
 
-def _look_along(eye: np.ndarray, forward: np.ndarray) -> np.ndarray:
-    """World → light view (looking down −Z along `forward`)."""
-    f = forward / np.linalg.norm(forward)
-    up = np.array([0.0, 1.0, 0.0]) if abs(f[1]) < 0.99 else np.array([1.0, 0.0, 0.0])
-    right = np.cross(f, up)
-    right /= np.linalg.norm(right)
-    up = np.cross(right, f)
-    m = np.eye(4)
-    m[0, :3], m[1, :3], m[2, :3] = right, up, -f
-    m[:3, 3] = -m[:3, :3] @ eye
-    return m
-
-
-def _orthographic(left: float, right: float, bottom: float, top: float, near: float, far: float) -> np.ndarray:
-    m = np.zeros((4, 4))
-    m[0, 0], m[0, 3] = 2 / (right - left), -(right + left) / (right - left)
-    m[1, 1], m[1, 3] = 2 / (top - bottom), -(top + bottom) / (top - bottom)
-    m[2, 2], m[2, 3] = -2 / (far - near), -(far + near) / (far - near)
-    m[3, 3] = 1.0
-    return m
-
-
-def _perspective(fov_deg: float, near: float, far: float) -> np.ndarray:
-    f = 1.0 / math.tan(math.radians(fov_deg) / 2)
-    m = np.zeros((4, 4))
-    m[0, 0] = m[1, 1] = f
-    m[2, 2], m[2, 3] = (far + near) / (near - far), 2 * far * near / (near - far)
-    m[3, 2] = -1.0
-    return m
-
-
 def light_projection(light: Light, lo: np.ndarray, hi: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray, float, bool]:
     """(view, proj, texel, perspective) of a light's shadow map over the box [lo, hi]."""
     corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
     extent = max(float(np.linalg.norm(hi - lo)), 1e-6)
     if light.kind == "directional":
         centre = 0.5 * (lo + hi)
-        view = _look_along(centre - light.direction * extent, light.direction)
+        view = look_along(centre - light.direction * extent, light.direction)
         p = corners @ view[:3, :3].T + view[:3, 3]
         pad = FIT_MARGIN * extent
         x0, x1 = p[:, 0].min() - pad, p[:, 0].max() + pad
         y0, y1 = p[:, 1].min() - pad, p[:, 1].max() + pad
         near, far = max(-p[:, 2].max() - pad, pad), -p[:, 2].min() + pad
-        proj = _orthographic(x0, x1, y0, y1, near, far)
+        proj = orthographic(x0, x1, y0, y1, near, far)
         return view, proj, max(x1 - x0, y1 - y0) / size, False
-    view = _look_along(light.position, light.direction)
+    view = look_along(light.position, light.direction)
     far = float(np.linalg.norm(corners - light.position, axis=1).max()) * (1 + FIT_MARGIN) + 1e-6
     fov = min(2.0 * light.outer_angle + SPOT_FOV_MARGIN_DEG, MAX_SPOT_FOV_DEG)
-    proj = _perspective(fov, far * SPOT_NEAR_RATIO, far)
+    proj = perspective(fov, 1.0, far * SPOT_NEAR_RATIO, far)
     return view, proj, 2.0 * math.tan(math.radians(fov) / 2) / size, True
 
 

@@ -14,7 +14,7 @@ from clshade.meshes import build_geometry
 from clshade.pipeline import prepare_frame, render
 from clshade.raster import rasterize
 from clshade.scene import parse_scene
-from clshade.shadows import _orthographic
+from clshade.transforms import orthographic
 from clshade.textures import Texture, srgb_decode
 
 from conftest import ASSETS, SCENES
@@ -266,7 +266,7 @@ def test_orthographic_raster_depth_and_near_clip():
     """The rasterizer with an orthographic matrix (clip w = 1): depth is −z_view, and
     a triangle crossing the near plane is clipped at it, not dropped."""
     view = np.eye(4)
-    proj = _orthographic(-1, 1, -1, 1, 1.0, 5.0)
+    proj = orthographic(-1, 1, -1, 1, 1.0, 5.0)
     tri = np.array([[-0.9, -0.9, -3.0], [0.9, -0.9, -3.0], [0.0, 0.9, -3.0]])
     f = rasterize(tri, [[0, 1, 2]], view, proj, 16, 16)
     assert f.coverage.sum() > 50 and np.allclose(f.depth[f.coverage], 3.0)

@@ -1,0 +1,49 @@
+"""4×4 camera matrices in the OpenGL convention (column vectors, camera looks
+down −Z, NDC z in [−1, 1]), shared by the scene camera, the shadow-map lights
+and the benchmarks."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def look_along(eye, forward, up=(0.0, 1.0, 0.0)) -> np.ndarray:
+    """World → view for a camera at `eye` looking along `forward`. When `up` is
+    (nearly) parallel to `forward`, +X serves as the up hint instead."""
+    eye, f, up = (np.asarray(a, dtype=np.float64) for a in (eye, forward, up))
+    f = f / np.linalg.norm(f)
+    if abs(np.dot(f, up / np.linalg.norm(up))) > 0.99:
+        up = np.array([1.0, 0.0, 0.0])
+    right = np.cross(f, up)
+    right /= np.linalg.norm(right)
+    true_up = np.cross(right, f)
+    m = np.eye(4)
+    m[0, :3], m[1, :3], m[2, :3] = right, true_up, -f
+    m[:3, 3] = -m[:3, :3] @ eye
+    return m
+
+
+def look_at(eye, target, up=(0.0, 1.0, 0.0)) -> np.ndarray:
+    """World → view for a camera at `eye` looking at `target`."""
+    return look_along(eye, np.asarray(target, np.float64) - np.asarray(eye, np.float64), up)
+
+
+def perspective(fov_y_deg: float, aspect: float, near: float, far: float) -> np.ndarray:
+    """gluPerspective: vertical field of view in degrees."""
+    f = 1.0 / math.tan(math.radians(fov_y_deg) / 2)
+    m = np.zeros((4, 4))
+    m[0, 0], m[1, 1] = f / aspect, f
+    m[2, 2], m[2, 3] = (far + near) / (near - far), 2 * far * near / (near - far)
+    m[3, 2] = -1.0
+    return m
+
+
+def orthographic(left: float, right: float, bottom: float, top: float, near: float, far: float) -> np.ndarray:
+    """glOrtho."""
+    m = np.zeros((4, 4))
+    m[0, 0], m[0, 3] = 2 / (right - left), -(right + left) / (right - left)
+    m[1, 1], m[1, 3] = 2 / (top - bottom), -(top + bottom) / (top - bottom)
+    m[2, 2], m[2, 3] = -2 / (far - near), -(far + near) / (far - near)
+    m[3, 3] = 1.0
+    return m
