@@ -332,14 +332,12 @@ class Bench:
         return cls(frame, get_runtime(device), scene_features(frame.scene), device)
 
     def shader(self, gbuffer: GBuffer | None = None, scene: Scene | None = None) -> Shader:
-        """The Shader for (gbuffer, scene), uploaded once. A second G-buffer gets its own
-        Runtime: Runtime caches one cl.Kernel per source and Shader.prepare binds the
-        arguments on it, so two Shaders of one Runtime would overwrite each other's."""
+        """The Shader for (gbuffer, scene), uploaded once. Shaders share the runtime:
+        Shader.prepare binds each dispatch's arguments on its own cl.Kernel object."""
         gb, sc = gbuffer or self.frame.gbuffer, scene or self.frame.scene
         key = hash((id(gb), id(sc)))
         if key not in self.shaders:
-            rt = self.runtime if gb is self.frame.gbuffer else Runtime(self.device)
-            self.shaders[key] = Shader(rt, gb, sc, self.frame.camera)
+            self.shaders[key] = Shader(self.runtime, gb, sc, self.frame.camera)
         return self.shaders[key]
 
     def case(self, model: Model, *, label: str = "", half: bool = False, fast_math: bool = False,
