@@ -40,6 +40,9 @@ try:
 except ImportError:  # running from a checkout without installing
     sys.path.insert(0, str(ROOT))
     from clshade.raster import rasterize
+from clshade.gbuffer import build_gbuffer  # noqa: E402
+from clshade.meshes import Geometry  # noqa: E402
+from clshade.scene import parse_scene  # noqa: E402
 from clshade.transforms import look_at, perspective  # noqa: E402
 
 ASSETS = ROOT.parent / "shared" / "assets"
@@ -92,6 +95,16 @@ def scenes(width: int, height: int):
     return out
 
 
+def gbuffer_inputs(mesh):
+    """A one-material scene and the Geometry of `mesh`, for timing the full G-buffer stage."""
+    scene = parse_scene("[camera]\nposition = [0.0, 0.0, 1.0]\n[materials.m]\nroughness = 0.5\n")
+    n = len(mesh.faces)
+    geometry = Geometry(np.asarray(mesh.vertices, float), np.asarray(mesh.vertex_normals, np.float32),
+                        np.asarray(mesh.faces, np.int64), np.zeros(n, np.int32), np.zeros(n, np.int32),
+                        np.ones(n, bool))
+    return scene, geometry
+
+
 def bench_scene(name, mesh, view, proj, width, height, repeats):
     verts = np.ascontiguousarray(mesh.vertices, dtype=np.float64)
     faces = np.ascontiguousarray(mesh.faces, dtype=np.int64)
@@ -106,8 +119,12 @@ def bench_scene(name, mesh, view, proj, width, height, repeats):
     union = frag.coverage | (ids >= 0)
     agreement = float((frag.tri_id == ids)[union].mean())
 
-    t_keep, t_cull, t_embree = [], [], []
-    for _ in range(repeats):  # interleaved: noise affects all three alike
+    scene, geometry = gbuffer_inputs(mesh)
+    t_keep, t_cull, t_embree, t_full = [], [], [], []
+    for _ in range(repeats):  # interleaved: noise affects all alike
+        t0 = time.perf_counter()
+        build_gbuffer(scene, geometry, rasterize(verts, faces, view, proj, width, height, cull_backfaces=geometry.cull))
+        t_full.append(time.perf_counter() - t0)
         t0 = time.perf_counter()
         rasterize(verts, faces, view, proj, width, height, cull_backfaces=False)
         t_keep.append(time.perf_counter() - t0)
@@ -133,11 +150,14 @@ def bench_scene(name, mesh, view, proj, width, height, repeats):
         "embree_min_s": float(np.min(t_embree)),
         "embree_times_s": t_embree,
         "embree_bvh_build_s": bvh_s,
+        "gbuffer_full_median_s": float(np.median(t_full)),
+        "gbuffer_full_times_s": t_full,
         "speedup_vs_embree": float(np.median(t_embree) / np.median(t_keep)),
         "speedup_cull_vs_embree": float(np.median(t_embree) / np.median(t_cull)),
         "ray_backend": type(intersector).__module__,
     }
-    print(f"{name}: {len(faces)} tris, coverage {res['coverage']:.1%}, raster {res['raster_median_s']:.3f} s "
+    print(f"{name}: {len(faces)} tris, coverage {res['coverage']:.1%}, full G-buffer {res['gbuffer_full_median_s']:.3f} s, "
+          f"raster {res['raster_median_s']:.3f} s "
           f"(cull {res['raster_cull_median_s']:.3f} s), embree {res['embree_median_s']:.3f} s, "
           f"speedup x{res['speedup_vs_embree']:.2f}, id agreement {agreement:.4%}")
     return res
@@ -183,22 +203,24 @@ def write_markdown(path: Path, data: dict) -> None:
         "",
         f"Machine: {m['cpu_model'] or m['processor'] or m['machine']}, {m['cpu_count']} CPUs, Python {m['python']}, "
         f"NumPy {m['numpy']}, trimesh {m['trimesh']}, embreex {m['embreex']}; {m['platform']}.",
-        f"Median of {data['repeats']} interleaved repeats; times in seconds.  `raster` keeps back faces "
-        "(same visibility as the ray caster), `raster (cull)` drops them.  Embree times exclude ray "
-        "generation and the BVH build.",
+        f"Median of {data['repeats']} interleaved repeats; times in seconds.  `full G-buffer` = rasterize "
+        "(back faces culled) + build_gbuffer (normals interpolated, material channels written), the stage "
+        "`clshade render` runs; `raster` keeps back faces (same visibility as the ray caster), `raster (cull)` "
+        "drops them.  Embree times exclude ray generation and the BVH build.",
         "",
-        "| scene | triangles | resolution | coverage | raster | raster (cull) | embree first hit "
+        "| scene | triangles | resolution | coverage | full G-buffer | raster | raster (cull) | embree first hit "
         "| speedup | speedup (cull) | id agreement |",
-        "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|",
+        "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for r in data["scenes"]:
         lines.append(
             f"| {r['scene']} | {r['triangles']:,} | {r['width']}x{r['height']} | {r['coverage']:.1%} "
-            f"| {r['raster_median_s']:.3f} | {r['raster_cull_median_s']:.3f} | {r['embree_median_s']:.3f} "
+            f"| {r['gbuffer_full_median_s']:.3f} | {r['raster_median_s']:.3f} | {r['raster_cull_median_s']:.3f} "
+            f"| {r['embree_median_s']:.3f} "
             f"| x{r['speedup_vs_embree']:.2f} | x{r['speedup_cull_vs_embree']:.2f} "
             f"| {r['id_agreement_vs_embree']:.3%} |")
     for s in data.get("skipped", []):
-        lines.append(f"| {s} | skipped | | | | | | | | |")
+        lines.append(f"| {s} | skipped | | | | | | | | | |")
     mem = data.get("memory")
     if mem:
         lines += [
