@@ -43,7 +43,8 @@ GOLD = ((0.18, 0.42, 1.37), (3.42, 2.35, 1.77))
 def fresnel_cost(runtime) -> dict[str, float]:
     """ns per evaluation of each Fresnel term (compute-bound kernel, loop baseline subtracted)."""
     cl = runtime.cl
-    source = (kernels_dir() / "brdf.h").read_text() + (OUT / "kernels" / "fresnel_cost.cl").read_text()
+    source = "".join((kernels_dir() / name).read_text() for name in ("simd.h", "brdf.h")) + \
+        (OUT / "kernels" / "fresnel_cost.cl").read_text()
     out = runtime.empty(FRESNEL_ITEMS * 4)
     kernels = {}
     for term, name in enumerate(("schlick", "dielectric", "conductor", "loop")):

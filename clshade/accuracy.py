@@ -303,7 +303,7 @@ def _term_cases() -> dict[str, Callable[[np.random.Generator, int], TermCase]]:
 # The term functions with a kernel in terms.cl and a reference case above.
 TERMS: dict[str, Callable[[np.random.Generator, int], TermCase]] = _term_cases()
 
-_TERM_FN = re.compile(r"^inline\s+float3?\s+((?:D|V|F|Fd|Fs)_\w+)\s*\(", re.M)
+_TERM_FN = re.compile(r"^inline\s+(?:real|vec3)\s+((?:D|V|F|Fd|Fs)_\w+)\s*\(", re.M)
 
 
 def brdf_term_functions() -> list[str]:
@@ -312,9 +312,9 @@ def brdf_term_functions() -> list[str]:
 
 
 def term_source() -> str:
-    """brdf.h followed by terms.cl, with #line markers naming the files."""
+    """simd.h (SIMD = 1), brdf.h and terms.cl, with #line markers naming the files."""
     parts = []
-    for name in ("brdf.h", "terms.cl"):
+    for name in ("simd.h", "brdf.h", "terms.cl"):
         parts.append(f'#line 1 "{name}"\n' + (kernels_dir() / name).read_text(encoding="utf-8") + "\n")
     return "".join(parts)
 

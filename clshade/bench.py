@@ -519,7 +519,7 @@ def mark_pareto(rows: list[dict]) -> None:
 def add_parser(sub, checks) -> None:
     p = sub.add_parser("bench", help="frame-time statistics, accuracy and bandwidth floor per model",
                        description="Rasterise SCENE once, dispatch each model's kernel N times and report FPS "
-                                   "with 1 %% and 0.1 %% lows, the copy-kernel floor, the NumPy float32 "
+                                   "with 1 % and 0.1 % lows, the copy-kernel floor, the NumPy float32 "
                                    "baseline and the error against the float64 reference.")
     p.add_argument("scene", help="scene file (TOML)")
     p.add_argument("-m", "--models", default="all", help="comma-separated models, a group or 'all' (default)")

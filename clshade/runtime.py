@@ -107,6 +107,16 @@ def select_device(spec: str | None = None):
     raise ClshadeError(f"device {spec!r} matches no OpenCL device (have: {known})")
 
 
+# Lanes per work-item the kernels support (kernels/simd.h); buffers are padded to the largest.
+SIMD_WIDTHS = ("1", "4", "8")
+SIMD_PAD = 8
+
+
+def padded(count: int) -> int:
+    """`count` rounded up to a multiple of SIMD_PAD (device buffers of per-pixel data)."""
+    return (count + SIMD_PAD - 1) // SIMD_PAD * SIMD_PAD
+
+
 class Runtime:
     """One OpenCL context and in-order profiling queue on the chosen device."""
 
@@ -147,6 +157,18 @@ class Runtime:
 
     def empty(self, nbytes: int):
         return self.cl.Buffer(self.context, self.cl.mem_flags.READ_WRITE, size=max(int(nbytes), 1))
+
+    @property
+    def simd(self) -> int:
+        """Pixels per work-item of the shading kernels (kernels/simd.h): 8 (float8,
+        one AVX2 register) on CPU devices, where PoCL does not vectorise across
+        work-items for us; 1 on GPUs, whose hardware does. CLSHADE_SIMD overrides."""
+        text = os.environ.get("CLSHADE_SIMD", "").strip()
+        if text:
+            if text not in SIMD_WIDTHS:
+                raise ClshadeError(f"CLSHADE_SIMD={text!r}: expected one of {', '.join(SIMD_WIDTHS)}")
+            return int(text)
+        return 8 if "cpu" in self.info.kind else 1
 
     @property
     def local_size(self) -> int:

@@ -12,10 +12,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .gbuffer import GBuffer
+from .gbuffer import CHANNELS, GBuffer
 from .meshes import Geometry
 from .models import Model
-from .runtime import Runtime
+from .runtime import Runtime, padded
 from .scene import Camera, Light, Scene
 from .shadows import ShadowMaps
 from .variants import Features, Variant
@@ -111,16 +111,21 @@ class Shader:
             self.shadow_params = runtime.to_device(np.zeros((1, 4), np.float32))
         table = gbuffer.materials if len(gbuffer.materials) else np.zeros((1, 4, 4), np.float32)
         self.materials = runtime.to_device(table.astype(np.float32))
-        self.out = runtime.empty(gbuffer.pixels * 16)
+        self.out = runtime.empty(padded(gbuffer.pixels) * 16)
         self.background = np.array([*scene.background, 0.0], np.float32)
         self.ambient = np.array([*scene.ambient, 0.0], np.float32)
         self._dispatches: dict[tuple, Dispatch] = {}
 
     def buffer(self, name: str, half: bool = False):
-        """The device copy of one G-buffer channel (uploaded once)."""
+        """The device copy of one G-buffer channel (uploaded once), zero-padded to a
+        multiple of the kernels' SIMD width (padding pixels have depth 0: empty)."""
         key = (name, half and name in ("normal", "base"))
         if key not in self._buffers:
-            self._buffers[key] = self.rt.to_device(self.gb.channel(name, half=key[1]))
+            data = self.gb.channel(name, half=key[1])
+            pad = padded(self.gb.pixels) - self.gb.pixels
+            if pad:
+                data = np.concatenate([data.reshape(-1), np.zeros(pad * CHANNELS[name][1], data.dtype)])
+            self._buffers[key] = self.rt.to_device(data)
         return self._buffers[key]
 
     def variant(self, model: Model, features: Features) -> Variant:
@@ -129,10 +134,12 @@ class Shader:
     def prepare(self, model: Model, features: Features, entry: str = "shade") -> Dispatch:
         """Build (once) and bind the kernel for (model, features); `entry` is shade or copy."""
         variant = self.variant(model, features)
-        key = (variant.key, entry, self.rt.info.spec)
+        simd = self.rt.simd
+        key = (variant.key, entry, self.rt.info.spec, simd)
         if key in self._dispatches:
             return self._dispatches[key]
-        built = self.rt.kernel(variant.source(f"{entry}.cl"), entry, variant.options(), label=f"{model.id} ({entry})")
+        built = self.rt.kernel(variant.source(f"{entry}.cl", simd), entry, variant.options(),
+                               label=f"{model.id} ({entry})")
         # The runtime shares one kernel object per program; arguments are state of the
         # kernel object, so every dispatch binds its own (another Shader, or the same
         # program with other runtime switches, must not rebind ours).
@@ -165,7 +172,7 @@ class Shader:
             args.append(self.background)
         args.append(self.out)
         kernel.set_args(*args)
-        dispatch = Dispatch(variant, kernel, self.rt.global_size(n))
+        dispatch = Dispatch(variant, kernel, self.rt.global_size((n + simd - 1) // simd))
         self._dispatches[key] = dispatch
         return dispatch
 

@@ -34,6 +34,9 @@ WORKFLOW_DEFINES = {"metallic": "WORKFLOW_METALLIC", "kdks": "WORKFLOW_KDKS"}
 
 FAST_MATH = "-cl-fast-relaxed-math"
 
+# Entries that shade whole images (SIMD pixels per work-item, gbuffer.h I/O).
+IMAGE_ENTRIES = ("shade.cl", "copy.cl")
+
 
 @dataclass(frozen=True)
 class Features:
@@ -170,9 +173,17 @@ class Variant:
     def options(self) -> tuple[str, ...]:
         return (FAST_MATH,) if self.features.fast_math else ()
 
-    def source(self, entry: str = "shade.cl") -> str:
-        shadows = self.features.shadows or self.features.general
-        return assemble(self.model, self.defines(), entry, headers=("shadow.h",) if shadows and entry == "shade.cl" else ())
+    def source(self, entry: str = "shade.cl", simd: int = 1) -> str:
+        """The assembled program for `entry`; `simd` pixels per work-item (kernels/simd.h)
+        for the image kernels shade.cl and copy.cl (eval.cl evaluates one sample each)."""
+        headers: tuple[str, ...] = ()
+        defines = self.defines()
+        if entry in IMAGE_ENTRIES:
+            defines = {"SIMD": str(simd), **defines}
+            headers = ("gbuffer.h",)
+            if entry == "shade.cl" and (self.features.shadows or self.features.general):
+                headers += ("shadow.h",)
+        return assemble(self.model, defines, entry, headers=headers)
 
     @property
     def key(self) -> tuple:
@@ -188,11 +199,11 @@ def _read(name: str) -> str:
 
 def assemble(model: Model, defines: dict[str, str], entry: str, headers: tuple[str, ...] = ()) -> str:
     """Concatenate the kernel sources in dependency order, with #line markers so
-    that build errors name the file: defines, brdf.h, surface.h, the diffuse and
-    specular model files, compose.h, the effect `headers` (e.g. shadow.h), then
+    that build errors name the file: defines, simd.h, brdf.h, surface.h, the diffuse and
+    specular model files, compose.h, the `headers` (gbuffer.h, shadow.h), then
     the entry file."""
     head = "".join(f"#define {k} {v}\n" for k, v in defines.items())
-    parts = [head, _read("brdf.h"), _read("surface.h")]
+    parts = [head, _read("simd.h"), _read("brdf.h"), _read("surface.h")]
     for lobe in (model.diffuse, model.specular):
         if lobe != NONE:
             parts.append(_read(f"models/{lobe}.cl"))

@@ -4,6 +4,9 @@
  * its author. The lobes in the model files compose these; compose.h combines
  * a diffuse and a specular lobe in exactly one place.
  *
+ * Written in `real` and `vec3` (simd.h): one lane per pixel, the same source
+ * for the scalar evaluation kernels and the SIMD shading kernels.
+ *
  * Conventions (stated once):
  *   - `roughness` r is perceptual, in [0, 1]; the term functions take
  *     α = r² ("alpha"), floored at MIN_ALPHA.
@@ -55,15 +58,43 @@
 
 /* ---- small math helpers -------------------------------------------------- */
 
-inline float sq(float x) { return x * x; }
-inline float pow5(float x) { float x2 = x * x; return x2 * x2 * x; }
-inline float saturate(float x) { return clamp(x, 0.0f, 1.0f); }
-inline float safe_sqrt(float x) { return sqrt(fmax(x, 0.0f)); }
+inline real sq(real x) { return x * x; }
+inline real pow5(real x) { real x2 = x * x; return x2 * x2 * x; }
+inline real saturate(real x) { return clamp(x, 0.0f, 1.0f); }
+inline real safe_sqrt(real x) { return sqrt(fmax(x, 0.0f)); }
+
+/* log2 x for normal x > 0 in straight-line lane-wise code: PoCL's float8
+ * log2/log are not vectorised (they cost as much as the rest of a Phong
+ * pass). x = m·2^e with m in [√½, √2); ln m = f − f²/2 + f³·P(f), f = m − 1,
+ * with the minimax polynomial P of Cephes logf (S. Moshier, Cephes Math
+ * Library, 1984–2000): error ≤ 2 ulp of ln m, measured against float64 by
+ * tests/test_terms.py through Fs_Phong and Fs_BlinnPhong. */
+inline real log2_lanes(real x) {
+    mask bits = as_mask(x);
+    mask e = ((bits >> 23) & 0xff) - 127;
+    real m = as_real((bits & 0x007fffff) | 0x3f800000);
+    mask high = m > 1.41421356f;
+    m = high ? m * 0.5f : m;
+    e = high ? e + 1 : e;
+    real f = m - 1.0f;
+    real z = f * f;
+    real p = 7.0376836292e-2f;
+    p = p * f - 1.1514610310e-1f;
+    p = p * f + 1.1676998740e-1f;
+    p = p * f - 1.2420140846e-1f;
+    p = p * f + 1.4249322787e-1f;
+    p = p * f - 1.6668057665e-1f;
+    p = p * f + 2.0000714765e-1f;
+    p = p * f - 2.4999993993e-1f;
+    p = p * f + 3.3333331174e-1f;
+    real ln_m = f + (p * f * z - 0.5f * z);
+    return ln_m * 1.44269504089f + convert_real(e);
+}
 
 /* xⁿ for a runtime exponent, without pow() (≈190 ns per call on PoCL):
  * exp2(n·log2 x). x ≥ 0, n ≥ 0; 0⁰ = 1. */
-inline float pow_runtime(float x, float n) {
-    return exp2(n * log2(fmax(x, MIN_POW_BASE)));
+inline real pow_runtime(real x, real n) {
+    return exp2(n * log2_lanes(fmax(x, MIN_POW_BASE)));
 }
 
 /* ---- normal distribution functions D ------------------------------------ */
@@ -71,17 +102,17 @@ inline float pow_runtime(float x, float n) {
 /* GGX / Trowbridge–Reitz (Walter et al. 2007, eq. 33).
  * D = α² / (π ((n·h)²(α²−1) + 1)²); 1 − (n·h)² is passed in as sin2_nh,
  * computed from |n × h|² to keep precision near the peak (Filament). */
-inline float D_GGX(float nh, float sin2_nh, float alpha) {
-    float a2 = alpha * alpha;
-    float d = sin2_nh + nh * nh * a2;          /* = (n·h)²(α²−1) + 1 */
+inline real D_GGX(real nh, real sin2_nh, real alpha) {
+    real a2 = alpha * alpha;
+    real d = sin2_nh + nh * nh * a2;          /* = (n·h)²(α²−1) + 1 */
     return a2 / (CLSHADE_PI * d * d);
 }
 
 /* Beckmann (Cook & Torrance 1982): D = exp(−tan²θh/m²) / (π m² cos⁴θh). */
-inline float D_Beckmann(float nh, float sin2_nh, float m) {
-    float c = fmax(nh, MIN_N_DOT_H_BECKMANN);
-    float c2 = c * c;
-    float m2 = m * m;
+inline real D_Beckmann(real nh, real sin2_nh, real m) {
+    real c = fmax(nh, MIN_N_DOT_H_BECKMANN);
+    real c2 = c * c;
+    real m2 = m * m;
     return exp(-sin2_nh / (c2 * m2)) / (CLSHADE_PI * m2 * c2 * c2);
 }
 
@@ -89,97 +120,103 @@ inline float D_Beckmann(float nh, float sin2_nh, float m) {
 
 /* Height-correlated Smith for GGX (Heitz 2014, eq. 99), as Filament writes it:
  * V = 0.5 / (n·l √((n·v)²(1−α²)+α²) + n·v √((n·l)²(1−α²)+α²)). */
-inline float V_SmithGGXCorrelated(float nl, float nv, float alpha) {
-    float a2 = alpha * alpha;
-    float gv = nl * sqrt(nv * nv * (1.0f - a2) + a2);
-    float gl = nv * sqrt(nl * nl * (1.0f - a2) + a2);
+inline real V_SmithGGXCorrelated(real nl, real nv, real alpha) {
+    real a2 = alpha * alpha;
+    real gv = nl * sqrt(nv * nv * (1.0f - a2) + a2);
+    real gl = nv * sqrt(nl * nl * (1.0f - a2) + a2);
     return 0.5f / (gv + gl);
 }
 
 /* Separable Smith for GGX (Walter et al. 2007, eq. 34): G = G1(l)·G1(v),
  * G1(x) = 2(n·x) / (n·x + √(α² + (1−α²)(n·x)²)). Divided by 4(n·l)(n·v)
  * in closed form so that no cosine is divided by. */
-inline float V_SmithGGXSeparable(float nl, float nv, float alpha) {
-    float a2 = alpha * alpha;
-    float sl = nl + sqrt(a2 + (1.0f - a2) * nl * nl);
-    float sv = nv + sqrt(a2 + (1.0f - a2) * nv * nv);
+inline real V_SmithGGXSeparable(real nl, real nv, real alpha) {
+    real a2 = alpha * alpha;
+    real sl = nl + sqrt(a2 + (1.0f - a2) * nl * nl);
+    real sv = nv + sqrt(a2 + (1.0f - a2) * nv * nv);
     return 1.0f / (sl * sv);
 }
 
 /* Smith with Schlick's approximation, k = α/2 (the study's shader):
  * G1(x) = n·x / (n·x(1−k) + k), divided by 4(n·l)(n·v) in closed form. */
-inline float V_SmithSchlickGGX(float nl, float nv, float alpha) {
-    float k = 0.5f * alpha;
+inline real V_SmithSchlickGGX(real nl, real nv, real alpha) {
+    real k = 0.5f * alpha;
     return 0.25f / ((nl * (1.0f - k) + k) * (nv * (1.0f - k) + k));
 }
 
 /* Cook–Torrance V-cavity G (Cook & Torrance 1982, Torrance–Sparrow):
  * G = min(1, 2(n·h)(n·v)/(v·h), 2(n·h)(n·l)/(v·h)), over 4(n·l)(n·v). */
-inline float V_CookTorrance(float nl, float nv, float nh, float vh) {
-    float g = fmin(1.0f, 2.0f * nh * fmin(nv, nl) / fmax(vh, MIN_N_DOT_V));
+inline real V_CookTorrance(real nl, real nv, real nh, real vh) {
+    real g = fmin(2.0f * nh * fmin(nv, nl) / fmax(vh, MIN_N_DOT_V), 1.0f);
     return g / (4.0f * nl * nv);
 }
 
 /* ---- Fresnel F ----------------------------------------------------------- */
 
 /* Schlick 1994: F = f0 + (f90 − f0)(1 − v·h)⁵. */
-inline float3 F_Schlick(float vh, float3 f0, float f90) {
-    return f0 + (f90 - f0) * pow5(1.0f - vh);
+inline vec3 F_Schlick(real vh, vec3 f0, real f90) {
+    real w = pow5(1.0f - vh);
+    return v3(f0.x + (f90 - f0.x) * w, f0.y + (f90 - f0.y) * w, f0.z + (f90 - f0.z) * w);
 }
 
 /* Exact unpolarised Fresnel reflectance of a dielectric with relative IOR η
  * (Cook & Torrance 1982; Walter et al. 2007, eq. 22):
  * g = √(η² − 1 + c²), F = ½ ((g−c)/(g+c))² (1 + ((c(g+c)−1)/(c(g−c)+1))²),
  * total internal reflection (g² < 0) → 1. */
-inline float F_Dielectric(float c, float eta) {
-    float g2 = eta * eta - 1.0f + c * c;
-    float g = safe_sqrt(g2);
-    float a = (g - c) / (g + c + 1.0e-30f);
-    float b = (c * (g + c) - 1.0f) / (c * (g - c) + 1.0f);
-    float f = 0.5f * a * a * (1.0f + b * b);
-    return g2 < 0.0f ? 1.0f : saturate(f);
+inline real F_Dielectric(real c, real eta) {
+    real g2 = eta * eta - 1.0f + c * c;
+    real g = safe_sqrt(g2);
+    real a = (g - c) / (g + c + 1.0e-30f);
+    real b = (c * (g + c) - 1.0f) / (c * (g - c) + 1.0f);
+    real f = 0.5f * a * a * (1.0f + b * b);
+    return g2 < 0.0f ? (real)(1.0f) : saturate(f);
 }
 
 /* Exact unpolarised Fresnel reflectance of a conductor with complex IOR
- * η + ik, per channel (Lagarde 2013, "Memo on Fresnel equations"; pbrt).
+ * η + ik, one channel (Lagarde 2013, "Memo on Fresnel equations"; pbrt).
  * a² + b² = √((η²−k²−s²)² + 4η²k²), s² = 1 − c². */
-inline float3 F_Conductor(float c, float3 eta, float3 k) {
-    float c2 = c * c;
-    float s2 = 1.0f - c2;
+inline real fresnel_conductor_channel(real c, real eta, real k) {
+    real c2 = c * c;
+    real s2 = 1.0f - c2;
     /* t0 = η² − k² − s², summed as (η² − k² − 1) + c² so that an index-matched
      * interface (η = 1, k = 0) gives t0 = c² exactly instead of cancelling. */
-    float3 t0 = (eta * eta - k * k - 1.0f) + c2;
-    float3 a2b2 = sqrt(t0 * t0 + 4.0f * eta * eta * k * k);
-    float3 t1 = a2b2 + c2;
+    real t0 = (eta * eta - k * k - 1.0f) + c2;
+    real a2b2 = sqrt(t0 * t0 + 4.0f * eta * eta * k * k);
+    real t1 = a2b2 + c2;
     /* a² = (a2b2 + t0)/2 and b² = (a2b2 − t0)/2, each from whichever form does
      * not cancel, using (a2b2 + t0)(a2b2 − t0) = 4η²k²: the difference form lost
      * 4.5e-4 relative in F for η < 1 and k → 0 (measured, tests/test_terms.py). */
-    float3 big = 0.5f * (a2b2 + fabs(t0));
-    float3 small = (2.0f * eta * eta * k * k) / fmax(a2b2 + fabs(t0), FLT_MIN);
-    float3 a = sqrt(select(small, big, t0 >= 0.0f));
-    float3 b2 = select(big, small, t0 >= 0.0f);
-    float3 t2 = 2.0f * c * a;
+    real big = 0.5f * (a2b2 + fabs(t0));
+    real small = (2.0f * eta * eta * k * k) / fmax(a2b2 + fabs(t0), FLT_MIN);
+    real a = sqrt(t0 >= 0.0f ? big : small);
+    real b2 = t0 >= 0.0f ? small : big;
+    real t2 = 2.0f * c * a;
     /* t1 − t2 = (a − c)² + b²: no cancellation when F → 0
      * (the grazing mirror lobe, D·V ≈ 1e13, multiplies F's absolute error).
      * t1 + t2 = 0 only for η = 1, k = 0 at c = 0 (l = −v), where rs is 0, not 0/0. */
-    float3 rs = ((a - c) * (a - c) + b2) / fmax(t1 + t2, FLT_MIN);
-    float3 t3 = c2 * a2b2 + s2 * s2;
-    float3 t4 = t2 * s2;
-    float3 rp = rs * (t3 - t4) / (t3 + t4);
+    real rs = ((a - c) * (a - c) + b2) / fmax(t1 + t2, FLT_MIN);
+    real t3 = c2 * a2b2 + s2 * s2;
+    real t4 = t2 * s2;
+    real rp = rs * (t3 - t4) / (t3 + t4);
     return clamp(0.5f * (rp + rs), 0.0f, 1.0f);
+}
+
+/* The conductor per RGB channel. */
+inline vec3 F_Conductor(real c, vec3 eta, vec3 k) {
+    return v3(fresnel_conductor_channel(c, eta.x, k.x), fresnel_conductor_channel(c, eta.y, k.y), fresnel_conductor_channel(c, eta.z, k.z));
 }
 
 /* ---- diffuse ------------------------------------------------------------- */
 
 /* Lambert: f = 1/π (times the diffuse colour in compose.h). */
-inline float Fd_Lambert(void) { return CLSHADE_INV_PI; }
+inline real Fd_Lambert(void) { return (real)(CLSHADE_INV_PI); }
 
 /* Disney / Burley 2012: (1/π)(1 + (F90−1)(1−n·l)⁵)(1 + (F90−1)(1−n·v)⁵),
  * F90 = 0.5 + 2 α (l·h)². */
-inline float Fd_Burley(float nl, float nv, float lh, float alpha) {
-    float f90 = 0.5f + 2.0f * alpha * lh * lh;
-    float light = 1.0f + (f90 - 1.0f) * pow5(1.0f - nl);
-    float view = 1.0f + (f90 - 1.0f) * pow5(1.0f - nv);
+inline real Fd_Burley(real nl, real nv, real lh, real alpha) {
+    real f90 = 0.5f + 2.0f * alpha * lh * lh;
+    real light = 1.0f + (f90 - 1.0f) * pow5(1.0f - nl);
+    real view = 1.0f + (f90 - 1.0f) * pow5(1.0f - nv);
     return light * view * CLSHADE_INV_PI;
 }
 
@@ -187,20 +224,20 @@ inline float Fd_Burley(float nl, float nv, float lh, float alpha) {
  * A = 1 − 0.5σ²/(σ²+0.33), B = 0.45σ²/(σ²+0.09). Without trigonometry:
  * cos(φi−φo) sin θi sin θo = l·v − (n·l)(n·v) and tan β = sin β / cos β with
  * cos β = max(n·l, n·v), so the bracket is A + B max(0, l·v − nl·nv)/max(nl, nv). */
-inline float Fd_OrenNayar(float nl, float nv, float lv, float sigma) {
-    float s2 = sigma * sigma;
-    float A = 1.0f - 0.5f * s2 / (s2 + 0.33f);
-    float B = 0.45f * s2 / (s2 + 0.09f);
-    float t = fmax(0.0f, lv - nl * nv) / fmax(fmax(nl, nv), MIN_N_DOT_V);
+inline real Fd_OrenNayar(real nl, real nv, real lv, real sigma) {
+    real s2 = sigma * sigma;
+    real A = 1.0f - 0.5f * s2 / (s2 + 0.33f);
+    real B = 0.45f * s2 / (s2 + 0.09f);
+    real t = fmax(lv - nl * nv, 0.0f) / fmax(fmax(nl, nv), MIN_N_DOT_V);
     return (A + B * t) * CLSHADE_INV_PI;
 }
 
 /* ---- empirical lobes ----------------------------------------------------- */
 
 /* Phong 1975, as a BRDF ("modified Phong", Lewis 1994): (r·v)ⁿ, r = 2(n·l)n − l. */
-inline float Fs_Phong(float rv, float n) { return pow_runtime(fmax(rv, 0.0f), n); }
+inline real Fs_Phong(real rv, real n) { return pow_runtime(fmax(rv, 0.0f), n); }
 
 /* Blinn 1977: (n·h)ⁿ. */
-inline float Fs_BlinnPhong(float nh, float n) { return pow_runtime(nh, n); }
+inline real Fs_BlinnPhong(real nh, real n) { return pow_runtime(nh, n); }
 
 #endif

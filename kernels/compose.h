@@ -10,8 +10,8 @@
 #ifndef CLSHADE_COMPOSE_H
 #define CLSHADE_COMPOSE_H
 
-inline float3 brdf(const Geometry g, const Surface s) {
-    float3 f = (float3)(0.0f);
+inline vec3 brdf(const Geometry g, const Surface s) {
+    vec3 f = v3s((real)(0.0f));
 #if HAS_DIFFUSE
 #if HAS_SPECULAR && SPECULAR_FRESNEL && WORKFLOW == WORKFLOW_METALLIC
     /* Energy split of the metallic workflow: light the specular interface
@@ -19,14 +19,15 @@ inline float3 brdf(const Geometry g, const Surface s) {
      * substrate: k_d = (1 − F(n·l))(1 − F(n·v)), symmetric in l and v so f
      * stays reciprocal (Shirley et al. 1997; Ashikhmin & Shirley 2000). The
      * measured composed albedo is in `clshade check plausibility`. */
-    float3 kd = (1.0f - fresnel_cos(g.nl, s)) * (1.0f - fresnel_cos(g.nv, s));
+    vec3 fl = fresnel_cos(g.nl, s), fv = fresnel_cos(g.nv, s);
+    vec3 kd = v3((1.0f - fl.x) * (1.0f - fv.x), (1.0f - fl.y) * (1.0f - fv.y), (1.0f - fl.z) * (1.0f - fv.z));
 #else
-    float3 kd = (float3)(s.kd);
+    vec3 kd = v3s(s.kd);
 #endif
-    f += (kd * diffuse_lobe(g, s)) * s.diffuse_color;
+    f = v3add(f, v3mul(v3scale(kd, diffuse_lobe(g, s)), s.diffuse_color));
 #endif
 #if HAS_SPECULAR
-    f += s.ks * specular_lobe(g, s);
+    f = v3add(f, v3scale(specular_lobe(g, s), s.ks));
 #endif
     return f;
 }
@@ -34,30 +35,30 @@ inline float3 brdf(const Geometry g, const Surface s) {
 /* Radiance reflected towards v from one light of irradiance E arriving from l
  * (unit, towards the light): f · (n·l) · E, and exactly 0 below the horizon.
  * E·(n·l) is formed first so that a huge E times a 0 lobe never makes NaN. */
-inline float3 shade_light(float3 n, float3 v, float3 l, float3 E, const Surface s) {
+inline vec3 shade_light(vec3 n, vec3 v, vec3 l, vec3 E, const Surface s) {
     Geometry g = make_geometry(n, l, v);
-    float3 e = E * g.nl;
-    float3 lo = brdf(g, s) * e;
-    return g.nl_raw > 0.0f ? lo : (float3)(0.0f);
+    vec3 e = v3scale(E, g.nl);
+    vec3 lo = v3mul(brdf(g, s), e);
+    return v3select(g.nl_raw > 0.0f, lo, v3s((real)(0.0f)));
 }
 
 /* The constant ambient term of the study's shaders, A = ambient radiance:
  * L_a = k_a · A · (k_d · diffuse_color + k_s · F0), k_d = 1 − F0 in the metallic workflow. The specular part uses F0 as
  * a crude hemispherical albedo of the specular lobe, so that metals (no diffuse
  * colour) are not black under ambient light. */
-inline float3 ambient_term(float3 A, const Surface s) {
-    float3 r = (float3)(0.0f);
+inline vec3 ambient_term(vec3 A, const Surface s) {
+    vec3 r = v3s((real)(0.0f));
 #if HAS_DIFFUSE
 #if HAS_SPECULAR && SPECULAR_FRESNEL && WORKFLOW == WORKFLOW_METALLIC
-    r += (1.0f - s.f0) * s.diffuse_color;      /* k_d = 1 − F, F ≈ F0 */
+    r = v3add(r, v3mul(v3sub(v3s((real)(1.0f)), s.f0), s.diffuse_color));   /* k_d = 1 − F, F ≈ F0 */
 #else
-    r += s.kd * s.diffuse_color;
+    r = v3add(r, v3scale(s.diffuse_color, s.kd));
 #endif
 #endif
 #if HAS_SPECULAR
-    r += s.ks * s.f0;
+    r = v3add(r, v3scale(s.f0, s.ks));
 #endif
-    return (s.ka * A) * r;
+    return v3mul(v3scale(A, s.ka), r);
 }
 
 #endif

@@ -1,14 +1,7 @@
 /* copy.cl — the memory-bandwidth floor of a shading pass: reads exactly the
- * G-buffer channels a model variant reads (same defines as shade.cl) and
- * writes the same float4 output, with no lighting arithmetic. */
-#ifdef HALF_GBUFFER
-#define LOAD3(i, p) vload_half3((i), (p))
-#define GB3 half
-#else
-#define LOAD3(i, p) vload3((i), (p))
-#define GB3 float
-#endif
-
+ * G-buffer channels a model variant reads (same defines as shade.cl, same
+ * SIMD pixels per work-item, same loads and stores from gbuffer.h) and writes
+ * the same float4 output, with no lighting arithmetic. */
 __kernel void copy(const uint npix,
     __global const float* depth, __global const GB3* normal, __global const GB3* base
 #if HAS_ROUGHNESS
@@ -22,18 +15,18 @@ __kernel void copy(const uint npix,
 #endif
     , __global float4* out)
 {
-    uint i = get_global_id(0);
-    if (i >= npix) return;
-    float3 acc = LOAD3(i, normal) + LOAD3(i, base);
-    float w = depth[i];
+    size_t i = get_global_id(0);
+    if (SIMD * i >= npix) return;
+    vec3 acc = v3add(load3(i, normal), load3(i, base));
+    real w = VLOAD(i, depth);
 #if HAS_ROUGHNESS
-    w += roughness[i];
+    w += VLOAD(i, roughness);
 #endif
 #if HAS_METALLIC
-    w += metallic[i];
+    w += VLOAD(i, metallic);
 #endif
 #if HAS_MATERIAL
-    w += (float)material[i];
+    w += convert_real(VLOAD_UCHAR(i, material));
 #endif
-    out[i] = (float4)(acc, w);
+    store4(i, out, acc, w);
 }

@@ -7,11 +7,13 @@
  *                base[i]           float4 (rgb)
  *                p[i]              float4 (roughness, metallic, -, -)
  *                m[4i .. 4i+3]     the material constants (see surface.h)
+ * Built with SIMD = 1 (simd.h): one sample per work-item.
  * Output f[i] = (f.rgb, n·l > 0 ? 1 : 0): f is 0 when l is below the horizon.
  */
-inline float3 unit_or(float3 x, float3 fallback) {
+inline vec3 unit_or(float3 x, float3 fallback) {
     float len2 = dot(x, x);
-    return len2 > 1.0e-20f ? x * rsqrt(len2) : fallback;
+    float3 u = len2 > 1.0e-20f ? x * rsqrt(len2) : fallback;
+    return v3(u.x, u.y, u.z);
 }
 
 __kernel void eval_brdf(const uint count,
@@ -21,12 +23,12 @@ __kernel void eval_brdf(const uint count,
 {
     uint i = get_global_id(0);
     if (i >= count) return;
-    float3 vv = unit_or(v[i].xyz, (float3)(0.0f, 0.0f, 1.0f));
-    float3 nn = unit_or(n[i].xyz, vv);
-    float3 ll = unit_or(l[i].xyz, (float3)(0.0f));
-    Surface s = make_surface(fmax(base[i].xyz, 0.0f), saturate(p[i].x), saturate(p[i].y),
-                             m[4 * i], m[4 * i + 1], m[4 * i + 2], m[4 * i + 3]);
+    vec3 vv = unit_or(v[i].xyz, (float3)(0.0f, 0.0f, 1.0f));
+    vec3 nn = unit_or(n[i].xyz, (float3)(vv.x, vv.y, vv.z));
+    vec3 ll = unit_or(l[i].xyz, (float3)(0.0f));
+    Surface s = make_surface(v3c(fmax(base[i].xyz, 0.0f)), saturate(p[i].x), saturate(p[i].y),
+                             material_uniform(m[4 * i], m[4 * i + 1], m[4 * i + 2], m[4 * i + 3]));
     Geometry g = make_geometry(nn, ll, vv);
-    float3 fr = brdf(g, s);
-    f[i] = g.nl_raw > 0.0f ? (float4)(fr, 1.0f) : (float4)(0.0f);
+    vec3 fr = brdf(g, s);
+    f[i] = g.nl_raw > 0.0f ? (float4)(fr.x, fr.y, fr.z, 1.0f) : (float4)(0.0f);
 }

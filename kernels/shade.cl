@@ -1,9 +1,10 @@
-/* shade.cl — the deferred shading pass: one work-item per pixel.
+/* shade.cl — the deferred shading pass: one work-item per SIMD adjacent
+ * pixels, one pixel per lane (simd.h).
  *
- * Reads the G-buffer channels the variant needs, builds the pixel's Surface,
- * adds every light (counts are compile-time constants, so the loops unroll and
- * PoCL vectorises across work-items) and the optional ambient term, and writes
- * linear RGB radiance with coverage in alpha.
+ * Reads the G-buffer channels the variant needs, builds the pixels' Surface,
+ * adds every light (counts are compile-time constants, so the loops unroll)
+ * and the optional ambient term, and writes linear RGB radiance with coverage
+ * in alpha. Buffers hold a multiple of SIMD pixels (the host pads them).
  *
  * Variant defines (set by clshade/variants.py, see `clshade render --explain`):
  *   NUM_DIR, NUM_POINT, NUM_SPOT   light counts by kind
@@ -13,6 +14,7 @@
  *   HAS_AMBIENT                    constant ambient radiance
  *   HALF_GBUFFER                   normal and base colour stored as half floats
  *   HAS_SHADOWS, SHADOW_PCF        shadow-map lookup (shadow.h), PCF kernel width
+ *   SIMD                           pixels per work-item (1, 4 or 8)
  *   GENERAL                        the general kernel: every channel read, the
  *                                  light count, ambient and shadows runtime
  *                                  switches; the reference every specialised
@@ -63,19 +65,44 @@
 /* Largest radiance written: finite by contract even for 1e30 lights. */
 #define MAX_RADIANCE 3.0e38f
 
-#ifdef HALF_GBUFFER
-#define LOAD3(i, p) vload_half3((i), (p))
-#define GB3 half
-#else
-#define LOAD3(i, p) vload3((i), (p))
-#define GB3 float
+inline vec3 safe_normal(vec3 n, vec3 fallback) {
+    real len2 = v3dot(n, n);
+    /* A zero-length (bad) normal shades as if it faced the viewer. */
+    return v3select(len2 > 1.0e-20f, v3scale(n, rsqrt(len2)), fallback);
+}
+
+#if HAS_MATERIAL
+/* Each lane's row of the material table (a gather: lanes may differ). */
+inline Material material_gather(uindex id, __constant float4* materials) {
+    uindex_lanes ids = {id};
+    real_lanes t[12];
+    for (int j = 0; j < SIMD; ++j) {
+        uint mi = ids.s[j] * MATERIAL_STRIDE;
+        float4 m0 = materials[mi], m1 = materials[mi + 1], m2 = materials[mi + 2], m3 = materials[mi + 3];
+        t[0].s[j] = m0.x; t[1].s[j] = m0.y; t[2].s[j] = m0.z; t[3].s[j] = m0.w;
+        t[4].s[j] = m1.x; t[5].s[j] = m1.y;
+        t[6].s[j] = m2.x; t[7].s[j] = m2.y; t[8].s[j] = m2.z;
+        t[9].s[j] = m3.x; t[10].s[j] = m3.y; t[11].s[j] = m3.z;
+    }
+    Material m;
+    m.kd = t[0].v; m.ks = t[1].v; m.ka = t[2].v; m.shininess = t[3].v;
+    m.ior = t[4].v; m.f90 = t[5].v;
+    m.eta = v3(t[6].v, t[7].v, t[8].v); m.k = v3(t[9].v, t[10].v, t[11].v);
+    return m;
+}
 #endif
 
-inline float3 safe_normal(float3 n, float3 fallback) {
-    float len2 = dot(n, n);
-    /* A zero-length (bad) normal shades as if it faced the viewer. */
-    return len2 > 1.0e-20f ? n * rsqrt(len2) : fallback;
+#if HAS_SHADOWS || GENERAL
+/* shadow_factor() (shadow.h) lane by lane: its PCF taps are gathers. */
+inline real shadow_lanes(__global const float* maps, __constant float4* params, int slot, uint size,
+                         vec3 P, vec3 n, int radius) {
+    real_lanes px = {P.x}, py = {P.y}, pz = {P.z}, nx = {n.x}, ny = {n.y}, nz = {n.z}, f;
+    for (int j = 0; j < SIMD; ++j)
+        f.s[j] = shadow_factor(maps, params, slot, size, (float3)(px.s[j], py.s[j], pz.s[j]),
+                               (float3)(nx.s[j], ny.s[j], nz.s[j]), radius);
+    return f.v;
 }
+#endif
 
 __kernel void shade(
     const uint npix, const uint width, const float inv_width2, const float inv_height2,
@@ -111,112 +138,118 @@ __kernel void shade(
     , const float4 background,
     __global float4* out)
 {
-    uint i = get_global_id(0);
-    if (i >= npix) return;
+    size_t i = get_global_id(0);
+    if (SIMD * i >= npix) return;
 
-    /* Camera ray through the pixel centre; cam_right/cam_up are pre-scaled by
+    /* Camera rays through the pixel centres; cam_right/cam_up are pre-scaled by
      * tan(fov/2)·aspect and tan(fov/2), so P = cam_pos + depth · ray. */
-    uint px = i % width, py = i / width;
-    float sx = ((float)px + 0.5f) * inv_width2 - 1.0f;
-    float sy = 1.0f - ((float)py + 0.5f) * inv_height2;
-    float3 ray = cam_fwd.xyz + sx * cam_right.xyz + sy * cam_up.xyz;
-    float3 v = -normalize(ray);
-    float z = depth[i];
+    /* Lane j is pixel SIMD·i + j: one division per work-item, then at most one
+     * wrap to the next row (SIMD ≤ width). */
+    uint first = (uint)(SIMD * i), row = first / width;
+    uindex px = (uindex)(first - row * width) + LANE_IOTA;
+    uindex py = (uindex)(row);
+    mask wrap = px >= width;
+    px = wrap ? px - width : px;
+    py = wrap ? py + 1u : py;
+    real sx = (convert_real(px) + 0.5f) * inv_width2 - 1.0f;
+    real sy = 1.0f - (convert_real(py) + 0.5f) * inv_height2;
+    vec3 ray = v3add(v3c(cam_fwd.xyz), v3add(v3scale(v3c(cam_right.xyz), sx), v3scale(v3c(cam_up.xyz), sy)));
+    vec3 v = v3scale(ray, -rsqrt(v3dot(ray, ray)));
+    real z = VLOAD(i, depth);
 
-    float3 n = safe_normal(LOAD3(i, normal), v);
-    float3 b = fmax(LOAD3(i, base), 0.0f);
+    vec3 n = safe_normal(load3(i, normal), v);
+    vec3 b = v3max(load3(i, base), 0.0f);
 #if HAS_ROUGHNESS
-    float r = saturate(roughness[i]);
+    real r = saturate(VLOAD(i, roughness));
 #else
-    float r = 1.0f;
+    real r = (real)(1.0f);
 #endif
 #if HAS_METALLIC
-    float m = saturate(metallic[i]);
+    real m = saturate(VLOAD(i, metallic));
 #else
-    float m = 0.0f;
+    real m = (real)(0.0f);
 #endif
 #if HAS_MATERIAL
-    uint mi = (uint)material[i] * MATERIAL_STRIDE;
-    Surface s = make_surface(b, r, m, materials[mi], materials[mi + 1],
-                             materials[mi + 2], materials[mi + 3]);
+    Surface s = make_surface(b, r, m, material_gather(VLOAD_UCHAR(i, material), materials));
 #else
-    Surface s = make_surface(b, r, m, MAT_M0, MAT_M1, MAT_M2, MAT_M3);
+    Surface s = make_surface(b, r, m, material_uniform(MAT_M0, MAT_M1, MAT_M2, MAT_M3));
 #endif
 
-    float3 L = (float3)(0.0f);
+    vec3 L = v3s((real)(0.0f));
 #if GENERAL || NUM_POINT + NUM_SPOT > 0 || HAS_SHADOWS
-    float3 P = cam_pos.xyz + z * ray;
+    vec3 P = v3add(v3c(cam_pos.xyz), v3scale(ray, z));
 #endif
 #if GENERAL
     for (uint k = 0; k < num_lights; ++k) {
         float4 a = lights[4 * k], c = lights[4 * k + 1];
         int kind = (int)a.w;
-        float3 l, E;
+        vec3 l, E;
         if (kind == LIGHT_DIRECTIONAL) {
-            l = -a.xyz;
-            E = c.xyz;
+            l = v3c(-a.xyz);
+            E = v3c(c.xyz);
         } else {
-            float3 d = a.xyz - P;
-            float d2 = fmax(dot(d, d), MIN_LIGHT_DIST2);
-            l = d * rsqrt(d2);
+            vec3 d = v3sub(v3c(a.xyz), P);
+            real d2 = fmax(v3dot(d, d), MIN_LIGHT_DIST2);
+            l = v3scale(d, rsqrt(d2));
             if (kind == LIGHT_SPOT) {
                 float4 e = lights[4 * k + 2];
                 float cos_inner = lights[4 * k + 3].x;
-                float t = saturate((dot(-l, e.xyz) - e.w) / fmax(cos_inner - e.w, 1.0e-6f));
-                E = c.xyz * (t * t / d2);
+                real t = saturate((v3dot(v3neg(l), v3c(e.xyz)) - e.w) / fmax(cos_inner - e.w, 1.0e-6f));
+                E = v3scale(v3c(c.xyz), t * t / d2);
             } else {
-                E = c.xyz / d2;
+                E = v3scale(v3c(c.xyz), 1.0f / d2);
             }
         }
         if (has_shadows && c.w >= 0.0f)
-            E *= shadow_factor(shadow_maps, shadow_params, (int)c.w, shadow_size, P, n, pcf_radius);
-        L += shade_light(n, v, l, E, s);
+            E = v3scale(E, shadow_lanes(shadow_maps, shadow_params, (int)c.w, shadow_size, P, n, pcf_radius));
+        L = v3add(L, shade_light(n, v, l, E, s));
     }
     if (has_ambient)
-        L += ambient_term(ambient.xyz, s);
+        L = v3add(L, ambient_term(v3c(ambient.xyz), s));
 #else
 #if HAS_SHADOWS
 #define SHADOW(E, slot) \
-    if ((slot) >= 0.0f) (E) *= shadow_factor(shadow_maps, shadow_params, (int)(slot), shadow_size, P, n, SHADOW_PCF / 2)
+    if ((slot) >= 0.0f) (E) = v3scale((E), shadow_lanes(shadow_maps, shadow_params, (int)(slot), shadow_size, P, n, SHADOW_PCF / 2))
 #else
 #define SHADOW(E, slot)
 #endif
 #if NUM_DIR > 0
     for (int k = 0; k < NUM_DIR; ++k) {
-        float3 l = -lights[2 * k].xyz;
+        vec3 l = v3c(-lights[2 * k].xyz);
         float4 c = lights[2 * k + 1];
-        float3 E = c.xyz;
+        vec3 E = v3c(c.xyz);
         SHADOW(E, c.w);
-        L += shade_light(n, v, l, E, s);
+        L = v3add(L, shade_light(n, v, l, E, s));
     }
 #endif
 #if NUM_POINT > 0
     for (int k = 0; k < NUM_POINT; ++k) {
         int o = 2 * NUM_DIR + 2 * k;
-        float3 d = lights[o].xyz - P;
-        float d2 = fmax(dot(d, d), MIN_LIGHT_DIST2);
-        float3 l = d * rsqrt(d2);
-        L += shade_light(n, v, l, lights[o + 1].xyz / d2, s);
+        vec3 d = v3sub(v3c(lights[o].xyz), P);
+        real d2 = fmax(v3dot(d, d), MIN_LIGHT_DIST2);
+        vec3 l = v3scale(d, rsqrt(d2));
+        L = v3add(L, shade_light(n, v, l, v3scale(v3c(lights[o + 1].xyz), 1.0f / d2), s));
     }
 #endif
 #if NUM_SPOT > 0
     for (int k = 0; k < NUM_SPOT; ++k) {
         int o = 2 * NUM_DIR + 2 * NUM_POINT + 3 * k;
         float4 p = lights[o], e = lights[o + 1], a = lights[o + 2];
-        float3 d = p.xyz - P;
-        float d2 = fmax(dot(d, d), MIN_LIGHT_DIST2);
-        float3 l = d * rsqrt(d2);
+        vec3 d = v3sub(v3c(p.xyz), P);
+        real d2 = fmax(v3dot(d, d), MIN_LIGHT_DIST2);
+        vec3 l = v3scale(d, rsqrt(d2));
         /* Smooth cone: 0 outside the outer cone, 1 inside the inner, t² between. */
-        float t = saturate((dot(-l, a.xyz) - p.w) / fmax(e.w - p.w, 1.0e-6f));
-        float3 E = e.xyz * (t * t / d2);
+        real t = saturate((v3dot(v3neg(l), v3c(a.xyz)) - p.w) / fmax(e.w - p.w, 1.0e-6f));
+        vec3 E = v3scale(v3c(e.xyz), t * t / d2);
         SHADOW(E, a.w);
-        L += shade_light(n, v, l, E, s);
+        L = v3add(L, shade_light(n, v, l, E, s));
     }
 #endif
 #if HAS_AMBIENT
-    L += ambient_term(ambient.xyz, s);
+    L = v3add(L, ambient_term(v3c(ambient.xyz), s));
 #endif
 #endif
-    L = fmin(L, MAX_RADIANCE);
-    out[i] = z > 0.0f ? (float4)(L, 1.0f) : background;
+    L = v3min(L, MAX_RADIANCE);
+    mask covered = z > 0.0f;
+    store4(i, out, v3select(covered, L, v3c(background.xyz)), covered ? (real)(1.0f) : (real)(background.w));
 }

@@ -29,80 +29,96 @@
 #define MATERIAL_STRIDE 4
 
 typedef struct {
-    float nl;      /* n·l floored at MIN_N_DOT_L (the caller drops n·l ≤ 0)  */
-    float nl_raw;  /* n·l as computed: > 0 when the light is above          */
-    float nv;      /* n·v floored at MIN_N_DOT_V                             */
-    float nh;      /* n·h in [0, 1]                                          */
-    float sin2_nh; /* 1 − (n·h)² = |n × h|², precise near the peak          */
-    float vh;      /* v·h = l·h in [0, 1]                                    */
-    float lv;      /* l·v                                                    */
-    float rv;      /* r·v, r = 2(n·l)n − l, the Phong mirror direction       */
+    real nl;      /* n·l floored at MIN_N_DOT_L (the caller drops n·l ≤ 0)  */
+    real nl_raw;  /* n·l as computed: > 0 when the light is above          */
+    real nv;      /* n·v floored at MIN_N_DOT_V                             */
+    real nh;      /* n·h in [0, 1]                                          */
+    real sin2_nh; /* 1 − (n·h)² = |n × h|², precise near the peak          */
+    real vh;      /* v·h = l·h in [0, 1]                                    */
+    real lv;      /* l·v                                                    */
+    real rv;      /* r·v, r = 2(n·l)n − l, the Phong mirror direction       */
 } Geometry;
 
+/* The per-material constants of one pixel (a row of the material table, or
+ * the constants compiled in), unpacked from MATERIAL_STRIDE float4. */
 typedef struct {
-    float3 base;           /* linear base colour                              */
-    float3 diffuse_color;  /* what the diffuse lobe multiplies                */
-    float3 f0;             /* Schlick reflectance at normal incidence         */
-    float3 eta, k;         /* conductor complex IOR                           */
-    float roughness;       /* perceptual r                                    */
-    float alpha;           /* r², floored at MIN_ALPHA                        */
-    float kd, ks, ka;      /* lobe weights (1, 1, 1 in the metallic workflow) */
-    float shininess;       /* Phong/Blinn–Phong exponent n ≥ 0                */
-    float ior;             /* dielectric IOR (exact Fresnel)                  */
-    float f90;             /* Schlick reflectance at grazing                  */
+    real kd, ks, ka, shininess;
+    real ior, f90;
+    vec3 eta, k;
+} Material;
+
+typedef struct {
+    vec3 base;           /* linear base colour                              */
+    vec3 diffuse_color;  /* what the diffuse lobe multiplies                */
+    vec3 f0;             /* Schlick reflectance at normal incidence         */
+    vec3 eta, k;         /* conductor complex IOR                           */
+    real roughness;      /* perceptual r                                    */
+    real alpha;          /* r², floored at MIN_ALPHA                        */
+    real kd, ks, ka;     /* lobe weights (1, 1, 1 in the metallic workflow) */
+    real shininess;      /* Phong/Blinn–Phong exponent n ≥ 0                */
+    real ior;            /* dielectric IOR (exact Fresnel)                  */
+    real f90;            /* Schlick reflectance at grazing                  */
 } Surface;
 
+/* One material, the same in every lane (a table row or the baked constants). */
+inline Material material_uniform(float4 m0, float4 m1, float4 m2, float4 m3) {
+    Material m;
+    m.kd = (real)(m0.x); m.ks = (real)(m0.y); m.ka = (real)(m0.z); m.shininess = (real)(m0.w);
+    m.ior = (real)(m1.x); m.f90 = (real)(m1.y);
+    m.eta = v3c(m2.xyz); m.k = v3c(m3.xyz);
+    return m;
+}
+
 /* n, l, v unit length. */
-inline Geometry make_geometry(float3 n, float3 l, float3 v) {
+inline Geometry make_geometry(vec3 n, vec3 l, vec3 v) {
     Geometry g;
-    float nv_raw = dot(n, v);
-    g.nl_raw = dot(n, l);
+    real nv_raw = v3dot(n, v);
+    g.nl_raw = v3dot(n, l);
     g.nl = fmax(g.nl_raw, MIN_N_DOT_L);
     g.nv = fmax(nv_raw, MIN_N_DOT_V);
-    float3 h = l + v;
-    float h_len2 = dot(h, h);
-    h = h * rsqrt(fmax(h_len2, MIN_HALF_LEN2));
-    g.nh = saturate(dot(n, h));
-    float3 c = cross(n, h);
+    vec3 h = v3add(l, v);
+    real h_len2 = v3dot(h, h);
+    h = v3scale(h, rsqrt(fmax(h_len2, MIN_HALF_LEN2)));
+    g.nh = saturate(v3dot(n, h));
+    vec3 c = v3cross(n, h);
     /* l = −v: no half vector. Treat h as perpendicular to n (n·h = 0 already,
      * sin² = 1) so that D_GGX sees 1, not the 0 that made α²/0 = Inf and,
      * times F = 0, NaN. A select, not a branch. */
-    g.sin2_nh = h_len2 < MIN_HALF_LEN2 ? 1.0f : saturate(dot(c, c));
-    g.vh = saturate(dot(v, h));
-    g.lv = dot(l, v);
+    g.sin2_nh = h_len2 < MIN_HALF_LEN2 ? (real)(1.0f) : saturate(v3dot(c, c));
+    g.vh = saturate(v3dot(v, h));
+    g.lv = v3dot(l, v);
     g.rv = 2.0f * g.nl_raw * nv_raw - g.lv;
     return g;
 }
 
 /* Inputs are sanitised: base ≥ 0, roughness and metallic in [0, 1]. */
-inline Surface make_surface(float3 base, float roughness, float metallic,
-                            float4 m0, float4 m1, float4 m2, float4 m3) {
+inline Surface make_surface(vec3 base, real roughness, real metallic, const Material m) {
     Surface s;
     s.base = base;
     s.roughness = roughness;
     s.alpha = fmax(roughness * roughness, MIN_ALPHA);
-    s.shininess = m0.w;
-    s.ior = m1.x;
-    s.f90 = m1.y;
-    s.eta = m2.xyz;
-    s.k = m3.xyz;
+    s.shininess = m.shininess;
+    s.ior = m.ior;
+    s.f90 = m.f90;
+    s.eta = m.eta;
+    s.k = m.k;
 #if WORKFLOW == WORKFLOW_METALLIC
-    s.diffuse_color = base * (1.0f - metallic);
-    s.f0 = mix((float3)(F0_DIELECTRIC), base, metallic);
-    s.kd = 1.0f; s.ks = 1.0f; s.ka = 1.0f;
+    s.diffuse_color = v3scale(base, 1.0f - metallic);
+    s.f0 = v3mix(v3s((real)(F0_DIELECTRIC)), base, metallic);
+    s.kd = (real)(1.0f); s.ks = (real)(1.0f); s.ka = (real)(1.0f);
 #else
-    float r0 = (s.ior - 1.0f) / (s.ior + 1.0f);
+    real r0 = (s.ior - 1.0f) / (s.ior + 1.0f);
     s.diffuse_color = base;
-    s.f0 = (float3)(r0 * r0);
-    s.kd = m0.x; s.ks = m0.y; s.ka = m0.z;
+    s.f0 = v3s(r0 * r0);
+    s.kd = m.kd; s.ks = m.ks; s.ka = m.ka;
 #endif
     return s;
 }
 
 /* The Fresnel term chosen at compile time, at incidence cosine c. */
-inline float3 fresnel_cos(float c, const Surface s) {
+inline vec3 fresnel_cos(real c, const Surface s) {
 #if FRESNEL == FRESNEL_DIELECTRIC
-    return (float3)(F_Dielectric(c, s.ior));
+    return v3s(F_Dielectric(c, s.ior));
 #elif FRESNEL == FRESNEL_CONDUCTOR
     return F_Conductor(c, s.eta, s.k);
 #else
@@ -111,6 +127,6 @@ inline float3 fresnel_cos(float c, const Surface s) {
 }
 
 /* The microfacet lobes' F, at the microfacet incidence v·h. */
-inline float3 fresnel(const Geometry g, const Surface s) { return fresnel_cos(g.vh, s); }
+inline vec3 fresnel(const Geometry g, const Surface s) { return fresnel_cos(g.vh, s); }
 
 #endif

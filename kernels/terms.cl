@@ -8,7 +8,7 @@
  *   z[i]  float4  a second colour argument (the conductor's k), rgb
  *   out[i] float4 the term: scalar terms in .x, colour terms in .xyz
  * The Python side (clshade.accuracy.TERMS) says which slots each term reads.
- * Assembled after brdf.h (clshade.accuracy.term_source).
+ * Assembled after simd.h (SIMD = 1: real is float, vec3 a struct) and brdf.h (clshade.accuracy.term_source).
  */
 #define TERM_KERNEL(NAME, EXPR)                                               \
 __kernel void term_##NAME(const uint count, __global const float4* x,         \
@@ -18,13 +18,14 @@ __kernel void term_##NAME(const uint count, __global const float4* x,         \
     uint i = get_global_id(0);                                                \
     if (i >= count) return;                                                   \
     float4 a = x[i];                                                          \
-    float3 b = y[i].xyz;                                                      \
-    float3 c = z[i].xyz;                                                      \
+    vec3 b = v3c(y[i].xyz);                                                   \
+    vec3 c = v3c(z[i].xyz);                                                   \
     out[i] = EXPR;                                                            \
 }
 
 #define SCALAR(value) (float4)((value), 0.0f, 0.0f, 0.0f)
-#define COLOUR(value) (float4)((value), 0.0f)
+inline float4 colour4(vec3 c) { return (float4)(c.x, c.y, c.z, 0.0f); }
+#define COLOUR(value) colour4(value)
 
 TERM_KERNEL(D_GGX,               SCALAR(D_GGX(a.x, a.y, a.z)))
 TERM_KERNEL(D_Beckmann,          SCALAR(D_Beckmann(a.x, a.y, a.z)))

@@ -173,3 +173,28 @@ def test_variant_key_includes_effects_and_options(shader, frame):
     keys = {shader.variant(m, x).key for x in (f, replace(f, shadows=False), replace(f, ambient=False),
                                                 replace(f, fast_math=True), replace(f, shadow_pcf=5))}
     assert len(keys) == 5
+
+
+@pytest.mark.parametrize("model", ["ggx_correlated", "phong"])
+def test_simd_width_never_changes_results(runtime, monkeypatch, model):
+    """1, 4 or 8 pixels per work-item (kernels/simd.h) shade every pixel alike: a
+    37×23 image (851 pixels: rows and the image end mid-vector) with shadows,
+    three light kinds, ambient and a per-pixel material table."""
+    frame = prepare_frame(parse_scene(SCENE.replace("width = 64", "width = 37").replace("height = 48", "height = 23")))
+    features = scene_features(frame.scene, geometry=frame.geometry)
+    m = models.resolve(model)
+    images = {}
+    for simd in ("1", "4", "8"):
+        monkeypatch.setenv("CLSHADE_SIMD", simd)
+        shader = Shader(runtime, frame.gbuffer, frame.scene, frame.camera, frame.shadows)
+        assert shader.prepare(m, features).global_size * int(simd) >= 851
+        images[simd] = shader.render(m, features)
+    assert images["1"].shape == (23, 37, 4) and (images["1"][..., 3] > 0).any() and (images["1"][..., 3] == 0).any()
+    _close(images["8"], images["1"])
+    _close(images["4"], images["1"])
+
+
+def test_simd_width_is_validated(runtime, monkeypatch):
+    monkeypatch.setenv("CLSHADE_SIMD", "3")
+    with pytest.raises(Exception, match="CLSHADE_SIMD='3'"):
+        runtime.simd

@@ -9,8 +9,8 @@
  * uses: roughness, fresnel
  * note: the study's shader shortcut, kept as a rung of the approximation ladder against walter_ggx and ggx_correlated.
  */
-inline float3 specular_lobe(const Geometry g, const Surface s) {
-    float D = D_GGX(g.nh, g.sin2_nh, s.alpha);
-    float V = V_SmithSchlickGGX(g.nl, g.nv, s.alpha);
-    return (D * V) * fresnel(g, s);
+inline vec3 specular_lobe(const Geometry g, const Surface s) {
+    real D = D_GGX(g.nh, g.sin2_nh, s.alpha);
+    real V = V_SmithSchlickGGX(g.nl, g.nv, s.alpha);
+    return v3scale(fresnel(g, s), D * V);
 }
