@@ -113,8 +113,10 @@ def cmd_render(args: argparse.Namespace) -> int:
         for tset in frame.geometry.texture_sets:
             print(f"texture set {tset.describe()}")
         print(f"build options: {' '.join(variant.options()) or '(none)'}")
-        print("defines: " + " ".join(f"{k}={v}" for k, v in variant.defines().items()))
-        print(f"device: {result.shader.rt.info.description}")
+        simd = result.shader.rt.simd
+        print("defines: " + " ".join(f"{k}={v}" for k, v in {"SIMD": str(simd), **variant.defines()}.items()))
+        print(f"device: {result.shader.rt.info.description}; {simd} pixel{'s' if simd > 1 else ''} per work-item "
+              f"(kernels/simd.h; CLSHADE_SIMD to override)")
     if frame.gbuffer.nonfinite_pixels:
         print(f"clshade: warning: {frame.gbuffer.nonfinite_pixels} pixels had non-finite G-buffer inputs "
               f"(NaN/Inf vertices or normals) and were shaded as background", file=sys.stderr)
