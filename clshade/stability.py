@@ -212,7 +212,7 @@ def reference_f(model: Model, s: Samples, alpha_floor: float = MIN_ALPHA) -> np.
                     f0 = 0.04 * (1.0 - metal[:, None]) + base * metal[:, None]
                     return f0 + (m[:, 1, 1][:, None] - f0) * (1.0 - np.clip(c, 0, 1))[:, None] ** 5
                 if model.fresnel == "dielectric":
-                    return R.f_dielectric(c, m[:, 1, 0])[:, None]
+                    return R.f_dielectric(c, m[:, 1, 0][:, None])     # per-sample IOR, one channel
                 return R.f_conductor(c, m[:, 2, :3], m[:, 3, :3])
             diffuse = diffuse * (1.0 - fres(np.maximum(geo.nl, MIN_COSINE))) * (1.0 - fres(np.maximum(geo.nv, MIN_COSINE)))
         if model.fresnel == "schlick":

@@ -6,7 +6,7 @@ from clshade.models import resolve
 
 
 def test_grid_finite_non_negative_and_accurate() -> None:
-    models = [resolve("ggx_correlated@conductor"), resolve("phong")]
+    models = [resolve("ggx_correlated@conductor"), resolve("ggx_correlated@dielectric"), resolve("phong")]
     rep = stability.run(models, extras=False)
     assert rep.ok, stability.format_report(rep)
     precise = [r for r in rep.results if not r.fast_math]
