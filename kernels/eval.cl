@@ -10,12 +10,6 @@
  * Built with SIMD = 1 (simd.h): one sample per work-item.
  * Output f[i] = (f.rgb, n·l > 0 ? 1 : 0): f is 0 when l is below the horizon.
  */
-inline vec3 unit_or(float3 x, float3 fallback) {
-    float len2 = dot(x, x);
-    float3 u = len2 > 1.0e-20f ? x * rsqrt(len2) : fallback;
-    return v3(u.x, u.y, u.z);
-}
-
 __kernel void eval_brdf(const uint count,
     __global const float4* n, __global const float4* l, __global const float4* v,
     __global const float4* base, __global const float4* p, __global const float4* m,
@@ -23,9 +17,9 @@ __kernel void eval_brdf(const uint count,
 {
     uint i = get_global_id(0);
     if (i >= count) return;
-    vec3 vv = unit_or(v[i].xyz, (float3)(0.0f, 0.0f, 1.0f));
-    vec3 nn = unit_or(n[i].xyz, (float3)(vv.x, vv.y, vv.z));
-    vec3 ll = unit_or(l[i].xyz, (float3)(0.0f));
+    vec3 vv = unit_or(v3c(v[i].xyz), v3(0.0f, 0.0f, 1.0f));
+    vec3 nn = unit_or(v3c(n[i].xyz), vv);
+    vec3 ll = unit_or(v3c(l[i].xyz), v3s(0.0f));
     Surface s = make_surface(v3c(fmax(base[i].xyz, 0.0f)), saturate(p[i].x), saturate(p[i].y),
                              material_uniform(m[4 * i], m[4 * i + 1], m[4 * i + 2], m[4 * i + 3]));
     Geometry g = make_geometry(nn, ll, vv);

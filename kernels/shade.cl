@@ -65,12 +65,6 @@
 /* Largest radiance written: finite by contract even for 1e30 lights. */
 #define MAX_RADIANCE 3.0e38f
 
-inline vec3 safe_normal(vec3 n, vec3 fallback) {
-    real len2 = v3dot(n, n);
-    /* A zero-length (bad) normal shades as if it faced the viewer. */
-    return v3select(len2 > 1.0e-20f, v3scale(n, rsqrt(len2)), fallback);
-}
-
 #if HAS_MATERIAL
 /* Each lane's row of the material table (a gather: lanes may differ). */
 inline Material material_gather(uindex id, __constant float4* materials) {
@@ -157,7 +151,7 @@ __kernel void shade(
     vec3 v = v3scale(ray, -rsqrt(v3dot(ray, ray)));
     real z = VLOAD(i, depth);
 
-    vec3 n = safe_normal(load3(i, normal), v);
+    vec3 n = unit_or(load3(i, normal), v);     /* a bad normal shades as if facing the viewer */
     vec3 b = v3max(load3(i, base), 0.0f);
 #if HAS_ROUGHNESS
     real r = saturate(VLOAD(i, roughness));

@@ -69,6 +69,18 @@ inline Material material_uniform(float4 m0, float4 m1, float4 m2, float4 m3) {
     return m;
 }
 
+/* Squared length below which a direction (a G-buffer normal, an evaluated
+ * n, l or v) is treated as missing and replaced by a fallback: 1e-20 keeps
+ * rsqrt ≤ 1e10 and the normalised vector unit to float32 precision; shorter
+ * vectors come only from bad input (zero or denormal normals). */
+#define MIN_UNIT_LEN2 1.0e-20f
+
+/* x normalised, or `fallback` where x has no usable direction (lane-wise). */
+inline vec3 unit_or(vec3 x, vec3 fallback) {
+    real len2 = v3dot(x, x);
+    return v3select(len2 > MIN_UNIT_LEN2, v3scale(x, rsqrt(len2)), fallback);
+}
+
 /* n, l, v unit length. */
 inline Geometry make_geometry(vec3 n, vec3 l, vec3 v) {
     Geometry g;
