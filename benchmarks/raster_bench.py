@@ -43,24 +43,10 @@ except ImportError:  # running from a checkout without installing
 from clshade.gbuffer import build_gbuffer  # noqa: E402
 from clshade.meshes import Geometry  # noqa: E402
 from clshade.scene import parse_scene  # noqa: E402
-from clshade.transforms import look_at, perspective  # noqa: E402
+from clshade.transforms import look_at, perspective, pixel_rays  # noqa: E402
 
 ASSETS = ROOT.parent / "shared" / "assets"
 BUNNY = ASSETS / "stanford-bunny" / "stanford-bunny.obj"
-
-
-def pixel_rays(view, proj, width, height):
-    """Pixel-centre rays (origins on the near plane), by inverting proj @ view."""
-    inv = np.linalg.inv(proj @ view)
-    j, i = np.meshgrid(np.arange(width), np.arange(height))
-    x = (j + 0.5) / width * 2.0 - 1.0
-    y = 1.0 - (i + 0.5) / height * 2.0
-    ends = []
-    for z in (-1.0, 1.0):
-        p = np.stack([x, y, np.full_like(x, z), np.ones_like(x)], -1).reshape(-1, 4) @ inv.T
-        ends.append(p[:, :3] / p[:, 3:])
-    d = ends[1] - ends[0]
-    return ends[0], d / np.linalg.norm(d, axis=1, keepdims=True)
 
 
 def cpu_model() -> str:

@@ -47,3 +47,19 @@ def orthographic(left: float, right: float, bottom: float, top: float, near: flo
     m[2, 2], m[2, 3] = -2 / (far - near), -(far + near) / (far - near)
     m[3, 3] = 1.0
     return m
+
+
+def pixel_rays(view: np.ndarray, proj: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+    """World-space rays through the pixel centres (row 0 at the top), by inverting
+    proj @ view: origins on the near plane and unit directions, each (H·W, 3). The
+    rasterizer's oracle (an independent ray caster) and the raster benchmark use it."""
+    inv = np.linalg.inv(proj @ view)
+    j, i = np.meshgrid(np.arange(width), np.arange(height))
+    x = (j + 0.5) / width * 2.0 - 1.0
+    y = 1.0 - (i + 0.5) / height * 2.0
+    ends = []
+    for z_ndc in (-1.0, 1.0):
+        p = np.stack([x, y, np.full_like(x, z_ndc), np.ones_like(x)], axis=-1).reshape(-1, 4) @ inv.T
+        ends.append(p[:, :3] / p[:, 3:])
+    d = ends[1] - ends[0]
+    return ends[0], d / np.linalg.norm(d, axis=1, keepdims=True)

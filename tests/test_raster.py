@@ -24,7 +24,9 @@ try:  # plain `pytest` from the repo root does not put the root on sys.path
 except ImportError:
     sys.path.insert(0, str(ROOT))
     from clshade import raster
+from clshade import transforms
 from clshade.raster import Fragments, rasterize
+from clshade.transforms import look_at, pixel_rays
 
 ASSETS = ROOT.parent / "shared" / "assets"
 
@@ -38,31 +40,9 @@ DEPTH_RTOL = 1e-4  # relative depth tolerance where ids agree
 # Camera helpers and the independent ray caster
 # --------------------------------------------------------------------------
 
-
-def look_at(eye, target, up=(0.0, 1.0, 0.0)) -> np.ndarray:
-    """OpenGL-style world->camera matrix (camera looks down -Z)."""
-    eye, target, up = (np.asarray(a, dtype=np.float64) for a in (eye, target, up))
-    f = target - eye
-    f /= np.linalg.norm(f)
-    s = np.cross(f, up)
-    s /= np.linalg.norm(s)
-    u = np.cross(s, f)
-    m = np.eye(4)
-    m[0, :3], m[1, :3], m[2, :3] = s, u, -f
-    m[:3, 3] = -m[:3, :3] @ eye
-    return m
-
-
 def perspective(fovy_deg: float, aspect: float, near: float = NEAR, far: float = FAR) -> np.ndarray:
-    """gluPerspective."""
-    t = 1.0 / np.tan(np.radians(fovy_deg) / 2.0)
-    m = np.zeros((4, 4))
-    m[0, 0] = t / aspect
-    m[1, 1] = t
-    m[2, 2] = (far + near) / (near - far)
-    m[2, 3] = 2.0 * far * near / (near - far)
-    m[3, 2] = -1.0
-    return m
+    """gluPerspective with this file's default clip planes."""
+    return transforms.perspective(fovy_deg, aspect, near, far)
 
 
 def unit_perspective(near: float = NEAR, far: float = FAR) -> np.ndarray:
@@ -70,20 +50,6 @@ def unit_perspective(near: float = NEAR, far: float = FAR) -> np.ndarray:
     m = perspective(90.0, 1.0, near, far)
     m[0, 0] = m[1, 1] = 1.0
     return m
-
-
-def pixel_rays(view: np.ndarray, proj: np.ndarray, width: int, height: int):
-    """World-space rays through pixel centres, starting on the near plane."""
-    inv = np.linalg.inv(proj @ view)
-    j, i = np.meshgrid(np.arange(width), np.arange(height))
-    x = (j + 0.5) / width * 2.0 - 1.0
-    y = 1.0 - (i + 0.5) / height * 2.0
-    ends = []
-    for z_ndc in (-1.0, 1.0):
-        p = np.stack([x, y, np.full_like(x, z_ndc), np.ones_like(x)], axis=-1).reshape(-1, 4) @ inv.T
-        ends.append(p[:, :3] / p[:, 3:])
-    d = ends[1] - ends[0]
-    return ends[0], d / np.linalg.norm(d, axis=1, keepdims=True)
 
 
 def ray_cast(vertices, faces, view, proj, width=W, height=H):
