@@ -41,8 +41,8 @@ higher version (clshade.runtime).
   arithmetic, and the `<2 x float>` pairs that PoCL's SLP pass makes of per-channel
   colour code before the loop vectoriser runs (seen in the `parallel.bc` left by
   `POCL_LEAVE_KERNEL_COMPILER_TEMP_FILES=1`). The kernels now shade 8 pixels per
-  work-item in float8 lanes (kernels/simd.h): against the previous kernels in the
-  previous committed run, Lambert 15.5 → 5.9 ms, GGX height-correlated 47.7 → 9.6 ms,
+  work-item in float8 lanes (kernels/simd.h): against the one-pixel kernels (runs of
+  2026-11-23, this machine, PoCL 3.1), Lambert 15.5 → 5.9 ms, GGX height-correlated 47.7 → 9.6 ms,
   Phong 61.0 → 15.7 ms.
 * **Lambert 1.5× the copy kernel**, not 1.3×: besides the same loads and stores it
   rebuilds each pixel's view ray and normalises it and the normal (two `rsqrt` per
@@ -51,7 +51,7 @@ higher version (clshade.runtime).
   so these variants read the material id and gather the table row lane by lane
   (`material_gather`, 8 scalar lookups per work-item); the runtime power xⁿ is
   exp2(n·log2 x) with a lane-wise log2 (`log2_lanes`, brdf.h), because PoCL's float8
-  `log`/`log2` are not vectorised. Probe on the same machine: Phong with the power
+  `log`/`log2` are not vectorised. Probe (2026-11-23, same machine): Phong with the power
   replaced by n·x took 10.0 ms against 13.7 ms with it (same run), so the power is
   ≈ 27 % of the Phong pass and the gather and k_d/k_s workflow most of the rest.
 * **Cook–Torrance 3.3×**: Beckmann's `exp` and the V-cavity `fmin`/divisions; the exact
