@@ -156,7 +156,8 @@ def main() -> int:
           "",
           "## Per model", "", table(rows), "",
           "Columns: host ms = host (enqueue → wait) − device time per frame; B/px = channels read + 16 B "
-          "written; × copy = time / the copy kernel reading the same channels (bandwidth floor); × NumPy = "
+          "written for a covered pixel; mean B/px = the same averaged over the frame (a work-item whose "
+          "pixels are all empty reads only depth, in the model and the copy kernel alike); × copy = time / the copy kernel reading the same channels (bandwidth floor); × NumPy = "
           "NumPy float32 time (covered pixels only) / OpenCL time; error vs float64 reference "
           f"({doc['error_definition']}).",
           "", "![FPS](bench_1080p.png)", "",

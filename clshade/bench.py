@@ -47,7 +47,7 @@ MIN_ALPHA = 1e-4             # kernels/brdf.h: the α floor the reference is giv
 MIN_N_DOT_V = 1e-4           # kernels/brdf.h: pixels at or below are left out of the error
 NUMPY_FRAMES = 3             # NumPy frames per model (median)
 MODEL_KEYS = ("model", "name", "mean_ms", "avg_fps", "low1_fps", "low01_fps", "median_ms", "p99_ms",
-              "host_overhead_ms", "mpixel_per_s", "bytes_per_pixel", "lambert_ratio", "copy_ratio",
+              "host_overhead_ms", "mpixel_per_s", "bytes_per_pixel", "mean_bytes_per_pixel", "lambert_ratio", "copy_ratio",
               "copy_mean_ms", "numpy_ms", "numpy_ratio", "max_rel_error", "mean_rel_error", "frames")
 
 
@@ -268,6 +268,8 @@ def summarize(cases: list[Case], copy_ms: dict[tuple, list[float]], numpy_frames
         row["mpixel_per_s"] = c.gbuffer.pixels / (stats["mean_ms"] * 1e3)
         row["channels"] = list(variant.channels)
         row["bytes_per_pixel"] = c.gbuffer.bytes_per_pixel(variant.channels, c.features.half_gbuffer) + OUTPUT_BYTES
+        row["mean_bytes_per_pixel"] = c.gbuffer.mean_bytes_per_pixel(
+            variant.channels, c.features.half_gbuffer, c.shader.rt.simd, OUTPUT_BYTES)
         row["copy_mean_ms"] = copy_mean
         row["copy_ratio"] = stats["mean_ms"] / copy_mean
         row["fast_math"], row["half_gbuffer"] = c.features.fast_math, c.features.half_gbuffer
@@ -434,13 +436,13 @@ def table(rows: list[dict], ladder: bool = False) -> str:
                        f"{r.get('error_target', '')} | {'●' if r.get('pareto') else ''} |")
         return "\n".join(out)
     head = ("| model | mean ms | avg FPS | 1 % low | 0.1 % low | median ms | p99 ms | host ms | Mpix/s | B/px | "
-            "× Lambert | × copy | NumPy ms | × NumPy | max rel err | mean rel err |")
-    out = [head, "|" + "---|" * 16]
+            "mean B/px | × Lambert | × copy | NumPy ms | × NumPy | max rel err | mean rel err |")
+    out = [head, "|" + "---|" * 17]
     for r in rows:
         out.append(f"| {r['label']} | {r['mean_ms']:.2f} | {r['avg_fps']:.1f} | {r['low1_fps']:.1f} | "
                    f"{r['low01_fps']:.1f} | {r['median_ms']:.2f} | {r['p99_ms']:.2f} | "
                    f"{r['host_overhead_ms']:.3f} | {r['mpixel_per_s']:.1f} | {r['bytes_per_pixel']} | "
-                   f"{_fmt(r['lambert_ratio'], '.2f')} | {r['copy_ratio']:.2f} | {_fmt(r['numpy_ms'], '.1f')} | "
+                   f"{r['mean_bytes_per_pixel']:.1f} | {_fmt(r['lambert_ratio'], '.2f')} | {r['copy_ratio']:.2f} | {_fmt(r['numpy_ms'], '.1f')} | "
                    f"{_fmt(r['numpy_ratio'], '.1f')} | {_fmt(r['max_rel_error'], '.2e')} | "
                    f"{_fmt(r['mean_rel_error'], '.2e')} |")
     return "\n".join(out)

@@ -48,6 +48,17 @@ class GBuffer:
             total += size * comps
         return total
 
+    def mean_bytes_per_pixel(self, names: tuple[str, ...] | list[str], half: bool, simd: int,
+                             written: int) -> float:
+        """Bytes a pass moves per pixel averaged over the frame: a work-item of `simd`
+        pixels with none covered reads only depth (the kernels' sky skip, shade.cl and
+        copy.cl); every work-item writes `written` bytes per pixel."""
+        cov = np.zeros(-(-self.pixels // simd) * simd, bool)
+        cov[:self.pixels] = self.coverage.ravel()
+        active = float(cov.reshape(-1, simd).any(axis=1).mean())
+        depth = self.bytes_per_pixel(("depth",))
+        return depth + written + active * (self.bytes_per_pixel(names, half) - depth)
+
     def channel(self, name: str, half: bool = False) -> np.ndarray:
         data = self.channels[name]
         if half and CHANNELS[name][1] == 3:

@@ -1,7 +1,8 @@
 /* copy.cl — the memory-bandwidth floor of a shading pass: reads exactly the
  * G-buffer channels a model variant reads (same defines as shade.cl, same
  * SIMD pixels per work-item, same loads and stores from gbuffer.h) and writes
- * the same float4 output, with no lighting arithmetic. */
+ * the same float4 output, with no lighting arithmetic. Like shade.cl it
+ * reads only the depth of a work-item whose pixels are all empty. */
 __kernel void copy(const uint npix,
     __global const float* depth, __global const GB3* normal, __global const GB3* base
 #if HAS_ROUGHNESS
@@ -17,8 +18,13 @@ __kernel void copy(const uint npix,
 {
     size_t i = get_global_id(0);
     if (SIMD * i >= npix) return;
-    vec3 acc = v3add(load3(i, normal), load3(i, base));
     real w = VLOAD(i, depth);
+    /* shade.cl reads only the depth of a work-item with no covered pixel. */
+    if (!ANY(w > 0.0f)) {
+        store4(i, out, v3s((real)(0.0f)), w);
+        return;
+    }
+    vec3 acc = v3add(load3(i, normal), load3(i, base));
 #if HAS_ROUGHNESS
     w += VLOAD(i, roughness);
 #endif

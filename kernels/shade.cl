@@ -69,6 +69,12 @@
 /* Each lane's row of the material table (a gather: lanes may differ). */
 inline Material material_gather(uindex id, __constant float4* materials) {
     uindex_lanes ids = {id};
+    /* Fast path: neighbouring pixels mostly share a material. A branch per
+     * work-item, not per lane (nothing vectorises across work-items here). */
+    if (ALL(id == (uindex)(ids.s[0]))) {
+        uint mi = ids.s[0] * MATERIAL_STRIDE;
+        return material_uniform(materials[mi], materials[mi + 1], materials[mi + 2], materials[mi + 3]);
+    }
     real_lanes t[12];
     for (int j = 0; j < SIMD; ++j) {
         uint mi = ids.s[j] * MATERIAL_STRIDE;
@@ -150,6 +156,13 @@ __kernel void shade(
     vec3 ray = v3add(v3c(cam_fwd.xyz), v3add(v3scale(v3c(cam_right.xyz), sx), v3scale(v3c(cam_up.xyz), sy)));
     vec3 v = v3scale(ray, -rsqrt(v3dot(ray, ray)));
     real z = VLOAD(i, depth);
+    mask covered = z > 0.0f;
+    /* Sky: a work-item with no covered pixel reads nothing else and writes the
+     * background (copy.cl skips the same reads, so the floor stays fair). */
+    if (!ANY(covered)) {
+        store4(i, out, v3c(background.xyz), (real)(background.w));
+        return;
+    }
 
     vec3 n = unit_or(load3(i, normal), v);     /* a bad normal shades as if facing the viewer */
     vec3 b = v3max(load3(i, base), 0.0f);
@@ -244,6 +257,5 @@ __kernel void shade(
 #endif
 #endif
     L = v3min(L, MAX_RADIANCE);
-    mask covered = z > 0.0f;
     store4(i, out, v3select(covered, L, v3c(background.xyz)), covered ? (real)(1.0f) : (real)(background.w));
 }

@@ -63,6 +63,16 @@ typedef uint8 uindex;
 #error "SIMD must be 1, 4 or 8"
 #endif
 
+/* Whether any / every lane of a mask is set. OpenCL's any()/all() test the
+ * sign bit, which a scalar comparison (1, not −1) does not set. */
+#if SIMD == 1
+#define ANY(m) ((m) != 0)
+#define ALL(m) ((m) != 0)
+#else
+#define ANY(m) any(m)
+#define ALL(m) all(m)
+#endif
+
 /* One lane of a real, for the per-pixel work that stays scalar (material
  * table gathers, shadow-map taps). */
 typedef union { real v; float s[SIMD]; } real_lanes;

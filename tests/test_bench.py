@@ -11,6 +11,7 @@ import pytest
 
 from clshade.bench import frame_stats, pareto
 from clshade.cli import main
+from clshade.gbuffer import GBuffer
 
 ROOT = Path(__file__).resolve().parents[1]
 SCHEMA_DOC = ROOT / "docs" / "bench-schema.md"
@@ -54,6 +55,7 @@ def test_model_rows(report):
         assert row["copy_ratio"] > 0 and row["numpy_ratio"] > 0 and row["lambert_ratio"] > 0
         assert row["p99_ms"] >= row["median_ms"] > 0
         assert 16 < row["bytes_per_pixel"] <= 64
+        assert 4 + 16 <= row["mean_bytes_per_pixel"] <= row["bytes_per_pixel"]
         assert 0 <= row["mean_rel_error"] <= row["max_rel_error"] < 0.1
 
 
@@ -63,6 +65,17 @@ def test_frame_stats_lows():
     assert s["low01_fps"] == pytest.approx(10.0)          # the one 100 ms frame
     assert s["low1_fps"] == pytest.approx(1e3 / 19.0)      # ten slowest: 9 × 10 ms + 100 ms
     assert s["host_overhead_ms"] == pytest.approx(0.05)
+
+
+def test_mean_bytes_per_pixel_counts_the_sky_skip():
+    """Work-items with no covered pixel read only depth: a 5×4 frame, SIMD 8 (3 work-items,
+    the last padded), one covered pixel in the second work-item."""
+    cov = np.zeros((4, 5), bool)
+    cov[2, 0] = True                                          # pixel 10: work-item 1
+    gb = GBuffer(5, 4, {}, np.zeros((0, 4, 4), np.float32), cov)
+    names = ("depth", "normal", "base")                       # 4 + 12 + 12 B
+    assert gb.mean_bytes_per_pixel(names, False, 8, 16) == pytest.approx(4 + 16 + 24 / 3)
+    assert gb.mean_bytes_per_pixel(names, True, 1, 16) == pytest.approx(4 + 16 + 12 / 20)
 
 
 def test_pareto():
