@@ -118,14 +118,15 @@ class Shader:
 
     def buffer(self, name: str, half: bool = False):
         """The device copy of one G-buffer channel (uploaded once), zero-padded to a
-        multiple of the kernels' SIMD width (padding pixels have depth 0: empty)."""
+        multiple of the kernels' SIMD width (padding pixels have depth 0: empty).
+        Three-component channels go planar (x plane, y plane, z plane; gbuffer.h)."""
         key = (name, half and name in ("normal", "base"))
         if key not in self._buffers:
-            data = self.gb.channel(name, half=key[1])
-            pad = padded(self.gb.pixels) - self.gb.pixels
-            if pad:
-                data = np.concatenate([data.reshape(-1), np.zeros(pad * CHANNELS[name][1], data.dtype)])
-            self._buffers[key] = self.rt.to_device(data)
+            comps = CHANNELS[name][1]
+            data = self.gb.channel(name, half=key[1]).reshape(self.gb.pixels, comps)
+            planes = np.zeros((comps, padded(self.gb.pixels)), data.dtype)
+            planes[:, :self.gb.pixels] = data.T
+            self._buffers[key] = self.rt.to_device(planes.reshape(-1))
         return self._buffers[key]
 
     def variant(self, model: Model, features: Features) -> Variant:
@@ -147,7 +148,7 @@ class Shader:
         kernel = cl.Kernel(built.get_info(cl.kernel_info.PROGRAM), entry)
         half = features.half_gbuffer
         n = self.gb.pixels
-        args: list[object] = [np.uint32(n)]
+        args: list[object] = [np.uint32(n), np.uint32(padded(n))]
         if entry == "shade":
             args += [np.uint32(self.gb.width), np.float32(2.0 / self.gb.width), np.float32(2.0 / self.gb.height)]
             args += camera_args(self.camera)

@@ -109,9 +109,11 @@ inline real D_GGX(real nh, real sin2_nh, real alpha) {
 /* Beckmann (Cook & Torrance 1982): D = exp(−tan²θh/m²) / (π m² cos⁴θh). */
 inline real D_Beckmann(real nh, real sin2_nh, real m) {
     real c = fmax(nh, MIN_N_DOT_H_BECKMANN);
-    real c2 = c * c;
     real m2 = m * m;
-    return exp(-sin2_nh / (c2 * m2)) / (CLSHADE_PI * m2 * c2 * c2);
+    /* One division: t = 1/(m² cos²θh), 1/(π m² cos⁴θh) = t² m²/π. t ≤ 1e14 at
+     * the floors (MIN_ALPHA, MIN_N_DOT_H_BECKMANN), so t² stays finite. */
+    real t = 1.0f / (c * c * m2);
+    return exp(-sin2_nh * t) * (t * t * m2 * CLSHADE_INV_PI);
 }
 
 /* ---- visibility V = G / (4 (n·l)(n·v)) ----------------------------------- */
@@ -145,8 +147,9 @@ inline real V_SmithSchlickGGX(real nl, real nv, real alpha) {
 /* Cook–Torrance V-cavity G (Cook & Torrance 1982, Torrance–Sparrow):
  * G = min(1, 2(n·h)(n·v)/(v·h), 2(n·h)(n·l)/(v·h)), over 4(n·l)(n·v). */
 inline real V_CookTorrance(real nl, real nv, real nh, real vh) {
-    real g = fmin(2.0f * nh * fmin(nv, nl) / fmax(vh, MIN_N_DOT_V), 1.0f);
-    return g / (4.0f * nl * nv);
+    /* min(1, a/b) = min(b, a)/b with b = v·h > 0: one division for G and V. */
+    real b = fmax(vh, MIN_N_DOT_V);
+    return fmin(2.0f * nh * fmin(nv, nl), b) / (4.0f * nl * nv * b);
 }
 
 /* ---- Fresnel F ----------------------------------------------------------- */

@@ -3,7 +3,7 @@
  * SIMD pixels per work-item, same loads and stores from gbuffer.h) and writes
  * the same float4 output, with no lighting arithmetic. Like shade.cl it
  * reads only the depth of a work-item whose pixels are all empty. */
-__kernel void copy(const uint npix,
+__kernel void copy(const uint npix, const uint plane,
     __global const float* depth, __global const GB3* normal, __global const GB3* base
 #if HAS_ROUGHNESS
     , __global const float* roughness
@@ -24,7 +24,7 @@ __kernel void copy(const uint npix,
         store4(i, out, v3s((real)(0.0f)), w);
         return;
     }
-    vec3 acc = v3add(load3(i, normal), load3(i, base));
+    vec3 acc = v3add(load3(i, normal, plane), load3(i, base, plane));
 #if HAS_ROUGHNESS
     w += VLOAD(i, roughness);
 #endif

@@ -2,8 +2,9 @@
  * (simd.h), shared by shade.cl and its bandwidth floor copy.cl so that both
  * move exactly the same bytes in the same pattern.
  *
- * Channels are arrays of structs per pixel (normal and base colour: 3 floats
- * or, with HALF_GBUFFER, 3 halves); the output is one float4 per pixel.
+ * One-component channels hold one value per pixel; normal and base colour
+ * are three planes (x, y, z) of floats or, with HALF_GBUFFER, halves. The
+ * output is one float4 per pixel, interleaved (the image the host reads).
  */
 #ifndef CLSHADE_GBUFFER_H
 #define CLSHADE_GBUFFER_H
@@ -14,25 +15,19 @@
 #define GB3 float
 #endif
 
-/* The SIMD pixels' 3-channel values of work-item i: SIMD × 3 consecutive
- * floats (or halves), de-interleaved into x, y, z lanes. */
+/* The SIMD pixels' 3-channel values of work-item i. On the device a
+ * 3-component channel is planar: x of every pixel, then y, then z, each plane
+ * `plane` elements long (the padded pixel count; clshade/shade.py uploads
+ * it so). Three aligned vector loads per channel: the interleaved layout
+ * needed ~40 shuffle instructions per channel per work-item to de-interleave
+ * (objdump of PoCL's kernel), in the shading and the copy kernel alike. */
 #ifdef HALF_GBUFFER
-#define LOAD_GB(n, i, p) vload_half##n((i), (p))
+#define LOAD_PLANE(i, p) VLOAD_HALF((i), (p))
 #else
-#define LOAD_GB(n, i, p) vload##n((i), (p))
+#define LOAD_PLANE(i, p) VLOAD((i), (p))
 #endif
-inline vec3 load3(size_t i, __global const GB3* p) {
-#if SIMD == 1
-    float3 t = LOAD_GB(3, i, p);
-    return v3(t.x, t.y, t.z);
-#elif SIMD == 4
-    float4 a = LOAD_GB(4, 3 * i, p), b = LOAD_GB(4, 3 * i + 1, p), c = LOAD_GB(4, 3 * i + 2, p);
-    return v3((float4)(a.s03, b.s2, c.s1), (float4)(a.s1, b.s03, c.s2), (float4)(a.s2, b.s1, c.s03));
-#else
-    float8 a = LOAD_GB(8, 3 * i, p), b = LOAD_GB(8, 3 * i + 1, p), c = LOAD_GB(8, 3 * i + 2, p);
-    return v3((float8)(a.s036, b.s147, c.s25), (float8)(a.s147, b.s25, c.s036),
-              (float8)(a.s25, b.s036, c.s147));
-#endif
+inline vec3 load3(size_t i, __global const GB3* p, uint plane) {
+    return v3(LOAD_PLANE(i, p), LOAD_PLANE(i, p + plane), LOAD_PLANE(i, p + 2 * plane));
 }
 
 /* Write the SIMD pixels of work-item i as float4 (r, g, b, a). SIMD 8 builds

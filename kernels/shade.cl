@@ -20,10 +20,11 @@
  *                                  switches; the reference every specialised
  *                                  variant must match (tests/test_specialisation.py)
  *
- * Channel layout (struct of arrays, one entry per pixel, row 0 at the top):
+ * Channel layout (struct of arrays, one entry per pixel, row 0 at the top;
+ * `plane` = npix padded to a multiple of SIMD, see gbuffer.h):
  *   depth     float   view-space depth along the camera axis, ≤ 0 = empty
- *   normal    3×float world-space shading normal (or 3×half)
- *   base      3×float linear base colour (or 3×half)
+ *   normal    3 planes of float: world-space shading normal (or half)
+ *   base      3 planes of float: linear base colour (or half)
  *   roughness float   perceptual roughness
  *   metallic  float
  *   material  uchar   index into the material table (MATERIAL_STRIDE float4)
@@ -105,7 +106,7 @@ inline real shadow_lanes(__global const float* maps, __constant float4* params, 
 #endif
 
 __kernel void shade(
-    const uint npix, const uint width, const float inv_width2, const float inv_height2,
+    const uint npix, const uint plane, const uint width, const float inv_width2, const float inv_height2,
     const float4 cam_pos, const float4 cam_fwd, const float4 cam_right, const float4 cam_up,
     __global const float* depth,
     __global const GB3* normal,
@@ -164,8 +165,8 @@ __kernel void shade(
         return;
     }
 
-    vec3 n = unit_or(load3(i, normal), v);     /* a bad normal shades as if facing the viewer */
-    vec3 b = v3max(load3(i, base), 0.0f);
+    vec3 n = unit_or(load3(i, normal, plane), v);     /* a bad normal shades as if facing the viewer */
+    vec3 b = v3max(load3(i, base, plane), 0.0f);
 #if HAS_ROUGHNESS
     real r = saturate(VLOAD(i, roughness));
 #else

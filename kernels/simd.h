@@ -36,6 +36,7 @@ typedef uint uindex;
 #define convert_uindex convert_uint
 #define LANE_IOTA 0u
 #define VLOAD(i, p) ((p)[i])
+#define VLOAD_HALF(i, p) vload_half((i), (p))
 #define VLOAD_UCHAR(i, p) ((uint)(p)[i])
 #elif SIMD == 4
 typedef float4 real;
@@ -47,6 +48,7 @@ typedef uint4 uindex;
 #define convert_uindex convert_uint4
 #define LANE_IOTA ((uint4)(0u, 1u, 2u, 3u))
 #define VLOAD(i, p) vload4((i), (p))
+#define VLOAD_HALF(i, p) vload_half4((i), (p))
 #define VLOAD_UCHAR(i, p) convert_uint4(vload4((i), (p)))
 #elif SIMD == 8
 typedef float8 real;
@@ -58,6 +60,7 @@ typedef uint8 uindex;
 #define convert_uindex convert_uint8
 #define LANE_IOTA ((uint8)(0u, 1u, 2u, 3u, 4u, 5u, 6u, 7u))
 #define VLOAD(i, p) vload8((i), (p))
+#define VLOAD_HALF(i, p) vload_half8((i), (p))
 #define VLOAD_UCHAR(i, p) convert_uint8(vload8((i), (p)))
 #else
 #error "SIMD must be 1, 4 or 8"
