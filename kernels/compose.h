@@ -36,6 +36,13 @@ inline vec3 brdf(const Geometry g, const Surface s) {
  * (unit, towards the light): f · (n·l) · E, and exactly 0 below the horizon.
  * E·(n·l) is formed first so that a huge E times a 0 lobe never makes NaN. */
 inline vec3 shade_light(vec3 n, vec3 v, vec3 l, vec3 E, const Surface s) {
+    /* Every lane below the horizon or unlit (outside a spot cone): the sum
+     * below would add exactly 0, so skip the BRDF. One branch per work-item
+     * (lanes are neighbouring pixels, mostly alike); about half the covered
+     * work-items face away from a given light. */
+    real e_max = fmax(fmax(E.x, E.y), E.z);
+    if (!ANY((v3dot(n, l) > 0.0f) & (e_max > 0.0f)))
+        return v3s((real)(0.0f));
     Geometry g = make_geometry(n, l, v);
     vec3 e = v3scale(E, g.nl);
     vec3 lo = v3mul(brdf(g, s), e);
