@@ -93,17 +93,6 @@ __attribute__((always_inline)) inline Material material_gather(uindex id, __cons
 }
 #endif
 
-#if HAS_SHADOWS || GENERAL
-/* shadow_factor() (shadow.h) lane by lane: its PCF taps are gathers. */
-inline real shadow_lanes(__global const float* maps, __constant float4* params, int slot, uint size,
-                         vec3 P, vec3 n, int radius) {
-    real_lanes px = {P.x}, py = {P.y}, pz = {P.z}, nx = {n.x}, ny = {n.y}, nz = {n.z}, f;
-    for (int j = 0; j < SIMD; ++j)
-        f.s[j] = shadow_factor(maps, params, slot, size, (float3)(px.s[j], py.s[j], pz.s[j]),
-                               (float3)(nx.s[j], ny.s[j], nz.s[j]), radius);
-    return f.v;
-}
-#endif
 
 __kernel void shade(
     const uint npix, const uint plane, const uint width, const float inv_width2, const float inv_height2,
@@ -208,16 +197,18 @@ __kernel void shade(
                 E = v3scale(v3c(c.xyz), 1.0f / d2);
             }
         }
-        if (has_shadows && c.w >= 0.0f)
-            E = v3scale(E, shadow_lanes(shadow_maps, shadow_params, (int)c.w, shadow_size, P, n, pcf_radius));
+        if (has_shadows && c.w >= 0.0f && ANY(v3dot(n, l) > 0.0f))
+            E = v3scale(E, shadow_factor(shadow_maps, shadow_params, (int)c.w, shadow_size, P, n, pcf_radius));
         L = v3add(L, shade_light(n, v, l, E, s));
     }
     if (has_ambient)
         L = v3add(L, ambient_term(v3c(ambient.xyz), s));
 #else
 #if HAS_SHADOWS
+/* Only where some lane faces the light: shade_light() adds nothing otherwise. */
 #define SHADOW(E, slot) \
-    if ((slot) >= 0.0f) (E) = v3scale((E), shadow_lanes(shadow_maps, shadow_params, (int)(slot), shadow_size, P, n, SHADOW_PCF / 2))
+    if ((slot) >= 0.0f && ANY(v3dot(n, l) > 0.0f)) \
+        (E) = v3scale((E), shadow_factor(shadow_maps, shadow_params, (int)(slot), shadow_size, P, n, SHADOW_PCF / 2))
 #else
 #define SHADOW(E, slot)
 #endif

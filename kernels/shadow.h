@@ -9,6 +9,9 @@
  *             depth if perspective (spot) else everywhere (directional)
  * A map texel holds the light-view depth of the nearest surface; row 0 is the
  * top of the map (the rasterizer's convention).
+ *
+ * Written in lanes (simd.h): the projection is vector arithmetic, each PCF
+ * tap one gather of SIMD map texels.
  */
 #ifndef CLSHADE_SHADOW_H
 #define CLSHADE_SHADOW_H
@@ -30,31 +33,38 @@
 #define SHADOW_NORMAL_OFFSET_TEXELS 1.0f
 #define SHADOW_BIAS_TEXELS          0.5f
 
+/* row · (q, 1): one row of a light matrix applied to lane points q. */
+inline real shadow_row(float4 row, vec3 q) { return row.x * q.x + row.y * q.y + row.z * q.z + row.w; }
+
 /* Fraction of PCF taps (a (2·radius + 1)² box of map texels) that see the
- * light from P. Receivers outside the map are lit. n unit (the shading normal;
- * the G-buffer keeps no geometric normal). */
-inline float shadow_factor(__global const float* maps, __constant float4* params, int slot, uint size,
-                           float3 P, float3 n, int radius) {
+ * light from P, per lane. Receivers outside the map, or behind the light's
+ * projection centre, are lit. n unit (the shading normal; the G-buffer keeps
+ * no geometric normal). */
+inline real shadow_factor(__global const float* maps, __constant float4* params, int slot, uint size,
+                          vec3 P, vec3 n, int radius) {
     __constant float4* m = params + SHADOW_ROWS * slot;
-    float texel = m[5].y > 0.5f ? m[5].x * (dot(m[4].xyz, P) + m[4].w) : m[5].x;
-    float4 p4 = (float4)(P + n * (texel * ((float)radius + SHADOW_NORMAL_OFFSET_TEXELS)), 1.0f);
-    float cw = dot(m[3], p4);
-    if (cw <= 0.0f) return 1.0f;
-    float fx = (dot(m[0], p4) / cw * 0.5f + 0.5f) * (float)size;
-    float fy = (0.5f - dot(m[1], p4) / cw * 0.5f) * (float)size;
-    float ref = dot(m[4], p4) - texel * SHADOW_BIAS_TEXELS;
-    int ix = (int)floor(fx), iy = (int)floor(fy);
-    float lit = 0.0f;
+    real texel = m[5].y > 0.5f ? m[5].x * shadow_row(m[4], P) : (real)(m[5].x);
+    vec3 q = v3add(P, v3scale(n, texel * ((float)radius + SHADOW_NORMAL_OFFSET_TEXELS)));
+    real cw = shadow_row(m[3], q);
+    mask front = cw > 0.0f;
+    real fx = (shadow_row(m[0], q) / cw * 0.5f + 0.5f) * (float)size;
+    real fy = (0.5f - shadow_row(m[1], q) / cw * 0.5f) * (float)size;
+    real ref = shadow_row(m[4], q) - texel * SHADOW_BIAS_TEXELS;
+    /* Saturating: a lane far outside the map (fx ≈ 1e30) must stay outside. */
+    mask ix = convert_mask_sat(floor(fx)), iy = convert_mask_sat(floor(fy));
+    int s = (int)size;
     __global const float* map = maps + (size_t)slot * size * size;
+    real lit = (real)(0.0f);
     for (int dy = -radius; dy <= radius; ++dy) {
         for (int dx = -radius; dx <= radius; ++dx) {
-            int x = ix + dx, y = iy + dy;
-            bool inside = x >= 0 && y >= 0 && x < (int)size && y < (int)size;
-            lit += (!inside || ref <= map[inside ? y * (int)size + x : 0]) ? 1.0f : 0.0f;
+            mask x = ix + dx, y = iy + dy;
+            mask inside = (x >= 0) & (y >= 0) & (x < s) & (y < s);
+            real d = gather(map, inside ? y * s + x : (mask)(0));
+            lit += ((inside == 0) | (ref <= d)) ? (real)(1.0f) : (real)(0.0f);
         }
     }
     int w = 2 * radius + 1;
-    return lit / (float)(w * w);
+    return front ? lit / (float)(w * w) : (real)(1.0f);
 }
 
 #endif

@@ -34,6 +34,7 @@ typedef uint uindex;
 #define as_mask as_int
 #define convert_real convert_float
 #define convert_uindex convert_uint
+#define convert_mask_sat convert_int_sat
 #define LANE_IOTA 0u
 #define VLOAD(i, p) ((p)[i])
 #define VLOAD_HALF(i, p) vload_half((i), (p))
@@ -46,6 +47,7 @@ typedef uint4 uindex;
 #define as_mask as_int4
 #define convert_real convert_float4
 #define convert_uindex convert_uint4
+#define convert_mask_sat convert_int4_sat
 #define LANE_IOTA ((uint4)(0u, 1u, 2u, 3u))
 #define VLOAD(i, p) vload4((i), (p))
 #define VLOAD_HALF(i, p) vload_half4((i), (p))
@@ -58,6 +60,7 @@ typedef uint8 uindex;
 #define as_mask as_int8
 #define convert_real convert_float8
 #define convert_uindex convert_uint8
+#define convert_mask_sat convert_int8_sat
 #define LANE_IOTA ((uint8)(0u, 1u, 2u, 3u, 4u, 5u, 6u, 7u))
 #define VLOAD(i, p) vload8((i), (p))
 #define VLOAD_HALF(i, p) vload_half8((i), (p))
@@ -80,6 +83,17 @@ typedef uint8 uindex;
  * table gathers, shadow-map taps). */
 typedef union { real v; float s[SIMD]; } real_lanes;
 typedef union { uindex v; uint s[SIMD]; } uindex_lanes;
+
+/* p[idx] per lane: a gather, one scalar load per lane (AVX2 has vgatherdps,
+ * but PoCL's LLVM does not emit it from this). */
+inline real gather(__global const float* p, mask idx) {
+    typedef union { mask v; int s[SIMD]; } mask_lanes;
+    mask_lanes k = {idx};
+    real_lanes r;
+    for (int j = 0; j < SIMD; ++j)
+        r.s[j] = p[k.s[j]];
+    return r.v;
+}
 
 /* A direction or an RGB colour, one per lane. */
 typedef struct { real x, y, z; } vec3;
