@@ -303,7 +303,7 @@ def _term_cases() -> dict[str, Callable[[np.random.Generator, int], TermCase]]:
 # The term functions with a kernel in terms.cl and a reference case above.
 TERMS: dict[str, Callable[[np.random.Generator, int], TermCase]] = _term_cases()
 
-_TERM_FN = re.compile(r"^inline\s+(?:real|vec3)\s+((?:D|V|F|Fd|Fs)_\w+)\s*\(", re.M)
+_TERM_FN = re.compile(r"^INLINE\s+(?:real|vec3)\s+((?:D|V|F|Fd|Fs)_\w+)\s*\(", re.M)
 
 
 def brdf_term_functions() -> list[str]:

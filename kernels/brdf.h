@@ -58,10 +58,10 @@
 
 /* ---- small math helpers -------------------------------------------------- */
 
-inline real sq(real x) { return x * x; }
-inline real pow5(real x) { real x2 = x * x; return x2 * x2 * x; }
-inline real saturate(real x) { return clamp(x, 0.0f, 1.0f); }
-inline real safe_sqrt(real x) { return sqrt(fmax(x, 0.0f)); }
+INLINE real sq(real x) { return x * x; }
+INLINE real pow5(real x) { real x2 = x * x; return x2 * x2 * x; }
+INLINE real saturate(real x) { return clamp(x, 0.0f, 1.0f); }
+INLINE real safe_sqrt(real x) { return sqrt(fmax(x, 0.0f)); }
 
 /* log2 x for normal x > 0 in straight-line lane-wise code: PoCL's float8
  * log2/log are not vectorised (they cost as much as the rest of a Phong
@@ -69,7 +69,7 @@ inline real safe_sqrt(real x) { return sqrt(fmax(x, 0.0f)); }
  * with the minimax polynomial P of Cephes logf (S. Moshier, Cephes Math
  * Library, 1984–2000): error ≤ 2 ulp of ln m, measured against float64 by
  * tests/test_terms.py through Fs_Phong and Fs_BlinnPhong. */
-inline real log2_lanes(real x) {
+INLINE real log2_lanes(real x) {
     mask bits = as_mask(x);
     mask e = ((bits >> 23) & 0xff) - 127;
     real m = as_real((bits & 0x007fffff) | 0x3f800000);
@@ -89,9 +89,28 @@ inline real log2_lanes(real x) {
     return ln_m * 1.44269504089f + convert_real(e);
 }
 
+/* eˣ in straight-line lane-wise code, for x ≤ 88 (0 below −87, where eˣ is
+ * subnormal). PoCL's precise float8 exp cost 28 % of a 4-light Cook–Torrance
+ * frame (A/B, 2026-11-23); this one ~6 %. Cody–Waite reduction x = k ln 2 + r
+ * (ln 2 split in two so that k ln 2 is exact), eʳ by the minimax polynomial of
+ * Cephes expf (S. Moshier) on |r| ≤ ½ ln 2, scaled by 2ᵏ built in the
+ * exponent bits: ≤ 2 ulp, measured against float64 by tests/test_terms.py
+ * through D_Beckmann. */
+INLINE real exp_lanes(real x) {
+    real c = clamp(x, -87.0f, 88.0f);
+    mask k = convert_mask_rte(c * 1.44269504089f);
+    real kf = convert_real(k);
+    real r = (c - kf * 0.693359375f) + kf * 2.12194440e-4f;
+    real z = r * r;
+    real p = (5.0000001201e-1f + 1.6666665459e-1f * r) + (4.1665795894e-2f + 8.3334519073e-3f * r) * z
+           + (1.3981999507e-3f + 1.9875691500e-4f * r) * (z * z);
+    real y = (p * z + r) + 1.0f;
+    return x < -87.0f ? (real)(0.0f) : y * as_real((k + 127) << 23);
+}
+
 /* xⁿ for a runtime exponent, without pow() (≈190 ns per call on PoCL):
  * exp2(n·log2 x). x ≥ 0, n ≥ 0; 0⁰ = 1. */
-inline real pow_runtime(real x, real n) {
+INLINE real pow_runtime(real x, real n) {
     return exp2(n * log2_lanes(fmax(x, MIN_POW_BASE)));
 }
 
@@ -100,27 +119,27 @@ inline real pow_runtime(real x, real n) {
 /* GGX / Trowbridge–Reitz (Walter et al. 2007, eq. 33).
  * D = α² / (π ((n·h)²(α²−1) + 1)²); 1 − (n·h)² is passed in as sin2_nh,
  * computed from |n × h|² to keep precision near the peak (Filament). */
-inline real D_GGX(real nh, real sin2_nh, real alpha) {
+INLINE real D_GGX(real nh, real sin2_nh, real alpha) {
     real a2 = alpha * alpha;
     real d = sin2_nh + nh * nh * a2;          /* = (n·h)²(α²−1) + 1 */
     return a2 / (CLSHADE_PI * d * d);
 }
 
 /* Beckmann (Cook & Torrance 1982): D = exp(−tan²θh/m²) / (π m² cos⁴θh). */
-inline real D_Beckmann(real nh, real sin2_nh, real m) {
+INLINE real D_Beckmann(real nh, real sin2_nh, real m) {
     real c = fmax(nh, MIN_N_DOT_H_BECKMANN);
     real m2 = m * m;
     /* One division: t = 1/(m² cos²θh), 1/(π m² cos⁴θh) = t² m²/π. t ≤ 1e14 at
      * the floors (MIN_ALPHA, MIN_N_DOT_H_BECKMANN), so t² stays finite. */
     real t = 1.0f / (c * c * m2);
-    return exp(-sin2_nh * t) * (t * t * m2 * CLSHADE_INV_PI);
+    return exp_lanes(-sin2_nh * t) * (t * t * m2 * CLSHADE_INV_PI);
 }
 
 /* ---- visibility V = G / (4 (n·l)(n·v)) ----------------------------------- */
 
 /* Height-correlated Smith for GGX (Heitz 2014, eq. 99), as Filament writes it:
  * V = 0.5 / (n·l √((n·v)²(1−α²)+α²) + n·v √((n·l)²(1−α²)+α²)). */
-inline real V_SmithGGXCorrelated(real nl, real nv, real alpha) {
+INLINE real V_SmithGGXCorrelated(real nl, real nv, real alpha) {
     real a2 = alpha * alpha;
     real gv = nl * sqrt(nv * nv * (1.0f - a2) + a2);
     real gl = nv * sqrt(nl * nl * (1.0f - a2) + a2);
@@ -130,7 +149,7 @@ inline real V_SmithGGXCorrelated(real nl, real nv, real alpha) {
 /* Separable Smith for GGX (Walter et al. 2007, eq. 34): G = G1(l)·G1(v),
  * G1(x) = 2(n·x) / (n·x + √(α² + (1−α²)(n·x)²)). Divided by 4(n·l)(n·v)
  * in closed form so that no cosine is divided by. */
-inline real V_SmithGGXSeparable(real nl, real nv, real alpha) {
+INLINE real V_SmithGGXSeparable(real nl, real nv, real alpha) {
     real a2 = alpha * alpha;
     real sl = nl + sqrt(a2 + (1.0f - a2) * nl * nl);
     real sv = nv + sqrt(a2 + (1.0f - a2) * nv * nv);
@@ -139,14 +158,14 @@ inline real V_SmithGGXSeparable(real nl, real nv, real alpha) {
 
 /* Smith with Schlick's approximation, k = α/2 (the study's shader):
  * G1(x) = n·x / (n·x(1−k) + k), divided by 4(n·l)(n·v) in closed form. */
-inline real V_SmithSchlickGGX(real nl, real nv, real alpha) {
+INLINE real V_SmithSchlickGGX(real nl, real nv, real alpha) {
     real k = 0.5f * alpha;
     return 0.25f / ((nl * (1.0f - k) + k) * (nv * (1.0f - k) + k));
 }
 
 /* Cook–Torrance V-cavity G (Cook & Torrance 1982, Torrance–Sparrow):
  * G = min(1, 2(n·h)(n·v)/(v·h), 2(n·h)(n·l)/(v·h)), over 4(n·l)(n·v). */
-inline real V_CookTorrance(real nl, real nv, real nh, real vh) {
+INLINE real V_CookTorrance(real nl, real nv, real nh, real vh) {
     /* min(1, a/b) = min(b, a)/b with b = v·h > 0: one division for G and V. */
     real b = fmax(vh, MIN_N_DOT_V);
     return fmin(2.0f * nh * fmin(nv, nl), b) / (4.0f * nl * nv * b);
@@ -155,7 +174,7 @@ inline real V_CookTorrance(real nl, real nv, real nh, real vh) {
 /* ---- Fresnel F ----------------------------------------------------------- */
 
 /* Schlick 1994: F = f0 + (f90 − f0)(1 − v·h)⁵. */
-inline vec3 F_Schlick(real vh, vec3 f0, real f90) {
+INLINE vec3 F_Schlick(real vh, vec3 f0, real f90) {
     real w = pow5(1.0f - vh);
     return v3(f0.x + (f90 - f0.x) * w, f0.y + (f90 - f0.y) * w, f0.z + (f90 - f0.z) * w);
 }
@@ -164,7 +183,7 @@ inline vec3 F_Schlick(real vh, vec3 f0, real f90) {
  * (Cook & Torrance 1982; Walter et al. 2007, eq. 22):
  * g = √(η² − 1 + c²), F = ½ ((g−c)/(g+c))² (1 + ((c(g+c)−1)/(c(g−c)+1))²),
  * total internal reflection (g² < 0) → 1. */
-inline real F_Dielectric(real c, real eta) {
+INLINE real F_Dielectric(real c, real eta) {
     real g2 = eta * eta - 1.0f + c * c;
     real g = safe_sqrt(g2);
     real a = (g - c) / (g + c + 1.0e-30f);
@@ -176,7 +195,7 @@ inline real F_Dielectric(real c, real eta) {
 /* Exact unpolarised Fresnel reflectance of a conductor with complex IOR
  * η + ik, one channel (Lagarde 2013, "Memo on Fresnel equations"; pbrt).
  * a² + b² = √((η²−k²−s²)² + 4η²k²), s² = 1 − c². */
-inline real fresnel_conductor_channel(real c, real eta, real k) {
+INLINE real fresnel_conductor_channel(real c, real eta, real k) {
     real c2 = c * c;
     real s2 = 1.0f - c2;
     /* t0 = η² − k² − s², summed as (η² − k² − 1) + c² so that an index-matched
@@ -203,18 +222,18 @@ inline real fresnel_conductor_channel(real c, real eta, real k) {
 }
 
 /* The conductor per RGB channel. */
-inline vec3 F_Conductor(real c, vec3 eta, vec3 k) {
+INLINE vec3 F_Conductor(real c, vec3 eta, vec3 k) {
     return v3(fresnel_conductor_channel(c, eta.x, k.x), fresnel_conductor_channel(c, eta.y, k.y), fresnel_conductor_channel(c, eta.z, k.z));
 }
 
 /* ---- diffuse ------------------------------------------------------------- */
 
 /* Lambert: f = 1/π (times the diffuse colour in compose.h). */
-inline real Fd_Lambert(void) { return (real)(CLSHADE_INV_PI); }
+INLINE real Fd_Lambert(void) { return (real)(CLSHADE_INV_PI); }
 
 /* Disney / Burley 2012: (1/π)(1 + (F90−1)(1−n·l)⁵)(1 + (F90−1)(1−n·v)⁵),
  * F90 = 0.5 + 2 α (l·h)². */
-inline real Fd_Burley(real nl, real nv, real lh, real alpha) {
+INLINE real Fd_Burley(real nl, real nv, real lh, real alpha) {
     real f90 = 0.5f + 2.0f * alpha * lh * lh;
     real light = 1.0f + (f90 - 1.0f) * pow5(1.0f - nl);
     real view = 1.0f + (f90 - 1.0f) * pow5(1.0f - nv);
@@ -225,7 +244,7 @@ inline real Fd_Burley(real nl, real nv, real lh, real alpha) {
  * A = 1 − 0.5σ²/(σ²+0.33), B = 0.45σ²/(σ²+0.09). Without trigonometry:
  * cos(φi−φo) sin θi sin θo = l·v − (n·l)(n·v) and tan β = sin β / cos β with
  * cos β = max(n·l, n·v), so the bracket is A + B max(0, l·v − nl·nv)/max(nl, nv). */
-inline real Fd_OrenNayar(real nl, real nv, real lv, real sigma) {
+INLINE real Fd_OrenNayar(real nl, real nv, real lv, real sigma) {
     real s2 = sigma * sigma;
     real A = 1.0f - 0.5f * s2 / (s2 + 0.33f);
     real B = 0.45f * s2 / (s2 + 0.09f);
@@ -236,9 +255,9 @@ inline real Fd_OrenNayar(real nl, real nv, real lv, real sigma) {
 /* ---- empirical lobes ----------------------------------------------------- */
 
 /* Phong 1975, as a BRDF ("modified Phong", Lewis 1994): (r·v)ⁿ, r = 2(n·l)n − l. */
-inline real Fs_Phong(real rv, real n) { return pow_runtime(fmax(rv, 0.0f), n); }
+INLINE real Fs_Phong(real rv, real n) { return pow_runtime(fmax(rv, 0.0f), n); }
 
 /* Blinn 1977: (n·h)ⁿ. */
-inline real Fs_BlinnPhong(real nh, real n) { return pow_runtime(nh, n); }
+INLINE real Fs_BlinnPhong(real nh, real n) { return pow_runtime(nh, n); }
 
 #endif

@@ -10,7 +10,7 @@
 #ifndef CLSHADE_COMPOSE_H
 #define CLSHADE_COMPOSE_H
 
-inline vec3 brdf(const Geometry g, const Surface s) {
+INLINE vec3 brdf(const Geometry g, const Surface s) {
     vec3 f = v3s((real)(0.0f));
 #if HAS_DIFFUSE
 #if HAS_SPECULAR && SPECULAR_FRESNEL && WORKFLOW == WORKFLOW_METALLIC
@@ -35,7 +35,7 @@ inline vec3 brdf(const Geometry g, const Surface s) {
 /* Radiance reflected towards v from one light of irradiance E arriving from l
  * (unit, towards the light): f · (n·l) · E, and exactly 0 below the horizon.
  * E·(n·l) is formed first so that a huge E times a 0 lobe never makes NaN. */
-inline vec3 shade_light(vec3 n, vec3 v, vec3 l, vec3 E, const Surface s) {
+INLINE vec3 shade_light(vec3 n, vec3 v, vec3 l, vec3 E, const Surface s) {
     /* Every lane below the horizon or unlit (outside a spot cone): the sum
      * below would add exactly 0, so skip the BRDF. One branch per work-item
      * (lanes are neighbouring pixels, mostly alike); about half the covered
@@ -53,7 +53,7 @@ inline vec3 shade_light(vec3 n, vec3 v, vec3 l, vec3 E, const Surface s) {
  * L_a = k_a · A · (k_d · diffuse_color + k_s · F0), k_d = 1 − F0 in the metallic workflow. The specular part uses F0 as
  * a crude hemispherical albedo of the specular lobe, so that metals (no diffuse
  * colour) are not black under ambient light. */
-inline vec3 ambient_term(vec3 A, const Surface s) {
+INLINE vec3 ambient_term(vec3 A, const Surface s) {
     vec3 r = v3s((real)(0.0f));
 #if HAS_DIFFUSE
 #if HAS_SPECULAR && SPECULAR_FRESNEL && WORKFLOW == WORKFLOW_METALLIC

@@ -26,14 +26,14 @@
 #else
 #define LOAD_PLANE(i, p) VLOAD((i), (p))
 #endif
-inline vec3 load3(size_t i, __global const GB3* p, uint plane) {
+INLINE vec3 load3(size_t i, __global const GB3* p, uint plane) {
     return v3(LOAD_PLANE(i, p), LOAD_PLANE(i, p + plane), LOAD_PLANE(i, p + 2 * plane));
 }
 
 /* Write the SIMD pixels of work-item i as float4 (r, g, b, a). SIMD 8 builds
  * the four interleaved float8 rows explicitly: the per-lane loop through the
  * unions made the copy kernel ≈ 1.4× slower at 1080p (measured back to back). */
-inline void store4(size_t i, __global float4* out, vec3 c, real a) {
+INLINE void store4(size_t i, __global float4* out, vec3 c, real a) {
 #if SIMD == 8
     __global float* o = (__global float*)(out + 8 * i);
     vstore8((float8)(c.x.s0, c.y.s0, c.z.s0, a.s0, c.x.s1, c.y.s1, c.z.s1, a.s1), 0, o);

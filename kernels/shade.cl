@@ -68,7 +68,7 @@
 
 #if HAS_MATERIAL
 /* Each lane's row of the material table (a gather: lanes may differ). */
-__attribute__((always_inline)) inline Material material_gather(uindex id, __constant float4* materials) {
+INLINE Material material_gather(uindex id, __constant float4* materials) {
     uindex_lanes ids = {id};
     /* Fast path: neighbouring pixels mostly share a material. A branch per
      * work-item, not per lane (nothing vectorises across work-items here). */

@@ -34,13 +34,13 @@
 #define SHADOW_BIAS_TEXELS          0.5f
 
 /* row · (q, 1): one row of a light matrix applied to lane points q. */
-inline real shadow_row(float4 row, vec3 q) { return row.x * q.x + row.y * q.y + row.z * q.z + row.w; }
+INLINE real shadow_row(float4 row, vec3 q) { return row.x * q.x + row.y * q.y + row.z * q.z + row.w; }
 
 /* Fraction of PCF taps (a (2·radius + 1)² box of map texels) that see the
  * light from P, per lane. Receivers outside the map, or behind the light's
  * projection centre, are lit. n unit (the shading normal; the G-buffer keeps
  * no geometric normal). */
-inline real shadow_factor(__global const float* maps, __constant float4* params, int slot, uint size,
+INLINE real shadow_factor(__global const float* maps, __constant float4* params, int slot, uint size,
                           vec3 P, vec3 n, int radius) {
     __constant float4* m = params + SHADOW_ROWS * slot;
     real texel = m[5].y > 0.5f ? m[5].x * shadow_row(m[4], P) : (real)(m[5].x);

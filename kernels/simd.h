@@ -26,6 +26,12 @@
 #define SIMD 1
 #endif
 
+/* Every helper is inlined into the kernel. PoCL's inliner gave up on
+ * shade_light() once a lobe grew (Cook–Torrance), and a call spills every live
+ * vector register around it: 5 % of a 4-light Cook–Torrance frame, 4–6 % of
+ * Phong with material_gather (A/B in one process, 2026-11-23). */
+#define INLINE __attribute__((always_inline)) inline
+
 #if SIMD == 1
 typedef float real;
 typedef int mask;
@@ -34,6 +40,7 @@ typedef uint uindex;
 #define as_mask as_int
 #define convert_real convert_float
 #define convert_uindex convert_uint
+#define convert_mask_rte convert_int_rte
 #define convert_mask_sat convert_int_sat
 #define LANE_IOTA 0u
 #define VLOAD(i, p) ((p)[i])
@@ -47,6 +54,7 @@ typedef uint4 uindex;
 #define as_mask as_int4
 #define convert_real convert_float4
 #define convert_uindex convert_uint4
+#define convert_mask_rte convert_int4_rte
 #define convert_mask_sat convert_int4_sat
 #define LANE_IOTA ((uint4)(0u, 1u, 2u, 3u))
 #define VLOAD(i, p) vload4((i), (p))
@@ -60,6 +68,7 @@ typedef uint8 uindex;
 #define as_mask as_int8
 #define convert_real convert_float8
 #define convert_uindex convert_uint8
+#define convert_mask_rte convert_int8_rte
 #define convert_mask_sat convert_int8_sat
 #define LANE_IOTA ((uint8)(0u, 1u, 2u, 3u, 4u, 5u, 6u, 7u))
 #define VLOAD(i, p) vload8((i), (p))
@@ -86,7 +95,7 @@ typedef union { uindex v; uint s[SIMD]; } uindex_lanes;
 
 /* p[idx] per lane: a gather, one scalar load per lane (AVX2 has vgatherdps,
  * but PoCL's LLVM does not emit it from this). */
-inline real gather(__global const float* p, mask idx) {
+INLINE real gather(__global const float* p, mask idx) {
     typedef union { mask v; int s[SIMD]; } mask_lanes;
     mask_lanes k = {idx};
     real_lanes r;
@@ -98,26 +107,26 @@ inline real gather(__global const float* p, mask idx) {
 /* A direction or an RGB colour, one per lane. */
 typedef struct { real x, y, z; } vec3;
 
-inline vec3 v3(real x, real y, real z) { vec3 r; r.x = x; r.y = y; r.z = z; return r; }
-inline vec3 v3s(real s) { return v3(s, s, s); }
-inline vec3 v3c(float3 c) { return v3((real)(c.x), (real)(c.y), (real)(c.z)); }
-inline vec3 v3add(vec3 a, vec3 b) { return v3(a.x + b.x, a.y + b.y, a.z + b.z); }
-inline vec3 v3sub(vec3 a, vec3 b) { return v3(a.x - b.x, a.y - b.y, a.z - b.z); }
-inline vec3 v3mul(vec3 a, vec3 b) { return v3(a.x * b.x, a.y * b.y, a.z * b.z); }
-inline vec3 v3scale(vec3 a, real s) { return v3(a.x * s, a.y * s, a.z * s); }
-inline vec3 v3neg(vec3 a) { return v3(-a.x, -a.y, -a.z); }
-inline vec3 v3max(vec3 a, float m) { return v3(fmax(a.x, m), fmax(a.y, m), fmax(a.z, m)); }
-inline vec3 v3min(vec3 a, float m) { return v3(fmin(a.x, m), fmin(a.y, m), fmin(a.z, m)); }
-inline real v3dot(vec3 a, vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-inline vec3 v3cross(vec3 a, vec3 b) {
+INLINE vec3 v3(real x, real y, real z) { vec3 r; r.x = x; r.y = y; r.z = z; return r; }
+INLINE vec3 v3s(real s) { return v3(s, s, s); }
+INLINE vec3 v3c(float3 c) { return v3((real)(c.x), (real)(c.y), (real)(c.z)); }
+INLINE vec3 v3add(vec3 a, vec3 b) { return v3(a.x + b.x, a.y + b.y, a.z + b.z); }
+INLINE vec3 v3sub(vec3 a, vec3 b) { return v3(a.x - b.x, a.y - b.y, a.z - b.z); }
+INLINE vec3 v3mul(vec3 a, vec3 b) { return v3(a.x * b.x, a.y * b.y, a.z * b.z); }
+INLINE vec3 v3scale(vec3 a, real s) { return v3(a.x * s, a.y * s, a.z * s); }
+INLINE vec3 v3neg(vec3 a) { return v3(-a.x, -a.y, -a.z); }
+INLINE vec3 v3max(vec3 a, float m) { return v3(fmax(a.x, m), fmax(a.y, m), fmax(a.z, m)); }
+INLINE vec3 v3min(vec3 a, float m) { return v3(fmin(a.x, m), fmin(a.y, m), fmin(a.z, m)); }
+INLINE real v3dot(vec3 a, vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+INLINE vec3 v3cross(vec3 a, vec3 b) {
     return v3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
 }
 /* Lane-wise choice: c ? a : b. */
-inline vec3 v3select(mask c, vec3 a, vec3 b) {
+INLINE vec3 v3select(mask c, vec3 a, vec3 b) {
     return v3(c ? a.x : b.x, c ? a.y : b.y, c ? a.z : b.z);
 }
 /* a + t (b − a), lane-wise t. */
-inline vec3 v3mix(vec3 a, vec3 b, real t) {
+INLINE vec3 v3mix(vec3 a, vec3 b, real t) {
     return v3(a.x + (b.x - a.x) * t, a.y + (b.y - a.y) * t, a.z + (b.z - a.z) * t);
 }
 

@@ -61,7 +61,7 @@ typedef struct {
 } Surface;
 
 /* One material, the same in every lane (a table row or the baked constants). */
-inline Material material_uniform(float4 m0, float4 m1, float4 m2, float4 m3) {
+INLINE Material material_uniform(float4 m0, float4 m1, float4 m2, float4 m3) {
     Material m;
     m.kd = (real)(m0.x); m.ks = (real)(m0.y); m.ka = (real)(m0.z); m.shininess = (real)(m0.w);
     m.ior = (real)(m1.x); m.f90 = (real)(m1.y);
@@ -76,13 +76,13 @@ inline Material material_uniform(float4 m0, float4 m1, float4 m2, float4 m3) {
 #define MIN_UNIT_LEN2 1.0e-20f
 
 /* x normalised, or `fallback` where x has no usable direction (lane-wise). */
-inline vec3 unit_or(vec3 x, vec3 fallback) {
+INLINE vec3 unit_or(vec3 x, vec3 fallback) {
     real len2 = v3dot(x, x);
     return v3select(len2 > MIN_UNIT_LEN2, v3scale(x, rsqrt(len2)), fallback);
 }
 
 /* n, l, v unit length. */
-inline Geometry make_geometry(vec3 n, vec3 l, vec3 v) {
+INLINE Geometry make_geometry(vec3 n, vec3 l, vec3 v) {
     Geometry g;
     real nv_raw = v3dot(n, v);
     g.nl_raw = v3dot(n, l);
@@ -104,7 +104,7 @@ inline Geometry make_geometry(vec3 n, vec3 l, vec3 v) {
 }
 
 /* Inputs are sanitised: base ≥ 0, roughness and metallic in [0, 1]. */
-inline Surface make_surface(vec3 base, real roughness, real metallic, const Material m) {
+INLINE Surface make_surface(vec3 base, real roughness, real metallic, const Material m) {
     Surface s;
     s.base = base;
     s.roughness = roughness;
@@ -128,7 +128,7 @@ inline Surface make_surface(vec3 base, real roughness, real metallic, const Mate
 }
 
 /* The Fresnel term chosen at compile time, at incidence cosine c. */
-inline vec3 fresnel_cos(real c, const Surface s) {
+INLINE vec3 fresnel_cos(real c, const Surface s) {
 #if FRESNEL == FRESNEL_DIELECTRIC
     return v3s(F_Dielectric(c, s.ior));
 #elif FRESNEL == FRESNEL_CONDUCTOR
@@ -139,6 +139,6 @@ inline vec3 fresnel_cos(real c, const Surface s) {
 }
 
 /* The microfacet lobes' F, at the microfacet incidence v·h. */
-inline vec3 fresnel(const Geometry g, const Surface s) { return fresnel_cos(g.vh, s); }
+INLINE vec3 fresnel(const Geometry g, const Surface s) { return fresnel_cos(g.vh, s); }
 
 #endif

@@ -24,7 +24,7 @@ __kernel void term_##NAME(const uint count, __global const float4* x,         \
 }
 
 #define SCALAR(value) (float4)((value), 0.0f, 0.0f, 0.0f)
-inline float4 colour4(vec3 c) { return (float4)(c.x, c.y, c.z, 0.0f); }
+INLINE float4 colour4(vec3 c) { return (float4)(c.x, c.y, c.z, 0.0f); }
 #define COLOUR(value) colour4(value)
 
 TERM_KERNEL(D_GGX,               SCALAR(D_GGX(a.x, a.y, a.z)))

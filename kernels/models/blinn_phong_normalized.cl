@@ -12,7 +12,7 @@
  * uses: shininess, kd, ks, ka
  * note: (n+8)/(8π) is an approximate normalisation: the albedo is close to, not exactly, 1.
  */
-inline vec3 specular_lobe(const Geometry g, const Surface s) {
+INLINE vec3 specular_lobe(const Geometry g, const Surface s) {
     real norm = (s.shininess + 8.0f) * (0.125f * CLSHADE_INV_PI);
     return v3s(norm * Fs_BlinnPhong(g.nh, s.shininess));
 }

@@ -9,6 +9,6 @@
  * uses: roughness
  * note: Not energy conserving by design: albedo 1 − 1/42 at r = 0 and above 1 at r = 1 (retro-reflection).
  */
-inline real diffuse_lobe(const Geometry g, const Surface s) {
+INLINE real diffuse_lobe(const Geometry g, const Surface s) {
     return Fd_Burley(g.nl, g.nv, g.vh, s.alpha);
 }

@@ -9,7 +9,7 @@
  * uses: roughness, fresnel
  * deviation: the Beckmann normalisation is 1/(π m² cos⁴θ) as in the paper's text; the study's appendix writes 1/(4m²cos⁴θ). The lobe divides by 4(n·l)(n·v); the appendix's `(F*G*D)/4*NdotL*NdotV` multiplies by them through operator precedence.
  */
-inline vec3 specular_lobe(const Geometry g, const Surface s) {
+INLINE vec3 specular_lobe(const Geometry g, const Surface s) {
     real D = D_Beckmann(g.nh, g.sin2_nh, s.alpha);
     real V = V_CookTorrance(g.nl, g.nv, g.nh, g.vh);
     return v3scale(fresnel(g, s), D * V);

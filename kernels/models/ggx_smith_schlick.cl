@@ -9,7 +9,7 @@
  * uses: roughness, fresnel
  * note: the study's shader shortcut, kept as a rung of the approximation ladder against walter_ggx and ggx_correlated.
  */
-inline vec3 specular_lobe(const Geometry g, const Surface s) {
+INLINE vec3 specular_lobe(const Geometry g, const Surface s) {
     real D = D_GGX(g.nh, g.sin2_nh, s.alpha);
     real V = V_SmithSchlickGGX(g.nl, g.nv, s.alpha);
     return v3scale(fresnel(g, s), D * V);

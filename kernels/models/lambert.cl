@@ -8,6 +8,6 @@
  * uses: -
  * note: Energy conserving with albedo exactly 1 for a white surface.
  */
-inline real diffuse_lobe(const Geometry g, const Surface s) {
+INLINE real diffuse_lobe(const Geometry g, const Surface s) {
     return Fd_Lambert();
 }

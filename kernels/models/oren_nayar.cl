@@ -9,6 +9,6 @@
  * uses: roughness
  * deviation: none from the study's A/B approximation; evaluated without trigonometry (see Fd_OrenNayar in brdf.h). σ = 0 is exactly Lambert.
  */
-inline real diffuse_lobe(const Geometry g, const Surface s) {
+INLINE real diffuse_lobe(const Geometry g, const Surface s) {
     return Fd_OrenNayar(g.nl, g.nv, g.lv, s.roughness);
 }

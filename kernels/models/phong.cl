@@ -12,6 +12,6 @@
  * uses: shininess, kd, ks, ka
  * deviation: the lobe is the reciprocal "modified Phong" BRDF, multiplied by n·l like every BRDF here; the study's shader adds the specular term without n·l and adds ambient and diffuse outside the k_d + k_s = 1 rule.
  */
-inline vec3 specular_lobe(const Geometry g, const Surface s) {
+INLINE vec3 specular_lobe(const Geometry g, const Surface s) {
     return v3s(Fs_Phong(g.rv, s.shininess));
 }

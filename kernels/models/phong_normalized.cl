@@ -12,7 +12,7 @@
  * uses: shininess, kd, ks, ka
  * note: albedo of the lobe is exactly 1 at normal incidence and below 1 elsewhere.
  */
-inline vec3 specular_lobe(const Geometry g, const Surface s) {
+INLINE vec3 specular_lobe(const Geometry g, const Surface s) {
     real norm = (s.shininess + 2.0f) * (0.5f * CLSHADE_INV_PI);
     return v3s(norm * Fs_Phong(g.rv, s.shininess));
 }

@@ -9,7 +9,7 @@
  * uses: roughness, fresnel
  * deviation: the study's appendix uses Schlick's G1 with k = α/2 and the same k as the metallic blend; here G1 is Walter's exact Smith G1 (the k = α/2 shortcut is the separate model ggx_smith_schlick).
  */
-inline vec3 specular_lobe(const Geometry g, const Surface s) {
+INLINE vec3 specular_lobe(const Geometry g, const Surface s) {
     real D = D_GGX(g.nh, g.sin2_nh, s.alpha);
     real V = V_SmithGGXSeparable(g.nl, g.nv, s.alpha);
     return v3scale(fresnel(g, s), D * V);
