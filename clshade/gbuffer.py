@@ -50,14 +50,17 @@ class GBuffer:
 
     def mean_bytes_per_pixel(self, names: tuple[str, ...] | list[str], half: bool, simd: int,
                              written: int) -> float:
-        """Bytes a pass moves per pixel averaged over the frame: a work-item of `simd`
-        pixels with none covered reads only depth (the kernels' sky skip, shade.cl and
-        copy.cl); every work-item writes `written` bytes per pixel."""
+        """Bytes a pass moves per pixel of the frame: a work-item of `simd` pixels
+        (the last one padded) reads every channel when one of its pixels is covered and
+        only depth otherwise (the kernels' sky skip, shade.cl and copy.cl), and writes
+        `written` bytes per pixel."""
         cov = np.zeros(-(-self.pixels // simd) * simd, bool)
         cov[:self.pixels] = self.coverage.ravel()
-        active = float(cov.reshape(-1, simd).any(axis=1).mean())
-        depth = self.bytes_per_pixel(("depth",))
-        return depth + written + active * (self.bytes_per_pixel(names, half) - depth)
+        active = int(cov.reshape(-1, simd).any(axis=1).sum())
+        groups = len(cov) // simd
+        full = self.bytes_per_pixel(names, half) + written
+        empty = self.bytes_per_pixel(("depth",)) + written
+        return simd * (active * full + (groups - active) * empty) / self.pixels
 
     def channel(self, name: str, half: bool = False) -> np.ndarray:
         data = self.channels[name]

@@ -80,11 +80,11 @@ INLINE real log2_lanes(real x) {
     real z = f * f, z2 = z * z;
     /* P(f) = Σ c_k f^k, k = 0..8, evaluated by Estrin's scheme: 4 dependent
      * steps instead of Horner's 9. */
-    real e0 = 3.3333331174e-1f - 2.4999993993e-1f * f;
-    real e1 = 2.0000714765e-1f - 1.6668057665e-1f * f;
-    real e2 = 1.4249322787e-1f - 1.2420140846e-1f * f;
-    real e3 = 1.1676998740e-1f - 1.1514610310e-1f * f;
-    real p = (e0 + e1 * z) + (e2 + e3 * z) * z2 + 7.0376836292e-2f * (z2 * z2);
+    real c01 = 3.3333331174e-1f - 2.4999993993e-1f * f;
+    real c23 = 2.0000714765e-1f - 1.6668057665e-1f * f;
+    real c45 = 1.4249322787e-1f - 1.2420140846e-1f * f;
+    real c67 = 1.1676998740e-1f - 1.1514610310e-1f * f;
+    real p = (c01 + c23 * z) + (c45 + c67 * z) * z2 + 7.0376836292e-2f * (z2 * z2);
     real ln_m = f + (p * f * z - 0.5f * z);
     return ln_m * 1.44269504089f + convert_real(e);
 }

@@ -41,7 +41,7 @@ INLINE vec3 shade_light(vec3 n, vec3 v, vec3 l, vec3 E, const Surface s) {
      * (lanes are neighbouring pixels, mostly alike); about half the covered
      * work-items face away from a given light. */
     real e_max = fmax(fmax(E.x, E.y), E.z);
-    if (!ANY((v3dot(n, l) > 0.0f) & (e_max > 0.0f)))
+    if (!ANY(faces_light(n, l) & (e_max > 0.0f)))
         return v3s((real)(0.0f));
     Geometry g = make_geometry(n, l, v);
     vec3 e = v3scale(E, g.nl);

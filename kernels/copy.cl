@@ -20,7 +20,7 @@ __kernel void copy(const uint npix, const uint plane,
     if (SIMD * i >= npix) return;
     real w = VLOAD(i, depth);
     /* shade.cl reads only the depth of a work-item with no covered pixel. */
-    if (!ANY(w > 0.0f)) {
+    if (all_empty(w)) {
         store4(i, out, v3s((real)(0.0f)), w);
         return;
     }

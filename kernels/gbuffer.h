@@ -30,6 +30,11 @@ INLINE vec3 load3(size_t i, __global const GB3* p, uint plane) {
     return v3(LOAD_PLANE(i, p), LOAD_PLANE(i, p + plane), LOAD_PLANE(i, p + 2 * plane));
 }
 
+/* None of the work-item's pixels is covered (depth ≤ 0 in every lane): the
+ * shading kernel then reads only depth and writes the background, and the copy
+ * kernel does the same so that the bandwidth floor moves the same bytes. */
+INLINE int all_empty(real depth) { return !ANY(depth > 0.0f); }
+
 /* Write the SIMD pixels of work-item i as float4 (r, g, b, a). SIMD 8 builds
  * the four interleaved float8 rows explicitly: the per-lane loop through the
  * unions made the copy kernel ≈ 1.4× slower at 1080p (measured back to back). */

@@ -21,7 +21,8 @@
  *                                  variant must match (tests/test_specialisation.py)
  *
  * Channel layout (struct of arrays, one entry per pixel, row 0 at the top;
- * `plane` = npix padded to a multiple of SIMD, see gbuffer.h):
+ * `plane` = npix padded to a multiple of 8 = runtime.SIMD_PAD ≥ SIMD, see
+ * gbuffer.h):
  *   depth     float   view-space depth along the camera axis, ≤ 0 = empty
  *   normal    3 planes of float: world-space shading normal (or half)
  *   base      3 planes of float: linear base colour (or half)
@@ -131,6 +132,15 @@ __kernel void shade(
     size_t i = get_global_id(0);
     if (SIMD * i >= npix) return;
 
+    real z = VLOAD(i, depth);
+    mask covered = z > 0.0f;
+    /* Sky: a work-item with no covered pixel reads nothing else and writes the
+     * background (copy.cl skips the same reads, so the floor stays fair). */
+    if (all_empty(z)) {
+        store4(i, out, v3c(background.xyz), (real)(background.w));
+        return;
+    }
+
     /* Camera rays through the pixel centres; cam_right/cam_up are pre-scaled by
      * tan(fov/2)·aspect and tan(fov/2), so P = cam_pos + depth · ray. */
     /* Lane j is pixel SIMD·i + j: one division per work-item, then at most one
@@ -145,14 +155,6 @@ __kernel void shade(
     real sy = 1.0f - (convert_real(py) + 0.5f) * inv_height2;
     vec3 ray = v3add(v3c(cam_fwd.xyz), v3add(v3scale(v3c(cam_right.xyz), sx), v3scale(v3c(cam_up.xyz), sy)));
     vec3 v = v3scale(ray, -rsqrt(v3dot(ray, ray)));
-    real z = VLOAD(i, depth);
-    mask covered = z > 0.0f;
-    /* Sky: a work-item with no covered pixel reads nothing else and writes the
-     * background (copy.cl skips the same reads, so the floor stays fair). */
-    if (!ANY(covered)) {
-        store4(i, out, v3c(background.xyz), (real)(background.w));
-        return;
-    }
 
     vec3 n = unit_or(load3(i, normal, plane), v);     /* a bad normal shades as if facing the viewer */
     vec3 b = v3max(load3(i, base, plane), 0.0f);
@@ -197,7 +199,7 @@ __kernel void shade(
                 E = v3scale(v3c(c.xyz), 1.0f / d2);
             }
         }
-        if (has_shadows && c.w >= 0.0f && ANY(v3dot(n, l) > 0.0f))
+        if (has_shadows && c.w >= 0.0f && ANY(faces_light(n, l)))
             E = v3scale(E, shadow_factor(shadow_maps, shadow_params, (int)c.w, shadow_size, P, n, pcf_radius));
         L = v3add(L, shade_light(n, v, l, E, s));
     }
@@ -207,7 +209,7 @@ __kernel void shade(
 #if HAS_SHADOWS
 /* Only where some lane faces the light: shade_light() adds nothing otherwise. */
 #define SHADOW(E, slot) \
-    if ((slot) >= 0.0f && ANY(v3dot(n, l) > 0.0f)) \
+    if ((slot) >= 0.0f && ANY(faces_light(n, l))) \
         (E) = v3scale((E), shadow_factor(shadow_maps, shadow_params, (int)(slot), shadow_size, P, n, SHADOW_PCF / 2))
 #else
 #define SHADOW(E, slot)

@@ -50,8 +50,11 @@ INLINE real shadow_factor(__global const float* maps, __constant float4* params,
     real fx = (shadow_row(m[0], q) / cw * 0.5f + 0.5f) * (float)size;
     real fy = (0.5f - shadow_row(m[1], q) / cw * 0.5f) * (float)size;
     real ref = shadow_row(m[4], q) - texel * SHADOW_BIAS_TEXELS;
-    /* Saturating: a lane far outside the map (fx ≈ 1e30) must stay outside. */
-    mask ix = convert_mask_sat(floor(fx)), iy = convert_mask_sat(floor(fy));
+    /* Clamped to one PCF radius beyond the map, so that x ± radius and y·s + x
+     * cannot overflow for a lane far outside (fx ≈ 1e30) and NaN (cw = 0, a
+     * lane behind the light) lands on a bound. */
+    float lo = -(float)(radius + 1), hi = (float)(size + radius);
+    mask ix = convert_mask_sat(clamp(floor(fx), lo, hi)), iy = convert_mask_sat(clamp(floor(fy), lo, hi));
     int s = (int)size;
     __global const float* map = maps + (size_t)slot * size * size;
     real lit = (real)(0.0f);

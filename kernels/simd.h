@@ -14,7 +14,9 @@
  * reals: a direction or an RGB colour) and `mask` (a lane-wise comparison
  * result), so the same source builds for SIMD = 1 (the evaluation kernels:
  * eval.cl, terms.cl) and SIMD = 4 or 8 (shade.cl, copy.cl on CPUs). Lane-wise
- * choices are `c ? a : b` on reals (OpenCL's vector select), never branches.
+ * choices are `c ? a : b` on reals (OpenCL's vector select), never branches;
+ * the only branches are per work-item, on ANY/ALL of a mask (skip the sky, a
+ * light below every lane's horizon, a material shared by every lane).
  *
  * SIMD is a compile-time constant chosen by the host (clshade/runtime.py,
  * CLSHADE_SIMD); G-buffer and output buffers are padded to a multiple of it.
@@ -92,11 +94,11 @@ typedef uint8 uindex;
  * table gathers, shadow-map taps). */
 typedef union { real v; float s[SIMD]; } real_lanes;
 typedef union { uindex v; uint s[SIMD]; } uindex_lanes;
+typedef union { mask v; int s[SIMD]; } mask_lanes;
 
 /* p[idx] per lane: a gather, one scalar load per lane (AVX2 has vgatherdps,
  * but PoCL's LLVM does not emit it from this). */
 INLINE real gather(__global const float* p, mask idx) {
-    typedef union { mask v; int s[SIMD]; } mask_lanes;
     mask_lanes k = {idx};
     real_lanes r;
     for (int j = 0; j < SIMD; ++j)

@@ -81,6 +81,9 @@ INLINE vec3 unit_or(vec3 x, vec3 fallback) {
     return v3select(len2 > MIN_UNIT_LEN2, v3scale(x, rsqrt(len2)), fallback);
 }
 
+/* Lanes where the light is above the surface's horizon (n·l > 0). */
+INLINE mask faces_light(vec3 n, vec3 l) { return v3dot(n, l) > 0.0f; }
+
 /* n, l, v unit length. */
 INLINE Geometry make_geometry(vec3 n, vec3 l, vec3 v) {
     Geometry g;

@@ -74,7 +74,8 @@ def test_mean_bytes_per_pixel_counts_the_sky_skip():
     cov[2, 0] = True                                          # pixel 10: work-item 1
     gb = GBuffer(5, 4, {}, np.zeros((0, 4, 4), np.float32), cov)
     names = ("depth", "normal", "base")                       # 4 + 12 + 12 B
-    assert gb.mean_bytes_per_pixel(names, False, 8, 16) == pytest.approx(4 + 16 + 24 / 3)
+    # work-item 1: 8 pixels × (28 + 16) B; work-items 0 and 2: 8 pixels × (4 + 16) B each
+    assert gb.mean_bytes_per_pixel(names, False, 8, 16) == pytest.approx((8 * 44 + 16 * 20) / 20)
     assert gb.mean_bytes_per_pixel(names, True, 1, 16) == pytest.approx(4 + 16 + 12 / 20)
 
 

@@ -175,13 +175,19 @@ def test_variant_key_includes_effects_and_options(shader, frame):
     assert len(keys) == 5
 
 
-@pytest.mark.parametrize("model", ["ggx_correlated", "phong"])
-def test_simd_width_never_changes_results(runtime, monkeypatch, model):
+@pytest.mark.parametrize("model,variant", [("ggx_correlated", "specialised"), ("phong", "specialised"),
+                                           ("ggx_correlated", "half G-buffer"), ("phong", "general")])
+def test_simd_width_never_changes_results(runtime, monkeypatch, model, variant):
     """1, 4 or 8 pixels per work-item (kernels/simd.h) shade every pixel alike: a
     37×23 image (851 pixels: rows and the image end mid-vector) with shadows,
-    three light kinds, ambient and a per-pixel material table."""
+    three light kinds, ambient and a per-pixel material table; also the half-float
+    planar G-buffer loads and the general kernel."""
     frame = prepare_frame(parse_scene(SCENE.replace("width = 64", "width = 37").replace("height = 48", "height = 23")))
     features = scene_features(frame.scene, geometry=frame.geometry)
+    if variant == "half G-buffer":
+        features = replace(features, half_gbuffer=True)
+    elif variant == "general":
+        features = replace(features, general=True)
     m = models.resolve(model)
     images = {}
     for simd in ("1", "4", "8"):
