@@ -49,14 +49,14 @@ OUT = ROOT / "benchmarks" / "results"
 # Written out because the numbers alone mislead (measured on PoCL 3.0/3.1, CPU).
 NOT_MET_NOTE = (
     "Specialisation removes work the general kernel does per pixel (the runtime light loop and its kind "
-    "branch, the material-id read and the lane-by-lane table gather, the ambient/shadow switches); its gain "
-    "is the share of that work in the frame. With SIMD kernels (kernels/simd.h) the BRDF is cheap and the "
-    "gather is a large share; with one pixel per work-item (before) the BRDF dominated and the gain was 1.12×. "
+    "branch, the material-id read and table lookup, the ambient/shadow switches); its gain is the share of "
+    "that work in the frame. With SIMD kernels (kernels/simd.h) the BRDF is cheap and that share large; with "
+    "one pixel per work-item (before) the BRDF dominated and the gain was 1.12×. "
     "The two kernels give identical images (tests/test_specialisation.py).")
 SHADOW_NOTE = (
-    "Shadows cost several times a 1-light frame because the BRDF runs 8 pixels per work-item in float8 lanes "
-    "while the shadow lookup (shadow.h) runs lane by lane: each PCF tap is a gather from the map at a "
-    "per-pixel position.")
+    "Shadows cost more than the BRDF they modulate: the projection runs in float8 lanes (shadow.h), but each "
+    "PCF tap is a gather of 8 map texels at per-pixel positions, 9 taps at PCF 3, one scalar load per lane "
+    "(PoCL's LLVM emits no vgatherdps from OpenCL C).")
 
 
 def scene_text(lights: int, shadows: bool, textures: bool, width: int, height: int) -> str:

@@ -255,17 +255,17 @@ def main() -> int:
         f"empirical ones. " + ("Holds." if 0.25 <= pb_vs_emp <= 0.55 else
                                "Does not hold here: on PoCL's CPU device the empirical lobes pay for a runtime "
                                "exponent (xⁿ = exp2(n·log2 x): a polynomial log2 and an exp2 per light), which a GPU "
-                               "evaluates in a few cycles, and on the sphere grid for a per-pixel material-table "
-                               "gather (shininess varies per sphere), while GGX needs only multiplies, one division "
-                               "and square roots. The cost ordering follows the transcendental count and the "
-                               "per-pixel table, not the model family."),
+                               "evaluates in a few cycles, and on the sphere grid read a material id per pixel "
+                               "(shininess varies per sphere), while GGX needs only multiplies, one division "
+                               "and square roots. The cost ordering follows the transcendental count, not the "
+                               "model family."),
         "",
         "**(b) Within a category the difference is about 1 %.** Spread (slowest − fastest) / fastest: "
         + ", ".join(f"{g} **{spread[g]:.0%}**" for g in GROUPS) + ". "
         + ("Holds." if max(spread.values()) <= 0.05 else
-           "Does not hold here: per-pixel arithmetic is not hidden behind memory latency on this device (the "
-           "kernels run at several times the copy kernel's time, see the table), so each extra term shows in the "
-           "frame time; on a GPU at 1080p the study's frames were bound by other costs."),
+           "Does not hold here: per-pixel arithmetic is not hidden behind memory traffic on this device (the "
+           "kernels take 1.1–2× the copy kernel's time, see the table: the difference is arithmetic), so each "
+           "extra term shows in the frame time; on a GPU at 1080p the study's frames were bound by other costs."),
         "",
         f"**(c) Schlick's Fresnel is about 32× cheaper than the exact one, with under 1 % error.** Arithmetic cost "
         f"per evaluation (compute-bound micro-benchmark, benchmarks/kernels/fresnel_cost.cl): Schlick "
