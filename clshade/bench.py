@@ -467,6 +467,15 @@ def _pyplot():
     return plt
 
 
+def _finish(plt, fig, ax, path: Path, title: str, legend_size: int) -> None:
+    """Title, legend, tight layout; write the PNG and close the figure."""
+    ax.set_title(title, fontsize=10)
+    ax.legend(fontsize=legend_size)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
 def plot_fps(rows: list[dict], path: Path, title: str) -> None:
     """Bar chart: average FPS with 1 % and 0.1 % lows per model."""
     plt = _pyplot()
@@ -478,11 +487,7 @@ def plot_fps(rows: list[dict], path: Path, title: str) -> None:
         ax.bar_label(bars, fmt="%.1f", fontsize=6, rotation=90, padding=2)
     ax.set_xticks(x, [r["label"] for r in rows], rotation=35, ha="right", fontsize=8)
     ax.set_ylabel("frames per second")
-    ax.set_title(title, fontsize=10)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    _finish(plt, fig, ax, path, title, legend_size=8)
 
 
 def plot_ladder(rows: list[dict], path: Path, title: str) -> None:
@@ -500,11 +505,7 @@ def plot_ladder(rows: list[dict], path: Path, title: str) -> None:
     ax.set_yscale("log")
     ax.set_xlabel("mean frame time (ms)")
     ax.set_ylabel("mean relative error vs the ladder's exact model (float64)")
-    ax.set_title(title, fontsize=10)
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    _finish(plt, fig, ax, path, title, legend_size=7)
 
 
 def mark_pareto(rows: list[dict]) -> None:
