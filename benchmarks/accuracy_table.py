@@ -1,5 +1,5 @@
 """Regenerate docs/accuracy.md: every term of brdf.h and every model of the accuracy
-tests against the float64 reference (metric and limits: clshade/accuracy.py).
+tests against the float64 reference (metric and limits: clshade/verify/accuracy.py).
 
     python benchmarks/accuracy_table.py [--samples N] [--out docs/accuracy.md]
 """
@@ -13,8 +13,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from clshade import accuracy as A  # noqa: E402
-from clshade.runtime import get_runtime  # noqa: E402
+from clshade.verify import accuracy as A  # noqa: E402
+from clshade.device.runtime import get_runtime  # noqa: E402
 
 
 def accuracy_lines(samples: int = A.SAMPLES) -> list[str]:

@@ -35,9 +35,9 @@ sys.path.insert(0, str(ROOT))
 
 from clshade import models  # noqa: E402
 from clshade.pipeline import Timings, prepare_frame  # noqa: E402
-from clshade.runtime import get_runtime  # noqa: E402
-from clshade.scene import parse_scene  # noqa: E402
-from clshade.shade import Shader, scene_features  # noqa: E402
+from clshade.device.runtime import get_runtime  # noqa: E402
+from clshade.render.scene import parse_scene  # noqa: E402
+from clshade.device.shade import Shader, scene_features  # noqa: E402
 
 MODELS = ("lambert", "phong", "ggx_correlated")
 LIGHT_COUNTS = (1, 4, 16)

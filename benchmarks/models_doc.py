@@ -22,8 +22,10 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from accuracy_table import accuracy_lines  # noqa: E402
-from clshade import accuracy as A, plausibility as P, reference as R  # noqa: E402
-from clshade.evaluate import Samples, constant_materials, eval_brdf  # noqa: E402
+from clshade.verify import accuracy as A  # noqa: E402
+from clshade.verify import plausibility as P
+from clshade.verify import reference as R
+from clshade.device.evaluate import Samples, constant_materials, eval_brdf  # noqa: E402
 from clshade.models import GROUPS, Model, lobes, presets  # noqa: E402
 
 

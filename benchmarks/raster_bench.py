@@ -9,7 +9,7 @@ For each scene (the Stanford bunny from ``../shared/assets`` when present, and
 a displaced 327,680-triangle icosphere) at 1920x1080 it times, in the same
 run and interleaved (so machine noise hits both alike):
 
-* ``clshade.raster.rasterize`` (everything: transform, clip, raster, resolve,
+* ``clshade.render.raster.rasterize`` (everything: transform, clip, raster, resolve,
   barycentrics), with back faces kept (same visibility as the ray caster) and
   with back-face culling;
 * trimesh + embreex ``mesh.ray.intersects_first`` for all pixel-centre rays
@@ -36,14 +36,14 @@ import trimesh
 
 ROOT = Path(__file__).resolve().parents[1]
 try:
-    from clshade.raster import rasterize
+    from clshade.render.raster import rasterize
 except ImportError:  # running from a checkout without installing
     sys.path.insert(0, str(ROOT))
-    from clshade.raster import rasterize
-from clshade.gbuffer import build_gbuffer  # noqa: E402
-from clshade.meshes import Geometry  # noqa: E402
-from clshade.scene import parse_scene  # noqa: E402
-from clshade.transforms import look_at, perspective, pixel_rays  # noqa: E402
+    from clshade.render.raster import rasterize
+from clshade.render.gbuffer import build_gbuffer  # noqa: E402
+from clshade.render.meshes import Geometry  # noqa: E402
+from clshade.render.scene import parse_scene  # noqa: E402
+from clshade.render.transforms import look_at, perspective, pixel_rays  # noqa: E402
 
 ASSETS = ROOT.parent / "shared" / "assets"
 BUNNY = ASSETS / "stanford-bunny" / "stanford-bunny.obj"

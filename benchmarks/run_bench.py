@@ -21,7 +21,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from clshade.bench import (Bench, frame_stats, ladder_cases, mark_pareto, plot_fps, plot_ladder,  # noqa: E402
+from clshade.bench.run import (Bench, frame_stats, ladder_cases, mark_pareto, plot_fps, plot_ladder,  # noqa: E402
                            report, run_cases, summarize, table, with_lights, write_csv)
 from clshade.models import resolve_many  # noqa: E402
 
@@ -33,7 +33,7 @@ NOTES = """\
 ## What limits the kernels (measured on this machine)
 
 Default device: Debian's PoCL 3.1 (LLVM 15), preferred over pip's PoCL 3.0-rc2 for its
-higher version (clshade.runtime). Probe figures below are A/B runs of two kernel sources
+higher version (clshade.device.runtime). Probe figures below are A/B runs of two kernel sources
 in one process, interleaved (2026-11-23, this machine).
 
 * **SIMD across pixels is written by hand.** PoCL runs a work-group as a loop over

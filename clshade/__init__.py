@@ -1,8 +1,9 @@
 """clshade — an OpenCL compute-kernel shading engine for comparing lighting models.
 
-Data flow, one module per stage:
-    scene file (scene.py) → meshes (meshes.py) → rasterizer (raster.py)
-    → G-buffer (gbuffer.py) → kernel variant (variants.py, runtime.py)
-    → shading (shade.py) → image (image.py)
+Data flow, one folder per stage (a stage imports only itself and lower stages):
+    models.py (registry) → render/ (scene → meshes → raster → G-buffer)
+    → device/ (kernel variant → shading dispatch) → pipeline.py (one frame)
+    → render/image.py (radiance → image)
+Evidence: verify/ (float64 reference, accuracy, plausibility, stability), bench/ (cost).
 """
 __version__ = "0.1.0"

@@ -1,6 +1,6 @@
 """`python -m clshade` runs the command line."""
 import sys
 
-from .cli import main
+from clshade.cli import main
 
 sys.exit(main())

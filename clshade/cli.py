@@ -7,8 +7,8 @@ import sys
 from importlib import import_module
 from pathlib import Path
 
-from . import __version__
-from .errors import ClshadeError
+from clshade import __version__
+from clshade.errors import ClshadeError
 
 
 def _add_device(p: argparse.ArgumentParser) -> None:
@@ -72,7 +72,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 # Modules that add commands: each defines add_parser(sub, checks), where `sub`
 # holds the top-level commands and `checks` the `clshade check ...` commands.
-EXTENSIONS: tuple[str, ...] = ("compare", "bench", "stability", "plausibility")
+EXTENSIONS: tuple[str, ...] = ("compare", "bench.run", "verify.stability", "verify.plausibility")
 
 
 def _size(value: int | None, name: str) -> int | None:
@@ -82,10 +82,10 @@ def _size(value: int | None, name: str) -> int | None:
 
 
 def cmd_render(args: argparse.Namespace) -> int:
-    from .image import check_output_path, write_image
-    from .models import resolve
-    from .pipeline import Timings, prepare_frame, render
-    from .scene import load_scene
+    from clshade.render.image import check_output_path, write_image
+    from clshade.models import resolve
+    from clshade.pipeline import Timings, prepare_frame, render
+    from clshade.render.scene import load_scene
 
     timings = Timings()
     with timings.stage("load scene"):
@@ -131,8 +131,8 @@ def cmd_render(args: argparse.Namespace) -> int:
 
 
 def cmd_models(args: argparse.Namespace) -> int:
-    from .models import GROUPS, lobes, presets
-    from .plausibility import physically_based
+    from clshade.models import GROUPS, lobes, presets
+    from clshade.verify.plausibility import physically_based
     try:  # measured on the device with a reduced sweep (`clshade check plausibility` for the full one)
         measured: dict[str, bool] = physically_based()
     except ClshadeError as exc:
@@ -169,7 +169,7 @@ def cmd_models(args: argparse.Namespace) -> int:
 
 
 def cmd_devices(args: argparse.Namespace) -> int:
-    from .runtime import list_devices, select_device
+    from clshade.device.runtime import list_devices, select_device
     default, _ = select_device(None)
     for info, device in list_devices():
         mark = "*" if info == default else " "

@@ -11,13 +11,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import ClshadeError
-from .image import srgb_encode, tonemap
-from .models import GROUPS, Model, resolve, resolve_many
-from .pipeline import Frame, prepare_frame
-from .runtime import Runtime, get_runtime
-from .scene import Scene, load_scene
-from .shade import Shader, scene_features
+from clshade.errors import ClshadeError
+from clshade.render.image import srgb_encode, tonemap
+from clshade.models import GROUPS, Model, resolve, resolve_many
+from clshade.pipeline import Frame, prepare_frame
+from clshade.device.runtime import Runtime, get_runtime
+from clshade.render.scene import Scene, load_scene
+from clshade.device.shade import Shader, scene_features
 
 FONT = "DroidSans"          # bundled with OpenImageIO
 LABEL_SIZE = 15              # px
@@ -173,7 +173,7 @@ def sweep_sheet(scene: Scene | str | Path, models: list[Model], roughness: tuple
 
 def write_sheet(path: str | Path, sheet: np.ndarray, protected=()) -> Path:
     """Write a display-referred sheet (already sRGB encoded) as 8-bit."""
-    from .image import write_image
+    from clshade.render.image import write_image
     # write_image tone maps linear input; hand it values that survive 'none' + sRGB unchanged.
     linear = np.where(sheet <= 0.04045, sheet / 12.92, ((sheet + 0.055) / 1.055) ** 2.4)
     rgba = np.concatenate([linear, np.ones(linear.shape[:2] + (1,), np.float32)], axis=-1)
@@ -210,7 +210,7 @@ def add_parser(sub, checks) -> None:
 
 
 def _cmd_compare(args) -> int:
-    from .image import check_output_path
+    from clshade.render.image import check_output_path
     scene = load_scene(args.scene)
     check_output_path(Path(args.output), scene.inputs())
     models = resolve_many(args.models)
@@ -226,8 +226,8 @@ def _cmd_compare(args) -> int:
 
 
 def _cmd_sweep(args) -> int:
-    from .image import check_output_path
-    from .resources import scenes_dir
+    from clshade.render.image import check_output_path
+    from clshade.resources import scenes_dir
     scene = load_scene(args.scene or scenes_dir() / "red_ball.toml")
     check_output_path(Path(args.output), scene.inputs())
     try:

@@ -14,8 +14,8 @@ from dataclasses import dataclass, field, replace
 from functools import lru_cache
 from pathlib import Path
 
-from .errors import ClshadeError
-from .resources import kernels_dir
+from clshade.errors import ClshadeError
+from clshade.resources import kernels_dir
 
 FRESNELS = ("schlick", "dielectric", "conductor")
 WORKFLOWS = ("metallic", "kdks")

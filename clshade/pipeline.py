@@ -9,15 +9,15 @@ from pathlib import Path
 
 import numpy as np
 
-from .gbuffer import GBuffer, build_gbuffer
-from .meshes import Geometry, build_geometry
-from .models import Model
-from .raster import Fragments, rasterize
-from .runtime import Runtime, get_runtime
-from .scene import Camera, Scene, load_scene
-from .shade import Shader, scene_features
-from .shadows import ShadowMaps, build_shadow_maps
-from .variants import Features
+from clshade.render.gbuffer import GBuffer, build_gbuffer
+from clshade.render.meshes import Geometry, build_geometry
+from clshade.models import Model
+from clshade.render.raster import Fragments, rasterize
+from clshade.device.runtime import Runtime, get_runtime
+from clshade.render.scene import Camera, Scene, load_scene
+from clshade.device.shade import Shader, scene_features
+from clshade.render.shadows import ShadowMaps, build_shadow_maps
+from clshade.device.variants import Features
 
 
 class Timings(dict):

@@ -8,7 +8,7 @@ from __future__ import annotations
 from functools import lru_cache
 from pathlib import Path
 
-from .errors import ClshadeError
+from clshade.errors import ClshadeError
 
 _PACKAGE = Path(__file__).resolve().parent
 

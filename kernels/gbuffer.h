@@ -17,7 +17,7 @@
 
 /* The SIMD pixels' 3-channel values of work-item i. On the device a
  * 3-component channel is planar: x of every pixel, then y, then z, each plane
- * `plane` elements long (the padded pixel count; clshade/shade.py uploads
+ * `plane` elements long (the padded pixel count; clshade/device/shade.py uploads
  * it so). Three aligned vector loads per channel: the interleaved layout
  * needed ~40 shuffle instructions per channel per work-item to de-interleave
  * (objdump of PoCL's kernel), in the shading and the copy kernel alike. */

@@ -6,7 +6,7 @@
  * and the optional ambient term, and writes linear RGB radiance with coverage
  * in alpha. Buffers hold a multiple of SIMD pixels (the host pads them).
  *
- * Variant defines (set by clshade/variants.py, see `clshade render --explain`):
+ * Variant defines (set by clshade/device/variants.py, see `clshade render --explain`):
  *   NUM_DIR, NUM_POINT, NUM_SPOT   light counts by kind
  *   HAS_ROUGHNESS, HAS_METALLIC    per-pixel channels present
  *   HAS_MATERIAL                   per-pixel material id + material table

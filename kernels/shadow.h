@@ -2,7 +2,7 @@
  *
  * Assembled only into variants with shadows (HAS_SHADOWS = 1) and into the
  * general kernel; a scene without shadows compiles no line of this file.
- * Maps and parameters come from clshade/shadows.py: per map SHADOW_ROWS float4
+ * Maps and parameters come from clshade/render/shadows.py: per map SHADOW_ROWS float4
  *   rows 0–3  proj · view of the light (clip = M · (P, 1))
  *   row  4    light-view depth = dot(row.xyz, P) + row.w
  *   row  5    (texel, perspective, -, -): world size of one texel, at unit

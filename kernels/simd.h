@@ -18,7 +18,7 @@
  * the only branches are per work-item, on ANY/ALL of a mask (skip the sky, a
  * light below every lane's horizon, a material shared by every lane).
  *
- * SIMD is a compile-time constant chosen by the host (clshade/runtime.py,
+ * SIMD is a compile-time constant chosen by the host (clshade/device/runtime.py,
  * CLSHADE_SIMD); G-buffer and output buffers are padded to a multiple of it.
  */
 #ifndef CLSHADE_SIMD_H

@@ -1,6 +1,6 @@
 /* terms.cl — each term function of brdf.h on its own, for arrays of scalar
  * inputs: the device side of the per-term accuracy tests (tests/test_terms.py,
- * clshade/accuracy.py), in the spirit of BRDF Explorer's single-term files.
+ * clshade/verify/accuracy.py), in the spirit of BRDF Explorer's single-term files.
  *
  * One kernel per term, named term_<function>; all share one signature:
  *   x[i]  float4  the scalar arguments in the function's order

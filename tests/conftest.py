@@ -12,7 +12,7 @@ SCENES = ROOT / "scenes"
 
 @pytest.fixture(scope="session")
 def runtime():
-    from clshade.runtime import get_runtime
+    from clshade.device.runtime import get_runtime
     return get_runtime()
 
 

@@ -1,6 +1,6 @@
 """Every lighting model, as it renders (kernels/eval.cl, precise math), against the
-float64 reference (clshade.reference.brdf): ≥ 1e5 random samples each, max relative
-error ≤ 1e-4 inside the limits documented in clshade/accuracy.py.
+float64 reference (clshade.verify.reference.brdf): ≥ 1e5 random samples each, max relative
+error ≤ 1e-4 inside the limits documented in clshade/verify/accuracy.py.
 
 Run with `pytest -s tests/test_accuracy.py` to see the per-model figures;
 benchmarks/accuracy_table.py writes them to docs/accuracy.md.
@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import pytest
 
-from clshade import accuracy as A
+from clshade.verify import accuracy as A
 
 MODELS = A.accuracy_models()
 

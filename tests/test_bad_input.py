@@ -149,7 +149,7 @@ def test_no_opencl_platform(tmp_path, capsys, monkeypatch):
 def test_kernel_build_failure_names_file_and_log(tmp_path, capsys, monkeypatch):
     import shutil
 
-    from clshade import variants
+    from clshade.device import variants
     from clshade.resources import kernels_dir
     broken = tmp_path / "kernels"
     shutil.copytree(kernels_dir(), broken)
@@ -207,7 +207,7 @@ def test_subprocess_exit_status_and_one_line(tmp_path):
 
 
 def test_empty_scene_renders_background(tmp_path, capsys):
-    from clshade.image import read_image
+    from clshade.render.image import read_image
     text = SCENE[:SCENE.index("[[objects]]")]
     scene = write(tmp_path, text)
     out = tmp_path / "empty.exr"
@@ -221,7 +221,7 @@ def test_empty_scene_renders_background(tmp_path, capsys):
 def test_nonfinite_mesh_renders_finite(tmp_path, capsys):
     """A NaN vertex and a NaN vertex normal in a mesh file: the render completes, is finite
     (the rasterizer drops the NaN face) and the CLI warns about the NaN-normal pixels."""
-    from clshade.image import read_image
+    from clshade.render.image import read_image
     (tmp_path / "nan.obj").write_text(
         "v -1 -1 0\nv 1 -1 0\nv 0 1 0\nv 2 1 0\nv 1 1 0\nv 0 0 nan\n"
         "vn 0 0 1\nvn 0 0 1\nvn 0 0 1\nvn nan nan nan\nvn 0 0 1\n"
@@ -239,7 +239,7 @@ def test_nonfinite_gbuffer_inputs_are_counted_and_contained(tmp_path, capsys, mo
     """NaN reaching the G-buffer (here: a NaN normal injected after build_geometry) is
     counted, its pixels shade as background, no other pixel changes, and the CLI warns."""
     from clshade import pipeline
-    from clshade.image import read_image
+    from clshade.render.image import read_image
     scene = write(tmp_path, SCENE)
     clean = tmp_path / "clean.exr"
     assert run_cli(capsys, ["render", str(scene), "-o", str(clean)])[0] == 0
@@ -264,7 +264,7 @@ def test_nonfinite_gbuffer_inputs_are_counted_and_contained(tmp_path, capsys, mo
 def test_interrupted_write_leaves_nothing(tmp_path, monkeypatch):
     import OpenImageIO as oiio
 
-    from clshade.image import write_image
+    from clshade.render.image import write_image
 
     real_create = oiio.ImageOutput.create
 

@@ -9,9 +9,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from clshade.bench import frame_stats, pareto
+from clshade.bench.run import frame_stats, pareto
 from clshade.cli import main
-from clshade.gbuffer import GBuffer
+from clshade.render.gbuffer import GBuffer
 
 ROOT = Path(__file__).resolve().parents[1]
 SCHEMA_DOC = ROOT / "docs" / "bench-schema.md"
@@ -87,9 +87,9 @@ def test_pareto():
                                   "ggx_correlated@conductor"])
 def test_numpy_baseline_matches_kernel(spec):
     """The NumPy float32 baseline is the same shading as shade.cl (within float32 noise)."""
-    from clshade.bench import Bench
+    from clshade.bench.run import Bench
     from clshade.models import resolve
-    from clshade.numpy_shading import shade_numpy
+    from clshade.bench.numpy_baseline import shade_numpy
     bench = Bench.prepare(ROOT / "scenes" / "sphere_grid.toml", 64, 48)
     model = resolve(spec)
     case = bench.case(model)

@@ -6,7 +6,7 @@ import numpy as np
 from clshade import models
 from clshade.cli import main
 from clshade.compare import LABEL_HEIGHT, MAX_COLUMNS, SHEET_BACKGROUND, compare_sheet, difference, sweep_sheet
-from clshade.image import read_image
+from clshade.render.image import read_image
 
 from conftest import SCENES
 
@@ -50,7 +50,7 @@ def test_normalized_highlight_brightens_as_it_narrows(runtime):
     """The study's Figure 4: a normalised lobe's peak grows as roughness falls; the unnormalised one's does not."""
     from clshade.compare import shade_all
     from clshade.pipeline import prepare_frame
-    from clshade.scene import load_scene
+    from clshade.render.scene import load_scene
     import dataclasses
     scene = load_scene(SCENES / "red_ball.toml")
     peaks = {}

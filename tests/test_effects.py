@@ -10,12 +10,12 @@ import pytest
 
 from clshade import models
 from clshade.errors import ClshadeError
-from clshade.meshes import build_geometry
+from clshade.render.meshes import build_geometry
 from clshade.pipeline import prepare_frame, render
-from clshade.raster import rasterize
-from clshade.scene import parse_scene
-from clshade.transforms import orthographic
-from clshade.textures import Texture, srgb_decode
+from clshade.render.raster import rasterize
+from clshade.render.scene import parse_scene
+from clshade.render.transforms import orthographic
+from clshade.render.textures import Texture, srgb_decode
 
 from conftest import ASSETS, SCENES
 

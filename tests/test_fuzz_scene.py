@@ -9,7 +9,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from clshade.errors import ClshadeError
-from clshade.scene import Scene, parse_scene
+from clshade.render.scene import Scene, parse_scene
 
 SCENES = sorted((Path(__file__).resolve().parents[1] / "scenes").glob("*.toml"))
 TEXTS = [p.read_text() for p in SCENES]

@@ -8,9 +8,9 @@ import pytest
 
 from clshade import models
 from clshade.cli import main
-from clshade.image import read_image
+from clshade.render.image import read_image
 from clshade.pipeline import prepare_frame, render
-from clshade.scene import parse_scene
+from clshade.render.scene import parse_scene
 
 from conftest import SCENES
 
@@ -91,7 +91,7 @@ def test_oren_nayar_sigma0_is_lambert(runtime):
 
 def test_variant_reads_only_what_the_model_uses(runtime):
     frame = prepare_frame(SCENES / "sphere_grid.toml", 32, 16)
-    from clshade.shade import Shader, scene_features
+    from clshade.device.shade import Shader, scene_features
     shader = Shader(runtime, frame.gbuffer, frame.scene)
     features = scene_features(frame.scene)
     assert shader.variant(models.resolve("lambert"), features).channels == ("depth", "normal", "base", "metallic")

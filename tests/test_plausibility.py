@@ -1,4 +1,4 @@
-"""Physical plausibility measured on the device (clshade.plausibility): closed-form
+"""Physical plausibility measured on the device (clshade.verify.plausibility): closed-form
 albedos within 1e-3, and the verdicts that separate empirical from physically based models."""
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from clshade import plausibility as P
+from clshade.verify import plausibility as P
 from clshade.models import Model
 
 CLOSED_FORM_TOL = 1.0e-3
@@ -36,7 +36,7 @@ def test_burley_exceeds_one_at_roughness_one(runtime) -> None:
 def test_quadrature_matches_reference_rule() -> None:
     """The device rule integrates a float64 function as reference.directional_albedo does."""
     import numpy as np
-    from clshade import reference as R
+    from clshade.verify import reference as R
     for mu_v in (1.0, 0.3):
         v = P.view_vector(mu_v)
         fn = lambda n, l, vv: R.brdf("oren_nayar", "ggx_correlated", n, l, vv, base_color=1.0,  # noqa: E731

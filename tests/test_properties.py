@@ -8,8 +8,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from clshade import reference as R
-from clshade.evaluate import Samples, constant_materials, eval_brdf
+from clshade.verify import reference as R
+from clshade.device.evaluate import Samples, constant_materials, eval_brdf
 from clshade.models import PRESETS, preset
 
 BATCH = 512

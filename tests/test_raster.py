@@ -1,4 +1,4 @@
-"""Tests of the NumPy rasterizer (clshade.raster).
+"""Tests of the NumPy rasterizer (clshade.render.raster).
 
 The main oracle is an independent ray caster: rays through the pixel centres
 are built by inverting ``proj @ view`` (nothing from the rasterizer is reused)
@@ -20,13 +20,13 @@ from hypothesis import strategies as st
 
 ROOT = Path(__file__).resolve().parents[1]
 try:  # plain `pytest` from the repo root does not put the root on sys.path
-    from clshade import raster
+    from clshade.render import raster
 except ImportError:
     sys.path.insert(0, str(ROOT))
-    from clshade import raster
-from clshade import transforms
-from clshade.raster import Fragments, rasterize
-from clshade.transforms import look_at, pixel_rays
+    from clshade.render import raster
+from clshade.render import transforms
+from clshade.render.raster import Fragments, rasterize
+from clshade.render.transforms import look_at, pixel_rays
 
 ASSETS = ROOT.parent / "shared" / "assets"
 

@@ -1,4 +1,4 @@
-"""Closed-form / golden checks of the float64 BRDF reference (clshade.reference)."""
+"""Closed-form / golden checks of the float64 BRDF reference (clshade.verify.reference)."""
 
 from __future__ import annotations
 
@@ -13,10 +13,10 @@ from hypothesis import strategies as st
 from scipy import integrate
 
 try:  # plain `pytest` from the repo root does not put the root on sys.path
-    import clshade.reference as R
+    import clshade.verify.reference as R
 except ImportError:  # pragma: no cover
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-    import clshade.reference as R
+    import clshade.verify.reference as R
 
 ALBEDO_TOL = 1e-4  # required accuracy of the golden albedo values
 Z = (0.0, 0.0, 1.0)

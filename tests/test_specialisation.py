@@ -13,8 +13,8 @@ import pytest
 
 from clshade import models
 from clshade.pipeline import prepare_frame
-from clshade.scene import parse_scene
-from clshade.shade import Shader, scene_features
+from clshade.render.scene import parse_scene
+from clshade.device.shade import Shader, scene_features
 
 # float32 kernels that run the same operations in the same order agree to
 # round-off; what remains is the compiler contracting differently (FMA) in two

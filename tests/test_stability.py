@@ -1,7 +1,7 @@
-"""A reduced torture grid (clshade.stability): finite, non-negative, close to the reference."""
+"""A reduced torture grid (clshade.verify.stability): finite, non-negative, close to the reference."""
 from __future__ import annotations
 
-from clshade import stability
+from clshade.verify import stability
 from clshade.models import resolve
 
 

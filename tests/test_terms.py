@@ -1,12 +1,12 @@
 """Every term function of kernels/brdf.h on its own (kernels/terms.cl), against its
-float64 reference term in clshade.reference: ≥ 1e5 random inputs each, max relative
-error ≤ 1e-4 (metric and limits: clshade/accuracy.py)."""
+float64 reference term in clshade.verify.reference: ≥ 1e5 random inputs each, max relative
+error ≤ 1e-4 (metric and limits: clshade/verify/accuracy.py)."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from clshade import accuracy as A
+from clshade.verify import accuracy as A
 
 
 def test_every_term_has_a_kernel_and_a_reference() -> None:
@@ -15,7 +15,7 @@ def test_every_term_has_a_kernel_and_a_reference() -> None:
     source = A.term_source()
     for name in declared:
         assert f"TERM_KERNEL({name}," in source, f"{name}: no kernel in kernels/terms.cl"
-        assert name in A.TERMS, f"{name}: no reference case in clshade/accuracy.py"
+        assert name in A.TERMS, f"{name}: no reference case in clshade/verify/accuracy.py"
 
 
 @pytest.mark.parametrize("name", list(A.TERMS))
@@ -35,7 +35,7 @@ def test_conductor_nearly_lossless_below_one() -> None:
     x[:, 0] = c
     y = np.zeros_like(x); y[:, :3] = eta
     z = np.zeros_like(x); z[:, :3] = k
-    from clshade import reference as R
+    from clshade.verify import reference as R
     g = R.f_conductor(A.f32(c), A.f32(eta), A.f32(k))
     f = A.eval_term("F_Conductor", x, y, z)[:, :3]
     assert np.max(np.abs(f - g) / np.maximum(g, A.FLOOR_REL)) <= A.TARGET

@@ -10,10 +10,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .gbuffer import GBuffer
-from .models import NONE, Model
-from .scene import Camera, Scene
-from .shade import camera_args, pack_lights, scene_features
+from clshade.render.gbuffer import GBuffer
+from clshade.models import NONE, Model
+from clshade.render.scene import Camera, Scene
+from clshade.device.shade import camera_args, pack_lights, scene_features
 
 F = np.float32
 # The kernels' named constants (kernels/brdf.h, surface.h, shade.cl).

@@ -31,9 +31,9 @@ from functools import lru_cache
 
 import numpy as np
 
-from .evaluate import Samples, constant_materials, eval_brdf
-from .models import NONE, Model, lobes, presets
-from .runtime import Runtime, get_runtime
+from clshade.device.evaluate import Samples, constant_materials, eval_brdf
+from clshade.models import NONE, Model, lobes, presets
+from clshade.device.runtime import Runtime, get_runtime
 
 # Albedo may exceed 1 by this much and still count as conserving energy: the
 # quadrature error estimate of the default sweep is ≤ 1e-5 (stated per row) and

@@ -7,9 +7,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import ClshadeError, located
-from .scene import Material, Scene, SceneObject
-from .textures import TextureSet, load_texture_file, primitive_uvs, texture_from_image, vertex_tangents
+from clshade.errors import ClshadeError, located
+from clshade.render.scene import Material, Scene, SceneObject
+from clshade.render.textures import TextureSet, load_texture_file, primitive_uvs, texture_from_image, vertex_tangents
 
 MESH_SUFFIXES = (".obj", ".ply", ".stl", ".off", ".glb", ".gltf")
 

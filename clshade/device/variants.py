@@ -20,8 +20,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .models import NONE, Model
-from .resources import kernels_dir
+from clshade.models import NONE, Model
+from clshade.resources import kernels_dir
 
 # The per-material constants (surface.h, MATERIAL_STRIDE float4 per material).
 MATERIAL_LAYOUT = (("kd", "ks", "ka", "shininess"), ("ior", "f90", None, None),
@@ -66,7 +66,7 @@ class Features:
         out.append(f"textures: {'on (sampled into the G-buffer on the host, trilinear mipmaps)' if self.textures else 'off'}")
         out.append(f"G-buffer storage: {'half (normal, base colour)' if self.half_gbuffer else 'float32'}")
         out.append(f"math: {'fast-relaxed' if self.fast_math else 'precise'}")
-        out.append("output: exposure, tone map and sRGB encoding on the host (clshade/image.py)")
+        out.append("output: exposure, tone map and sRGB encoding on the host (clshade/render/image.py)")
         return out
 
 
@@ -77,16 +77,6 @@ def _c_float(x: float) -> str:
     if "e" not in text and "." not in text and "inf" not in text and "nan" not in text:
         text += ".0"
     return text + "f"
-
-
-def material_row(params: dict[str, object]) -> np.ndarray:
-    """Pack one material's constants into MATERIAL_STRIDE float4 (see surface.h)."""
-    row = np.zeros((4, 4), np.float32)
-    row[0] = [params["kd"], params["ks"], params["ka"], params["shininess"]]
-    row[1, :2] = [params["ior"], params["f90"]]
-    row[2, :3] = params["eta"]
-    row[3, :3] = params["k"]
-    return row
 
 
 def used_table_columns(model: Model) -> np.ndarray:

@@ -15,8 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from .errors import ClshadeError, located
-from .transforms import look_at, perspective
+from clshade.errors import ClshadeError, located
+from clshade.render.transforms import look_at, perspective
 
 TONEMAPS = ("none", "reinhard", "aces")
 PRIMITIVES = ("sphere", "box", "cylinder", "cone", "plane", "torus", "capsule")

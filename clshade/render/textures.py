@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import located
+from clshade.errors import located
 
 # A texture set whose tangent frame has |T|² below this keeps the interpolated
 # normal: degenerate UVs (all corners mapped to one texel) define no tangent.

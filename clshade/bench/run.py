@@ -27,16 +27,18 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__, reference
-from .errors import ClshadeError
-from .gbuffer import GBuffer
-from .models import NONE, Model, resolve, resolve_many
-from .numpy_shading import shade_numpy
-from .pipeline import Frame, prepare_frame
-from .runtime import Runtime, get_runtime
-from .scene import Light, Scene, load_scene
-from .shade import Shader, camera_args, pack_lights, scene_features
-from .variants import Features
+from clshade import __version__
+
+from clshade.verify import reference
+from clshade.errors import ClshadeError
+from clshade.render.gbuffer import GBuffer
+from clshade.models import NONE, Model, resolve, resolve_many
+from clshade.bench.numpy_baseline import shade_numpy
+from clshade.pipeline import Frame, prepare_frame
+from clshade.device.runtime import Runtime, get_runtime
+from clshade.render.scene import Light, Scene, load_scene
+from clshade.device.shade import Shader, camera_args, pack_lights, scene_features
+from clshade.device.variants import Features
 
 SCHEMA = "clshade-bench/1"
 OUTPUT_BYTES = 16            # one float4 written per pixel
@@ -414,7 +416,7 @@ def report(bench: Bench, rows: list[dict], frames: int, warmup: int, ladder: lis
                 grazing_pixels=grazing_pixels(fr.gbuffer, fr.camera),
                 frames=frames, warmup=warmup, features=dataclasses.asdict(bench.features),
                 error_definition=f"|L - L_ref| / max(|L_ref|, {REL_ERROR_FLOOR:g} * peak(L_ref)), "
-                                 "largest channel per covered pixel with n.v > 1e-4, L_ref float64 (clshade.reference)",
+                                 "largest channel per covered pixel with n.v > 1e-4, L_ref float64 (clshade.verify.reference)",
                 models=rows, ladder=ladder or [])
 
 

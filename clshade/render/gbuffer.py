@@ -11,11 +11,21 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .meshes import Geometry
-from .raster import Fragments
-from .scene import Camera, Scene
-from .textures import MIN_TANGENT_LEN2, TextureSet
-from .variants import material_row
+from clshade.render.meshes import Geometry
+from clshade.render.raster import Fragments
+from clshade.render.scene import Camera, Scene
+from clshade.render.textures import MIN_TANGENT_LEN2, TextureSet
+
+
+def material_row(params: dict[str, object]) -> np.ndarray:
+    """Pack one material's constants into MATERIAL_STRIDE float4 (see surface.h)."""
+    row = np.zeros((4, 4), np.float32)
+    row[0] = [params["kd"], params["ks"], params["ka"], params["shininess"]]
+    row[1, :2] = [params["ior"], params["f90"]]
+    row[2, :3] = params["eta"]
+    row[3, :3] = params["k"]
+    return row
+
 
 # The channels the rasterizer pass can write, with their element type and
 # components per pixel (struct of arrays, row-major, row 0 at the top).

@@ -38,11 +38,11 @@ from typing import Any
 
 import numpy as np
 
-from . import reference as R
-from .evaluate import Samples, eval_brdf
-from .models import FRESNELS, Model, presets
-from .runtime import Runtime, get_runtime
-from .scene import GOLD_ETA, GOLD_K
+from clshade.verify import reference as R
+from clshade.device.evaluate import Samples, eval_brdf
+from clshade.models import FRESNELS, Model, presets
+from clshade.device.runtime import Runtime, get_runtime
+from clshade.render.scene import GOLD_ETA, GOLD_K
 
 # ------------------------------------------------------------------ the grid
 
@@ -323,9 +323,9 @@ def _shade_normals() -> np.ndarray:
 def run_shade(model: Model, rt: Runtime, fast_math: bool) -> ShadeResult:
     """Render a hand-made G-buffer through the shading pass with 0, 1e-30 and 1e30 lights
     (four directional, a point light on the surface point, a far point light, a spot) and ambient."""
-    from .gbuffer import GBuffer, material_table
-    from .scene import Camera, Light, Material, Scene
-    from .shade import Shader, scene_features
+    from clshade.render.gbuffer import GBuffer, material_table
+    from clshade.render.scene import Camera, Light, Material, Scene
+    from clshade.device.shade import Shader, scene_features
 
     normals = _shade_normals()
     params = [(r, b, m) for r in (0.0, DENORMAL, 1e-4, 0.045, 0.5, 1.0) for b in (0.0, 1.0) for m in (0.0, 1.0)]
@@ -375,13 +375,13 @@ def run_shade(model: Model, rt: Runtime, fast_math: bool) -> ShadeResult:
 def clamp_bias(rt: Runtime) -> list[dict[str, Any]]:
     """Bias of each named clamp of brdf.h against the unclamped float64 reference,
     measured where the clamp is active (precise build)."""
-    from .models import preset
+    from clshade.models import preset
     out: list[dict[str, Any]] = []
     z = np.array([0.0, 0.0, 1.0])
 
     def samples(n, l, v, r, base=1.0, metallic=1.0) -> Samples:
         k = len(l)
-        from .evaluate import constant_materials
+        from clshade.device.evaluate import constant_materials
         return Samples(np.broadcast_to(n, (k, 3)), l, v, np.full((k, 3), base), np.full(k, r),
                        np.full(k, metallic), constant_materials(k, f90=1.0))
 
@@ -472,8 +472,8 @@ def clamp_bias(rt: Runtime) -> list[dict[str, Any]]:
 def continuity(rt: Runtime) -> list[dict[str, Any]]:
     """Largest relative step between neighbouring roughness samples around r = 0.01
     (where the α floor stops acting) and between r = 0 and r = 0.01 (must be 0)."""
-    from .evaluate import constant_materials
-    from .models import preset
+    from clshade.device.evaluate import constant_materials
+    from clshade.models import preset
     out = []
     r = np.concatenate([np.linspace(0.0, 0.02, 201), [0.0099999, 0.01, 0.0100001]])
     r.sort()
@@ -603,7 +603,7 @@ def format_report(rep: Report) -> str:
 
 
 def cmd_stability(args: argparse.Namespace) -> int:
-    from .models import resolve_many
+    from clshade.models import resolve_many
     models = None
     if args.model:
         models = []

@@ -12,13 +12,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .gbuffer import CHANNELS, GBuffer
-from .meshes import Geometry
-from .models import Model
-from .runtime import Runtime, padded
-from .scene import Camera, Light, Scene
-from .shadows import ShadowMaps
-from .variants import Features, Variant
+from clshade.render.gbuffer import CHANNELS, GBuffer
+from clshade.render.meshes import Geometry
+from clshade.models import Model
+from clshade.device.runtime import Runtime, padded
+from clshade.render.scene import Camera, Light, Scene
+from clshade.render.shadows import ShadowMaps
+from clshade.device.variants import Features, Variant
 
 LIGHT_ORDER = ("directional", "point", "spot")
 LIGHT_KIND = {"directional": 0, "point": 1, "spot": 2}      # LIGHT_* in shade.cl (general kernel)

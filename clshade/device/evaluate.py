@@ -2,7 +2,7 @@
 and parameters (kernels/eval.cl), with exactly the composition that renders.
 
 Used by the accuracy tests, the plausibility measurements and the stability
-grid; the float64 counterpart is clshade.reference.brdf.
+grid; the float64 counterpart is clshade.verify.reference.brdf.
 """
 from __future__ import annotations
 
@@ -10,10 +10,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .models import Model
-from .runtime import Runtime, get_runtime
-from .scene import GOLD_ETA, GOLD_K
-from .variants import Features, Variant, material_row
+from clshade.models import Model
+from clshade.device.runtime import Runtime, get_runtime
+from clshade.render.scene import GOLD_ETA, GOLD_K
+from clshade.device.variants import Features, Variant
+from clshade.render.gbuffer import material_row
 
 
 @dataclass
@@ -25,7 +26,7 @@ class Samples:
     base: np.ndarray              # (N, 3)
     roughness: np.ndarray         # (N,)
     metallic: np.ndarray          # (N,)
-    materials: np.ndarray         # (N, 4, 4) material constants (variants.material_row)
+    materials: np.ndarray         # (N, 4, 4) material constants (gbuffer.material_row)
 
     def __len__(self) -> int:
         return len(self.n)

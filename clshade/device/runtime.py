@@ -19,7 +19,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from .errors import ClshadeError
+from clshade.errors import ClshadeError
 
 ENV_DEVICE = "CLSHADE_DEVICE"
 INSTALL_HINT = ("install an OpenCL CPU runtime without root: "

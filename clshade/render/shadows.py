@@ -1,5 +1,5 @@
 """Shadow maps: the scene's depth seen from each shadow-casting light, rasterised
-with clshade.raster.rasterize, for the lookup in the shading kernel (kernels/shadow.h).
+with clshade.render.raster.rasterize, for the lookup in the shading kernel (kernels/shadow.h).
 
 Directional lights get an orthographic map fitted to the scene's bounding box
 (seen along the light), spot lights a perspective map covering their outer
@@ -21,10 +21,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .meshes import Geometry
-from .raster import rasterize
-from .scene import Light, Scene
-from .transforms import look_along, orthographic, perspective
+from clshade.render.meshes import Geometry
+from clshade.render.raster import rasterize
+from clshade.render.scene import Light, Scene
+from clshade.render.transforms import look_along, orthographic, perspective
 
 SHADOW_ROWS = 6
 # Depth written where a map sees no surface: any receiver is nearer, so lit.

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import ClshadeError
+from clshade.errors import ClshadeError
 
 LINEAR_SUFFIXES = (".exr",)
 DISPLAY_SUFFIXES = (".png", ".jpg", ".jpeg")

@@ -1,10 +1,10 @@
-"""Accuracy of the float32 kernels against the float64 reference (clshade.reference).
+"""Accuracy of the float32 kernels against the float64 reference (clshade.verify.reference).
 
 Two levels, both evaluated on the OpenCL device:
 
 * terms — every term function of kernels/brdf.h on its own (kernels/terms.cl);
 * models — a lighting model exactly as it renders (kernels/eval.cl via
-  clshade.evaluate.eval_brdf), against reference.brdf.
+  clshade.device.evaluate.eval_brdf), against reference.brdf.
 
 Every input is rounded to float32 *before* the reference sees it: the kernel
 sees float32, so the comparison measures the kernel's arithmetic, not the
@@ -35,12 +35,12 @@ from typing import Callable
 
 import numpy as np
 
-from . import reference as R
-from .errors import ClshadeError
-from .evaluate import Samples, eval_brdf
-from .models import NONE, Model, presets, resolve
-from .resources import kernels_dir
-from .runtime import Runtime, get_runtime
+from clshade.verify import reference as R
+from clshade.errors import ClshadeError
+from clshade.device.evaluate import Samples, eval_brdf
+from clshade.models import NONE, Model, presets, resolve
+from clshade.resources import kernels_dir
+from clshade.device.runtime import Runtime, get_runtime
 
 # Target of every comparison: 1e-4 relative, ~800 float32 ulps, leaving room
 # for the 5–20 roundings of a composed lobe and the 3-ulp exp2/log2 of OpenCL.

@@ -1,0 +1,1 @@
+"""Evidence of cost: frame timing and statistics, baselines, ladders."""

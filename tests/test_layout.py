@@ -1,0 +1,93 @@
+"""The package layout is the data flow: no lower stage imports a higher one.
+
+Stages, lowest first (README "Layout"):
+    base (errors, resources) → models (the registry) → render/ → device/ → pipeline
+    → verify/ → bench/, compare → cli
+Every import in every module, at top level or inside a function, is checked.
+"""
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import clshade
+
+PACKAGE = Path(clshade.__file__).resolve().parent
+
+RANK = {
+    "clshade": 0, "clshade.errors": 0, "clshade.resources": 0,
+    "clshade.models": 1,
+    "clshade.render": 2,
+    "clshade.device": 3,
+    "clshade.pipeline": 4,
+    "clshade.verify": 5,
+    "clshade.bench": 6, "clshade.compare": 6,
+    "clshade.cli": 7, "clshade.__main__": 7,
+}
+
+
+def rank(module: str) -> int:
+    parts = module.split(".")
+    for n in range(len(parts), 0, -1):
+        key = ".".join(parts[:n])
+        if key in RANK:
+            return RANK[key]
+    raise KeyError(module)
+
+
+def module_name(path: Path) -> str:
+    rel = path.relative_to(PACKAGE.parent).with_suffix("")
+    parts = list(rel.parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+def imports(path: Path, me: str | None = None) -> list[tuple[int, str]]:
+    """(line, module) of every clshade import in the file; `me` is its dotted name."""
+    me = me or module_name(path)
+    tree = ast.parse(path.read_text(), str(path))
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = me.split(".")
+                if path.name != "__init__.py":
+                    base = base[:-1]
+                base = base[: len(base) - node.level + 1]
+                target = ".".join(base + ([node.module] if node.module else []))
+            else:
+                target = node.module or ""
+            if target == "clshade":  # `from clshade import x`: x is the module
+                found += [(node.lineno, f"clshade.{a.name}") for a in node.names if a.name != "__version__"]
+            elif target.startswith("clshade"):
+                found.append((node.lineno, target))
+        elif isinstance(node, ast.Import):
+            found += [(node.lineno, a.name) for a in node.names if a.name.startswith("clshade")]
+    return found
+
+
+def test_every_module_has_a_stage() -> None:
+    for path in PACKAGE.rglob("*.py"):
+        rank(module_name(path))
+
+
+def test_no_upward_imports() -> None:
+    bad = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        me = module_name(path)
+        for line, target in imports(path):
+            if rank(target) > rank(me):
+                bad.append(f"{path.relative_to(PACKAGE.parent)}:{line}: {me} (stage {rank(me)}) imports "
+                           f"{target} (stage {rank(target)})")
+    assert not bad, "upward imports:\n" + "\n".join(bad)
+
+
+def test_checker_sees_upward_imports(tmp_path: Path) -> None:
+    """The checker itself can fail: relative, absolute and function-local upward imports are seen."""
+    fake = tmp_path / "probe.py"
+    fake.write_text("from ..device import shade\nimport clshade.verify.reference\n"
+                    "def f():\n    from clshade.bench.run import Bench\n")
+    found = imports(fake, "clshade.render.probe")
+    assert found == [(1, "clshade.device"), (2, "clshade.verify.reference"), (4, "clshade.bench.run")]
+    assert all(rank(target) > rank("clshade.render.probe") for _, target in found)
