@@ -72,7 +72,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 # Modules that add commands: each defines add_parser(sub, checks), where `sub`
 # holds the top-level commands and `checks` the `clshade check ...` commands.
-EXTENSIONS: tuple[str, ...] = ("compare", "bench.run", "verify.stability", "verify.plausibility")
+EXTENSIONS: tuple[str, ...] = ("compare", "bench.run", "bench.aa", "verify.stability", "verify.plausibility")
 
 
 def _size(value: int | None, name: str) -> int | None:

@@ -2,6 +2,7 @@
 scene → geometry → rasterizer → G-buffer → kernel variant → image."""
 from __future__ import annotations
 
+import dataclasses
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -13,6 +14,7 @@ from clshade.render.gbuffer import GBuffer, build_gbuffer
 from clshade.render.meshes import Geometry, build_geometry
 from clshade.models import Model
 from clshade.render.raster import Fragments, rasterize
+from clshade.render.samples import check_samples, supersampled
 from clshade.device.runtime import Runtime, get_runtime
 from clshade.render.scene import Camera, Scene, load_scene
 from clshade.device.shade import Shader, scene_features
@@ -48,15 +50,26 @@ class Frame:
 
 
 def prepare_frame(scene: Scene | str | Path, width: int | None = None, height: int | None = None,
-                  timings: Timings | None = None) -> Frame:
-    """Load (if needed), build geometry, rasterise and write the G-buffer."""
+                  timings: Timings | None = None, samples: int | None = None,
+                  geometry: Geometry | None = None) -> Frame:
+    """Load (if needed), build geometry, rasterise and write the G-buffer. With N×N
+    `samples` per pixel (default: the scene's `[render] samples`) the raster is
+    N·W × N·H (clshade/render/samples.py) and the frame's scene carries N, so that
+    every Shader of the frame resolves to W × H on the device. `geometry` reuses the
+    meshes of an earlier frame of the same scene (jittered or moving cameras)."""
     timings = timings if timings is not None else Timings()
     if not isinstance(scene, Scene):
         with timings.stage("load scene"):
             scene = load_scene(scene)
     camera = scene.camera.with_size(width, height)
-    with timings.stage("geometry"):
-        geometry = build_geometry(scene)
+    samples = scene.samples if samples is None else samples
+    check_samples(samples, camera.width, camera.height)
+    if samples != scene.samples:
+        scene = dataclasses.replace(scene, samples=samples)
+    camera = supersampled(camera, samples)
+    if geometry is None:
+        with timings.stage("geometry"):
+            geometry = build_geometry(scene)
     with timings.stage("rasterize"):
         fragments = rasterize(geometry.vertices, geometry.faces, camera.view_matrix(), camera.projection_matrix(),
                               camera.width, camera.height, cull_backfaces=geometry.cull)

@@ -15,6 +15,8 @@
  *   HALF_GBUFFER                   normal and base colour stored as half floats
  *   HAS_SHADOWS, SHADOW_PCF        shadow-map lookup (shadow.h), PCF kernel width
  *   SIMD                           pixels per work-item (1, 4 or 8)
+ *   SPECULAR_AA                    specular lobe widened by the normal's screen-space
+ *                                  variance (specular_aa.h); absent unless the scene asks
  *   GENERAL                        the general kernel: every channel read, the
  *                                  light count, ambient and shadows runtime
  *                                  switches; the reference every specialised
@@ -172,6 +174,10 @@ __kernel void shade(
     Surface s = make_surface(b, r, m, material_gather(VLOAD_UCHAR(i, material), materials));
 #else
     Surface s = make_surface(b, r, m, material_uniform(MAT_M0, MAT_M1, MAT_M2, MAT_M3));
+#endif
+
+#ifdef SPECULAR_AA
+    s = specular_aa(s, normal_difference2(first, npix, width, depth, normal, plane, n));   /* specular_aa.h */
 #endif
 
     vec3 L = v3s((real)(0.0f));

@@ -15,6 +15,7 @@ import numpy as np
 from clshade.render.gbuffer import CHANNELS, GBuffer
 from clshade.render.meshes import Geometry
 from clshade.models import Model
+from clshade.device.resolve import Resolver
 from clshade.device.runtime import Runtime, padded
 from clshade.render.scene import Camera, Light, Scene
 from clshade.render.shadows import ShadowMaps
@@ -35,7 +36,8 @@ def scene_features(scene: Scene, half_gbuffer: bool = False, fast_math: bool = F
                     ambient=any(a > 0 for a in scene.ambient), shadows=shadows,
                     shadow_pcf=scene.shadow_pcf if shadows else 1,
                     textures=bool(geometry is not None and geometry.has_textures),
-                    half_gbuffer=half_gbuffer, fast_math=fast_math, general=general)
+                    half_gbuffer=half_gbuffer, fast_math=fast_math, general=general,
+                    specular_aa=scene.specular_aa)
 
 
 def _slot(slots: tuple[int, ...] | None, index: int) -> float:
@@ -76,11 +78,16 @@ def pack_lights_general(lights: tuple[Light, ...] | list[Light], slots: tuple[in
 
 
 def camera_args(camera: Camera) -> list[np.ndarray]:
-    """cam_pos, cam_fwd and the pre-scaled cam_right / cam_up of shade.cl."""
+    """cam_pos, cam_fwd and the pre-scaled cam_right / cam_up of shade.cl. A camera
+    `shift` (sub-pixel jitter) moves every ray by the same image-plane offset, so it
+    goes into cam_fwd (the ray's component along the view axis stays 1)."""
     fwd, right, up = camera.basis()
     t = math.tan(math.radians(camera.fov) / 2)
+    right, up = right * t * camera.aspect, up * t
+    if camera.shift != (0.0, 0.0):
+        fwd = fwd + (2.0 * camera.shift[0] / camera.width) * right - (2.0 * camera.shift[1] / camera.height) * up
     f4 = lambda v: np.array([*v, 0.0], np.float32)  # noqa: E731
-    return [f4(camera.position), f4(fwd), f4(right * t * camera.aspect), f4(up * t)]
+    return [f4(camera.position), f4(fwd), f4(right), f4(up)]
 
 
 @dataclass
@@ -96,6 +103,9 @@ class Shader:
 
     def __init__(self, runtime: Runtime, gbuffer: GBuffer, scene: Scene, camera: Camera | None = None,
                  shadows: ShadowMaps | None = None) -> None:
+        """With `scene.samples` N > 1 the G-buffer is the N·W × N·H supersampled raster
+        (clshade/pipeline.py): every enqueue shades it and resolves N×N blocks on the
+        device, and read() returns the W × H image."""
         self.rt, self.gb, self.scene = runtime, gbuffer, scene
         self.camera = camera or scene.camera
         self.shadows = shadows
@@ -115,6 +125,13 @@ class Shader:
         self.background = np.array([*scene.background, 0.0], np.float32)
         self.ambient = np.array([*scene.ambient, 0.0], np.float32)
         self._dispatches: dict[tuple, Dispatch] = {}
+        self.samples = scene.samples
+        self.resolver = None
+        if self.samples > 1:
+            n = self.samples
+            if gbuffer.width % n or gbuffer.height % n:
+                raise ValueError(f"a {gbuffer.width}x{gbuffer.height} G-buffer is not {n}x{n} samples per pixel")
+            self.resolver = Resolver(runtime, gbuffer.width // n, gbuffer.height // n, n, self.out)
 
     def buffer(self, name: str, half: bool = False):
         """The device copy of one G-buffer channel (uploaded once), zero-padded to a
@@ -178,12 +195,21 @@ class Shader:
         return dispatch
 
     def enqueue(self, dispatch: Dispatch):
-        """Enqueue one frame; returns the OpenCL event."""
-        return self.rt.cl.enqueue_nd_range_kernel(self.rt.queue, dispatch.kernel, (dispatch.global_size,),
-                                                  (self.rt.local_size,))
+        """Enqueue one frame; returns the OpenCL event (shading and resolve as one
+        event when supersampling)."""
+        event = self.rt.cl.enqueue_nd_range_kernel(self.rt.queue, dispatch.kernel, (dispatch.global_size,),
+                                                   (self.rt.local_size,))
+        return self.resolver.enqueue(event) if self.resolver is not None else event
 
     def read(self) -> np.ndarray:
-        """The last output as an (H, W, 4) float32 image (RGB radiance, coverage)."""
+        """The last output as an (H, W, 4) float32 image (RGB radiance, coverage; with
+        supersampling the resolved pixels, alpha the covered fraction)."""
+        if self.resolver is not None:
+            return self.resolver.read()
+        return self.read_samples()
+
+    def read_samples(self) -> np.ndarray:
+        """The last shaded G-buffer (one value per sample) as (H, W, 4) float32."""
         image = np.empty((self.gb.height, self.gb.width, 4), np.float32)
         self.rt.cl.enqueue_copy(self.rt.queue, image, self.out)
         return image

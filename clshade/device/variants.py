@@ -51,6 +51,7 @@ class Features:
     half_gbuffer: bool = False
     fast_math: bool = False
     general: bool = False          # the general kernel; the fields above are its runtime switches
+    specular_aa: bool = False      # specular lobe widened by the normal's screen-space variance (compile-time)
 
     @property
     def num_lights(self) -> int:
@@ -66,6 +67,7 @@ class Features:
         out.append(f"textures: {'on (sampled into the G-buffer on the host, trilinear mipmaps)' if self.textures else 'off'}")
         out.append(f"G-buffer storage: {'half (normal, base colour)' if self.half_gbuffer else 'float32'}")
         out.append(f"math: {'fast-relaxed' if self.fast_math else 'precise'}")
+        out.append(f"specular anti-aliasing: {'on (normal variance, kernels/specular_aa.h)' if self.specular_aa else 'off'}")
         out.append("output: exposure, tone map and sRGB encoding on the host (clshade/render/image.py)")
         return out
 
@@ -130,10 +132,16 @@ class Variant:
     def has_material(self) -> bool:
         return "material" in self.channels
 
+    @property
+    def specular_aa(self) -> bool:
+        """Specular anti-aliasing is compiled in: the scene asks and the model has a specular lobe."""
+        return self.features.specular_aa and self.model.specular != NONE
+
     def defines(self) -> dict[str, str]:
         f, m = self.features, self.model
+        aa = {"SPECULAR_AA": "1"} if self.specular_aa else {}
         if f.general:
-            return {"GENERAL": "1", "HAS_DIFFUSE": str(int(m.diffuse != NONE)),
+            return {**aa, "GENERAL": "1", "HAS_DIFFUSE": str(int(m.diffuse != NONE)),
                     "HAS_SPECULAR": str(int(m.specular != NONE)),
                     "SPECULAR_FRESNEL": str(int(m.uses_fresnel)),
                     "FRESNEL": FRESNEL_DEFINES[m.fresnel], "WORKFLOW": WORKFLOW_DEFINES[m.workflow]}
@@ -154,6 +162,7 @@ class Variant:
             d["SHADOW_PCF"] = str(f.shadow_pcf)
         if f.half_gbuffer:
             d["HALF_GBUFFER"] = "1"
+        d.update(aa)
         if self.baked_material is not None:
             values = np.asarray(self.baked_material, np.float32).reshape(4, 4)
             for r in range(4):
@@ -173,6 +182,8 @@ class Variant:
             headers = ("gbuffer.h",)
             if entry == "shade.cl" and (self.features.shadows or self.features.general):
                 headers += ("shadow.h",)
+            if entry == "shade.cl" and self.specular_aa:
+                headers += ("specular_aa.h",)
         return assemble(self.model, defines, entry, headers=headers)
 
     @property

@@ -31,6 +31,9 @@ SHADOW_PCF_SIZES = (1, 3, 5, 7)     # odd kernel widths; 1 = a single tap (no fi
 # Default conductor: gold at R, G, B ≈ 650, 550, 450 nm (Johnson & Christy 1972).
 GOLD_ETA = (0.18, 0.42, 1.37)
 GOLD_K = (3.42, 2.35, 1.77)
+# Supersampling: N×N samples per pixel (clshade/render/samples.py); the device
+# shades an N²-times larger G-buffer, so N is kept small.
+MAX_SAMPLES = 8
 
 
 @dataclass(frozen=True)
@@ -43,6 +46,10 @@ class Camera:
     height: int
     near: float = 0.05
     far: float = 1000.0
+    # Sub-pixel offset of the image plane in pixels (x right, y down): pixel centres
+    # sample the image at (j + 0.5 + shift[0], i + 0.5 + shift[1]). Jittered frames
+    # (clshade/render/samples.py) use it; (0, 0) is the plain camera.
+    shift: tuple[float, float] = (0.0, 0.0)
 
     @property
     def aspect(self) -> float:
@@ -59,8 +66,12 @@ class Camera:
         return look_at(self.position, self.target, self.up)
 
     def projection_matrix(self) -> np.ndarray:
-        """OpenGL perspective projection (clip space, NDC z in [−1, 1])."""
-        return perspective(self.fov, self.aspect, self.near, self.far)
+        """OpenGL perspective projection (clip space, NDC z in [−1, 1]), moved by `shift`."""
+        m = perspective(self.fov, self.aspect, self.near, self.far)
+        if self.shift != (0.0, 0.0):
+            m[0] -= (2.0 * self.shift[0] / self.width) * m[3]
+            m[1] += (2.0 * self.shift[1] / self.height) * m[3]
+        return m
 
     def with_size(self, width: int | None, height: int | None) -> "Camera":
         from dataclasses import replace
@@ -167,6 +178,8 @@ class Scene:
     model: str = "ggx_correlated"
     shadow_map_size: int = DEFAULT_SHADOW_MAP_SIZE
     shadow_pcf: int = DEFAULT_SHADOW_PCF
+    samples: int = 1                 # N×N samples per pixel, box-filtered (supersampling)
+    specular_aa: bool = False        # roughness widened from the normal's screen-space variance
 
     @property
     def shadow_lights(self) -> tuple[int, ...]:
@@ -446,6 +459,8 @@ def parse_scene(text: str, file: Path | str = "<scene>") -> Scene:
     shadow_pcf = rnd.integer("shadow_pcf", DEFAULT_SHADOW_PCF, SHADOW_PCF_SIZES[0], SHADOW_PCF_SIZES[-1])
     if shadow_pcf not in SHADOW_PCF_SIZES:
         raise rnd.error("shadow_pcf", f"must be one of {', '.join(map(str, SHADOW_PCF_SIZES))} (an odd kernel width)")
+    samples = rnd.integer("samples", 1, 1, MAX_SAMPLES)
+    specular_aa = rnd.boolean("specular_aa", False)
     rnd.finish()
 
     lights_raw = top.raw("lights", [])
@@ -466,7 +481,8 @@ def parse_scene(text: str, file: Path | str = "<scene>") -> Scene:
         raise located(f"at most {MAX_MATERIALS} materials are supported, got {len(materials)}", file, "materials")
     return Scene(path=file if file.exists() else None, camera=camera, lights=lights, materials=materials,
                  objects=objects, background=background, ambient=ambient, exposure=exposure,
-                 tonemap=tonemap, model=model, shadow_map_size=shadow_map_size, shadow_pcf=shadow_pcf)
+                 tonemap=tonemap, model=model, shadow_map_size=shadow_map_size, shadow_pcf=shadow_pcf,
+                 samples=samples, specular_aa=specular_aa)
 
 
 def _missing(file: Path, key: str) -> None:

@@ -1,0 +1,464 @@
+"""Anti-aliasing as an accuracy-vs-time ladder (issue 16).
+
+A pixel's true value is the mean of the radiance over its area (a box filter).
+The ground truth is that integral estimated by a dense ordered grid of samples
+(`TRUTH_SAMPLES`² per pixel, clshade/render/samples.py), each sample evaluated in
+float64 by the independent reference: one jittered frame per sample offset, so the
+memory is that of one frame. Its convergence is shown by the same error measures
+between the `TRUTH_SAMPLES`² and the `CHECK_SAMPLES`² truth.
+
+Rungs (`RUNGS`): one sample per pixel, N×N supersampling resolved on the device,
+specular anti-aliasing (kernels/specular_aa.h), and both. Each rung gets its
+device frame time (shading + resolve, median over interleaved repeats; the host
+rasterisation of the N²-times larger G-buffer is reported apart) and its error
+against the truth as the mean per-pixel relative error over the whole frame, over
+silhouette pixels (true coverage strictly between 0 and 1) and over highlight
+pixels (fully covered, true radiance ≥ HIGHLIGHT_RATIO × the true radiance of the
+model's diffuse lobe alone).
+
+Temporal stability: `TEMPORAL_FRAMES` frames with the image plane moved by
+`TEMPORAL_STEP` pixels per frame (a sub-pixel pan, Camera.shift). Each sphere's
+highlight energy is the sum, over a window holding the whole sphere through the
+move, of the rung's image of the specular lobe alone (no ambient); the content only
+translates, so the exact energy is constant and every frame-to-frame change is
+aliasing. Reported per sphere as mean |E(t+1) − E(t)| / mean E.
+
+Measuring functions return data; `markdown` and the plots render it.
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from clshade import __version__
+from clshade.bench.run import REL_ERROR_FLOOR, machine_info, mark_pareto, plot_ladder, reference_image
+from clshade.compare import layout, to_display, write_sheet
+from clshade.device.runtime import Runtime, get_runtime
+from clshade.device.shade import Shader, scene_features
+from clshade.errors import ClshadeError
+from clshade.models import NONE, Model, resolve, resolve_many
+from clshade.pipeline import Frame, prepare_frame
+from clshade.render.meshes import Geometry, build_geometry
+from clshade.render.samples import jittered, sample_offsets
+from clshade.render.scene import Scene, load_scene
+from clshade.verify import reference
+
+
+@dataclass(frozen=True)
+class Rung:
+    label: str
+    samples: int
+    specular_aa: bool
+
+
+RUNGS = (Rung("1 sample", 1, False), Rung("2×2", 2, False), Rung("4×4", 4, False),
+         Rung("specular AA", 1, True), Rung("specular AA + 2×2", 2, True))
+TRUTH_SAMPLES = 16          # ground truth: 16×16 ordered-grid samples per pixel, float64
+CHECK_SAMPLES = 24          # denser truth, to show the 16×16 one has converged
+HIGHLIGHT_RATIO = 2.0       # highlight pixel: true radiance ≥ 2 × the diffuse lobe's alone
+TEMPORAL_FRAMES = 16
+TEMPORAL_STEP = (0.3, 0.15)  # pixels per frame (x right, y down): 4.8 px in all
+WINDOW_MARGIN_PX = 3        # beyond the sphere's projected radius and the whole move
+DEFAULT_MODELS = "ggx_correlated,blinn_phong_normalized"
+CROP_PX = 20                # crop sheet: crop size in pixels, zoomed ZOOM× nearest-neighbour
+ZOOM = 8
+
+
+def diffuse_model(model: Model) -> Model:
+    """The model's diffuse lobe alone, in the model's workflow."""
+    return resolve(model.diffuse, None, model.workflow)
+
+
+def specular_model(model: Model) -> Model:
+    """The model's specular lobe alone (its Fresnel and workflow kept)."""
+    return dataclasses.replace(model, diffuse=NONE)
+
+
+# ---------------------------------------------------------------- frames
+
+
+def _frame(scene: Scene, geometry: Geometry, *, samples: int = 1, specular_aa: bool = False,
+           shift: tuple[float, float] = (0.0, 0.0)) -> Frame:
+    cam = jittered(scene.camera, *shift)
+    return prepare_frame(dataclasses.replace(scene, camera=cam, samples=samples, specular_aa=specular_aa),
+                         geometry=geometry)
+
+
+def sample_radiance(frame: Frame, model: Model, runtime: Runtime) -> tuple[np.ndarray, int]:
+    """(H·W, 3) float64 radiance of one single-sample frame and the number of covered
+    pixels not taken from the float64 reference. With the frame oracle
+    (reference.radiance) every pixel is float64. Without it, covered pixels whose
+    normal faces away from the viewer (silhouette rims, left out by
+    bench.run.reference_image) keep the device's float32 value: a float32 error
+    (~1e-5) far below the sampling errors measured here."""
+    if hasattr(reference, "radiance"):
+        rad = reference.radiance(frame.gbuffer, frame.scene, model, dtype=np.float64)
+        return np.asarray(rad, np.float64).reshape(-1, 3), 0
+    shader = Shader(runtime, frame.gbuffer, frame.scene, frame.camera, frame.shadows)
+    out = shader.render(model, scene_features(frame.scene, geometry=frame.geometry))
+    rad = out[..., :3].reshape(-1, 3).astype(np.float64)
+    idx, L = reference_image(model, frame.gbuffer, frame.scene, frame.camera)
+    rad[idx] = L
+    return rad, int(frame.gbuffer.coverage.sum()) - len(idx)
+
+
+@dataclass
+class Truth:
+    """The pixel integral estimated with samples² float64 samples per pixel."""
+    samples: int
+    radiance: np.ndarray       # (H, W, 3)
+    diffuse: np.ndarray        # (H, W, 3) the diffuse lobe alone
+    coverage: np.ndarray       # (H, W) covered fraction
+    device_samples: int        # covered samples with the device's float32 value (see sample_radiance)
+    seconds: float
+
+
+def truth_frame(scene: Scene, geometry: Geometry, model: Model, samples: int, runtime: Runtime) -> Truth:
+    """Mean of samples² jittered single-sample frames (one frame in memory at a time)."""
+    start = time.perf_counter()
+    h, w = scene.camera.height, scene.camera.width
+    rad, dif, cov = np.zeros((h * w, 3)), np.zeros((h * w, 3)), np.zeros(h * w)
+    device = 0
+    dmodel = diffuse_model(model)
+    for dx, dy in sample_offsets(samples):
+        frame = _frame(scene, geometry, shift=(scene.camera.shift[0] + dx, scene.camera.shift[1] + dy))
+        r, k = sample_radiance(frame, model, runtime)
+        d, _ = sample_radiance(frame, dmodel, runtime)
+        rad += r
+        dif += d
+        cov += frame.gbuffer.coverage.ravel()
+        device += k
+    n = samples * samples
+    return Truth(samples, (rad / n).reshape(h, w, 3), (dif / n).reshape(h, w, 3), (cov / n).reshape(h, w),
+                 device, time.perf_counter() - start)
+
+
+# ---------------------------------------------------------------- errors
+
+
+def pixel_error(image: np.ndarray, truth: np.ndarray) -> np.ndarray:
+    """(H, W) per-pixel largest-channel relative error |L − L_true| / max(|L_true|, floor),
+    floor = REL_ERROR_FLOOR · peak(L_true) (as the bench's other errors)."""
+    floor = REL_ERROR_FLOOR * max(float(np.abs(truth).max()), 1e-30)
+    return (np.abs(image[..., :3] - truth) / np.maximum(np.abs(truth), floor)).max(axis=-1)
+
+
+def masks(truth: Truth) -> dict[str, np.ndarray]:
+    """Pixel sets the errors are reported on."""
+    full = truth.coverage >= 1.0
+    lum, dlum = truth.radiance.sum(-1), truth.diffuse.sum(-1)
+    return {"frame": np.ones_like(full), "silhouette": (truth.coverage > 0) & ~full,
+            "highlight": full & (lum >= HIGHLIGHT_RATIO * dlum)}
+
+
+def errors(image: np.ndarray, truth: Truth) -> dict[str, float]:
+    """Mean relative error over the whole frame, silhouette and highlight pixels."""
+    err = pixel_error(image, truth.radiance)
+    return {f"{name}_rel_error": float(err[m].mean()) if m.any() else None for name, m in masks(truth).items()}
+
+
+# ---------------------------------------------------------------- timing
+
+
+def _time(shaders: list[tuple[Shader, object]], frames: int, warmup: int) -> list[list[float]]:
+    """Device ms per frame for each (shader, dispatch), interleaved round by round."""
+    times: list[list[float]] = [[] for _ in shaders]
+    for r in range(warmup + frames):
+        for k, (shader, dispatch) in enumerate(shaders):
+            event = shader.enqueue(dispatch)
+            event.wait()
+            if r >= warmup:
+                times[k].append((event.profile.end - event.profile.start) * 1e-6)
+    return times
+
+
+# ---------------------------------------------------------------- the ladder
+
+
+@dataclass
+class RungFrame:
+    rung: Rung
+    frame: Frame
+    shader: Shader
+    raster_ms: float
+
+
+def rung_frames(scene: Scene, geometry: Geometry, runtime: Runtime,
+                shift: tuple[float, float] = (0.0, 0.0)) -> list[RungFrame]:
+    out = []
+    for rung in RUNGS:
+        t0 = time.perf_counter()
+        frame = _frame(scene, geometry, samples=rung.samples, specular_aa=rung.specular_aa, shift=shift)
+        ms = (time.perf_counter() - t0) * 1e3
+        out.append(RungFrame(rung, frame, Shader(runtime, frame.gbuffer, frame.scene, frame.camera, frame.shadows),
+                             ms))
+    return out
+
+
+def _features(rf: RungFrame):
+    return scene_features(rf.frame.scene, geometry=rf.frame.geometry)
+
+
+def ladder(scene: Scene, geometry: Geometry, models: list[Model], truths: dict[str, Truth], runtime: Runtime,
+           frames: int, warmup: int) -> tuple[list[dict], dict[tuple[str, str], np.ndarray]]:
+    """Rows (model × rung: time and errors) and the rung images by (model id, rung label)."""
+    rfs = rung_frames(scene, geometry, runtime)
+    pairs = [(rf, m) for m in models for rf in rfs]
+    dispatches = [(rf.shader, rf.shader.prepare(m, _features(rf))) for rf, m in pairs]
+    times = _time(dispatches, frames, warmup)
+    rows, images = [], {}
+    for (rf, m), (shader, dispatch), t in zip(pairs, dispatches, times):
+        shader.enqueue(dispatch).wait()
+        image = shader.read()
+        images[(m.id, rf.rung.label)] = image
+        row = dict(group=m.label, model=m.id, label=rf.rung.label, samples=rf.rung.samples,
+                   specular_aa=rf.rung.specular_aa, frames=len(t), mean_ms=float(np.mean(t)),
+                   median_ms=float(np.median(t)), raster_ms=rf.raster_ms,
+                   shaded_samples=rf.frame.gbuffer.pixels,
+                   **errors(image, truths[m.id]))
+        row["mean_rel_error"] = row["frame_rel_error"]
+        rows.append(row)
+    mark_pareto(rows)
+    return rows, images
+
+
+def convergence(truth: Truth, check: Truth) -> dict[str, object]:
+    """The errors of the truth against the denser check truth: how far from converged."""
+    return dict(truth_samples=truth.samples, check_samples=check.samples, **errors(truth.radiance, check))
+
+
+# ---------------------------------------------------------------- temporal stability
+
+
+def sphere_windows(scene: Scene, pad: float) -> list[tuple[str, float, tuple[int, int, int, int]]]:
+    """(object name, roughness, (row0, row1, col0, col1)) of every sphere: its projected
+    bounding square grown by `pad` pixels, clamped to the image."""
+    cam = scene.camera
+    view, proj = cam.view_matrix(), cam.projection_matrix()
+    out = []
+    for obj in scene.objects:
+        if obj.primitive != "sphere":
+            continue
+        centre = view @ np.array([*obj.translate, 1.0])
+        depth = -centre[2]
+        radius = float(obj.params.get("radius", 1.0)) * max(obj.scale)
+        clip = proj @ centre
+        x = (clip[0] / clip[3] + 1) * 0.5 * cam.width
+        y = (1 - clip[1] / clip[3]) * 0.5 * cam.height
+        r_px = radius / max(depth - radius, 1e-9) * proj[1, 1] * 0.5 * cam.height + pad
+        box = (max(0, int(y - r_px)), min(cam.height, int(np.ceil(y + r_px)) + 1),
+               max(0, int(x - r_px)), min(cam.width, int(np.ceil(x + r_px)) + 1))
+        out.append((obj.name, scene.materials[obj.material].roughness, box))
+    return out
+
+
+def temporal(scene: Scene, geometry: Geometry, models: list[Model], runtime: Runtime,
+             frames: int = TEMPORAL_FRAMES, step: tuple[float, float] = TEMPORAL_STEP) -> list[dict]:
+    """Per model and rung: each sphere's frame-to-frame highlight energy change. The
+    energy is that of the specular lobe alone under the lights (no ambient), so that
+    only the highlight counts."""
+    move = np.hypot(*step) * (frames - 1)
+    windows = sphere_windows(scene, move + WINDOW_MARGIN_PX)
+    dark = dataclasses.replace(scene, ambient=(0.0, 0.0, 0.0))
+    energy = {(m.id, r.label): [] for m in models for r in RUNGS}
+    for t in range(frames):
+        for rf in rung_frames(dark, geometry, runtime, shift=(step[0] * t, step[1] * t)):
+            for m in models:
+                spec = rf.shader.render(specular_model(m), _features(rf))[..., :3].astype(np.float64)
+                energy[(m.id, rf.rung.label)].append(
+                    [float(spec[r0:r1, c0:c1].sum()) for _, _, (r0, r1, c0, c1) in windows])
+    rows = []
+    for m in models:
+        for rung in RUNGS:
+            e = np.array(energy[(m.id, rung.label)])               # (frames, spheres)
+            change = np.abs(np.diff(e, axis=0)).mean(axis=0) / np.maximum(np.abs(e).mean(axis=0), 1e-30)
+            rows.append(dict(group=m.label, model=m.id, label=rung.label,
+                             spheres=[dict(name=n, roughness=r, energy_change=float(c))
+                                      for (n, r, _), c in zip(windows, change)],
+                             mean_energy_change=float(change.mean()), max_energy_change=float(change.max())))
+    return rows
+
+
+# ---------------------------------------------------------------- crop sheet
+
+
+def crop_boxes(truth: Truth, scene: Scene) -> dict[str, tuple[int, int]]:
+    """Top-left corners of a highlight crop (the brightest highlight pixel of the
+    sharpest sphere that still has highlight pixels) and a silhouette crop (the
+    top-left rim of the same sphere)."""
+    m = masks(truth)
+    windows = sphere_windows(scene, 0)
+    h, w = truth.coverage.shape
+    for _, _, (r0, r1, c0, c1) in sorted(windows, key=lambda x: x[1]):
+        hl = np.zeros_like(m["highlight"])
+        hl[r0:r1, c0:c1] = m["highlight"][r0:r1, c0:c1]
+        if hl.any():
+            lum = np.where(hl, truth.radiance.sum(-1), -1)
+            y, x = np.unravel_index(int(np.argmax(lum)), lum.shape)
+            sil = np.argwhere(m["silhouette"][r0:r1, c0:c1])
+            sy, sx = sil[np.argmin(sil[:, 0] + sil[:, 1])] + (r0, c0)
+            clamp = lambda a, n: int(min(max(a - CROP_PX // 2, 0), n - CROP_PX))  # noqa: E731
+            return {"highlight": (clamp(y, h), clamp(x, w)), "silhouette": (clamp(sy + 4, h), clamp(sx + 4, w))}
+    raise ClshadeError("crop sheet: no highlight pixels in the truth frame")
+
+
+def _zoom(image: np.ndarray, corner: tuple[int, int]) -> np.ndarray:
+    y, x = corner
+    crop = image[y:y + CROP_PX, x:x + CROP_PX]
+    return np.repeat(np.repeat(crop, ZOOM, axis=0), ZOOM, axis=1)      # nearest neighbour, no filtering
+
+
+def crop_sheet(scene: Scene, models: list[Model], images: dict[tuple[str, str], np.ndarray],
+               truths: dict[str, Truth], rows: list[dict]) -> np.ndarray:
+    """Rows = rungs and the truth; per model a highlight and a silhouette crop."""
+    err = {(r["model"], r["label"]): r for r in rows}
+    corners = {m.id: crop_boxes(truths[m.id], scene) for m in models}
+    out = []
+    for rung in [*RUNGS, None]:
+        tiles = []
+        for m in models:
+            t = truths[m.id]
+            img = t.radiance if rung is None else images[(m.id, rung.label)][..., :3]
+            disp = to_display(np.asarray(img, np.float32), scene)
+            for kind in ("highlight", "silhouette"):
+                r = None if rung is None else err[(m.id, rung.label)]
+                sub = (f"truth {t.samples}x{t.samples} float64" if r is None
+                       else f"err {r[kind + '_rel_error']:.3f}, {r['mean_ms']:.2f} ms")
+                tiles.append((_zoom(disp, corners[m.id][kind]), f"{m.label}: {kind}", sub))
+        out.append(("ground truth" if rung is None else rung.label, tiles))
+    return layout(out)
+
+
+# ---------------------------------------------------------------- report
+
+
+def run(scene_path: str | Path, models: list[Model], *, width: int | None = None, height: int | None = None,
+        frames: int = 30, warmup: int = 3, truth_samples: int = TRUTH_SAMPLES,
+        check_samples: int | None = CHECK_SAMPLES, temporal_frames: int = TEMPORAL_FRAMES,
+        device: str | None = None) -> tuple[dict, np.ndarray]:
+    """The whole study: ladder, convergence of the truth, temporal table; and the crop sheet."""
+    scene = load_scene(scene_path)
+    scene = dataclasses.replace(scene, camera=scene.camera.with_size(width, height), samples=1, specular_aa=False)
+    runtime = get_runtime(device)
+    geometry = build_geometry(scene)
+    truths = {m.id: truth_frame(scene, geometry, m, truth_samples, runtime) for m in models}
+    conv = []
+    if check_samples:
+        for m in models:
+            check = truth_frame(scene, geometry, m, check_samples, runtime)
+            conv.append(dict(group=m.label, model=m.id, **convergence(truths[m.id], check)))
+    rows, images = ladder(scene, geometry, models, truths, runtime, frames, warmup)
+    temp = temporal(scene, geometry, models, runtime, temporal_frames) if temporal_frames > 1 else []
+    doc = dict(clshade=__version__, date=time.strftime("%Y-%m-%d", time.gmtime()),
+               scene=Path(scene_path).name, width=scene.camera.width, height=scene.camera.height,
+               frames=frames, warmup=warmup, **machine_info(runtime),
+               definitions=dict(
+                   frame_time="device time of one frame: shading kernel start to resolve kernel end, mean over "
+                              "frames interleaved across rungs; raster_ms: host rasterisation + G-buffer (once)",
+                   error=f"per pixel max over RGB of |L - L_true| / max(|L_true|, {REL_ERROR_FLOOR:g} * peak(L_true)), "
+                         f"mean over the pixel set; L_true: {truth_samples}x{truth_samples} ordered-grid samples "
+                         f"per pixel, float64 reference",
+                   silhouette="pixels with true coverage strictly between 0 and 1",
+                   highlight=f"fully covered pixels with true radiance >= {HIGHLIGHT_RATIO:g} x that of the "
+                             "model's diffuse lobe alone",
+                   temporal=f"{temporal_frames} frames, image plane moved {TEMPORAL_STEP} px per frame; per sphere "
+                            "mean |E(t+1) - E(t)| / mean E of the highlight energy E (the specular lobe alone, no "
+                            "ambient, summed over a window holding the sphere); exact value 0"),
+               truth=[dict(model=m.id, samples=t.samples, seconds=t.seconds, device_samples=t.device_samples,
+                           oracle=hasattr(reference, "radiance")) for m, t in
+                      ((m, truths[m.id]) for m in models)],
+               convergence=conv, ladder=rows, temporal=temp)
+    return doc, crop_sheet(scene, models, images, truths, rows)
+
+
+def _f(x: object, spec: str) -> str:
+    return "—" if x is None else format(x, spec)
+
+
+def markdown(doc: dict) -> str:
+    """The results as Markdown: ladder, convergence of the truth, temporal stability."""
+    out = [f"# Anti-aliasing ladder — {doc['scene']} {doc['width']}x{doc['height']}",
+           "", f"Generated {doc['date']} by `{doc.get('command', 'clshade aa')}`; device {doc['device']['name']} ({doc['device']['platform_version']})"
+           f" on {doc['machine']['processor']}. Frame time: {doc['definitions']['frame_time']}. "
+           f"Error: {doc['definitions']['error']}. Silhouette: {doc['definitions']['silhouette']}; "
+           f"highlight: {doc['definitions']['highlight']}.", "",
+           "| model | rung | samples/px | mean ms | raster ms | frame err | silhouette err | highlight err | Pareto |",
+           "|" + "---|" * 9]
+    for r in doc["ladder"]:
+        out.append(f"| {r['group']} | {r['label']} | {r['samples'] ** 2} | {r['mean_ms']:.3f} | {r['raster_ms']:.0f} | "
+                   f"{_f(r['frame_rel_error'], '.4f')} | {_f(r['silhouette_rel_error'], '.3f')} | "
+                   f"{_f(r['highlight_rel_error'], '.3f')} | {'●' if r.get('pareto') else ''} |")
+    if doc["convergence"]:
+        out += ["", "## Is the truth converged?", "",
+                "The same errors of the truth against a denser one (both float64, ordered grids):", "",
+                "| model | truth | against | frame err | silhouette err | highlight err |", "|" + "---|" * 6]
+        for c in doc["convergence"]:
+            out.append(f"| {c['group']} | {c['truth_samples']}x{c['truth_samples']} | "
+                       f"{c['check_samples']}x{c['check_samples']} | {_f(c['frame_rel_error'], '.5f')} | "
+                       f"{_f(c['silhouette_rel_error'], '.4f')} | {_f(c['highlight_rel_error'], '.4f')} |")
+    if doc["temporal"]:
+        spheres = doc["temporal"][0]["spheres"]
+        out += ["", "## Temporal stability", "", doc["definitions"]["temporal"] + ".", "",
+                "| model | rung | " + " | ".join(f"r {s['roughness']:g}" for s in spheres) + " | mean |",
+                "|" + "---|" * (len(spheres) + 3)]
+        for r in doc["temporal"]:
+            out.append(f"| {r['group']} | {r['label']} | " +
+                       " | ".join(f"{s['energy_change']:.3f}" for s in r["spheres"]) +
+                       f" | {r['mean_energy_change']:.3f} |")
+    truth = "; ".join(f"{t['model']}: {t['samples']}x{t['samples']} in {t['seconds']:.0f} s, "
+                      f"{t['device_samples']} rim samples from the device" for t in doc["truth"])
+    out += ["", f"Truth frames: {truth} (oracle: {doc['truth'][0]['oracle'] if doc['truth'] else '—'}).", ""]
+    return "\n".join(out)
+
+
+# ---------------------------------------------------------------- CLI
+
+
+def add_parser(sub, checks) -> None:
+    p = sub.add_parser("aa", help="anti-aliasing ladder: supersampling and specular AA vs a float64 pixel integral",
+                       description="Render SCENE at each anti-aliasing rung (1 sample, 2x2, 4x4, specular AA, "
+                                   "specular AA + 2x2), time it, and measure its error against the pixel integral "
+                                   "(a dense supersampled float64 frame); temporal stability under a sub-pixel pan; "
+                                   "crop sheet of one highlight and one silhouette per rung.")
+    p.add_argument("scene", nargs="?", help="scene (default: scenes/aa_spheres.toml)")
+    p.add_argument("-m", "--models", default=DEFAULT_MODELS, help=f"comma-separated models (default {DEFAULT_MODELS})")
+    p.add_argument("--width", type=int)
+    p.add_argument("--height", type=int)
+    p.add_argument("--frames", type=int, default=30, help="timed frames per rung (default 30)")
+    p.add_argument("--truth-samples", type=int, default=TRUTH_SAMPLES)
+    p.add_argument("--check-samples", type=int, default=CHECK_SAMPLES, help="denser truth for the convergence "
+                   "check (0 = skip)")
+    p.add_argument("--temporal-frames", type=int, default=TEMPORAL_FRAMES, help="0 = skip")
+    p.add_argument("-o", "--output", default="aa", help="output prefix: PREFIX.json, .md, _ladder.png, _crops.png")
+    p.add_argument("--device")
+    p.set_defaults(func=_cmd_aa)
+
+
+def _cmd_aa(args: argparse.Namespace) -> int:
+    from clshade.resources import scenes_dir
+    scene = args.scene or str(scenes_dir() / "aa_spheres.toml")
+    if args.frames < 1 or args.truth_samples < 1 or args.check_samples < 0:
+        raise ClshadeError(f"--frames = {args.frames}, --truth-samples = {args.truth_samples}, "
+                           f"--check-samples = {args.check_samples}: need ≥ 1, ≥ 1, ≥ 0")
+    doc, sheet = run(scene, resolve_many(args.models), width=args.width, height=args.height, frames=args.frames,
+                     truth_samples=args.truth_samples, check_samples=args.check_samples,
+                     temporal_frames=args.temporal_frames, device=args.device)
+    doc["command"] = "clshade aa " + " ".join(
+        [Path(scene).name] + [f"--{k.replace('_', '-')} {v}" for k, v in vars(args).items()
+                              if k in ("models", "width", "height", "frames", "truth_samples", "check_samples",
+                                       "temporal_frames") and v is not None])
+    prefix = Path(args.output)
+    prefix.with_suffix(".json").write_text(json.dumps(doc, indent=2, ensure_ascii=False), encoding="utf-8")
+    text = markdown(doc)
+    prefix.with_suffix(".md").write_text(text, encoding="utf-8")
+    plot_ladder(doc["ladder"], prefix.with_name(prefix.name + "_ladder.png"),
+                f"anti-aliasing ladder, {doc['scene']} {doc['width']}x{doc['height']}, {doc['device']['name']}")
+    write_sheet(prefix.with_name(prefix.name + "_crops.png"), sheet)
+    print(text)
+    return 0

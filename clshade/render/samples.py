@@ -1,0 +1,59 @@
+"""Sample patterns inside a pixel: where the N×N samples of supersampling lie.
+
+clshade supersamples on an *ordered (stratified) grid*: sample (a, b) of pixel
+(row i, column j) sits at (j + (a + 0.5)/N, i + (b + 0.5)/N) in pixel units, the
+centre of cell (a, b) when the pixel is cut into N×N equal cells. Rasterising the
+G-buffer at N·W × N·H with the same camera puts the pixel centres of the larger
+image exactly there (clshade/pipeline.py), and the device box-filters each N×N
+block back into one pixel (clshade/device/resolve.py). A frame shaded with the
+camera `shift`ed by one of `sample_offsets(N)` holds one sample of every pixel;
+the mean of the N² jittered frames is the same pixel estimate, in memory of one
+frame (the float64 ground truth of clshade/bench/aa.py is computed that way).
+
+An ordered grid was chosen over a rotated grid because the rasterizer samples
+pixel centres on a regular lattice: the grid is one larger raster, no new sample
+positions in the rasterizer. Its weakness, as measured in the AA ladder, is
+near-horizontal and near-vertical edges, where only N (not N²) coverage levels
+occur.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from clshade.errors import ClshadeError
+from clshade.render.scene import MAX_RESOLUTION, MAX_SAMPLES, Camera
+
+
+def sample_offsets(n: int) -> np.ndarray:
+    """(n², 2) offsets (x right, y down) of the ordered-grid samples from the pixel centre,
+    in pixels, row by row: ((a + 0.5)/n − 0.5, (b + 0.5)/n − 0.5)."""
+    if n < 1:
+        raise ClshadeError(f"samples = {n}: must be ≥ 1")
+    t = (np.arange(n) + 0.5) / n - 0.5
+    yy, xx = np.meshgrid(t, t, indexing="ij")
+    return np.stack([xx.ravel(), yy.ravel()], axis=1)
+
+
+def jittered(camera: Camera, dx: float, dy: float) -> Camera:
+    """The camera whose pixel centres sample (j + 0.5 + dx, i + 0.5 + dy)."""
+    return dataclasses.replace(camera, shift=(float(dx), float(dy)))
+
+
+def check_samples(samples: int, width: int, height: int, where: str = "samples") -> None:
+    """Reject a sample count outside 1 … MAX_SAMPLES or a supersampled raster beyond MAX_RESOLUTION."""
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or not 1 <= samples <= MAX_SAMPLES:
+        raise ClshadeError(f"{where} = {samples!r}: must be an integer within [1, {MAX_SAMPLES}]")
+    if max(width, height) * samples > MAX_RESOLUTION:
+        raise ClshadeError(f"{where} = {samples}: {width}x{height} pixels × {samples} samples per axis exceeds "
+                           f"the raster limit {MAX_RESOLUTION}")
+
+
+def supersampled(camera: Camera, samples: int) -> Camera:
+    """The camera of the N·W × N·H raster whose pixel centres are the N×N grid samples
+    (a jitter `shift` stays the same fraction of an output pixel)."""
+    if samples == 1:
+        return camera
+    return dataclasses.replace(camera, width=camera.width * samples, height=camera.height * samples,
+                               shift=(camera.shift[0] * samples, camera.shift[1] * samples))
