@@ -26,6 +26,14 @@ def _add_model_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--fast-math", action="store_true", help="build with -cl-fast-relaxed-math")
 
 
+def add_aa_options(p: argparse.ArgumentParser) -> None:
+    """--samples and --specular-aa (scenes/README.md [render] samples, specular_aa)."""
+    p.add_argument("--samples", type=int, metavar="N",
+                   help="N×N samples per pixel, box-filtered on the device (default: the scene's render.samples)")
+    p.add_argument("--specular-aa", action="store_true",
+                   help="widen specular lobes by the normal's screen-space variance (render.specular_aa)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="clshade", description="OpenCL deferred shading: compare lighting models "
                                      "as images, measure their cost and their accuracy.")
@@ -49,6 +57,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="print the feature set, build options and G-buffer channels of the kernel variant")
     p.add_argument("--general", action="store_true",
                    help="shade with the general kernel (runtime light loop and effect switches): same image, slower")
+    add_aa_options(p)
     _add_model_options(p)
     _add_device(p)
     p.set_defaults(func=cmd_render)
@@ -85,6 +94,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     from clshade.render.image import check_output_path, write_image
     from clshade.models import resolve
     from clshade.pipeline import Timings, prepare_frame, render
+    from clshade.render.samples import with_antialiasing
     from clshade.render.scene import load_scene
 
     timings = Timings()
@@ -94,6 +104,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     protected = scene.inputs()
     check_output_path(out, protected)
     model = resolve(args.model or scene.model, args.fresnel, args.workflow)
+    scene = with_antialiasing(scene, args.samples, args.specular_aa)
     frame = prepare_frame(scene, _size(args.width, "width"), _size(args.height, "height"), timings)
     result = render(scene, model, device=args.device, half_gbuffer=args.half, fast_math=args.fast_math, frame=frame,
                     general=args.general)
@@ -123,9 +134,10 @@ def cmd_render(args: argparse.Namespace) -> int:
     with timings.stage("write"):
         exposure = scene.exposure if args.exposure is None else args.exposure
         write_image(out, result.image, args.tonemap or scene.tonemap, exposure, protected)
-    cam = frame.camera
-    print(f"wrote {out} ({cam.width}x{cam.height}, {model.label}, {frame.geometry.triangle_count} triangles, "
-          f"{int(frame.gbuffer.coverage.sum())} covered pixels)")
+    aa = f", {scene.samples}x{scene.samples} samples" if scene.samples > 1 else ""
+    aa += ", specular AA" if scene.specular_aa else ""
+    print(f"wrote {out} ({result.image.shape[1]}x{result.image.shape[0]}{aa}, {model.label}, {frame.geometry.triangle_count} triangles, "
+          f"{int(frame.gbuffer.coverage.sum())} covered {'samples' if scene.samples > 1 else 'pixels'})")
     print(f"stages: {timings.line()}")
     return 0
 

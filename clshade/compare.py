@@ -16,6 +16,7 @@ from clshade.render.image import srgb_encode, tonemap
 from clshade.models import GROUPS, Model, resolve, resolve_many
 from clshade.pipeline import Frame, prepare_frame
 from clshade.device.runtime import Runtime, get_runtime
+from clshade.render.samples import with_antialiasing
 from clshade.render.scene import Scene, load_scene
 from clshade.device.shade import Shader, scene_features
 
@@ -180,6 +181,11 @@ def write_sheet(path: str | Path, sheet: np.ndarray, protected=()) -> Path:
     return write_image(path, rgba, "none", 0.0, protected)
 
 
+def _aa_options(p) -> None:
+    p.add_argument("--samples", type=int, metavar="N", help="N×N samples per pixel (default: the scene's)")
+    p.add_argument("--specular-aa", action="store_true", help="specular anti-aliasing (scenes/README.md)")
+
+
 def add_parser(sub, checks) -> None:
     p = sub.add_parser("compare", help="contact sheet of several models on one G-buffer",
                        description="Rasterise once, shade with every model, write a labelled contact sheet "
@@ -192,6 +198,7 @@ def add_parser(sub, checks) -> None:
     p.add_argument("--width", type=int, default=None)
     p.add_argument("--height", type=int, default=None)
     p.add_argument("--tile", type=int, default=320, help="tile width when --width is not given (default 320)")
+    _aa_options(p)
     p.add_argument("--device")
     p.set_defaults(func=_cmd_compare)
 
@@ -205,13 +212,14 @@ def add_parser(sub, checks) -> None:
     p.add_argument("--roughness", default=",".join(f"{r:g}" for r in SWEEP_ROUGHNESS),
                    help="comma-separated roughness values (columns)")
     p.add_argument("--size", type=int, default=160, help="tile size in pixels")
+    _aa_options(p)
     p.add_argument("--device")
     p.set_defaults(func=_cmd_sweep)
 
 
 def _cmd_compare(args) -> int:
     from clshade.render.image import check_output_path
-    scene = load_scene(args.scene)
+    scene = with_antialiasing(load_scene(args.scene), args.samples, args.specular_aa)
     check_output_path(Path(args.output), scene.inputs())
     models = resolve_many(args.models)
     width = args.width or args.tile
@@ -228,7 +236,7 @@ def _cmd_compare(args) -> int:
 def _cmd_sweep(args) -> int:
     from clshade.render.image import check_output_path
     from clshade.resources import scenes_dir
-    scene = load_scene(args.scene or scenes_dir() / "red_ball.toml")
+    scene = with_antialiasing(load_scene(args.scene or scenes_dir() / "red_ball.toml"), args.samples, args.specular_aa)
     check_output_path(Path(args.output), scene.inputs())
     try:
         values = tuple(float(x) for x in args.roughness.split(",") if x.strip())

@@ -36,6 +36,7 @@ from clshade.models import NONE, Model, resolve, resolve_many
 from clshade.bench.numpy_baseline import shade_numpy
 from clshade.pipeline import Frame, prepare_frame
 from clshade.device.runtime import Runtime, get_runtime
+from clshade.render.samples import with_antialiasing
 from clshade.render.scene import Light, Scene, load_scene
 from clshade.device.shade import Shader, camera_args, pack_lights, scene_features
 from clshade.device.variants import Features
@@ -278,7 +279,8 @@ def summarize(cases: list[Case], copy_ms: dict[tuple, list[float]], numpy_frames
         row["lights"] = c.features.num_lights
         if c.model.id == "lambert" and not (c.features.fast_math or c.features.half_gbuffer) and lambert_ms is None:
             lambert_ms = stats["mean_ms"]
-        image = c.shader.render(c.model, c.features) if error or c.numpy else None
+        if error:
+            c.shader.render(c.model, c.features)
         if c.numpy:
             times = []
             for _ in range(max(1, numpy_frames)):
@@ -295,7 +297,8 @@ def summarize(cases: list[Case], copy_ms: dict[tuple, list[float]], numpy_frames
             key = (target.id, id(truth), id(c.scene))
             if key not in refs:
                 refs[key] = reference_image(target, truth, c.scene, c.shader.camera)
-            row["max_rel_error"], row["mean_rel_error"] = relative_error(image, *refs[key])
+            # Per shaded sample (the supersampled G-buffer when the scene asks for N×N samples).
+            row["max_rel_error"], row["mean_rel_error"] = relative_error(c.shader.read_samples(), *refs[key])
             row["error_target"] = target.id
         else:
             row["max_rel_error"] = row["mean_rel_error"] = None
@@ -533,6 +536,9 @@ def add_parser(sub, checks) -> None:
     p.add_argument("--width", type=int, help="override camera.width")
     p.add_argument("--height", type=int, help="override camera.height")
     p.add_argument("--lights", type=int, help="use exactly N lights (extra directional lights are added)")
+    p.add_argument("--samples", type=int, metavar="N", help="N×N samples per pixel, resolved on the device "
+                   "(timed with the resolve; errors per sample)")
+    p.add_argument("--specular-aa", action="store_true", help="specular anti-aliasing (scenes/README.md)")
     p.add_argument("--ladder", action="store_true", help="also run the approximation ladders")
     p.add_argument("--numpy-frames", type=int, default=NUMPY_FRAMES, help="NumPy frames per model (median)")
     p.add_argument("--json", metavar="OUT", help="write the results as JSON (docs/bench-schema.md)")
@@ -547,7 +553,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
     if args.frames < 1 or args.warmup < 0:
         raise ClshadeError(f"--frames = {args.frames}, --warmup = {args.warmup}: need frames ≥ 1, warmup ≥ 0")
     models = resolve_many(args.models)
-    bench = Bench.prepare(args.scene, args.width, args.height, args.lights, args.device)
+    scene = with_antialiasing(load_scene(args.scene), args.samples, args.specular_aa)
+    bench = Bench.prepare(scene, args.width, args.height, args.lights, args.device)
     cases = [bench.case(m, label=m.label) for m in models]
     ladder = ladder_cases(bench) if args.ladder else []
     copy_ms = run_cases(cases + ladder, args.frames, args.warmup, progress=not args.no_progress)
@@ -556,7 +563,9 @@ def cmd_bench(args: argparse.Namespace) -> int:
     mark_pareto(ladder_rows)
     doc = report(bench, rows, args.frames, args.warmup, ladder_rows)
     cam = bench.frame.camera
-    print(f"{Path(args.scene).name} {cam.width}x{cam.height}, {args.frames} frames after {args.warmup} warm-up, "
+    n = bench.frame.scene.samples
+    aa = f" ({n}x{n} samples per pixel: {cam.width}x{cam.height} shaded, resolved on the device)" if n > 1 else ""
+    print(f"{Path(args.scene).name} {cam.width // n}x{cam.height // n}{aa}, {args.frames} frames after {args.warmup} warm-up, "
           f"{bench.features.num_lights} lights, device {bench.runtime.info.description}")
     print(table(rows))
     if ladder_rows:

@@ -23,7 +23,7 @@ import dataclasses
 import numpy as np
 
 from clshade.errors import ClshadeError
-from clshade.render.scene import MAX_RESOLUTION, MAX_SAMPLES, Camera
+from clshade.render.scene import MAX_RESOLUTION, MAX_SAMPLES, Camera, Scene
 
 
 def sample_offsets(n: int) -> np.ndarray:
@@ -57,3 +57,14 @@ def supersampled(camera: Camera, samples: int) -> Camera:
         return camera
     return dataclasses.replace(camera, width=camera.width * samples, height=camera.height * samples,
                                shift=(camera.shift[0] * samples, camera.shift[1] * samples))
+
+
+def with_antialiasing(scene: Scene, samples: int | None = None, specular_aa: bool = False) -> Scene:
+    """The scene with command-line overrides: N×N `samples` (None keeps the scene's) and
+    specular anti-aliasing switched on when `specular_aa`."""
+    if samples is not None:
+        check_samples(samples, 1, 1, where="--samples")
+        scene = dataclasses.replace(scene, samples=samples)
+    if specular_aa:
+        scene = dataclasses.replace(scene, specular_aa=True)
+    return scene

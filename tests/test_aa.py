@@ -1,0 +1,291 @@
+"""Anti-aliasing (issue 16): supersampling, its device resolve, specular AA, the ladder's truth."""
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from clshade.bench.aa import errors, truth_frame
+from clshade.bench.run import reference_image
+from clshade.cli import main
+from clshade.device.shade import Shader, camera_args, scene_features
+from clshade.errors import ClshadeError
+from clshade.models import resolve
+from clshade.pipeline import prepare_frame, render
+from clshade.render.gbuffer import build_gbuffer
+from clshade.render.image import read_image
+from clshade.render.meshes import build_geometry
+from clshade.render.raster import rasterize
+from clshade.render.samples import jittered, sample_offsets
+from clshade.render.scene import load_scene, parse_scene
+from clshade.render.transforms import perspective
+
+from conftest import SCENES
+
+GGX = resolve("ggx_correlated")
+W, H = 96, 44
+
+
+@pytest.fixture(scope="module")
+def spheres():
+    scene = load_scene(SCENES / "aa_spheres.toml")
+    scene = dataclasses.replace(scene, camera=scene.camera.with_size(W, H))
+    return scene, build_geometry(scene)
+
+
+def _render(scene, geometry, runtime, model=GGX, **kw):
+    frame = prepare_frame(dataclasses.replace(scene, **kw), geometry=geometry)
+    return render(None, model, runtime=runtime, frame=frame)
+
+
+# ---------------------------------------------------------------- N = 1 is today's image
+
+
+def test_one_sample_equals_the_plain_pipeline_bit_for_bit(runtime):
+    """samples = 1 (the default, or asked for) renders exactly what the rasterizer →
+    G-buffer → Shader path renders without any of the supersampling code: no resolve
+    kernel, an unshifted camera, the same bits."""
+    scene = load_scene(SCENES / "sphere_grid.toml")
+    cam = scene.camera.with_size(160, 72)
+    geometry = build_geometry(scene)
+    fr = rasterize(geometry.vertices, geometry.faces, cam.view_matrix(), cam.projection_matrix(), cam.width,
+                   cam.height, cull_backfaces=geometry.cull)
+    gb = build_gbuffer(scene, geometry, fr, cam)
+    plain = Shader(runtime, gb, scene, cam).render(GGX, scene_features(scene))
+    for sc in (scene, dataclasses.replace(scene, samples=1)):
+        result = render(sc, GGX, width=160, height=72, runtime=runtime)
+        assert result.shader.resolver is None
+        assert result.image.tobytes() == plain.tobytes()
+    assert np.array_equal(cam.projection_matrix(), perspective(cam.fov, cam.aspect, cam.near, cam.far))
+
+
+def test_zero_shift_leaves_camera_rays_unchanged():
+    cam = load_scene(SCENES / "sphere_grid.toml").camera
+    for a, b in zip(camera_args(cam), camera_args(jittered(cam, 0.0, 0.0))):
+        assert a.tobytes() == b.tobytes()
+
+
+# ---------------------------------------------------------------- sample positions and resolve
+
+
+def test_sample_offsets_are_the_ordered_grid():
+    off = sample_offsets(4)
+    assert off.shape == (16, 2)
+    assert np.allclose(sorted(set(off[:, 0])), [-0.375, -0.125, 0.125, 0.375])
+    assert np.allclose(off.mean(axis=0), 0.0)
+    assert np.allclose(sample_offsets(1), 0.0)
+
+
+def test_device_resolve_is_the_box_mean_of_the_samples(spheres, runtime):
+    scene, geometry = spheres
+    result = _render(scene, geometry, runtime, samples=3)
+    samples = result.shader.read_samples()
+    assert samples.shape == (3 * H, 3 * W, 4)
+    box = samples.reshape(H, 3, W, 3, 4).mean(axis=(1, 3))
+    assert result.image.shape == (H, W, 4)
+    np.testing.assert_allclose(result.image, box, rtol=1e-6, atol=1e-7)
+    # Alpha is the covered fraction: some silhouette pixels are partly covered.
+    alpha = result.image[..., 3]
+    assert ((alpha > 0) & (alpha < 1)).any()
+
+
+@pytest.mark.parametrize("shift", [(0.0, 0.0), (0.3, -0.45)])
+def test_supersampling_equals_the_mean_of_jittered_frames(spheres, runtime, shift):
+    """The N·W × N·H raster samples the same points as N² frames with the camera
+    shifted by sample_offsets(N): the sample positions are what samples.py says; a
+    camera shift (the temporal study's pan) moves every sample by the same fraction
+    of an output pixel."""
+    scene, geometry = spheres
+    moved = dataclasses.replace(scene, camera=jittered(scene.camera, *shift))
+    ss = _render(moved, geometry, runtime, samples=2).image
+    mean = np.zeros_like(ss)
+    for dx, dy in sample_offsets(2):
+        cam = jittered(scene.camera, shift[0] + dx, shift[1] + dy)
+        mean += _render(dataclasses.replace(scene, camera=cam), geometry, runtime).image
+    mean /= 4
+    diff = np.abs(ss - mean).max(axis=-1)
+    # Edge decisions of the two rasters may differ by rounding on a handful of samples.
+    assert np.mean(diff < 1e-5) > 0.995
+    assert np.median(diff) < 1e-6
+
+
+def test_samples_convergence_against_the_float64_pixel_integral(spheres, runtime):
+    """Error against the supersampled float64 truth falls with N, on the whole frame,
+    on silhouettes and on highlights."""
+    scene, geometry = spheres
+    truth = truth_frame(scene, geometry, GGX, 8, runtime)
+    errs = [errors(_render(scene, geometry, runtime, samples=n).image, truth) for n in (1, 2, 4)]
+    for key in ("frame_rel_error", "silhouette_rel_error", "highlight_rel_error"):
+        e = [x[key] for x in errs]
+        assert e[0] > e[1] > e[2], (key, e)
+    assert errs[2]["frame_rel_error"] < 0.5 * errs[0]["frame_rel_error"]
+    assert errs[2]["silhouette_rel_error"] < 0.3 * errs[0]["silhouette_rel_error"]
+
+
+def test_truth_at_one_sample_is_the_float64_reference_of_the_frame(spheres, runtime):
+    scene, geometry = spheres
+    truth = truth_frame(scene, geometry, GGX, 1, runtime)
+    frame = prepare_frame(scene, geometry=geometry)
+    idx, L = reference_image(GGX, frame.gbuffer, frame.scene, frame.camera)
+    assert np.array_equal(truth.radiance.reshape(-1, 3)[idx], L)
+    assert np.array_equal(truth.coverage, frame.gbuffer.coverage.astype(float))
+
+
+# ---------------------------------------------------------------- specular AA
+
+
+def _widened_roughness(gb, variance=0.15, threshold=0.2):
+    """NumPy model of kernels/specular_aa.h: neighbour differences → α'² → perceptual r'."""
+    h, w = gb.height, gb.width
+    n = gb.channels["normal"].reshape(h, w, 3).astype(np.float64)
+    cov = gb.channels["depth"].reshape(h, w) > 0
+
+    def diff(axis: int) -> np.ndarray:
+        size = n.shape[axis]
+        idx = np.arange(size)
+        shape = [1, 1]
+        shape[axis] = size
+        idx = idx.reshape(shape)
+        nxt = np.minimum(idx + 1, size - 1)
+        prv = np.maximum(idx - 1, 0)
+        take = lambda a, i: np.take_along_axis(a, np.broadcast_to(i, a.shape[:2]), axis)  # noqa: E731
+        c_next = take(cov, nxt) & (idx + 1 < size)
+        c_prev = take(cov, prv) & (idx > 0)
+        pick = np.where(c_next, np.broadcast_to(nxt, cov.shape), np.where(c_prev, np.broadcast_to(prv, cov.shape),
+                                                                         np.broadcast_to(idx, cov.shape)))
+        q = np.stack([take(n[..., c], pick) for c in range(3)], axis=-1)
+        d = q - n
+        return (d * d).sum(-1)
+
+    kernel = np.minimum(2 * variance * (diff(1) + diff(0)), threshold)
+    alpha = np.maximum(gb.channels["roughness"].reshape(h, w).astype(np.float64) ** 2, 1e-4)
+    a2 = np.clip(alpha ** 2 + kernel, 0, 1)
+    return np.sqrt(np.sqrt(a2))
+
+
+def test_specular_aa_matches_its_formula(spheres, runtime):
+    """The kernel's widened GGX equals the float64 reference evaluated with the roughness
+    of Tokuyoshi–Kaplanyan / Filament (σ² = 0.15, κ = 0.2) from the G-buffer normals."""
+    scene, geometry = spheres
+    result = _render(scene, geometry, runtime, specular_aa=True)
+    gb = result.frame.gbuffer
+    widened = dataclasses.replace(gb, channels={**gb.channels,
+                                                "roughness": _widened_roughness(gb).astype(np.float32).ravel()})
+    idx, L = reference_image(GGX, widened, result.frame.scene, result.frame.camera)
+    got = result.image.reshape(-1, 4)[idx, :3]
+    rel = np.abs(got - L) / np.maximum(np.abs(L), 1e-3 * np.abs(L).max())
+    assert np.quantile(rel.max(axis=1), 0.999) < 2e-3
+    plain = _render(scene, geometry, runtime)
+    assert not np.array_equal(plain.image, result.image)
+
+
+def test_specular_aa_widens_the_sharpest_highlights(spheres, runtime):
+    """On the smooth spheres the specular lobe (alone, no ambient) lights more pixels
+    with specular AA than without: the lobe widened, for GGX α and a Blinn–Phong exponent."""
+    scene, geometry = spheres
+    dark = dataclasses.replace(scene, ambient=(0.0, 0.0, 0.0))
+    lower = slice(H // 2, H)            # the bottom row: the five smoothest spheres
+    for model in (GGX, resolve("blinn_phong_normalized")):
+        spec = dataclasses.replace(model, diffuse="none")
+        plain, aa = (_render(dark, geometry, runtime, spec, specular_aa=on).image[lower] for on in (False, True))
+        plain, aa = (np.where(x[..., 3] > 0, x[..., 1], 0.0) for x in (plain, aa))
+        level = 0.01 * max(plain.max(), aa.max())
+        assert (aa > level).sum() > 1.5 * (plain > level).sum(), model.id
+
+
+PLANE = """
+[camera]
+position = [0.0, 0.0, 3.0]
+fov = 40.0
+width = 48
+height = 32
+
+[[lights]]
+type = "directional"
+direction = [0.2, 0.1, -1.0]
+irradiance = [2.0, 3.0, 4.0]
+
+[materials.m]
+base_color = [0.5, 0.25, 0.75]
+roughness = 0.2
+
+[[objects]]
+primitive = "plane"
+size = 20.0
+rotate = [90.0, 0.0, 0.0]
+material = "m"
+"""
+
+
+def test_specular_aa_is_a_no_op_on_a_plane(runtime, tmp_path):
+    """Constant normal (up to 1e-23 interpolation rounding): no widening, the same image bit for bit."""
+    scene = parse_scene(PLANE, tmp_path / "plane.toml")
+    plain = render(scene, GGX, runtime=runtime)
+    aa = render(dataclasses.replace(scene, specular_aa=True), GGX, runtime=runtime)
+    normals = plain.frame.gbuffer.channels["normal"].reshape(-1, 3)
+    assert plain.frame.gbuffer.coverage.all() and np.ptp(normals, axis=0).max() < 1e-12
+    assert np.array_equal(aa.image, plain.image)
+
+
+def test_specular_aa_is_absent_from_kernels_of_scenes_that_do_not_ask(spheres, runtime):
+    """Without [render] specular_aa the define is not set and specular_aa.h (the code) is
+    not assembled: shade.cl's one call sits under #ifdef SPECULAR_AA and drops out."""
+    scene, geometry = spheres
+    shader = Shader(runtime, prepare_frame(scene, geometry=geometry).gbuffer, scene)
+    header, define = '#line 1 "specular_aa.h"', "#define SPECULAR_AA "
+    for model in (GGX, resolve("blinn_phong"), resolve("lambert")):
+        off = shader.variant(model, scene_features(scene))
+        src = off.source("shade.cl", runtime.simd)
+        assert "SPECULAR_AA" not in off.defines()
+        assert header not in src and define not in src and "INLINE Surface specular_aa" not in src
+        on = shader.variant(model, scene_features(dataclasses.replace(scene, specular_aa=True)))
+        src_on = on.source("shade.cl", runtime.simd)
+        if model.specular == "none":
+            assert header not in src_on                      # no specular lobe: nothing to widen
+        else:
+            assert on.defines()["SPECULAR_AA"] == "1" and header in src_on and define in src_on
+    general = shader.variant(GGX, scene_features(scene, general=True))
+    assert header not in general.source("shade.cl", runtime.simd)
+
+
+# ---------------------------------------------------------------- scene key and CLI
+
+
+BASE = """
+[camera]
+position = [0.0, 0.0, 3.0]
+width = 32
+height = 24
+
+[render]
+{line}
+"""
+
+
+@pytest.mark.parametrize("line, key, value", [("samples = 0", "render.samples", "0"),
+                                              ("samples = 9", "render.samples", "9"),
+                                              ('samples = "2"', "render.samples", "'2'"),
+                                              ("samples = 2.0", "render.samples", "2.0"),
+                                              ("specular_aa = 1", "render.specular_aa", "1")])
+def test_scene_keys_are_validated(tmp_path, line, key, value):
+    path = tmp_path / "s.toml"
+    with pytest.raises(ClshadeError) as exc:
+        parse_scene(BASE.format(line=line), path)
+    msg = str(exc.value)
+    assert str(path) in msg and key in msg and value in msg
+
+
+def test_scene_keys_are_read():
+    s = parse_scene(BASE.format(line="samples = 3\nspecular_aa = true"), Path("s.toml"))
+    assert s.samples == 3 and s.specular_aa
+
+
+def test_render_command_samples(tmp_path, capsys):
+    out = tmp_path / "x.exr"
+    assert main(["render", str(SCENES / "aa_spheres.toml"), "--width", "48", "--height", "22",
+                 "--samples", "2", "--specular-aa", "-o", str(out)]) == 0
+    assert read_image(out).shape[:2] == (22, 48)
+    assert main(["render", str(SCENES / "aa_spheres.toml"), "--samples", "99", "-o", str(out)]) == 2
+    assert "samples" in capsys.readouterr().err
