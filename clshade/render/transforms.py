@@ -59,11 +59,11 @@ def pixel_rays(view: np.ndarray, proj: np.ndarray, width: int, height: int,
     inv = np.linalg.inv(proj @ view)
     flat = np.arange(width * height) if index is None else np.asarray(index)
     i, j = np.divmod(flat, width)
-    x = (j + 0.5) / width * 2.0 - 1.0
-    y = 1.0 - (i + 0.5) / height * 2.0
-    ends = []
-    for z_ndc in (-1.0, 1.0):
-        p = np.stack([x, y, np.full_like(x, z_ndc), np.ones_like(x)], axis=-1) @ inv.T
-        ends.append(p[:, :3] / p[:, 3:])
+    x = (j + 0.5) * (2.0 / width) - 1.0
+    y = 1.0 - (i + 0.5) * (2.0 / height)
+    # inv · (x, y, ±1, 1) as outer products with its columns (cheaper than a (K, 4) matmul)
+    xy = x[:, None] * inv[:, 0] + y[:, None] * inv[:, 1] + inv[:, 3]
+    near, far = xy - inv[:, 2], xy + inv[:, 2]
+    ends = [p[:, :3] / p[:, 3:] for p in (near, far)]
     d = ends[1] - ends[0]
-    return ends[0], d / np.linalg.norm(d, axis=1, keepdims=True)
+    return ends[0], d / np.sqrt(np.einsum("ij,ij->i", d, d))[:, None]

@@ -524,8 +524,11 @@ def blinn_phong_normalized(nh: ArrayLike, shininess: ArrayLike) -> Array:
 def _microfacet(d: Array, g: Array, nl: Array, nv: Array, fresnel: ArrayLike) -> Array:
     nl, nv = _cos(nl), _cos(nv)
     ok = (nl > 0.0) & (nv > 0.0)
-    den = np.where(ok, 4.0 * nl * nv, 1.0)
-    core = np.where(ok, _mul0(d, g) / den, 0.0)
+    # G/(n.l)/(n.v) divided one cosine at a time: G vanishes with each cosine, while
+    # 4 (n.l)(n.v) underflows to 0 for cosines ~1e-200 (0/0 = NaN otherwise).
+    nls, nvs = np.where(ok, nl, 1.0), np.where(ok, nv, 1.0)
+    with np.errstate(**_ERR):
+        core = np.where(ok, _mul0(d, g / (4.0 * nls) / nvs), 0.0)
     return _tint(core, fresnel)
 
 
