@@ -27,9 +27,7 @@ Measuring functions return data; `markdown` and the plots render it.
 """
 from __future__ import annotations
 
-import argparse
 import dataclasses
-import json
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -37,12 +35,12 @@ from pathlib import Path
 import numpy as np
 
 from clshade import __version__
-from clshade.bench.run import REL_ERROR_FLOOR, machine_info, mark_pareto, plot_ladder, reference_image
-from clshade.compare import layout, to_display, write_sheet
+from clshade.bench.run import REL_ERROR_FLOOR, machine_info, mark_pareto
+from clshade.compare import layout, to_display
 from clshade.device.runtime import Runtime, get_runtime
 from clshade.device.shade import Shader, scene_features
 from clshade.errors import ClshadeError
-from clshade.models import NONE, Model, resolve, resolve_many
+from clshade.models import NONE, Model, resolve
 from clshade.pipeline import Frame, prepare_frame
 from clshade.render.meshes import Geometry, build_geometry
 from clshade.render.samples import jittered, sample_offsets
@@ -90,22 +88,11 @@ def _frame(scene: Scene, geometry: Geometry, *, samples: int = 1, specular_aa: b
                          geometry=geometry)
 
 
-def sample_radiance(frame: Frame, model: Model, runtime: Runtime) -> tuple[np.ndarray, int]:
-    """(H·W, 3) float64 radiance of one single-sample frame and the number of covered
-    pixels not taken from the float64 reference. With the frame oracle
-    (reference.radiance) every pixel is float64. Without it, covered pixels whose
-    normal faces away from the viewer (silhouette rims, left out by
-    bench.run.reference_image) keep the device's float32 value: a float32 error
-    (~1e-5) far below the sampling errors measured here."""
-    if hasattr(reference, "radiance"):
-        rad = reference.radiance(frame.gbuffer, frame.scene, model, dtype=np.float64)
-        return np.asarray(rad, np.float64).reshape(-1, 3), 0
-    shader = Shader(runtime, frame.gbuffer, frame.scene, frame.camera, frame.shadows)
-    out = shader.render(model, scene_features(frame.scene, geometry=frame.geometry))
-    rad = out[..., :3].reshape(-1, 3).astype(np.float64)
-    idx, L = reference_image(model, frame.gbuffer, frame.scene, frame.camera)
-    rad[idx] = L
-    return rad, int(frame.gbuffer.coverage.sum()) - len(idx)
+def sample_radiance(frame: Frame, model: Model) -> np.ndarray:
+    """(H·W, 3) float64 radiance of one single-sample frame: the frame oracle
+    (reference.radiance; f = 0 where n·v ≤ 0, at a few silhouette-rim samples)."""
+    rad = reference.radiance(frame.gbuffer, frame.scene, model, dtype=np.float64, camera=frame.camera)
+    return np.asarray(rad, np.float64).reshape(-1, 3)
 
 
 @dataclass
@@ -115,28 +102,23 @@ class Truth:
     radiance: np.ndarray       # (H, W, 3)
     diffuse: np.ndarray        # (H, W, 3) the diffuse lobe alone
     coverage: np.ndarray       # (H, W) covered fraction
-    device_samples: int        # covered samples with the device's float32 value (see sample_radiance)
     seconds: float
 
 
-def truth_frame(scene: Scene, geometry: Geometry, model: Model, samples: int, runtime: Runtime) -> Truth:
+def truth_frame(scene: Scene, geometry: Geometry, model: Model, samples: int) -> Truth:
     """Mean of samples² jittered single-sample frames (one frame in memory at a time)."""
     start = time.perf_counter()
     h, w = scene.camera.height, scene.camera.width
     rad, dif, cov = np.zeros((h * w, 3)), np.zeros((h * w, 3)), np.zeros(h * w)
-    device = 0
     dmodel = diffuse_model(model)
     for dx, dy in sample_offsets(samples):
         frame = _frame(scene, geometry, shift=(scene.camera.shift[0] + dx, scene.camera.shift[1] + dy))
-        r, k = sample_radiance(frame, model, runtime)
-        d, _ = sample_radiance(frame, dmodel, runtime)
-        rad += r
-        dif += d
+        rad += sample_radiance(frame, model)
+        dif += sample_radiance(frame, dmodel)
         cov += frame.gbuffer.coverage.ravel()
-        device += k
     n = samples * samples
     return Truth(samples, (rad / n).reshape(h, w, 3), (dif / n).reshape(h, w, 3), (cov / n).reshape(h, w),
-                 device, time.perf_counter() - start)
+                 time.perf_counter() - start)
 
 
 # ---------------------------------------------------------------- errors
@@ -186,19 +168,25 @@ class RungFrame:
     rung: Rung
     frame: Frame
     shader: Shader
-    raster_ms: float
 
 
 def rung_frames(scene: Scene, geometry: Geometry, runtime: Runtime,
                 shift: tuple[float, float] = (0.0, 0.0)) -> list[RungFrame]:
     out = []
     for rung in RUNGS:
-        t0 = time.perf_counter()
         frame = _frame(scene, geometry, samples=rung.samples, specular_aa=rung.specular_aa, shift=shift)
-        ms = (time.perf_counter() - t0) * 1e3
-        out.append(RungFrame(rung, frame, Shader(runtime, frame.gbuffer, frame.scene, frame.camera, frame.shadows),
-                             ms))
+        out.append(RungFrame(rung, frame, Shader(runtime, frame.gbuffer, frame.scene, frame.camera, frame.shadows)))
     return out
+
+
+def raster_ms(scene: Scene, geometry: Geometry, samples: int, repeats: int = 3) -> float:
+    """Median host time of rasterising and writing the G-buffer at samples² per pixel."""
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        _frame(scene, geometry, samples=samples)
+        times.append((time.perf_counter() - t0) * 1e3)
+    return float(np.median(times))
 
 
 def _features(rf: RungFrame):
@@ -212,6 +200,7 @@ def ladder(scene: Scene, geometry: Geometry, models: list[Model], truths: dict[s
     pairs = [(rf, m) for m in models for rf in rfs]
     dispatches = [(rf.shader, rf.shader.prepare(m, _features(rf))) for rf, m in pairs]
     times = _time(dispatches, frames, warmup)
+    raster = {n: raster_ms(scene, geometry, n) for n in dict.fromkeys(r.samples for r in RUNGS)}
     rows, images = [], {}
     for (rf, m), (shader, dispatch), t in zip(pairs, dispatches, times):
         shader.enqueue(dispatch).wait()
@@ -219,7 +208,7 @@ def ladder(scene: Scene, geometry: Geometry, models: list[Model], truths: dict[s
         images[(m.id, rf.rung.label)] = image
         row = dict(group=m.label, model=m.id, label=rf.rung.label, samples=rf.rung.samples,
                    specular_aa=rf.rung.specular_aa, frames=len(t), mean_ms=float(np.mean(t)),
-                   median_ms=float(np.median(t)), raster_ms=rf.raster_ms,
+                   median_ms=float(np.median(t)), raster_ms=raster[rf.rung.samples],
                    shaded_samples=rf.frame.gbuffer.pixels,
                    **errors(image, truths[m.id]))
         row["mean_rel_error"] = row["frame_rel_error"]
@@ -319,6 +308,7 @@ def crop_sheet(scene: Scene, models: list[Model], images: dict[tuple[str, str], 
     """Rows = rungs and the truth; per model a highlight and a silhouette crop."""
     err = {(r["model"], r["label"]): r for r in rows}
     corners = {m.id: crop_boxes(truths[m.id], scene) for m in models}
+    columns = " | ".join(f"{m.label}: highlight, silhouette" for m in models)
     out = []
     for rung in [*RUNGS, None]:
         tiles = []
@@ -328,10 +318,11 @@ def crop_sheet(scene: Scene, models: list[Model], images: dict[tuple[str, str], 
             disp = to_display(np.asarray(img, np.float32), scene)
             for kind in ("highlight", "silhouette"):
                 r = None if rung is None else err[(m.id, rung.label)]
-                sub = (f"truth {t.samples}x{t.samples} float64" if r is None
+                sub = (f"{t.samples}x{t.samples} float64" if r is None
                        else f"err {r[kind + '_rel_error']:.3f}, {r['mean_ms']:.2f} ms")
-                tiles.append((_zoom(disp, corners[m.id][kind]), f"{m.label}: {kind}", sub))
-        out.append(("ground truth" if rung is None else rung.label, tiles))
+                tiles.append((_zoom(disp, corners[m.id][kind]), kind, sub))
+        title = f"{t.samples}x{t.samples} ground truth" if rung is None else rung.label
+        out.append((f"{title}  ({columns})", tiles))
     return layout(out)
 
 
@@ -347,11 +338,11 @@ def run(scene_path: str | Path, models: list[Model], *, width: int | None = None
     scene = dataclasses.replace(scene, camera=scene.camera.with_size(width, height), samples=1, specular_aa=False)
     runtime = get_runtime(device)
     geometry = build_geometry(scene)
-    truths = {m.id: truth_frame(scene, geometry, m, truth_samples, runtime) for m in models}
+    truths = {m.id: truth_frame(scene, geometry, m, truth_samples) for m in models}
     conv = []
     if check_samples:
         for m in models:
-            check = truth_frame(scene, geometry, m, check_samples, runtime)
+            check = truth_frame(scene, geometry, m, check_samples)
             conv.append(dict(group=m.label, model=m.id, **convergence(truths[m.id], check)))
     rows, images = ladder(scene, geometry, models, truths, runtime, frames, warmup)
     temp = temporal(scene, geometry, models, runtime, temporal_frames) if temporal_frames > 1 else []
@@ -360,7 +351,8 @@ def run(scene_path: str | Path, models: list[Model], *, width: int | None = None
                frames=frames, warmup=warmup, **machine_info(runtime),
                definitions=dict(
                    frame_time="device time of one frame: shading kernel start to resolve kernel end, mean over "
-                              "frames interleaved across rungs; raster_ms: host rasterisation + G-buffer (once)",
+                              "frames interleaved across rungs; raster_ms: host rasterisation + G-buffer, median "
+                              "of 3 (NumPy, grows with the samples; not in the frame time)",
                    error=f"per pixel max over RGB of |L - L_true| / max(|L_true|, {REL_ERROR_FLOOR:g} * peak(L_true)), "
                          f"mean over the pixel set; L_true: {truth_samples}x{truth_samples} ordered-grid samples "
                          f"per pixel, float64 reference",
@@ -370,95 +362,7 @@ def run(scene_path: str | Path, models: list[Model], *, width: int | None = None
                    temporal=f"{temporal_frames} frames, image plane moved {TEMPORAL_STEP} px per frame; per sphere "
                             "mean |E(t+1) - E(t)| / mean E of the highlight energy E (the specular lobe alone, no "
                             "ambient, summed over a window holding the sphere); exact value 0"),
-               truth=[dict(model=m.id, samples=t.samples, seconds=t.seconds, device_samples=t.device_samples,
-                           oracle=hasattr(reference, "radiance")) for m, t in
-                      ((m, truths[m.id]) for m in models)],
+               truth=[dict(model=m.id, samples=truths[m.id].samples, seconds=truths[m.id].seconds)
+                      for m in models],
                convergence=conv, ladder=rows, temporal=temp)
     return doc, crop_sheet(scene, models, images, truths, rows)
-
-
-def _f(x: object, spec: str) -> str:
-    return "—" if x is None else format(x, spec)
-
-
-def markdown(doc: dict) -> str:
-    """The results as Markdown: ladder, convergence of the truth, temporal stability."""
-    out = [f"# Anti-aliasing ladder — {doc['scene']} {doc['width']}x{doc['height']}",
-           "", f"Generated {doc['date']} by `{doc.get('command', 'clshade aa')}`; device {doc['device']['name']} ({doc['device']['platform_version']})"
-           f" on {doc['machine']['processor']}. Frame time: {doc['definitions']['frame_time']}. "
-           f"Error: {doc['definitions']['error']}. Silhouette: {doc['definitions']['silhouette']}; "
-           f"highlight: {doc['definitions']['highlight']}.", "",
-           "| model | rung | samples/px | mean ms | raster ms | frame err | silhouette err | highlight err | Pareto |",
-           "|" + "---|" * 9]
-    for r in doc["ladder"]:
-        out.append(f"| {r['group']} | {r['label']} | {r['samples'] ** 2} | {r['mean_ms']:.3f} | {r['raster_ms']:.0f} | "
-                   f"{_f(r['frame_rel_error'], '.4f')} | {_f(r['silhouette_rel_error'], '.3f')} | "
-                   f"{_f(r['highlight_rel_error'], '.3f')} | {'●' if r.get('pareto') else ''} |")
-    if doc["convergence"]:
-        out += ["", "## Is the truth converged?", "",
-                "The same errors of the truth against a denser one (both float64, ordered grids):", "",
-                "| model | truth | against | frame err | silhouette err | highlight err |", "|" + "---|" * 6]
-        for c in doc["convergence"]:
-            out.append(f"| {c['group']} | {c['truth_samples']}x{c['truth_samples']} | "
-                       f"{c['check_samples']}x{c['check_samples']} | {_f(c['frame_rel_error'], '.5f')} | "
-                       f"{_f(c['silhouette_rel_error'], '.4f')} | {_f(c['highlight_rel_error'], '.4f')} |")
-    if doc["temporal"]:
-        spheres = doc["temporal"][0]["spheres"]
-        out += ["", "## Temporal stability", "", doc["definitions"]["temporal"] + ".", "",
-                "| model | rung | " + " | ".join(f"r {s['roughness']:g}" for s in spheres) + " | mean |",
-                "|" + "---|" * (len(spheres) + 3)]
-        for r in doc["temporal"]:
-            out.append(f"| {r['group']} | {r['label']} | " +
-                       " | ".join(f"{s['energy_change']:.3f}" for s in r["spheres"]) +
-                       f" | {r['mean_energy_change']:.3f} |")
-    truth = "; ".join(f"{t['model']}: {t['samples']}x{t['samples']} in {t['seconds']:.0f} s, "
-                      f"{t['device_samples']} rim samples from the device" for t in doc["truth"])
-    out += ["", f"Truth frames: {truth} (oracle: {doc['truth'][0]['oracle'] if doc['truth'] else '—'}).", ""]
-    return "\n".join(out)
-
-
-# ---------------------------------------------------------------- CLI
-
-
-def add_parser(sub, checks) -> None:
-    p = sub.add_parser("aa", help="anti-aliasing ladder: supersampling and specular AA vs a float64 pixel integral",
-                       description="Render SCENE at each anti-aliasing rung (1 sample, 2x2, 4x4, specular AA, "
-                                   "specular AA + 2x2), time it, and measure its error against the pixel integral "
-                                   "(a dense supersampled float64 frame); temporal stability under a sub-pixel pan; "
-                                   "crop sheet of one highlight and one silhouette per rung.")
-    p.add_argument("scene", nargs="?", help="scene (default: scenes/aa_spheres.toml)")
-    p.add_argument("-m", "--models", default=DEFAULT_MODELS, help=f"comma-separated models (default {DEFAULT_MODELS})")
-    p.add_argument("--width", type=int)
-    p.add_argument("--height", type=int)
-    p.add_argument("--frames", type=int, default=30, help="timed frames per rung (default 30)")
-    p.add_argument("--truth-samples", type=int, default=TRUTH_SAMPLES)
-    p.add_argument("--check-samples", type=int, default=CHECK_SAMPLES, help="denser truth for the convergence "
-                   "check (0 = skip)")
-    p.add_argument("--temporal-frames", type=int, default=TEMPORAL_FRAMES, help="0 = skip")
-    p.add_argument("-o", "--output", default="aa", help="output prefix: PREFIX.json, .md, _ladder.png, _crops.png")
-    p.add_argument("--device")
-    p.set_defaults(func=_cmd_aa)
-
-
-def _cmd_aa(args: argparse.Namespace) -> int:
-    from clshade.resources import scenes_dir
-    scene = args.scene or str(scenes_dir() / "aa_spheres.toml")
-    if args.frames < 1 or args.truth_samples < 1 or args.check_samples < 0:
-        raise ClshadeError(f"--frames = {args.frames}, --truth-samples = {args.truth_samples}, "
-                           f"--check-samples = {args.check_samples}: need ≥ 1, ≥ 1, ≥ 0")
-    doc, sheet = run(scene, resolve_many(args.models), width=args.width, height=args.height, frames=args.frames,
-                     truth_samples=args.truth_samples, check_samples=args.check_samples,
-                     temporal_frames=args.temporal_frames, device=args.device)
-    doc["command"] = "clshade aa " + " ".join(
-        [Path(scene).name] + [f"--{k.replace('_', '-')} {v}" for k, v in vars(args).items()
-                              if k in ("models", "width", "height", "frames", "truth_samples", "check_samples",
-                                       "temporal_frames") and v is not None])
-    prefix = Path(args.output)
-    prefix.with_suffix(".json").write_text(json.dumps(doc, indent=2, ensure_ascii=False), encoding="utf-8")
-    text = markdown(doc)
-    prefix.with_suffix(".md").write_text(text, encoding="utf-8")
-    plot_ladder(doc["ladder"], prefix.with_name(prefix.name + "_ladder.png"),
-                f"anti-aliasing ladder, {doc['scene']} {doc['width']}x{doc['height']}, {doc['device']['name']}")
-    write_sheet(prefix.with_name(prefix.name + "_crops.png"), sheet)
-    print(text)
-    return 0
