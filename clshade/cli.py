@@ -227,6 +227,9 @@ def cmd_render(args: argparse.Namespace) -> int:
                   f"scene bounds, spot: perspective), PCF {frame.shadows.pcf}x{frame.shadows.pcf} in the shade kernel")
         for tset in frame.geometry.texture_sets:
             print(f"texture set {tset.describe()}")
+        n = scene.samples
+        print(f"samples: {n}x{n} per pixel on an ordered grid, {frame.camera.width}x{frame.camera.height} G-buffer, "
+              f"resolved on the device (kernels/resolve.cl)" if n > 1 else "samples: 1 per pixel (centre)")
         print(f"build options: {' '.join(variant.options()) or '(none)'}")
         simd = result.shader.rt.simd
         print("defines: " + " ".join(f"{k}={v}" for k, v in {"SIMD": str(simd), **variant.defines()}.items()))

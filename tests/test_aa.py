@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from clshade.bench.aa import errors, truth_frame
+from clshade.bench.aa import errors, sphere_cells, spheres as project_spheres, temporal, truth_frame
 from clshade.bench.run import compared_pixels
 from clshade.cli import main
 from clshade.device.shade import Shader, camera_args, scene_features
@@ -24,6 +24,7 @@ from clshade.render.transforms import perspective
 from clshade.verify import reference
 
 from conftest import SCENES
+from test_pipeline import PLANE_SCENE
 
 GGX = resolve("ggx_correlated")
 W, H = 96, 44
@@ -133,6 +134,30 @@ def test_truth_at_one_sample_is_the_oracle_frame(spheres, runtime):
     assert np.array_equal(truth.coverage, frame.gbuffer.coverage.astype(float))
 
 
+def test_sphere_cells_move_with_the_content(spheres):
+    """A camera shifted by +2 px moves the content, and each sphere's cell, 2 px left/up."""
+    scene, _ = spheres
+    balls = project_spheres(scene)
+    assert len(balls) == 10
+    still = sphere_cells(balls, (H, W), (0.0, 0.0))
+    moved = sphere_cells(balls, (H, W), (2.0, 2.0))
+    assert np.array_equal(moved[:-2, :-2], still[2:, 2:])
+    assert (still >= 0).sum() > 0.5 * H * W
+
+
+def test_temporal_measure_is_zero_without_motion_and_falls_with_samples(spheres, runtime):
+    """A still camera changes no energy (the measure's zero); under the sub-pixel pan the
+    highlights flicker less with 4×4 samples or specular AA than with one (mean over spheres)."""
+    scene, geometry = spheres
+    still = temporal(scene, geometry, [GGX], runtime, frames=3, step=(0.0, 0.0))
+    assert all(r["max_energy_change"] == 0.0 for r in still)
+    rows = {r["label"]: r for r in temporal(scene, geometry, [GGX], runtime, frames=6)}
+    one = rows["1 sample"]["mean_energy_change"]
+    assert one > 0.1
+    assert rows["4×4"]["mean_energy_change"] < 0.5 * one
+    assert rows["specular AA"]["mean_energy_change"] < 0.2 * one
+
+
 # ---------------------------------------------------------------- specular AA
 
 
@@ -196,38 +221,28 @@ def test_specular_aa_widens_the_sharpest_highlights(spheres, runtime):
         assert (aa > level).sum() > 1.5 * (plain > level).sum(), model.id
 
 
-PLANE = """
-[camera]
-position = [0.0, 0.0, 3.0]
-fov = 40.0
-width = 48
-height = 32
-
-[[lights]]
-type = "directional"
-direction = [0.2, 0.1, -1.0]
-irradiance = [2.0, 3.0, 4.0]
-
-[materials.m]
-base_color = [0.5, 0.25, 0.75]
-roughness = 0.2
-
-[[objects]]
-primitive = "plane"
-size = 20.0
-rotate = [90.0, 0.0, 0.0]
-material = "m"
-"""
-
-
 def test_specular_aa_is_a_no_op_on_a_plane(runtime, tmp_path):
     """Constant normal (up to 1e-23 interpolation rounding): no widening, the same image bit for bit."""
-    scene = parse_scene(PLANE, tmp_path / "plane.toml")
+    scene = parse_scene(PLANE_SCENE, tmp_path / "plane.toml")
     plain = render(scene, GGX, runtime=runtime)
     aa = render(dataclasses.replace(scene, specular_aa=True), GGX, runtime=runtime)
     normals = plain.frame.gbuffer.channels["normal"].reshape(-1, 3)
     assert plain.frame.gbuffer.coverage.all() and np.ptp(normals, axis=0).max() < 1e-12
     assert np.array_equal(aa.image, plain.image)
+
+
+@pytest.mark.parametrize("model", ["ggx_correlated", "blinn_phong"])
+def test_specular_aa_general_kernel_equals_specialised(spheres, runtime, model):
+    """The general kernel compiles the same widening in (a compile-time feature of both)."""
+    scene, geometry = spheres
+    frame = prepare_frame(dataclasses.replace(scene, specular_aa=True), geometry=geometry)
+    shader = Shader(runtime, frame.gbuffer, frame.scene, frame.camera)
+    features = scene_features(frame.scene)
+    m = resolve(model)
+    special, general = shader.render(m, features), shader.render(m, dataclasses.replace(features, general=True))
+    np.testing.assert_allclose(special, general, rtol=1e-5, atol=1e-6 * float(np.abs(general).max()))
+    plain = Shader(runtime, frame.gbuffer, scene, frame.camera).render(m, scene_features(scene, general=True))
+    assert not np.allclose(plain, general)
 
 
 def test_specular_aa_is_absent_from_kernels_of_scenes_that_do_not_ask(spheres, runtime):

@@ -18,8 +18,9 @@ model's diffuse lobe alone).
 
 Temporal stability: `TEMPORAL_FRAMES` frames with the image plane moved by
 `TEMPORAL_STEP` pixels per frame (a sub-pixel pan, Camera.shift). Each sphere's
-highlight energy is the sum, over a window holding the whole sphere through the
-move, of the rung's image of the specular lobe alone (no ambient); the content only
+highlight energy is the sum, over the sphere's cell (the pixels nearest its moving
+projected centre), of the rung's image of the specular lobe alone (no ambient,
+black background); the content only
 translates, so the exact energy is constant and every frame-to-frame change is
 aliasing. Reported per sphere as mean |E(t+1) − E(t)| / mean E.
 
@@ -62,7 +63,7 @@ CHECK_SAMPLES = 24          # denser truth, to show the 16×16 one has converged
 HIGHLIGHT_RATIO = 2.0       # highlight pixel: true radiance ≥ 2 × the diffuse lobe's alone
 TEMPORAL_FRAMES = 16
 TEMPORAL_STEP = (0.3, 0.15)  # pixels per frame (x right, y down): 4.8 px in all
-WINDOW_MARGIN_PX = 3        # beyond the sphere's projected radius and the whole move
+WINDOW_MARGIN_PX = 3        # a sphere's cell reaches this far beyond its projected radius
 DEFAULT_MODELS = "ggx_correlated,blinn_phong_normalized"
 CROP_PX = 20                # crop sheet: crop size in pixels, zoomed ZOOM× nearest-neighbour
 ZOOM = 8
@@ -225,9 +226,23 @@ def convergence(truth: Truth, check: Truth) -> dict[str, object]:
 # ---------------------------------------------------------------- temporal stability
 
 
-def sphere_windows(scene: Scene, pad: float) -> list[tuple[str, float, tuple[int, int, int, int]]]:
-    """(object name, roughness, (row0, row1, col0, col1)) of every sphere: its projected
-    bounding square grown by `pad` pixels, clamped to the image."""
+@dataclass(frozen=True)
+class Sphere:
+    """A sphere of the scene as the camera sees it: projected centre and radius (pixels)."""
+    name: str
+    roughness: float
+    x: float
+    y: float
+    radius: float
+
+    def box(self) -> tuple[int, int, int, int]:
+        """(row0, row1, col0, col1) of its bounding square (may extend past the image)."""
+        r = self.radius
+        return int(self.y - r), int(np.ceil(self.y + r)) + 1, int(self.x - r), int(np.ceil(self.x + r)) + 1
+
+
+def spheres(scene: Scene) -> list[Sphere]:
+    """Every sphere primitive of the scene, projected with the scene's camera."""
     cam = scene.camera
     view, proj = cam.view_matrix(), cam.projection_matrix()
     out = []
@@ -240,36 +255,50 @@ def sphere_windows(scene: Scene, pad: float) -> list[tuple[str, float, tuple[int
         clip = proj @ centre
         x = (clip[0] / clip[3] + 1) * 0.5 * cam.width
         y = (1 - clip[1] / clip[3]) * 0.5 * cam.height
-        r_px = radius / max(depth - radius, 1e-9) * proj[1, 1] * 0.5 * cam.height + pad
-        box = (max(0, int(y - r_px)), min(cam.height, int(np.ceil(y + r_px)) + 1),
-               max(0, int(x - r_px)), min(cam.width, int(np.ceil(x + r_px)) + 1))
-        out.append((obj.name, scene.materials[obj.material].roughness, box))
+        r_px = radius / max(depth - radius, 1e-9) * proj[1, 1] * 0.5 * cam.height
+        out.append(Sphere(obj.name, scene.materials[obj.material].roughness, x, y, r_px))
     return out
+
+
+def sphere_cells(balls: list[Sphere], shape: tuple[int, int], shift: tuple[float, float]) -> np.ndarray:
+    """(H, W) index of the sphere each pixel belongs to (−1: none) for a camera moved by
+    `shift` pixels: the nearest projected centre (content moves by −shift), within the
+    sphere's radius + WINDOW_MARGIN_PX. Cells move with the content, so the energy in a
+    cell changes only by aliasing (pixels between spheres are black in the temporal study)."""
+    h, w = shape
+    yy, xx = np.mgrid[0:h, 0:w] + 0.5
+    dist = np.stack([np.hypot(xx - (b.x - shift[0]), yy - (b.y - shift[1])) for b in balls])
+    near = dist.argmin(axis=0)
+    limit = np.array([b.radius + WINDOW_MARGIN_PX for b in balls])
+    return np.where(dist.min(axis=0) <= limit[near], near, -1)
 
 
 def temporal(scene: Scene, geometry: Geometry, models: list[Model], runtime: Runtime,
              frames: int = TEMPORAL_FRAMES, step: tuple[float, float] = TEMPORAL_STEP) -> list[dict]:
     """Per model and rung: each sphere's frame-to-frame highlight energy change. The
-    energy is that of the specular lobe alone under the lights (no ambient), so that
-    only the highlight counts."""
-    move = np.hypot(*step) * (frames - 1)
-    windows = sphere_windows(scene, move + WINDOW_MARGIN_PX)
-    dark = dataclasses.replace(scene, ambient=(0.0, 0.0, 0.0))
+    energy is that of the specular lobe alone under the lights, with no ambient and a
+    black background, summed over the sphere's cell (sphere_cells), so that only the
+    highlight counts and the exact value is constant."""
+    balls = spheres(scene)
+    dark = dataclasses.replace(scene, ambient=(0.0, 0.0, 0.0), background=(0.0, 0.0, 0.0))
     energy = {(m.id, r.label): [] for m in models for r in RUNGS}
+    shape = (scene.camera.height, scene.camera.width)
     for t in range(frames):
-        for rf in rung_frames(dark, geometry, runtime, shift=(step[0] * t, step[1] * t)):
+        shift = (step[0] * t, step[1] * t)
+        cells = sphere_cells(balls, shape, shift)
+        for rf in rung_frames(dark, geometry, runtime, shift=shift):
             for m in models:
-                spec = rf.shader.render(specular_model(m), _features(rf))[..., :3].astype(np.float64)
+                spec = rf.shader.render(specular_model(m), _features(rf))[..., :3].astype(np.float64).sum(-1)
                 energy[(m.id, rf.rung.label)].append(
-                    [float(spec[r0:r1, c0:c1].sum()) for _, _, (r0, r1, c0, c1) in windows])
+                    np.bincount(cells[cells >= 0], spec[cells >= 0], minlength=len(balls)))
     rows = []
     for m in models:
         for rung in RUNGS:
             e = np.array(energy[(m.id, rung.label)])               # (frames, spheres)
             change = np.abs(np.diff(e, axis=0)).mean(axis=0) / np.maximum(np.abs(e).mean(axis=0), 1e-30)
             rows.append(dict(group=m.label, model=m.id, label=rung.label,
-                             spheres=[dict(name=n, roughness=r, energy_change=float(c))
-                                      for (n, r, _), c in zip(windows, change)],
+                             spheres=[dict(name=b.name, roughness=b.roughness, energy_change=float(c))
+                                      for b, c in zip(balls, change)],
                              mean_energy_change=float(change.mean()), max_energy_change=float(change.max())))
     return rows
 
@@ -282,9 +311,10 @@ def crop_boxes(truth: Truth, scene: Scene) -> dict[str, tuple[int, int]]:
     sharpest sphere that still has highlight pixels) and a silhouette crop (the
     top-left rim of the same sphere)."""
     m = masks(truth)
-    windows = sphere_windows(scene, 0)
     h, w = truth.coverage.shape
-    for _, _, (r0, r1, c0, c1) in sorted(windows, key=lambda x: x[1]):
+    for ball in sorted(spheres(scene), key=lambda b: b.roughness):
+        r0, r1, c0, c1 = ball.box()
+        r0, c0 = max(r0, 0), max(c0, 0)
         hl = np.zeros_like(m["highlight"])
         hl[r0:r1, c0:c1] = m["highlight"][r0:r1, c0:c1]
         if hl.any():
@@ -361,7 +391,8 @@ def run(scene_path: str | Path, models: list[Model], *, width: int | None = None
                              "model's diffuse lobe alone",
                    temporal=f"{temporal_frames} frames, image plane moved {TEMPORAL_STEP} px per frame; per sphere "
                             "mean |E(t+1) - E(t)| / mean E of the highlight energy E (the specular lobe alone, no "
-                            "ambient, summed over a window holding the sphere); exact value 0"),
+                            "ambient, black background, summed over the sphere's cell, which moves with it); "
+                            "exact value 0"),
                truth=[dict(model=m.id, samples=truths[m.id].samples, seconds=truths[m.id].seconds)
                       for m in models],
                convergence=conv, ladder=rows, temporal=temp)
