@@ -158,8 +158,8 @@ def aa_markdown(doc: dict) -> str:
         spheres = doc["temporal"][0]["spheres"]
         out += ["", "## Temporal stability", "", d["temporal"] + ".", "",
                 markdown(["model", "rung", *(f"r {s['roughness']:g}" for s in spheres), "mean"],
-                         [[r["group"], r["label"], *(f"{s['energy_change']:.3f}" for s in r["spheres"]),
-                           f"{r['mean_energy_change']:.3f}"] for r in doc["temporal"]])]
+                         [[r["group"], r["label"], *(f"{s['energy_change']:.1e}" for s in r["spheres"]),
+                           f"{r['mean_energy_change']:.1e}"] for r in doc["temporal"]])]
     truth = "; ".join(f"{t['model']} {t['samples']}x{t['samples']} in {t['seconds']:.0f} s" for t in doc["truth"])
     return "\n".join(out + ["", f"Truth frames: {truth}.", ""])
 

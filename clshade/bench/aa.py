@@ -66,7 +66,7 @@ TEMPORAL_STEP = (0.3, 0.15)  # pixels per frame (x right, y down): 4.8 px in all
 WINDOW_MARGIN_PX = 3        # a sphere's cell reaches this far beyond its projected radius
 DEFAULT_MODELS = "ggx_correlated,blinn_phong_normalized"
 CROP_PX = 20                # crop sheet: crop size in pixels, zoomed ZOOM× nearest-neighbour
-ZOOM = 8
+ZOOM = 10
 
 
 def diffuse_model(model: Model) -> Model:
@@ -338,7 +338,8 @@ def crop_sheet(scene: Scene, models: list[Model], images: dict[tuple[str, str], 
     """Rows = rungs and the truth; per model a highlight and a silhouette crop."""
     err = {(r["model"], r["label"]): r for r in rows}
     corners = {m.id: crop_boxes(truths[m.id], scene) for m in models}
-    columns = " | ".join(f"{m.label}: highlight, silhouette" for m in models)
+    sides = ("left", "right") if len(models) == 2 else tuple(str(i + 1) for i in range(len(models)))
+    columns = ", ".join(f"{m.label} ({side} pair)" for m, side in zip(models, sides))
     out = []
     for rung in [*RUNGS, None]:
         tiles = []
@@ -352,7 +353,7 @@ def crop_sheet(scene: Scene, models: list[Model], images: dict[tuple[str, str], 
                        else f"err {r[kind + '_rel_error']:.3f}, {r['mean_ms']:.2f} ms")
                 tiles.append((_zoom(disp, corners[m.id][kind]), kind, sub))
         title = f"{t.samples}x{t.samples} ground truth" if rung is None else rung.label
-        out.append((f"{title}  ({columns})", tiles))
+        out.append((f"{title} — {columns}", tiles))
     return layout(out)
 
 
