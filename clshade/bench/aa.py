@@ -9,8 +9,9 @@ between the `TRUTH_SAMPLES`² and the `CHECK_SAMPLES`² truth.
 
 Rungs (`RUNGS`): one sample per pixel, N×N supersampling resolved on the device,
 specular anti-aliasing (kernels/specular_aa.h), and both. Each rung gets its
-device frame time (shading + resolve, median over interleaved repeats; the host
-rasterisation of the N²-times larger G-buffer is reported apart) and its error
+device frame time (shading + resolve, mean and median over frames interleaved
+across rungs; the host rasterisation of the N²-times larger G-buffer is reported
+apart, it is not part of the frame time) and its error
 against the truth as the mean per-pixel relative error over the whole frame, over
 silhouette pixels (true coverage strictly between 0 and 1) and over highlight
 pixels (fully covered, true radiance ≥ HIGHLIGHT_RATIO × the true radiance of the
@@ -20,11 +21,12 @@ Temporal stability: `TEMPORAL_FRAMES` frames with the image plane moved by
 `TEMPORAL_STEP` pixels per frame (a sub-pixel pan, Camera.shift). Each sphere's
 highlight energy is the sum, over the sphere's cell (the pixels nearest its moving
 projected centre), of the rung's image of the specular lobe alone (no ambient,
-black background); the content only
-translates, so the exact energy is constant and every frame-to-frame change is
-aliasing. Reported per sphere as mean |E(t+1) − E(t)| / mean E.
+black background); the content only translates, so the exact energy is constant
+and every frame-to-frame change is aliasing. Reported per sphere as
+mean |E(t+1) − E(t)| / mean E.
 
-Measuring functions return data; `markdown` and the plots render it.
+Measuring functions return data; clshade/report.py (aa_markdown, plot_aa) renders
+it and `crop_sheet` builds the zoomed crops.
 """
 from __future__ import annotations
 
@@ -51,6 +53,7 @@ from clshade.verify import reference
 
 @dataclass(frozen=True)
 class Rung:
+    """One anti-aliasing setting: N×N samples per pixel, specular AA on or off."""
     label: str
     samples: int
     specular_aa: bool
