@@ -143,7 +143,9 @@ def aa_markdown(doc: dict) -> str:
            "(frame time vs whole-frame error).", "",
            markdown(["model", "rung", "samples/px", "mean ms", "raster ms", "frame err", "silhouette err",
                      "highlight err", "Pareto"],
-                    [[r["group"], r["label"], r["samples"] ** 2, cell(r["mean_ms"], ".3f"), cell(r["raster_ms"], ".0f"),
+                    [[r["group"], r["label"],
+                      f"{r['samples'] ** 2} coverage, 1 shaded" if r.get("msaa") else r["samples"] ** 2,
+                      cell(r["mean_ms"], ".3f"), cell(r["raster_ms"], ".0f"),
                       cell(r["frame_rel_error"], ".4f"), cell(r["silhouette_rel_error"], ".3f"),
                       cell(r["highlight_rel_error"], ".3f"), "●" if r.get("pareto") else ""] for r in doc["ladder"]])]
     if doc["convergence"]:

@@ -28,3 +28,17 @@ __kernel void resolve(const uint width, const uint npix, __global const float4* 
             sum += p[b * row + a];
     out[i] = sum * (1.0f / (float)(SAMPLES * SAMPLES));
 }
+
+/* The MSAA-style resolve (clshade/render/samples.py, coverage_gbuffer): the pixel
+ * was shaded once, for the surface sample nearest its centre; its N×N samples'
+ * coverage c blends that radiance with the background: L·c + background·(1 − c).
+ * Alpha becomes c. `image` is read and written in place. */
+__kernel void blend_coverage(const uint npix, __global const float* coverage, const float4 background,
+                             __global float4* image)
+{
+    uint i = get_global_id(0);
+    if (i >= npix) return;
+    float c = coverage[i];
+    float4 L = image[i];
+    image[i] = (float4)(L.xyz * c + background.xyz * (1.0f - c), c);
+}

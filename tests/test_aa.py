@@ -18,7 +18,8 @@ from clshade.render.gbuffer import build_gbuffer
 from clshade.render.image import read_image
 from clshade.render.meshes import build_geometry
 from clshade.render.raster import rasterize
-from clshade.render.samples import jittered, sample_offsets
+from clshade.device.resolve import CoverageBlend
+from clshade.render.samples import coverage_gbuffer, jittered, sample_offsets
 from clshade.render.scene import load_scene, parse_scene
 from clshade.render.transforms import perspective
 from clshade.verify import reference
@@ -156,6 +157,46 @@ def test_temporal_measure_is_zero_without_motion_and_falls_with_samples(spheres,
     assert one > 0.1
     assert rows["4×4"]["mean_energy_change"] < 0.5 * one
     assert rows["specular AA"]["mean_energy_change"] < 0.2 * one
+
+
+# ---------------------------------------------------------------- MSAA-style rung
+
+
+def _msaa(scene, geometry, runtime, n, model=GGX):
+    frame = prepare_frame(dataclasses.replace(scene, samples=n), geometry=geometry)
+    gb, fraction = coverage_gbuffer(frame.gbuffer, n)
+    one = dataclasses.replace(frame.scene, samples=1)
+    shader = Shader(runtime, gb, one, scene.camera)
+    blend = CoverageBlend(runtime, fraction, shader.background, shader.out)
+    blend.enqueue(shader.enqueue(shader.prepare(model, scene_features(one)))).wait()
+    return shader.read(), gb, fraction
+
+
+def test_msaa_shades_the_centre_sample_and_blends_by_coverage(spheres, runtime):
+    """Odd N: the pixel's shading sample is its centre, so fully covered pixels equal the
+    1-sample image; partly covered ones are L·c + background·(1 − c), c the covered fraction."""
+    scene, geometry = spheres
+    image, gb, fraction = _msaa(scene, geometry, runtime, 3)
+    ss = prepare_frame(dataclasses.replace(scene, samples=3), geometry=geometry).gbuffer
+    cov = (ss.channels["depth"].reshape(H, 3, W, 3) > 0).mean(axis=(1, 3))
+    np.testing.assert_array_equal(fraction, cov)
+    one = _render(scene, geometry, runtime).image
+    full = fraction == 1.0
+    assert np.mean(np.abs(image[full] - one[full]).max(-1) < 1e-5) > 0.99
+    np.testing.assert_allclose(image[..., 3], fraction, atol=1e-7)
+    part = (fraction > 0) & (fraction < 1)
+    shaded = Shader(runtime, gb, dataclasses.replace(scene, samples=1), scene.camera).render(GGX, scene_features(scene))
+    bg = np.asarray(scene.background, np.float32)
+    expect = shaded[part, :3] * fraction[part, None] + bg * (1 - fraction[part, None])
+    np.testing.assert_allclose(image[part, :3], expect, rtol=1e-5, atol=1e-6)
+
+
+def test_msaa_silhouettes_beat_one_sample(spheres, runtime):
+    scene, geometry = spheres
+    truth = truth_frame(scene, geometry, GGX, 6)
+    msaa = errors(_msaa(scene, geometry, runtime, 4)[0], truth)
+    one = errors(_render(scene, geometry, runtime).image, truth)
+    assert msaa["silhouette_rel_error"] < 0.5 * one["silhouette_rel_error"]
 
 
 # ---------------------------------------------------------------- specular AA

@@ -8,7 +8,9 @@ memory is that of one frame. Its convergence is shown by the same error measures
 between the `TRUTH_SAMPLES`² and the `CHECK_SAMPLES`² truth.
 
 Rungs (`RUNGS`): one sample per pixel, N×N supersampling resolved on the device,
-specular anti-aliasing (kernels/specular_aa.h), and both. Each rung gets its
+specular anti-aliasing (kernels/specular_aa.h), both, and an MSAA-style rung
+(coverage at 4×4 samples, one shade per pixel, blended with the background on the
+device). Each rung gets its
 device frame time (shading + resolve, mean and median over frames interleaved
 across rungs; the host rasterisation of the N²-times larger G-buffer is reported
 apart, it is not part of the frame time) and its error
@@ -40,27 +42,31 @@ import numpy as np
 from clshade import __version__
 from clshade.bench.run import REL_ERROR_FLOOR, machine_info, mark_pareto
 from clshade.compare import layout, to_display
+from clshade.device.resolve import CoverageBlend
 from clshade.device.runtime import Runtime, get_runtime
 from clshade.device.shade import Shader, scene_features
 from clshade.errors import ClshadeError
 from clshade.models import NONE, Model, resolve
 from clshade.pipeline import Frame, prepare_frame
 from clshade.render.meshes import Geometry, build_geometry
-from clshade.render.samples import jittered, sample_offsets
+from clshade.render.samples import coverage_gbuffer, jittered, sample_offsets
 from clshade.render.scene import Scene, load_scene
 from clshade.verify import reference
 
 
 @dataclass(frozen=True)
 class Rung:
-    """One anti-aliasing setting: N×N samples per pixel, specular AA on or off."""
+    """One anti-aliasing setting: N×N samples per pixel, specular AA on or off; `msaa`:
+    coverage at N×N samples but one shade per pixel (render/samples.py coverage_gbuffer)."""
     label: str
     samples: int
     specular_aa: bool
+    msaa: bool = False
 
 
 RUNGS = (Rung("1 sample", 1, False), Rung("2×2", 2, False), Rung("4×4", 4, False),
-         Rung("specular AA", 1, True), Rung("specular AA + 2×2", 2, True))
+         Rung("specular AA", 1, True), Rung("specular AA + 2×2", 2, True),
+         Rung("MSAA-style 4×4 coverage", 4, False, msaa=True))
 TRUTH_SAMPLES = 16          # ground truth: 16×16 ordered-grid samples per pixel, float64
 CHECK_SAMPLES = 24          # denser truth, to show the 16×16 one has converged
 HIGHLIGHT_RATIO = 2.0       # highlight pixel: true radiance ≥ 2 × the diffuse lobe's alone
@@ -152,8 +158,8 @@ def errors(image: np.ndarray, truth: Truth) -> dict[str, float]:
 # ---------------------------------------------------------------- timing
 
 
-def _time(shaders: list[tuple[Shader, object]], frames: int, warmup: int) -> list[list[float]]:
-    """Device ms per frame for each (shader, dispatch), interleaved round by round."""
+def _time(shaders: list[tuple["RungFrame", object]], frames: int, warmup: int) -> list[list[float]]:
+    """Device ms per frame for each (rung frame, dispatch), interleaved round by round."""
     times: list[list[float]] = [[] for _ in shaders]
     for r in range(warmup + frames):
         for k, (shader, dispatch) in enumerate(shaders):
@@ -169,9 +175,20 @@ def _time(shaders: list[tuple[Shader, object]], frames: int, warmup: int) -> lis
 
 @dataclass
 class RungFrame:
+    """A rung's prepared frame: the shader of its G-buffer and, for the MSAA-style rung,
+    the coverage blend that follows each shading dispatch."""
     rung: Rung
     frame: Frame
     shader: Shader
+    blend: CoverageBlend | None = None
+
+    def enqueue(self, dispatch):
+        event = self.shader.enqueue(dispatch)
+        return self.blend.enqueue(event) if self.blend is not None else event
+
+    def render(self, model: Model) -> np.ndarray:
+        self.enqueue(self.shader.prepare(model, _features(self))).wait()
+        return self.shader.read()
 
 
 def rung_frames(scene: Scene, geometry: Geometry, runtime: Runtime,
@@ -179,7 +196,15 @@ def rung_frames(scene: Scene, geometry: Geometry, runtime: Runtime,
     out = []
     for rung in RUNGS:
         frame = _frame(scene, geometry, samples=rung.samples, specular_aa=rung.specular_aa, shift=shift)
-        out.append(RungFrame(rung, frame, Shader(runtime, frame.gbuffer, frame.scene, frame.camera, frame.shadows)))
+        if rung.msaa:
+            gb, fraction = coverage_gbuffer(frame.gbuffer, rung.samples)
+            one = dataclasses.replace(frame.scene, samples=1)
+            shader = Shader(runtime, gb, one, jittered(scene.camera, *shift), frame.shadows)
+            blend = CoverageBlend(runtime, fraction, shader.background, shader.out)
+            out.append(RungFrame(rung, dataclasses.replace(frame, scene=one, gbuffer=gb), shader, blend))
+        else:
+            out.append(RungFrame(rung, frame, Shader(runtime, frame.gbuffer, frame.scene, frame.camera,
+                                                     frame.shadows)))
     return out
 
 
@@ -202,18 +227,17 @@ def ladder(scene: Scene, geometry: Geometry, models: list[Model], truths: dict[s
     """Rows (model × rung: time and errors) and the rung images by (model id, rung label)."""
     rfs = rung_frames(scene, geometry, runtime)
     pairs = [(rf, m) for m in models for rf in rfs]
-    dispatches = [(rf.shader, rf.shader.prepare(m, _features(rf))) for rf, m in pairs]
+    dispatches = [(rf, rf.shader.prepare(m, _features(rf))) for rf, m in pairs]
     times = _time(dispatches, frames, warmup)
     raster = {n: raster_ms(scene, geometry, n) for n in dict.fromkeys(r.samples for r in RUNGS)}
     rows, images = [], {}
-    for (rf, m), (shader, dispatch), t in zip(pairs, dispatches, times):
-        shader.enqueue(dispatch).wait()
-        image = shader.read()
+    for (rf, m), t in zip(pairs, times):
+        image = rf.render(m)
         images[(m.id, rf.rung.label)] = image
         row = dict(group=m.label, model=m.id, label=rf.rung.label, samples=rf.rung.samples,
                    specular_aa=rf.rung.specular_aa, frames=len(t), mean_ms=float(np.mean(t)),
                    median_ms=float(np.median(t)), raster_ms=raster[rf.rung.samples],
-                   shaded_samples=rf.frame.gbuffer.pixels,
+                   msaa=rf.rung.msaa, shaded_samples=rf.frame.gbuffer.pixels,
                    **errors(image, truths[m.id]))
         row["mean_rel_error"] = row["frame_rel_error"]
         rows.append(row)
@@ -291,7 +315,7 @@ def temporal(scene: Scene, geometry: Geometry, models: list[Model], runtime: Run
         cells = sphere_cells(balls, shape, shift)
         for rf in rung_frames(dark, geometry, runtime, shift=shift):
             for m in models:
-                spec = rf.shader.render(specular_model(m), _features(rf))[..., :3].astype(np.float64).sum(-1)
+                spec = rf.render(specular_model(m))[..., :3].astype(np.float64).sum(-1)
                 energy[(m.id, rf.rung.label)].append(
                     np.bincount(cells[cells >= 0], spec[cells >= 0], minlength=len(balls)))
     rows = []

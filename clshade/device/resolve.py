@@ -65,3 +65,26 @@ class Resolver:
         image = np.empty((self.height, self.width, 4), np.float32)
         self.rt.cl.enqueue_copy(self.rt.queue, image, self.out)
         return image
+
+
+class CoverageBlend:
+    """The MSAA-style resolve: blend a once-per-pixel shaded image with the background
+    by each pixel's sample coverage, in place on the device (kernels/resolve.cl)."""
+
+    def __init__(self, runtime: Runtime, coverage: np.ndarray, background: np.ndarray, image_buffer) -> None:
+        self.rt = runtime
+        self.height, self.width = coverage.shape
+        self.coverage = runtime.to_device(np.ascontiguousarray(coverage, np.float32).ravel())
+        self.image = image_buffer
+        # resolve_source needs a SAMPLES value; blend_coverage does not use it.
+        built = runtime.kernel(resolve_source(1), "blend_coverage", label="blend_coverage")
+        cl = runtime.cl
+        self.kernel = cl.Kernel(built.get_info(cl.kernel_info.PROGRAM), "blend_coverage")
+        n = coverage.size
+        self.kernel.set_args(np.uint32(n), self.coverage, np.asarray(background, np.float32), image_buffer)
+        self.global_size = runtime.global_size(n)
+
+    def enqueue(self, after):
+        event = self.rt.cl.enqueue_nd_range_kernel(self.rt.queue, self.kernel, (self.global_size,),
+                                                   (self.rt.local_size,), wait_for=[after])
+        return ResolvedEvent(after, event)

@@ -23,6 +23,7 @@ import dataclasses
 import numpy as np
 
 from clshade.errors import ClshadeError
+from clshade.render.gbuffer import CHANNELS, GBuffer
 from clshade.render.scene import MAX_RESOLUTION, MAX_SAMPLES, Camera, Scene
 
 
@@ -68,3 +69,28 @@ def with_antialiasing(scene: Scene, samples: int | None = None, specular_aa: boo
     if specular_aa:
         scene = dataclasses.replace(scene, specular_aa=True)
     return scene
+
+
+def coverage_gbuffer(gbuffer: GBuffer, samples: int) -> tuple[GBuffer, np.ndarray]:
+    """MSAA-style: from an N·W × N·H G-buffer (coverage and depth at N×N samples per
+    pixel), the W × H G-buffer that shades each pixel once — with the attributes of its
+    covered sample nearest the pixel centre (the centre itself for odd N; centroid-like
+    for even N) — and the (H, W) covered fraction. Unlike hardware MSAA a pixel holding
+    two surfaces is shaded once, for the one nearest its centre."""
+    n = samples
+    h, w = gbuffer.height // n, gbuffer.width // n
+    off = sample_offsets(n)
+    order = np.argsort(np.hypot(off[:, 0], off[:, 1]), kind="stable")          # nearest the centre first
+
+    def blocks(a: np.ndarray, comps: int) -> np.ndarray:            # (H, W, N², comps), samples row by row
+        return a.reshape(h, n, w, n, comps).transpose(0, 2, 1, 3, 4).reshape(h, w, n * n, comps)
+
+    covered = blocks(gbuffer.channels["depth"], 1)[..., 0] > 0
+    pick = order[np.argmax(covered[..., order], axis=-1)]            # first covered in that order (or order[0])
+    channels = {}
+    for name, data in gbuffer.channels.items():
+        comps = CHANNELS[name][1]
+        channels[name] = np.take_along_axis(blocks(data, comps), pick[..., None, None], axis=2).reshape(-1)
+    fraction = covered.mean(axis=-1)
+    out = dataclasses.replace(gbuffer, width=w, height=h, channels=channels, coverage=fraction > 0)
+    return out, fraction
