@@ -139,6 +139,8 @@ class SceneObject:
     rotate: tuple[float, float, float] = (0.0, 0.0, 0.0)   # degrees about X, then Y, then Z
     scale: tuple[float, float, float] = (1.0, 1.0, 1.0)
     mesh_material: bool = False   # use the mesh file's glTF PBR materials (factors, textures)
+    crease_angle: float | None = None   # degrees; None → the default (meshes.SHARP_EDGE_DEGREES)
+    smooth: bool | None = None          # True: one normal per position, False: flat faces, None: crease_angle
 
     def matrix(self) -> np.ndarray:
         """Object → world: translate · Rz · Ry · Rx · scale."""
@@ -394,7 +396,14 @@ def _object(file: Path, table: Any, where: str, materials: dict[str, Material]) 
         rotate=r.vector("rotate", (0.0, 0.0, 0.0), -360.0, 360.0),
         scale=r.vector("scale", (1.0, 1.0, 1.0), 1e-9, 1e9, allow_scalar=True),
         mesh_material=r.boolean("mesh_material", False),
+        crease_angle=r.number("crease_angle", None, 0.0, 180.0),
+        smooth=r.raw("smooth", None),
     )
+    if obj.smooth is not None:
+        r.boolean("smooth", False)   # type check
+        if obj.crease_angle is not None:
+            raise located("set either smooth or crease_angle, not both", file, f"{where}.crease_angle",
+                          obj.crease_angle, has_value=True)
     if obj.mesh_material and mesh_path is not None and mesh_path.suffix.lower() not in (".gltf", ".glb"):
         raise located("needs a glTF mesh (.gltf or .glb)", file, f"{where}.mesh_material", True, has_value=True)
     if obj.mesh_material and primitive:

@@ -1,0 +1,174 @@
+"""Loaded meshes: every format without stderr noise, shading normals (file normals kept,
+crease splitting otherwise, `smooth` / `crease_angle`), glTF metallic-roughness factors
+without UVs. The mesh files are written at test time by scenes/make_meshes.py."""
+from __future__ import annotations
+
+import importlib.util
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from clshade.errors import ClshadeError
+from clshade.pipeline import prepare_frame
+from clshade.render.meshes import build_geometry
+from clshade.render.scene import parse_scene
+
+from conftest import ROOT, SCENES
+
+_spec = importlib.util.spec_from_file_location("make_meshes", SCENES / "make_meshes.py")
+make_meshes = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(make_meshes)
+
+
+@pytest.fixture(scope="module")
+def meshes(tmp_path_factory) -> Path:
+    folder = tmp_path_factory.mktemp("meshes")
+    make_meshes.write_all(folder)
+    return folder
+
+
+def _scene(folder: Path, objects: str, width: int = 64, height: int = 64) -> str:
+    return f"""
+[camera]
+position = [0.0, 1.5, 4.0]
+target = [0.0, 0.0, 0.0]
+width = {width}
+height = {height}
+
+[[lights]]
+type = "directional"
+direction = [0.0, -1.0, -1.0]
+
+[materials.m]
+base_color = [0.8, 0.8, 0.8]
+{objects}
+"""
+
+
+def _geometry(folder: Path, obj: str):
+    text = _scene(folder, obj)
+    return build_geometry(parse_scene(text, folder / "scene.toml"))
+
+
+def test_every_format_renders_with_empty_stderr(meshes, tmp_path):
+    """OBJ (Latin-1 comment), STL, PLY and glTF in one scene: the CLI writes nothing to stderr."""
+    scene = (SCENES / "mesh_formats.toml").read_text(encoding="utf-8").replace("meshes/", f"{meshes}/")
+    path = tmp_path / "formats.toml"
+    path.write_text(scene.replace("width = 640", "width = 96").replace("height = 400", "height = 64"),
+                    encoding="utf-8")
+    env = {**os.environ, "PYTHONWARNINGS": "default"}
+    done = subprocess.run([sys.executable, "-m", "clshade", "render", str(path), "-o", str(tmp_path / "f.png")],
+                          capture_output=True, text=True, env=env, cwd=ROOT)
+    assert done.returncode == 0, done.stderr
+    assert done.stderr == ""
+    assert (tmp_path / "f.png").is_file()
+
+
+def test_ply_cube_has_sharp_edges(meshes):
+    """An 8-vertex cube (shared vertices, no normals) shades flat per face: every corner
+    normal is an axis, not the diagonal an averaged normal would be."""
+    g = _geometry(meshes, f'[[objects]]\nmesh = "{meshes}/cube.ply"\nmaterial = "m"')
+    assert len(g.faces) == 12
+    assert np.allclose(np.abs(g.normals).max(axis=1), 1.0, atol=1e-6)
+    # each corner's normal is its own face's normal
+    tri = g.vertices[g.faces]
+    face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    face_n /= np.linalg.norm(face_n, axis=1, keepdims=True)
+    assert np.allclose(g.normals[g.faces], face_n[:, None, :], atol=1e-6)
+
+
+def test_stl_soup_is_smooth_not_faceted(meshes):
+    """A binary STL repeats every vertex per triangle (process=False keeps it that way):
+    the side of the tube still gets radial (smooth) normals, the caps flat ones."""
+    g = _geometry(meshes, f'[[objects]]\nmesh = "{meshes}/tube.stl"\nmaterial = "m"')
+    v, n = g.vertices, g.normals.astype(float)
+    side = np.abs(n[:, 1]) < 0.5
+    radial = v[side] * [1, 0, 1]
+    radial /= np.linalg.norm(radial, axis=1, keepdims=True)
+    assert side.sum() > 0
+    assert np.allclose(n[side], radial, atol=1e-6)
+    cap = ~side
+    assert np.allclose(np.abs(n[cap, 1]), 1.0, atol=1e-6)
+
+
+def test_smooth_and_crease_angle_keys(meshes):
+    cube = f'[[objects]]\nmesh = "{meshes}/cube.ply"\nmaterial = "m"\n'
+    smooth = _geometry(meshes, cube + "smooth = true")
+    # one normal per position: the corner diagonals
+    assert np.allclose(np.abs(smooth.normals), 1 / np.sqrt(3), atol=1e-6)
+    wide = _geometry(meshes, cube + "crease_angle = 100")
+    assert np.allclose(np.abs(wide.normals), 1 / np.sqrt(3), atol=1e-6)
+    flat_sphere = _geometry(meshes, '[[objects]]\nprimitive = "sphere"\nsubdivisions = 1\nmaterial = "m"\n'
+                                    'smooth = false')
+    tri = flat_sphere.vertices[flat_sphere.faces]
+    face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    face_n /= np.linalg.norm(face_n, axis=1, keepdims=True)
+    assert np.allclose(flat_sphere.normals[flat_sphere.faces], face_n[:, None, :], atol=1e-5)
+    with pytest.raises(ClshadeError, match="smooth or crease_angle"):
+        _geometry(meshes, cube + "smooth = true\ncrease_angle = 10")
+    with pytest.raises(ClshadeError, match="crease_angle"):
+        _geometry(meshes, cube + "crease_angle = 200")
+
+
+def test_file_normals_are_kept(tmp_path):
+    """OBJ `vn` normals are used as they are (here deliberately tilted), unless the object sets a crease angle."""
+    v, f = make_meshes.box_mesh()
+    tilted = np.array([0.0, 0.6, 0.8])
+    lines = [f"v {x} {y} {z}" for x, y, z in v] + [f"vn {tilted[0]} {tilted[1]} {tilted[2]}"]
+    lines += [f"f {a + 1}//1 {b + 1}//1 {c + 1}//1" for a, b, c in f]
+    (tmp_path / "box.obj").write_text("\n".join(lines) + "\n")
+    obj = f'[[objects]]\nmesh = "{tmp_path}/box.obj"\nmaterial = "m"\n'
+    kept = _geometry(tmp_path, obj)
+    assert np.allclose(kept.normals, tilted, atol=1e-6)
+    recomputed = _geometry(tmp_path, obj + "crease_angle = 30")
+    assert np.allclose(np.abs(recomputed.normals).max(axis=1), 1.0, atol=1e-6)
+
+
+def test_gltf_normals_are_kept(meshes):
+    """glTF NORMAL is used: the uv-sphere's exact normals, not face-averaged ones."""
+    g = _geometry(meshes, f'[[objects]]\nmesh = "{meshes}/spheres.gltf"\nmaterial = "m"')
+    offset = g.vertices - np.c_[np.round(g.vertices[:, 0]), np.zeros((len(g.vertices), 2))]
+    exact = offset / np.linalg.norm(offset, axis=1, keepdims=True)
+    assert np.allclose(g.normals, exact, atol=1e-5)
+
+
+def test_gltf_factors_without_uvs(meshes):
+    """MetalRoughSpheres-like: five primitives, each its own baseColor/metallic/roughness
+    factors and no UVs. Every sphere's G-buffer pixels carry its own factors (baseColor
+    to trimesh's 1/255 quantisation); the scene material's values must not leak in."""
+    objects = (f'[[objects]]\nmesh = "{meshes}/spheres.gltf"\nmesh_material = true\n'
+               'material = { base_color = [0.5, 0.5, 0.5], roughness = 0.55, metallic = 0.45 }')
+    text = _scene(meshes, objects, 200, 60).replace("position = [0.0, 1.5, 4.0]", "position = [0.0, 0.0, 4.0]")
+    frame = prepare_frame(parse_scene(text, meshes / "scene.toml"))
+    g, gb = frame.geometry, frame.gbuffer
+    tri = frame.fragments.tri_id.reshape(-1)
+    cov = tri >= 0
+    names = [t.name for t in g.texture_sets]
+    base = gb.channels["base"].reshape(-1, 3)
+    for i, (factor, metal, rough, _) in enumerate(make_meshes.SPHERE_MATERIALS):
+        index = next(k for k, n in enumerate(names) if n.endswith(f"sphere{i}"))
+        pix = np.flatnonzero(cov)[g.face_texture[tri[cov]] == index]
+        assert len(pix) > 50, f"sphere {i} not visible"
+        assert np.allclose(base[pix], factor[:3], atol=0.5 / 255 + 1e-6), f"sphere {i} baseColorFactor"
+        assert np.allclose(gb.channels["roughness"][pix], rough, atol=1e-6), f"sphere {i} roughnessFactor"
+        assert np.allclose(gb.channels["metallic"][pix], metal, atol=1e-6), f"sphere {i} metallicFactor"
+
+
+def test_gltf_factor_defaults(tmp_path):
+    """glTF defaults when a material omits factors: baseColor 1, metallic 1, roughness 1."""
+    path = make_meshes.write_gltf(tmp_path / "one.gltf", materials=(((1.0, 1.0, 1.0, 1.0), 1.0, 1.0, (0, 0, 0)),))
+    doc = json.loads(path.read_text())
+    doc["materials"][0]["pbrMetallicRoughness"] = {}
+    path.write_text(json.dumps(doc))
+    objects = f'[[objects]]\nmesh = "{path}"\nmesh_material = true\nmaterial = {{ roughness = 0.3 }}'
+    frame = prepare_frame(parse_scene(_scene(tmp_path, objects), tmp_path / "scene.toml"))
+    cov = frame.gbuffer.coverage.reshape(-1)
+    assert cov.sum() > 50
+    assert np.allclose(frame.gbuffer.channels["base"].reshape(-1, 3)[cov], 1.0)
+    assert np.allclose(frame.gbuffer.channels["roughness"][cov], 1.0)
+    assert np.allclose(frame.gbuffer.channels["metallic"][cov], 1.0)
