@@ -172,3 +172,131 @@ def test_gltf_factor_defaults(tmp_path):
     assert np.allclose(frame.gbuffer.channels["base"].reshape(-1, 3)[cov], 1.0)
     assert np.allclose(frame.gbuffer.channels["roughness"][cov], 1.0)
     assert np.allclose(frame.gbuffer.channels["metallic"][cov], 1.0)
+
+
+# ---------------------------------------------------------------- emission and ambient occlusion
+
+EMISSIVE_BALL = """
+[camera]
+position = [0.0, 0.0, 3.0]
+width = 48
+height = 48
+[render]
+ambient = {ambient}
+[materials.glow]
+base_color = [0.5, 0.5, 0.5]
+emissive = {emissive}
+[[objects]]
+primitive = "sphere"
+subdivisions = 2
+material = "glow"
+"""
+
+
+def test_emission_is_a_variant_feature(runtime):
+    """A material's `emissive` radiance is added unlit (no lights: the image is exactly it);
+    a scene without emission compiles no emissive channel."""
+    from clshade import models
+    from clshade.pipeline import render
+    glow = parse_scene(EMISSIVE_BALL.format(ambient=0, emissive="[0.5, 0.25, 0.125]"))
+    out = render(glow, models.resolve("ggx_correlated"), runtime=runtime)
+    assert out.features.emissive and "emissive" in out.shader.variant(out.model, out.features).channels
+    cov = out.image[..., 3] > 0
+    assert cov.sum() > 100
+    assert np.allclose(out.image[cov][:, :3], [0.5, 0.25, 0.125], rtol=1e-6)
+    dark = render(parse_scene(EMISSIVE_BALL.format(ambient=0, emissive=0)), models.resolve("ggx_correlated"),
+                  runtime=runtime)
+    assert not dark.features.emissive
+    variant = dark.shader.variant(dark.model, dark.features)
+    assert "emissive" not in variant.channels and variant.defines()["HAS_EMISSIVE"] == "0"
+    assert np.all(dark.image[..., :3] == 0)
+
+
+def test_gltf_emissive_factor(meshes):
+    """The glTF emissiveFactor reaches the emissive channel of its own primitive only."""
+    objects = f'[[objects]]\nmesh = "{meshes}/spheres.gltf"\nmesh_material = true\nmaterial = "m"'
+    text = _scene(meshes, objects, 200, 60).replace("position = [0.0, 1.5, 4.0]", "position = [0.0, 0.0, 4.0]")
+    frame = prepare_frame(parse_scene(text, meshes / "scene.toml"))
+    g, gb = frame.geometry, frame.gbuffer
+    assert g.has_emission
+    tri = frame.fragments.tri_id.reshape(-1)
+    cov = tri >= 0
+    emissive = gb.channels["emissive"].reshape(-1, 3)
+    names = [t.name for t in g.texture_sets]
+    for i, (*_, factor) in enumerate(make_meshes.SPHERE_MATERIALS):
+        index = next(k for k, n in enumerate(names) if n.endswith(f"sphere{i}"))
+        pix = np.flatnonzero(cov)[g.face_texture[tri[cov]] == index]
+        assert np.allclose(emissive[pix], factor), f"sphere {i} emissiveFactor"
+
+
+def _occlusion_quad(path: Path, occlusion: tuple[int, int]) -> Path:
+    """A 2×2 quad facing +Z with UVs and a 4×1 occlusion texture: two texels `occlusion[0]`, two `occlusion[1]`
+    (between the centres of equal texels bilinear filtering returns the texel value exactly)."""
+    import base64
+    import io
+    from PIL import Image
+    png = io.BytesIO()
+    Image.fromarray(np.array([[[occlusion[0]] * 3] * 2 + [[occlusion[1]] * 3] * 2], np.uint8)).save(png, "PNG")
+    v = np.array([[-1, -1, 0], [1, -1, 0], [1, 1, 0], [-1, 1, 0]], "<f4")
+    n = np.tile(np.array([0, 0, 1], "<f4"), (4, 1))
+    uv = np.array([[0, 1], [1, 1], [1, 0], [0, 0]], "<f4")
+    f = np.array([0, 1, 2, 0, 2, 3], "<u4")
+    blob = v.tobytes() + n.tobytes() + uv.tobytes() + f.tobytes()
+    sizes = [v.nbytes, n.nbytes, uv.nbytes, f.nbytes]
+    offsets = np.cumsum([0] + sizes[:-1]).tolist()
+    doc = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+           "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}, "indices": 3,
+                                       "material": 0}]}],
+           "materials": [{"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 1], "metallicFactor": 0.0,
+                                                   "roughnessFactor": 1.0},
+                          "occlusionTexture": {"index": 0}}],
+           "textures": [{"source": 0, "sampler": 0}],
+           "samplers": [{"magFilter": 9728, "minFilter": 9728}],
+           "images": [{"uri": "data:image/png;base64," + base64.b64encode(png.getvalue()).decode()}],
+           "accessors": [{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
+                          "min": [-1, -1, 0], "max": [1, 1, 0]},
+                         {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"},
+                         {"bufferView": 2, "componentType": 5126, "count": 4, "type": "VEC2"},
+                         {"bufferView": 3, "componentType": 5125, "count": 6, "type": "SCALAR"}],
+           "bufferViews": [{"buffer": 0, "byteOffset": o, "byteLength": s} for o, s in zip(offsets, sizes)],
+           "buffers": [{"byteLength": len(blob),
+                        "uri": "data:application/octet-stream;base64," + base64.b64encode(blob).decode()}]}
+    path.write_text(json.dumps(doc))
+    return path
+
+
+def test_occlusion_texture_scales_ambient_only(runtime, tmp_path):
+    """glTF occlusionTexture multiplies the ambient term: with ambient light only, the left half
+    (occlusion 0.25) is a quarter of the right half (1.0); without ambient no channel exists."""
+    from clshade import models
+    from clshade.pipeline import render
+    quad = _occlusion_quad(tmp_path / "quad.gltf", (64, 255))
+    text = f"""
+[camera]
+position = [0.0, 0.0, 2.0]
+fov = 40.0
+width = 64
+height = 32
+[render]
+ambient = {{ambient}}
+[materials.m]
+roughness = 1.0
+[[objects]]
+mesh = "{quad}"
+mesh_material = true
+material = "m"
+"""
+    out = render(parse_scene(text.format(ambient=1.0), tmp_path / "s.toml"), models.resolve("lambert"),
+                 runtime=runtime)
+    assert out.features.occlusion
+    rgb = out.image[..., :3]
+    left, right = rgb[12:20, 17:25], rgb[12:20, 39:47]   # u in (0.125, 0.375) and (0.625, 0.875)
+    assert right.min() > 0
+    assert np.allclose(left, right * (64 / 255), rtol=1e-3)      # linear: no sRGB decode
+    lit = parse_scene(text.format(ambient=0) + '[[lights]]\ntype = "directional"\ndirection = [0, 0, -1]\n',
+                      tmp_path / "s.toml")
+    out = render(lit, models.resolve("lambert"), runtime=runtime)
+    assert not out.features.occlusion
+    rgb = out.image[..., :3]
+    assert rgb[12:20, 17:25].min() > 0
+    assert np.allclose(rgb[12:20, 17:25], rgb[12:20, 39:47], rtol=1e-4)

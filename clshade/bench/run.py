@@ -170,7 +170,10 @@ def reference_image(model: Model, gb: GBuffer, scene: Scene, camera) -> tuple[np
             amb += (1 - spec0 if coupled else wd[:, None]) * dc     # compose.h ambient_term
         if model.specular != NONE:
             amb += ws[:, None] * spec0
-        L += wa[:, None] * np.asarray(scene.ambient, float) * amb
+        occlusion = np.clip(gb.channels["occlusion"][idx], 0, 1)[:, None] if "occlusion" in gb.channels else 1.0
+        L += wa[:, None] * np.asarray(scene.ambient, float) * amb * occlusion
+    if "emissive" in gb.channels:   # shade.cl: emitted radiance added unlit
+        L += np.maximum(gb.channels["emissive"].reshape(-1, 3)[idx].astype(float), 0.0)
     return idx, L
 
 

@@ -31,10 +31,13 @@ def scene_features(scene: Scene, half_gbuffer: bool = False, fast_math: bool = F
     these effects as its runtime switches."""
     count = {k: sum(1 for l in scene.lights if l.kind == k) for k in LIGHT_ORDER}
     shadows = bool(scene.shadow_lights)
+    ambient = any(a > 0 for a in scene.ambient)
     return Features(num_dir=count["directional"], num_point=count["point"], num_spot=count["spot"],
-                    ambient=any(a > 0 for a in scene.ambient), shadows=shadows,
+                    ambient=ambient, shadows=shadows,
                     shadow_pcf=scene.shadow_pcf if shadows else 1,
                     textures=bool(geometry is not None and geometry.has_textures),
+                    emissive=bool(geometry is not None and geometry.has_emission),
+                    occlusion=bool(ambient and geometry is not None and geometry.has_occlusion),
                     half_gbuffer=half_gbuffer, fast_math=fast_math, general=general)
 
 

@@ -32,6 +32,9 @@ def material_row(params: dict[str, object]) -> np.ndarray:
 CHANNELS: dict[str, tuple[type, int]] = {
     "depth": (np.float32, 1), "normal": (np.float32, 3), "base": (np.float32, 3),
     "roughness": (np.float32, 1), "metallic": (np.float32, 1), "material": (np.uint8, 1),
+    # Present only when the scene has them (Features.emissive / Features.occlusion):
+    "emissive": (np.float32, 3),     # emitted radiance, added unlit
+    "occlusion": (np.float32, 1),    # ambient occlusion in [0, 1], multiplies the ambient term
 }
 
 
@@ -123,8 +126,9 @@ def uv_derivatives(geometry: Geometry, tri: np.ndarray, pixels: np.ndarray, came
 
 
 def _apply_texture_set(t: TextureSet, uv: np.ndarray, dx: np.ndarray, dy: np.ndarray, normal: np.ndarray,
-                       tangent: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Base colour, roughness, metallic and shading normal of K pixels from one texture set."""
+                       tangent: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Base colour, roughness, metallic, shading normal, emission and ambient occlusion
+    of K pixels from one texture set (glTF: value = factor × texture)."""
     uv, dx, dy = uv * t.uv_scale, dx * t.uv_scale, dy * t.uv_scale
     k = len(uv)
     base = np.broadcast_to(np.asarray(t.base_factor, np.float32), (k, 3)).copy()
@@ -136,6 +140,12 @@ def _apply_texture_set(t: TextureSet, uv: np.ndarray, dx: np.ndarray, dy: np.nda
         mr = t.metallic_roughness.sample(uv, t.metallic_roughness.lod(dx, dy))
         rough *= mr[:, 1]
         metal *= mr[:, 2]
+    emissive = np.broadcast_to(np.asarray(t.emissive_factor, np.float32), (k, 3)).copy()
+    if t.emissive is not None and t.has_emission:
+        emissive *= t.emissive.sample(uv, t.emissive.lod(dx, dy))
+    occlusion = np.ones(k, np.float32)
+    if t.occlusion is not None:
+        occlusion = 1.0 + t.occlusion_strength * (t.occlusion.sample(uv, t.occlusion.lod(dx, dy))[:, 0] - 1.0)
     if t.normal is not None:
         m = t.normal.sample(uv, t.normal.lod(dx, dy)) * 2.0 - 1.0
         m[:, :2] *= t.normal_scale
@@ -148,13 +158,13 @@ def _apply_texture_set(t: TextureSet, uv: np.ndarray, dx: np.ndarray, dy: np.nda
         length = np.linalg.norm(mapped, axis=1, keepdims=True)
         good &= length[:, 0] > 0
         normal = np.where(good[:, None], mapped / np.where(length > 0, length, 1.0), normal)
-    return base, rough, metal, normal.astype(np.float32)
+    return base, rough, metal, normal.astype(np.float32), emissive, occlusion
 
 
 def _texture_pixels(geometry: Geometry, tri: np.ndarray, pixels: np.ndarray, bary: np.ndarray, camera: Camera,
                     width: int, height: int, normal: np.ndarray, base: np.ndarray, rough: np.ndarray,
-                    metal: np.ndarray) -> None:
-    """Overwrite the channels of textured pixels in place."""
+                    metal: np.ndarray, emissive: np.ndarray | None, occlusion: np.ndarray | None) -> None:
+    """Overwrite the channels of textured pixels in place (emissive / occlusion when present)."""
     tex = geometry.face_texture[tri]
     sel = np.flatnonzero(tex >= 0)
     if not len(sel):
@@ -167,9 +177,13 @@ def _texture_pixels(geometry: Geometry, tri: np.ndarray, pixels: np.ndarray, bar
     for index in np.unique(tex[sel]):
         part = tex[sel] == index
         rows = pixels[sel][part]
-        b, r, m, n = _apply_texture_set(geometry.texture_sets[index], uv[part], dx[part], dy[part],
-                                        normal[rows].astype(np.float64), tangent[part])
+        b, r, m, n, e, o = _apply_texture_set(geometry.texture_sets[index], uv[part], dx[part], dy[part],
+                                              normal[rows].astype(np.float64), tangent[part])
         base[rows], rough[rows], metal[rows], normal[rows] = b, r, m, n
+        if emissive is not None:
+            emissive[rows] = e
+        if occlusion is not None:
+            occlusion[rows] = o
 
 
 def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments, camera: Camera | None = None) -> GBuffer:
@@ -194,6 +208,8 @@ def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments, camera
     rough = np.zeros(n, np.float32)
     metal = np.zeros(n, np.float32)
     matid = np.zeros(n, np.uint8)
+    emissive = np.zeros((n, 3), np.float32) if geometry.has_emission else None
+    occlusion = np.zeros(n, np.float32) if geometry.has_occlusion else None
     if len(tri):
         corners = geometry.faces[tri]                       # (K, 3) vertex ids
         nrm = np.einsum("kc,kcd->kd", bary, geometry.normals[corners])
@@ -206,9 +222,14 @@ def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments, camera
         rough[cov] = rough_of[mid]
         metal[cov] = metal_of[mid]
         matid[cov] = mid.astype(np.uint8)
+        if emissive is not None:
+            emissive[cov] = np.array([m.emissive for m in mats], np.float32).reshape(-1, 3)[mid]
+        if occlusion is not None:
+            occlusion[cov] = 1.0
         if geometry.face_texture is not None:
             camera = (camera or scene.camera).with_size(w, h)
-            _texture_pixels(geometry, tri, np.flatnonzero(cov), bary, camera, w, h, normal, base, rough, metal)
+            _texture_pixels(geometry, tri, np.flatnonzero(cov), bary, camera, w, h, normal, base, rough, metal,
+                            emissive, occlusion)
 
     # Replace non-finite inputs (from NaN vertices, bad normals in a mesh file):
     # the pixel shades as empty/neutral and is counted; no other pixel is touched.
@@ -222,4 +243,9 @@ def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments, camera
 
     channels = {"depth": depth, "normal": normal.reshape(-1), "base": base.reshape(-1),
                 "roughness": rough, "metallic": metal, "material": matid}
+    if emissive is not None:
+        emissive[bad] = 0.0
+        channels["emissive"] = emissive.reshape(-1)
+    if occlusion is not None:
+        channels["occlusion"] = occlusion
     return GBuffer(w, h, channels, material_table(scene), cov.reshape(h, w), nonfinite)

@@ -27,6 +27,7 @@ class Geometry:
     tangents: np.ndarray | None = None       # (V, 4) float32 world tangent + handedness
     face_texture: np.ndarray | None = None   # (F,) int32 index into texture_sets, −1 = untextured
     texture_sets: tuple[TextureSet, ...] = ()
+    emission: bool = False                   # some material or glTF texture set emits (emissive > 0)
 
     @property
     def triangle_count(self) -> int:
@@ -36,6 +37,16 @@ class Geometry:
     def has_textures(self) -> bool:
         """True when a texture image is mapped (factor-only glTF materials do not count)."""
         return any(t.has_images for t in self.texture_sets)
+
+    @property
+    def has_emission(self) -> bool:
+        """True when some face emits light (a material's or glTF set's emissive factor > 0)."""
+        return self.emission
+
+    @property
+    def has_occlusion(self) -> bool:
+        """True when some face has an ambient occlusion texture."""
+        return any(t.occlusion is not None for t in self.texture_sets)
 
 
 # Faces meeting at a vertex at more than this angle keep separate normals, so
@@ -201,7 +212,8 @@ def _gltf_texture_set(material, name: str, with_images: bool = True) -> TextureS
     """A trimesh PBRMaterial → TextureSet: the factors always (glTF defaults when absent),
     the textures only `with_images` (a primitive without TEXCOORD_0 cannot sample them).
     Caveats of trimesh's loader: it stores baseColorFactor quantised to uint8 (so factors
-    are exact to 1/255 only) and drops normalTexture.scale (taken as 1)."""
+    are exact to 1/255 only), drops normalTexture.scale and occlusionTexture.strength
+    (taken as 1) and KHR_texture_transform (not applied)."""
     if material is not None and not hasattr(material, "baseColorTexture") and hasattr(material, "to_pbr"):
         material = material.to_pbr()
     if material is None:
@@ -210,14 +222,18 @@ def _gltf_texture_set(material, name: str, with_images: bool = True) -> TextureS
     base = (1.0, 1.0, 1.0) if factor is None else tuple(float(c) / 255.0 for c in np.asarray(factor)[:3])
     rough = getattr(material, "roughnessFactor", None)
     metal = getattr(material, "metallicFactor", None)
+    emissive = getattr(material, "emissiveFactor", None)
     textures = {}
-    for attr, srgb in (("baseColorTexture", True), ("metallicRoughnessTexture", False), ("normalTexture", False)):
+    for attr, srgb in (("baseColorTexture", True), ("metallicRoughnessTexture", False), ("normalTexture", False),
+                       ("emissiveTexture", True), ("occlusionTexture", False)):
         image = getattr(material, attr, None) if with_images else None
         textures[attr] = None if image is None else texture_from_image(image, srgb, f"{name}.{attr}")
     return TextureSet(base_factor=base, roughness_factor=1.0 if rough is None else float(rough),
                       metallic_factor=1.0 if metal is None else float(metal),
                       base_color=textures["baseColorTexture"], metallic_roughness=textures["metallicRoughnessTexture"],
-                      normal=textures["normalTexture"], name=name)
+                      normal=textures["normalTexture"], name=name,
+                      emissive_factor=(0.0, 0.0, 0.0) if emissive is None else tuple(float(c) for c in emissive[:3]),
+                      emissive=textures["emissiveTexture"], occlusion=textures["occlusionTexture"])
 
 
 def _material_texture_set(material: Material, scene_file: Path | None, where: str) -> TextureSet:
@@ -229,7 +245,7 @@ def _material_texture_set(material: Material, scene_file: Path | None, where: st
                       metallic_factor=material.metallic, base_color=load("base_color_texture", True),
                       metallic_roughness=load("metallic_roughness_texture", False),
                       normal=load("normal_texture", False), normal_scale=material.normal_scale,
-                      uv_scale=material.uv_scale, name=material.name)
+                      uv_scale=material.uv_scale, name=material.name, emissive_factor=tuple(material.emissive))
 
 
 def build_geometry(scene: Scene) -> Geometry:
@@ -297,11 +313,13 @@ def build_geometry(scene: Scene) -> Geometry:
             uvs.append(uv if uv is not None else np.zeros((len(v), 2)))
             ftex.append(np.full(len(f), set_index[id(tset)] if tset is not None else -1, np.int32))
             offset += len(v)
+    emission = (any(any(c > 0 for c in scene.materials[o.material].emissive) for o in scene.objects)
+                or any(t.has_emission for t in sets))
     if not verts:
         return Geometry(np.zeros((0, 3)), np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int64),
                         np.zeros(0, np.int32), np.zeros(0, np.int32), np.zeros(0, bool))
     geometry = Geometry(np.concatenate(verts), np.concatenate(norms).astype(np.float32), np.concatenate(faces),
-                        np.concatenate(fmat), np.concatenate(fobj), np.concatenate(cull))
+                        np.concatenate(fmat), np.concatenate(fobj), np.concatenate(cull), emission=emission)
     if not textured:
         return geometry
     from dataclasses import replace

@@ -93,6 +93,7 @@ class Material:
     eta: tuple[float, float, float] = GOLD_ETA
     k: tuple[float, float, float] = GOLD_K
     double_sided: bool = False
+    emissive: tuple[float, float, float] = (0.0, 0.0, 0.0)   # emitted radiance, linear RGB (added unlit)
     # Texture files (resolved paths), glTF metallic-roughness semantics: the
     # texture multiplies the factor (base_color, roughness, metallic) above.
     base_color_texture: Path | None = None          # sRGB RGB(A)
@@ -310,6 +311,7 @@ def _material(file: Path | str, table: Any, name: str, where: str) -> Material:
         eta=r.vector("eta", GOLD_ETA, 0.0, 100.0),
         k=r.vector("k", GOLD_K, 0.0, 100.0),
         double_sided=r.boolean("double_sided", False),
+        emissive=r.vector("emissive", (0.0, 0.0, 0.0), 0.0, 1e6, allow_scalar=True),
         **{key: _texture_path(file, r, key) for key in TEXTURE_KEYS},
         normal_scale=r.number("normal_scale", 1.0, 0.0, 100.0),
         uv_scale=r.number("uv_scale", 1.0, 1e-6, 1e6),
