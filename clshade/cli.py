@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
+import os
 import sys
 from importlib import import_module
 from pathlib import Path
@@ -81,6 +83,36 @@ def _size(value: int | None, name: str) -> int | None:
     return value
 
 
+def _exposure(value: float | None) -> float | None:
+    """--exposure checked like the scene key render.exposure (finite, within ±64 stops)."""
+    from clshade.render.scene import EXPOSURE_RANGE
+    low, high = EXPOSURE_RANGE
+    if value is not None and not (math.isfinite(value) and low <= value <= high):
+        raise ClshadeError(f"--exposure = {value:g}: must be a finite number of stops within [{low:g}, {high:g}]")
+    return value
+
+
+def _model_spec(value: str | None, default: str) -> str:
+    """-m as given (an empty one is refused, not replaced by the scene's model)."""
+    if value is None:
+        return default
+    if not value.strip():
+        raise ClshadeError("-m '': no model given; `clshade models` lists them")
+    return value
+
+
+def _light_warning(scene, emission: bool) -> str | None:
+    """A warning for a scene without lights (None when it has some)."""
+    if scene.lights:
+        return None
+    name = scene.path.name if scene.path else "the scene"
+    if any(a > 0 for a in scene.ambient) or emission:
+        lit = " and ".join(w for w, on in (("the ambient term", any(a > 0 for a in scene.ambient)),
+                                           ("emission", emission)) if on)
+        return f"{name} has no [[lights]]: surfaces get only {lit}"
+    return f"{name} has no [[lights]], no ambient and no emission: every surface renders black"
+
+
 def cmd_render(args: argparse.Namespace) -> int:
     from clshade.render.image import check_output_path, write_image
     from clshade.models import resolve
@@ -93,8 +125,12 @@ def cmd_render(args: argparse.Namespace) -> int:
     out = Path(args.output) if args.output else Path.cwd() / f"{Path(args.scene).stem}.png"
     protected = scene.inputs()
     check_output_path(out, protected)
-    model = resolve(args.model or scene.model, args.fresnel, args.workflow)
+    exposure = scene.exposure if args.exposure is None else _exposure(args.exposure)
+    model = resolve(_model_spec(args.model, scene.model), args.fresnel, args.workflow)
     frame = prepare_frame(scene, _size(args.width, "width"), _size(args.height, "height"), timings)
+    warning = _light_warning(scene, frame.geometry.has_emission)
+    if warning:
+        print(f"clshade: warning: {warning}", file=sys.stderr)
     result = render(scene, model, device=args.device, half_gbuffer=args.half, fast_math=args.fast_math, frame=frame,
                     general=args.general)
     timings.update(result.timings)
@@ -121,7 +157,6 @@ def cmd_render(args: argparse.Namespace) -> int:
         print(f"clshade: warning: {frame.gbuffer.nonfinite_pixels} pixels had non-finite G-buffer inputs "
               f"(NaN/Inf vertices or normals) and were shaded as background", file=sys.stderr)
     with timings.stage("write"):
-        exposure = scene.exposure if args.exposure is None else args.exposure
         write_image(out, result.image, args.tonemap or scene.tonemap, exposure, protected)
     cam = frame.camera
     print(f"wrote {out} ({cam.width}x{cam.height}, {model.label}, {frame.geometry.triangle_count} triangles, "
@@ -178,11 +213,31 @@ def cmd_devices(args: argparse.Namespace) -> int:
     return 0
 
 
+def _quiet_broken_pipe() -> int:
+    """stdout's reader went away (`clshade models | head`): stop quietly. stdout is
+    pointed at /dev/null so that the interpreter's final flush does not fail again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):   # not a real file (tests replace stdout)
+        pass
+    return 141   # 128 + SIGPIPE, as a shell reports a process killed by it
+
+
 def main(argv: list[str] | None = None) -> int:
+    try:
+        return _main(argv)
+    except BrokenPipeError:
+        return _quiet_broken_pipe()
+
+
+def _main(argv: list[str] | None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return int(args.func(args) or 0)
+        status = int(args.func(args) or 0)
+        sys.stdout.flush()      # a closed pipe shows here, inside the handler, not at exit
+        return status
     except ClshadeError as exc:
         if args.debug:
             raise

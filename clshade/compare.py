@@ -25,7 +25,8 @@ LABEL_HEIGHT = 40            # px under each tile: two lines
 TITLE_HEIGHT = 30            # px above each group row
 GAP = 6                      # px between tiles
 SHEET_BACKGROUND = (0.08, 0.08, 0.09)
-MAX_COLUMNS = 5              # tiles per row before a row wraps
+MAX_COLUMNS = 5              # tiles per row before a row wraps (contact sheets; sweeps never wrap)
+MAX_TILE = 4096              # px: largest sweep/compare tile side (a sheet holds many)
 TIMING_REPEATS = 7           # device-timed dispatches per tile; the median is shown
 
 
@@ -82,13 +83,14 @@ def _text(buf, x: int, y: int, text: str, size: int = LABEL_SIZE, colour=(0.92, 
         raise ClshadeError(f"cannot render text with font {FONT!r}: {oiio.geterror()}")
 
 
-def layout(rows: list[tuple[str, list[tuple[np.ndarray, str, str]]]]) -> np.ndarray:
-    """Rows of (title, [(tile RGB in [0, 1], line 1, line 2)]) → one sheet (H, W, 3) float."""
+def layout(rows: list[tuple[str, list[tuple[np.ndarray, str, str]]]], max_columns: int = MAX_COLUMNS) -> np.ndarray:
+    """Rows of (title, [(tile RGB in [0, 1], line 1, line 2)]) → one sheet (H, W, 3) float;
+    rows longer than `max_columns` wrap."""
     import OpenImageIO as oiio
     wrapped = []
     for title, tiles in rows:
-        for start in range(0, len(tiles), MAX_COLUMNS):
-            wrapped.append((title if start == 0 else "", tiles[start:start + MAX_COLUMNS]))
+        for start in range(0, len(tiles), max_columns):
+            wrapped.append((title if start == 0 else "", tiles[start:start + max_columns]))
     rows = wrapped
     th, tw = rows[0][1][0][0].shape[:2]
     columns = max(len(tiles) for _, tiles in rows)
@@ -133,7 +135,7 @@ def compare_sheet(scene: Scene | str | Path, models: list[Model], *, width: int 
     tiles = shade_all(frame, models, rt)
     rows = []
     for group, items in group_rows(tiles):
-        rows.append((group, [(to_display(t.image, frame.scene), t.model.label, f"{t.ms:.2f} ms/frame")
+        rows.append((group, [(to_display(t.image, frame.scene), model_title(t.model), f"{t.ms:.2f} ms/frame")
                              for t in items]))
     if reference is not None:
         ref_tile = next((t for t in tiles if t.model == reference), None) or shade_all(frame, [reference], rt)[0]
@@ -166,9 +168,19 @@ def sweep_sheet(scene: Scene | str | Path, models: list[Model], roughness: tuple
         cells = []
         for r, frame, tiles in columns:
             n = next(iter(frame.scene.materials.values())).exponent
-            cells.append((to_display(tiles[i].image, frame.scene), f"r = {r:g}", f"n = {n:.3g}"))
-        rows.append((model.label, cells))
-    return layout(rows)
+            cells.append((to_display(tiles[i].image, frame.scene), *sweep_labels(model, r, n)))
+        rows.append((model_title(model), cells))
+    return layout(rows, max_columns=len(roughness))    # one row per model: every roughness side by side
+
+
+def model_title(model: Model) -> str:
+    """The model's label, with its Fresnel term when a lobe uses one."""
+    return f"{model.label}, {model.fresnel.capitalize()} Fresnel" if model.uses_fresnel else model.label
+
+
+def sweep_labels(model: Model, roughness: float, exponent: float) -> tuple[str, str]:
+    """A sweep tile's two label lines: the roughness, and the Phong exponent for lobes that have one."""
+    return f"r = {roughness:g}", (f"n = {exponent:.3g}" if "shininess" in model.uses else "")
 
 
 def write_sheet(path: str | Path, sheet: np.ndarray, protected=()) -> Path:
@@ -214,6 +226,10 @@ def _cmd_compare(args) -> int:
     scene = load_scene(args.scene)
     check_output_path(Path(args.output), scene.inputs())
     models = resolve_many(args.models)
+    for flag, value, high in (("--tile", args.tile, MAX_TILE), ("--width", args.width, 16384),
+                              ("--height", args.height, 16384)):
+        if value is not None and not 1 <= value <= high:
+            raise ClshadeError(f"{flag} = {value}: must be within [1, {high}]")
     width = args.width or args.tile
     height = args.height or max(1, round(width * scene.camera.height / scene.camera.width))
     reference = resolve(args.reference) if args.reference else None
@@ -236,6 +252,8 @@ def _cmd_sweep(args) -> int:
         raise ClshadeError(f"--roughness = {args.roughness!r}: not a list of numbers") from exc
     if not values or any(not 0 <= v <= 1 for v in values):
         raise ClshadeError(f"--roughness = {args.roughness!r}: values must be within [0, 1]")
+    if not 1 <= args.size <= MAX_TILE:
+        raise ClshadeError(f"--size = {args.size}: must be within [1, {MAX_TILE}]")
     sheet = sweep_sheet(scene, resolve_many(args.models), values, size=args.size, device=args.device)
     out = write_sheet(args.output, sheet, scene.inputs())
     print(f"wrote {out}")

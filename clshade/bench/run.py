@@ -546,9 +546,25 @@ def add_parser(sub, checks) -> None:
     p.set_defaults(func=cmd_bench)
 
 
+PLOT_SUFFIXES = (".png", ".pdf", ".svg", ".jpg", ".jpeg")
+
+
+def check_outputs(args: argparse.Namespace) -> None:
+    """Every output path, and matplotlib for --plot, before the benchmark runs."""
+    from clshade.outputs import check_output_file
+    if args.json:
+        check_output_file(args.json, "--json")
+    if args.csv:
+        check_output_file(args.csv, "--csv")
+    if args.plot:
+        check_output_file(args.plot, "--plot", PLOT_SUFFIXES)
+        _pyplot()
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
     if args.frames < 1 or args.warmup < 0:
         raise ClshadeError(f"--frames = {args.frames}, --warmup = {args.warmup}: need frames ≥ 1, warmup ≥ 0")
+    check_outputs(args)
     models = resolve_many(args.models)
     bench = Bench.prepare(args.scene, args.width, args.height, args.lights, args.device)
     cases = [bench.case(m, label=m.label) for m in models]

@@ -70,6 +70,16 @@ def check_output_path(path: Path, protected: list[Path] | tuple[Path, ...] = ())
     return path
 
 
+def _file_mode(path: Path) -> int:
+    """The mode a new file gets from open(): 0666 less the umask; an overwritten file keeps its own."""
+    try:
+        return path.stat().st_mode & 0o7777
+    except FileNotFoundError:
+        umask = os.umask(0)
+        os.umask(umask)
+        return 0o666 & ~umask
+
+
 def write_image(path: str | Path, image: np.ndarray, method: str = "aces", exposure: float = 0.0,
                 protected: list[Path] | tuple[Path, ...] = ()) -> Path:
     """Write atomically: a temporary file in the same folder, then a rename, so a
@@ -101,6 +111,7 @@ def write_image(path: str | Path, image: np.ndarray, method: str = "aces", expos
         out.close()
         if not ok:
             raise ClshadeError(f"{path}: writing failed ({error})")
+        os.chmod(tmp, _file_mode(path))     # mkstemp creates 0600
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):

@@ -22,6 +22,7 @@ TONEMAPS = ("none", "reinhard", "aces")
 PRIMITIVES = ("sphere", "box", "cylinder", "cone", "plane", "torus", "capsule")
 MAX_MATERIALS = 256          # the material id channel is one byte
 MAX_RESOLUTION = 16384
+EXPOSURE_RANGE = (-64.0, 64.0)   # stops; 2^±64 keeps radiance × 2^exposure finite in float32 display math
 # Shadow maps: 1024² resolves a 10 m ground plane to 1 cm texels and costs
 # about 0.3 s to rasterise on the host; PCF 3 (3×3 taps) softens the texel stairs.
 DEFAULT_SHADOW_MAP_SIZE = 1024
@@ -449,7 +450,7 @@ def parse_scene(text: str, file: Path | str = "<scene>") -> Scene:
     rnd = _Reader(file, top.raw("render", {}), "render")
     background = rnd.vector("background", (0.0, 0.0, 0.0), 0.0, 1e6)
     ambient = rnd.vector("ambient", (0.0, 0.0, 0.0), 0.0, 1e6, allow_scalar=True)
-    exposure = rnd.number("exposure", 0.0, -64.0, 64.0)
+    exposure = rnd.number("exposure", 0.0, *EXPOSURE_RANGE)
     tonemap = rnd.string("tonemap", "aces", TONEMAPS)
     model = rnd.string("model", "ggx_correlated")
     shadows = rnd.boolean("shadows", False)
