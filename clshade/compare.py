@@ -13,7 +13,7 @@ import numpy as np
 
 from clshade.errors import ClshadeError
 from clshade.render.image import srgb_encode, tonemap
-from clshade.models import GROUPS, Model, resolve, resolve_many
+from clshade.models import GROUPS, Model
 from clshade.pipeline import Frame, prepare_frame
 from clshade.device.runtime import Runtime, get_runtime
 from clshade.render.scene import Scene, load_scene
@@ -190,71 +190,3 @@ def write_sheet(path: str | Path, sheet: np.ndarray, protected=()) -> Path:
     linear = np.where(sheet <= 0.04045, sheet / 12.92, ((sheet + 0.055) / 1.055) ** 2.4)
     rgba = np.concatenate([linear, np.ones(linear.shape[:2] + (1,), np.float32)], axis=-1)
     return write_image(path, rgba, "none", 0.0, protected)
-
-
-def add_parser(sub, checks) -> None:
-    p = sub.add_parser("compare", help="contact sheet of several models on one G-buffer",
-                       description="Rasterise once, shade with every model, write a labelled contact sheet "
-                                   "(model name and device time per frame under each tile).")
-    p.add_argument("scene")
-    p.add_argument("-m", "--models", default="all", help="comma-separated models, a group "
-                   "(diffuse, empirical, microfacet) or all (default)")
-    p.add_argument("-o", "--output", default="sheet.png")
-    p.add_argument("--reference", help="add a false-colour difference row against this model")
-    p.add_argument("--width", type=int, default=None)
-    p.add_argument("--height", type=int, default=None)
-    p.add_argument("--tile", type=int, default=320, help="tile width when --width is not given (default 320)")
-    p.add_argument("--device")
-    p.set_defaults(func=_cmd_compare)
-
-    p = sub.add_parser("sweep", help="smoothness sweep: rows = models, columns = roughness",
-                       description="The study's Figure 4: the same material at increasing roughness, per model. "
-                                   "Normalised models brighten their highlights as they narrow.")
-    p.add_argument("scene", nargs="?", help="scene (default: the bundled red_ball.toml)")
-    p.add_argument("-m", "--models", default="phong,phong_normalized,blinn_phong,blinn_phong_normalized,"
-                   "cook_torrance,walter_ggx,ggx_correlated")
-    p.add_argument("-o", "--output", default="sweep.png")
-    p.add_argument("--roughness", default=",".join(f"{r:g}" for r in SWEEP_ROUGHNESS),
-                   help="comma-separated roughness values (columns)")
-    p.add_argument("--size", type=int, default=160, help="tile size in pixels")
-    p.add_argument("--device")
-    p.set_defaults(func=_cmd_sweep)
-
-
-def _cmd_compare(args) -> int:
-    from clshade.render.image import check_output_path
-    scene = load_scene(args.scene)
-    check_output_path(Path(args.output), scene.inputs())
-    models = resolve_many(args.models)
-    for flag, value, high in (("--tile", args.tile, MAX_TILE), ("--width", args.width, 16384),
-                              ("--height", args.height, 16384)):
-        if value is not None and not 1 <= value <= high:
-            raise ClshadeError(f"{flag} = {value}: must be within [1, {high}]")
-    width = args.width or args.tile
-    height = args.height or max(1, round(width * scene.camera.height / scene.camera.width))
-    reference = resolve(args.reference) if args.reference else None
-    sheet, tiles = compare_sheet(scene, models, width=width, height=height, reference=reference, device=args.device)
-    out = write_sheet(args.output, sheet, scene.inputs())
-    print(f"wrote {out} ({len(tiles)} models, {width}x{height} tiles)")
-    for t in tiles:
-        print(f"  {t.model.label:28s} {t.ms:8.3f} ms/frame")
-    return 0
-
-
-def _cmd_sweep(args) -> int:
-    from clshade.render.image import check_output_path
-    from clshade.resources import scenes_dir
-    scene = load_scene(args.scene or scenes_dir() / "red_ball.toml")
-    check_output_path(Path(args.output), scene.inputs())
-    try:
-        values = tuple(float(x) for x in args.roughness.split(",") if x.strip())
-    except ValueError as exc:
-        raise ClshadeError(f"--roughness = {args.roughness!r}: not a list of numbers") from exc
-    if not values or any(not 0 <= v <= 1 for v in values):
-        raise ClshadeError(f"--roughness = {args.roughness!r}: values must be within [0, 1]")
-    if not 1 <= args.size <= MAX_TILE:
-        raise ClshadeError(f"--size = {args.size}: must be within [1, {MAX_TILE}]")
-    sheet = sweep_sheet(scene, resolve_many(args.models), values, size=args.size, device=args.device)
-    out = write_sheet(args.output, sheet, scene.inputs())
-    print(f"wrote {out}")
-    return 0

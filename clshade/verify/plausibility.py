@@ -23,8 +23,6 @@ its lobes with k_d = (1 − F(n·l))(1 − F(n·v)) (kernels/compose.h).
 """
 from __future__ import annotations
 
-import argparse
-import json
 import math
 from dataclasses import asdict, dataclass, field
 from functools import lru_cache
@@ -373,28 +371,3 @@ def describe_method(sweep: Sweep = Sweep()) -> list[str]:
         "white base, or k_d = 0.7, k_s = 0.3); the metallic workflow couples its lobes with "
         "k_d = (1 − F(n·l))(1 − F(n·v)).",
     ]
-
-
-def add_parser(sub, checks) -> None:
-    """`clshade check plausibility`."""
-    p = checks.add_parser("plausibility", help="non-negativity, reciprocity and energy conservation of every preset",
-                          description="Measure, on the OpenCL device, each preset's minimum f, reciprocity error "
-                                      "and maximum directional albedo over a roughness/shininess sweep, and give "
-                                      "the verdicts (physically based = all three).")
-    p.add_argument("--json", action="store_true", help="machine-readable output")
-    p.add_argument("--device", metavar="D", help="OpenCL device (see `clshade devices`)")
-    p.add_argument("--quick", action="store_true", help="the reduced sweep of `clshade models` (a few seconds)")
-    p.set_defaults(func=cmd_plausibility)
-
-
-def cmd_plausibility(args: argparse.Namespace) -> int:
-    sweep = QUICK if args.quick else Sweep()
-    verdicts = evaluate_presets(sweep, args.device)
-    if args.json:
-        print(json.dumps({"energy_tol": ENERGY_TOL, "reciprocity_tol": RECIPROCITY_TOL,
-                          "sweep": asdict(sweep), "presets": [v.as_dict() for v in verdicts]},
-                         indent=2, ensure_ascii=False))
-    else:
-        for line in table(verdicts) + [""] + describe_method(sweep):
-            print(line)
-    return 0 if all(v.non_negative and v.reciprocal for v in verdicts) else 1
