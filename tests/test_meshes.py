@@ -300,3 +300,37 @@ material = "m"
     rgb = out.image[..., :3]
     assert rgb[12:20, 17:25].min() > 0
     assert np.allclose(rgb[12:20, 17:25], rgb[12:20, 39:47], rtol=1e-4)
+
+
+@pytest.mark.parametrize("model", ["ggx_correlated", "phong"])
+def test_emission_and_occlusion_match_the_oracle(tmp_path, model):
+    """Kernel vs the float64 frame oracle (reference.radiance) on a scene with lights, ambient,
+    an occlusion-textured glTF quad and an emissive sphere: both terms are in both."""
+    from test_oracle import TOLERANCE, compare
+    quad = _occlusion_quad(tmp_path / "quad.gltf", (64, 255))
+    path = tmp_path / "glow.toml"
+    path.write_text(f"""
+[camera]
+position = [0.0, 0.0, 3.0]
+fov = 50.0
+[render]
+ambient = [0.6, 0.5, 0.4]
+[[lights]]
+type = "point"
+position = [1.0, 1.5, 2.0]
+intensity = 4.0
+[materials.m]
+roughness = 0.6
+[[objects]]
+mesh = "{quad}"
+mesh_material = true
+material = "m"
+[[objects]]
+primitive = "sphere"
+radius = 0.3
+translate = [0.4, 0.0, 0.5]
+material = {{ base_color = [0.2, 0.3, 0.4], emissive = [0.7, 0.2, 0.1] }}
+""")
+    res = compare(path, model)
+    assert res["pixels"] > 0.5 * res["covered"], res
+    assert res["max"] <= TOLERANCE, res
