@@ -334,3 +334,25 @@ material = {{ base_color = [0.2, 0.3, 0.4], emissive = [0.7, 0.2, 0.1] }}
     res = compare(path, model)
     assert res["pixels"] > 0.5 * res["covered"], res
     assert res["max"] <= TOLERANCE, res
+
+
+@pytest.mark.parametrize("kind, args, volume, lo, hi", [
+    ("icosphere", (3, 2.0), 4 / 3 * np.pi * 8, [-2, -2, -2], [2, 2, 2]),
+    ("box", ((1.0, 2.0, 3.0),), 6.0, [-0.5, -1, -1.5], [0.5, 1, 1.5]),
+    ("cylinder", (0.5, 2.0, 64), np.pi * 0.25 * 2, [-0.5, -0.5, -1], [0.5, 0.5, 1]),
+    ("cone", (0.5, 3.0, 64), np.pi * 0.25 * 3 / 3, [-0.5, -0.5, 0], [0.5, 0.5, 3]),
+    ("capsule", (0.5, 1.0, 64), np.pi * 0.25 + 4 / 3 * np.pi * 0.125, [-0.5, -0.5, -1], [0.5, 0.5, 1]),
+    ("torus", (1.0, 0.25, 96, 48), 2 * np.pi ** 2 * 0.0625, [-1.25, -1.25, -0.25], [1.25, 1.25, 0.25]),
+])
+def test_primitives_are_closed_and_outward(kind, args, volume, lo, hi):
+    """Signed volume (divergence theorem) ≈ the solid's: every face outward, none missing;
+    every edge shared by exactly two faces (watertight); bounds as the scene format says."""
+    from clshade.render import primitives
+    v, f = getattr(primitives, kind)(*args)
+    tri = v[f]
+    signed = np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum() / 6
+    assert signed == pytest.approx(volume, rel=0.02)
+    edges = np.sort(f[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    _, counts = np.unique(edges, axis=0, return_counts=True)
+    assert np.all(counts == 2)
+    assert np.allclose(v.min(0), lo, atol=1e-9) and np.allclose(v.max(0), hi, atol=1e-9)

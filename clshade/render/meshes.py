@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from clshade.errors import ClshadeError, located
+from clshade.render import primitives
 from clshade.render.scene import Material, Scene, SceneObject
 from clshade.render.textures import TextureSet, load_texture_file, primitive_uvs, texture_from_image, vertex_tangents
 
@@ -90,35 +91,29 @@ def split_sharp_edges(vertices: np.ndarray, faces: np.ndarray, degrees: float = 
 
 
 def _primitive(obj: SceneObject):
-    """Vertices, faces and normals of a procedural primitive: the sphere has exact
-    normals unless the object asks for flat shading or its own crease angle; other
-    primitives are split at the object's crease angle (see crease_degrees)."""
-    import trimesh
+    """Vertices, faces and normals of a procedural primitive (clshade/render/primitives.py):
+    the sphere has exact normals unless the object asks for flat shading or its own crease
+    angle; other primitives are split at the object's crease angle (see crease_degrees)."""
     p = obj.params
     kind = obj.primitive
     if kind == "sphere":
-        mesh = trimesh.creation.icosphere(subdivisions=p["subdivisions"], radius=p["radius"])
+        v, f = primitives.icosphere(p["subdivisions"], p["radius"])
         if obj.smooth is None and obj.crease_angle is None:
-            return mesh.vertices, mesh.faces, mesh.vertices / np.linalg.norm(mesh.vertices, axis=1, keepdims=True)
+            return v, f, v / np.linalg.norm(v, axis=1, keepdims=True)
     elif kind == "plane":
         s = p["size"] / 2
         v = np.array([[-s, 0, -s], [s, 0, -s], [s, 0, s], [-s, 0, s]], float)
         f = np.array([[0, 2, 1], [0, 3, 2]])
         return v, f, np.tile([0.0, 1.0, 0.0], (4, 1))
     elif kind == "box":
-        mesh = trimesh.creation.box(extents=p["size"])
-    elif kind == "cylinder":
-        mesh = trimesh.creation.cylinder(radius=p["radius"], height=p["height"], sections=p["sections"])
-    elif kind == "cone":
-        mesh = trimesh.creation.cone(radius=p["radius"], height=p["height"], sections=p["sections"])
-    elif kind == "capsule":
-        mesh = trimesh.creation.capsule(radius=p["radius"], height=p["height"], count=[p["sections"], p["sections"]])
+        v, f = primitives.box(p["size"])
+    elif kind in ("cylinder", "cone", "capsule"):
+        v, f = getattr(primitives, kind)(p["radius"], p["height"], p["sections"])
     elif kind == "torus":
-        mesh = trimesh.creation.torus(major_radius=p["major_radius"], minor_radius=p["minor_radius"],
-                                      major_sections=p["sections"], minor_sections=max(p["sections"] // 2, 3))
+        v, f = primitives.torus(p["major_radius"], p["minor_radius"], p["sections"], max(p["sections"] // 2, 3))
     else:  # pragma: no cover - validated in scene.py
         raise ClshadeError(f"unknown primitive {kind!r}")
-    return split_sharp_edges(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64), crease_degrees(obj))
+    return split_sharp_edges(v, f, crease_degrees(obj))
 
 
 def crease_degrees(obj: SceneObject) -> float:
