@@ -6,10 +6,35 @@ import json
 import math
 import os
 import sys
+from contextlib import contextmanager
 from pathlib import Path
 
 from clshade import __version__
 from clshade.errors import ClshadeError
+
+
+@contextmanager
+def progress_bar(description: str, unit: str):
+    """Yields progress(done, total) drawing a tqdm bar on stderr — only when stderr is a
+    terminal (logs get no bar) and only once there is more than one step."""
+    if not sys.stderr.isatty():
+        yield None
+        return
+    bar = None
+
+    def progress(done: int, total: int) -> None:
+        nonlocal bar
+        if bar is None and total > 1:
+            from tqdm import tqdm
+            bar = tqdm(total=total, desc=description, unit=unit, file=sys.stderr, leave=False, dynamic_ncols=True)
+        if bar is not None:
+            bar.update(done - bar.n)
+
+    try:
+        yield progress
+    finally:
+        if bar is not None:
+            bar.close()
 
 
 def _add_device(p: argparse.ArgumentParser) -> None:
@@ -186,9 +211,12 @@ def _light_warning(scene, emission: bool) -> str | None:
 
 
 def cmd_render(args: argparse.Namespace) -> int:
-    from clshade.render.image import check_output_path, write_image
+    """Render in bands of rows (pipeline.render_streamed): only the output image is
+    full-frame, so a frame too large for memory is refused before anything is allocated."""
+    import numpy as np
     from clshade.models import resolve
-    from clshade.pipeline import Timings, prepare_frame, render
+    from clshade.pipeline import Timings, check_frame_memory, render_streamed
+    from clshade.render.image import LINEAR_SUFFIXES, check_output_path, to_display, write_encoded
     from clshade.render.scene import load_scene
 
     timings = Timings()
@@ -198,43 +226,60 @@ def cmd_render(args: argparse.Namespace) -> int:
     protected = scene.inputs()
     check_output_path(out, protected)
     exposure = scene.exposure if args.exposure is None else _exposure(args.exposure)
+    tonemap = args.tonemap or scene.tonemap
     model = resolve(_model_spec(args.model, scene.model), args.fresnel, args.workflow)
-    frame = prepare_frame(scene, _size(args.width, "width"), _size(args.height, "height"), timings)
-    warning = _light_warning(scene, frame.geometry.has_emission)
+    cam = scene.camera.with_size(_size(args.width, "width"), _size(args.height, "height"))
+    linear = out.suffix.lower() in LINEAR_SUFFIXES
+    check_frame_memory(cam.width, cam.height, 16 if linear else 3)
+    pixels = np.empty((cam.height, cam.width, 4 if linear else 3), np.float32 if linear else np.uint8)
+
+    def keep(first_row: int, band: np.ndarray) -> None:
+        pixels[first_row:first_row + len(band)] = band if linear else to_display(band, tonemap, exposure)
+
+    with progress_bar("render", "band") as progress:
+        result = render_streamed(scene, model, keep, width=cam.width, height=cam.height, device=args.device,
+                                 half_gbuffer=args.half, fast_math=args.fast_math, general=args.general,
+                                 timings=timings, progress=progress)
+    warning = _light_warning(scene, result.geometry.has_emission)
     if warning:
         print(f"clshade: warning: {warning}", file=sys.stderr)
-    result = render(scene, model, device=args.device, half_gbuffer=args.half, fast_math=args.fast_math, frame=frame,
-                    general=args.general)
-    timings.update(result.timings)
     if args.explain:
-        variant = result.shader.variant(model, result.features)
-        print(f"model: {model.label} ({model.id}); lobes: {', '.join(l.id for l in model.lobes)}; "
-              f"fresnel: {model.fresnel if model.uses_fresnel else 'n/a'}; workflow: {model.workflow}")
-        for line in result.features.describe():
-            print(f"feature {line}")
-        print(f"G-buffer channels: {', '.join(variant.channels)} "
-              f"({frame.gbuffer.bytes_per_pixel(variant.channels, result.features.half_gbuffer)} B/pixel read, 16 B written)")
-        if frame.shadows is not None:
-            print(f"shadow maps: {frame.shadows.count} x {frame.shadows.size}² (lights "
-                  f"{', '.join(str(i) for i in frame.scene.shadow_lights)}; directional: orthographic fitted to the "
-                  f"scene bounds, spot: perspective), PCF {frame.shadows.pcf}x{frame.shadows.pcf} in the shade kernel")
-        for tset in frame.geometry.texture_sets:
-            print(f"texture set {tset.describe()}")
-        print(f"build options: {' '.join(variant.options()) or '(none)'}")
-        simd = result.shader.rt.simd
-        print("defines: " + " ".join(f"{k}={v}" for k, v in {"SIMD": str(simd), **variant.defines()}.items()))
-        print(f"device: {result.shader.rt.info.description}; {simd} pixel{'s' if simd > 1 else ''} per work-item "
-              f"(kernels/simd.h; CLSHADE_SIMD to override)")
-    if frame.gbuffer.nonfinite_pixels:
-        print(f"clshade: warning: {frame.gbuffer.nonfinite_pixels} pixels had non-finite G-buffer inputs "
+        _explain(model, result)
+    if result.nonfinite:
+        print(f"clshade: warning: {result.nonfinite} pixels had non-finite G-buffer inputs "
               f"(NaN/Inf vertices or normals) and were shaded as background", file=sys.stderr)
     with timings.stage("write"):
-        write_image(out, result.image, args.tonemap or scene.tonemap, exposure, protected)
-    cam = frame.camera
-    print(f"wrote {out} ({cam.width}x{cam.height}, {model.label}, {frame.geometry.triangle_count} triangles, "
-          f"{int(frame.gbuffer.coverage.sum())} covered pixels)")
+        write_encoded(out, pixels, protected)
+    print(f"wrote {out} ({cam.width}x{cam.height}, {model.label}, {result.geometry.triangle_count} triangles, "
+          f"{result.covered} covered pixels)")
     print(f"stages: {timings.line()}")
     return 0
+
+
+def _explain(model, result) -> None:
+    """--explain: the kernel variant of a render (every band uses the same one)."""
+    shader = result.shader
+    variant = shader.variant(model, result.features)
+    print(f"model: {model.label} ({model.id}); lobes: {', '.join(l.id for l in model.lobes)}; "
+          f"fresnel: {model.fresnel if model.uses_fresnel else 'n/a'}; workflow: {model.workflow}")
+    for line in result.features.describe():
+        print(f"feature {line}")
+    print(f"G-buffer channels: {', '.join(variant.channels)} "
+          f"({shader.gb.bytes_per_pixel(variant.channels, result.features.half_gbuffer)} B/pixel read, 16 B written)")
+    if result.bands > 1:
+        print(f"bands: {result.bands} (rows rasterised, written to the G-buffer and shaded band by band)")
+    if result.shadows is not None:
+        print(f"shadow maps: {result.shadows.count} x {result.shadows.size}² (lights "
+              f"{', '.join(str(i) for i in shader.scene.shadow_lights)}; directional: orthographic "
+              f"fitted to the scene bounds, spot: perspective), PCF {result.shadows.pcf}x{result.shadows.pcf} in the "
+              f"shade kernel")
+    for tset in result.geometry.texture_sets:
+        print(f"texture set {tset.describe()}")
+    print(f"build options: {' '.join(variant.options()) or '(none)'}")
+    simd = shader.rt.simd
+    print("defines: " + " ".join(f"{k}={v}" for k, v in {"SIMD": str(simd), **variant.defines()}.items()))
+    print(f"device: {shader.rt.info.description}; {simd} pixel{'s' if simd > 1 else ''} per work-item "
+          f"(kernels/simd.h; CLSHADE_SIMD to override)")
 
 
 def cmd_models(args: argparse.Namespace) -> int:
@@ -351,16 +396,10 @@ def cmd_bench(args: argparse.Namespace) -> int:
     from clshade.models import resolve_many
     from clshade.report import bench_csv, bench_plots, bench_text
     _check_bench_outputs(args)
-    progress = None
-    if not args.no_progress:
-        from tqdm import tqdm
-        bar = tqdm(total=args.frames, desc="bench", unit="round", file=sys.stderr, leave=False)
-        progress = lambda done, total: bar.update(done - bar.n)  # noqa: E731
-    doc = run_bench(args.scene, resolve_many(args.models), args.frames, args.warmup, width=args.width,
-                    height=args.height, lights=args.lights, ladder=args.ladder, numpy_frames=args.numpy_frames,
-                    device=args.device, progress=progress)
-    if progress is not None:
-        bar.close()
+    with progress_bar("bench", "round") as progress:
+        doc = run_bench(args.scene, resolve_many(args.models), args.frames, args.warmup, width=args.width,
+                        height=args.height, lights=args.lights, ladder=args.ladder, numpy_frames=args.numpy_frames,
+                        device=args.device, progress=None if args.no_progress else progress)
     print(bench_text(doc))
     if args.json:
         Path(args.json).write_text(json.dumps(doc, indent=2, ensure_ascii=False), encoding="utf-8")

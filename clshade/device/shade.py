@@ -79,11 +79,14 @@ def pack_lights_general(lights: tuple[Light, ...] | list[Light], slots: tuple[in
 
 
 def camera_args(camera: Camera) -> list[np.ndarray]:
-    """cam_pos, cam_fwd and the pre-scaled cam_right / cam_up of shade.cl."""
+    """cam_pos, cam_fwd and the pre-scaled cam_right / cam_up of shade.cl. For a band of a
+    taller frame (Camera.band) the kernel's band-relative sy maps to the frame's centre + half·sy,
+    folded into cam_fwd and cam_up."""
     fwd, right, up = camera.basis()
     t = math.tan(math.radians(camera.fov) / 2)
+    centre, half = camera.band_ndc()
     f4 = lambda v: np.array([*v, 0.0], np.float32)  # noqa: E731
-    return [f4(camera.position), f4(fwd), f4(right * t * camera.aspect), f4(up * t)]
+    return [f4(camera.position), f4(fwd + up * t * centre), f4(right * t * camera.aspect), f4(up * t * half)]
 
 
 @dataclass

@@ -84,15 +84,23 @@ def write_image(path: str | Path, image: np.ndarray, method: str = "aces", expos
                 protected: list[Path] | tuple[Path, ...] = ()) -> Path:
     """Write atomically: a temporary file in the same folder, then a rename, so a
     failed or interrupted write never leaves a truncated image."""
+    path = check_output_path(Path(path), protected)
+    if path.suffix.lower() in LINEAR_SUFFIXES:
+        return write_encoded(path, image.astype(np.float32, copy=False), protected)
+    return write_encoded(path, to_display(image, method, exposure), protected)
+
+
+def write_encoded(path: str | Path, pixels: np.ndarray, protected: list[Path] | tuple[Path, ...] = ()) -> Path:
+    """Write pixels already in the file's encoding — float32 linear RGBA for .exr, uint8 sRGB
+    RGB for .png/.jpg (to_display) — atomically (a temporary file, then a rename)."""
     import OpenImageIO as oiio
     path = check_output_path(Path(path), protected)
     linear = path.suffix.lower() in LINEAR_SUFFIXES
-    if linear:
-        pixels = np.ascontiguousarray(image.astype(np.float32))
-        fmt = "float"
-    else:
-        pixels = np.ascontiguousarray(to_display(image, method, exposure))
-        fmt = "uint8"
+    expected = np.float32 if linear else np.uint8
+    if pixels.dtype != expected:
+        raise ClshadeError(f"{path}: internal error: {pixels.dtype} pixels for a {path.suffix} file")
+    pixels = np.ascontiguousarray(pixels)
+    fmt = "float" if linear else "uint8"
     height, width, channels = pixels.shape
     fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.resolve().parent)
     os.close(fd)

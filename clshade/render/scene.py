@@ -44,10 +44,31 @@ class Camera:
     height: int
     near: float = 0.05
     far: float = 1000.0
+    # A band of rows of a taller frame: (first row, full frame height); None = the whole frame.
+    # The projection maps the band's rows onto NDC [-1, 1] (see band()).
+    crop: tuple[int, int] | None = None
 
     @property
     def aspect(self) -> float:
-        return self.width / self.height
+        return self.width / (self.crop[1] if self.crop else self.height)
+
+    @property
+    def full_height(self) -> int:
+        return self.crop[1] if self.crop else self.height
+
+    def band(self, first_row: int, rows: int) -> "Camera":
+        """The camera of rows [first_row, first_row + rows) of this frame: same view, a
+        projection whose NDC y range is that band (pixel centres unchanged, row 0 = first_row)."""
+        base = self.crop[0] if self.crop else 0
+        return replace(self, height=rows, crop=(base + first_row, self.full_height))
+
+    def band_ndc(self) -> tuple[float, float]:
+        """(centre, half extent) of the band's NDC y range in the full frame ((0, 1) uncropped)."""
+        if not self.crop:
+            return 0.0, 1.0
+        first, full = self.crop
+        top, bottom = 1.0 - 2.0 * first / full, 1.0 - 2.0 * (first + self.height) / full
+        return (top + bottom) / 2.0, (top - bottom) / 2.0
 
     def basis(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Unit forward, right and up vectors (right-handed, +Y up by default): the
@@ -60,11 +81,19 @@ class Camera:
         return look_at(self.position, self.target, self.up)
 
     def projection_matrix(self) -> np.ndarray:
-        """OpenGL perspective projection (clip space, NDC z in [−1, 1])."""
-        return perspective(self.fov, self.aspect, self.near, self.far)
+        """OpenGL perspective projection (clip space, NDC z in [−1, 1]); for a band, followed
+        by the map of the band's NDC y range onto [−1, 1] (y' = (y − centre·w) / half)."""
+        m = perspective(self.fov, self.aspect, self.near, self.far)
+        if self.crop:
+            centre, half = self.band_ndc()
+            crop = np.eye(4)
+            crop[1, 1], crop[1, 3] = 1.0 / half, -centre / half
+            m = crop @ m
+        return m
 
     def with_size(self, width: int | None, height: int | None) -> "Camera":
-        from dataclasses import replace
+        if self.crop and (width or self.width, height or self.height) != (self.width, self.height):
+            raise ValueError("a band camera cannot be resized")
         return replace(self, width=width or self.width, height=height or self.height)
 
 
