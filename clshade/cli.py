@@ -286,7 +286,8 @@ def cmd_models(args: argparse.Namespace) -> int:
     from clshade.models import GROUPS, lobes, presets
     from clshade.verify.plausibility import physically_based
     try:  # measured on the device with a reduced sweep (`clshade check plausibility` for the full one)
-        measured: dict[str, bool] = physically_based()
+        with progress_bar("measuring albedo", "preset") as progress:
+            measured: dict[str, bool] = physically_based(progress=progress)
     except ClshadeError as exc:
         print(f"clshade: warning: physically_based not measured ({exc})", file=sys.stderr)
         measured = {}
@@ -345,7 +346,9 @@ def cmd_compare(args: argparse.Namespace) -> int:
     width = args.width or args.tile
     height = args.height or max(1, round(width * scene.camera.height / scene.camera.width))
     reference = resolve(args.reference) if args.reference else None
-    sheet, tiles = compare_sheet(scene, models, width=width, height=height, reference=reference, device=args.device)
+    with progress_bar("compare", "model") as progress:
+        sheet, tiles = compare_sheet(scene, models, width=width, height=height, reference=reference,
+                                     device=args.device, progress=progress)
     out = write_sheet(args.output, sheet, scene.inputs())
     print(f"wrote {out} ({len(tiles)} models, {width}x{height} tiles)")
     for t in tiles:
@@ -369,7 +372,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         raise ClshadeError(f"--roughness = {args.roughness!r}: values must be within [0, 1]")
     if not 1 <= args.size <= MAX_TILE:
         raise ClshadeError(f"--size = {args.size}: must be within [1, {MAX_TILE}]")
-    sheet = sweep_sheet(scene, resolve_many(args.models), values, size=args.size, device=args.device)
+    with progress_bar("sweep", "column") as progress:
+        sheet = sweep_sheet(scene, resolve_many(args.models), values, size=args.size, device=args.device,
+                            progress=progress)
     out = write_sheet(args.output, sheet, scene.inputs())
     print(f"wrote {out}")
     return 0
@@ -414,7 +419,8 @@ def cmd_plausibility(args: argparse.Namespace) -> int:
     from dataclasses import asdict
     from clshade.verify import plausibility as P
     sweep = P.QUICK if args.quick else P.Sweep()
-    verdicts = P.evaluate_presets(sweep, args.device)
+    with progress_bar("plausibility", "preset") as progress:
+        verdicts = P.evaluate_presets(sweep, args.device, progress=progress)
     if args.json:
         print(json.dumps({"energy_tol": P.ENERGY_TOL, "reciprocity_tol": P.RECIPROCITY_TOL,
                           "sweep": asdict(sweep), "presets": [v.as_dict() for v in verdicts]},
@@ -434,7 +440,8 @@ def cmd_stability(args: argparse.Namespace) -> int:
         models = []
         for m in resolve_many(args.model):
             models += [m.with_options(fresnel=f) for f in FRESNELS] if m.uses_fresnel else [m]
-    rep = stability.run(models, device=args.device)
+    with progress_bar("stability", "step") as progress:
+        rep = stability.run(models, device=args.device, progress=progress)
     if args.json:
         print(json.dumps(rep.as_dict(), indent=2, ensure_ascii=False, default=str))
     else:

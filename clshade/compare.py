@@ -37,8 +37,10 @@ class Tile:
     ms: float                # median device time per frame
 
 
-def shade_all(frame: Frame, models: list[Model], runtime: Runtime, repeats: int = TIMING_REPEATS) -> list[Tile]:
-    """Shade one G-buffer with every model; time each kernel (median device time)."""
+def shade_all(frame: Frame, models: list[Model], runtime: Runtime, repeats: int = TIMING_REPEATS,
+              progress=None) -> list[Tile]:
+    """Shade one G-buffer with every model; time each kernel (median device time);
+    `progress(done, total)` after each model."""
     shader = Shader(runtime, frame.gbuffer, frame.scene, frame.camera)
     features = scene_features(frame.scene)
     tiles = []
@@ -51,6 +53,8 @@ def shade_all(frame: Frame, models: list[Model], runtime: Runtime, repeats: int 
             event.wait()
             times.append((event.profile.end - event.profile.start) * 1e-6)
         tiles.append(Tile(model, shader.read(), float(np.median(times))))
+        if progress is not None:
+            progress(len(tiles), len(models))
     return tiles
 
 
@@ -128,11 +132,11 @@ def group_rows(tiles: list[Tile]) -> list[tuple[str, list[Tile]]]:
 
 def compare_sheet(scene: Scene | str | Path, models: list[Model], *, width: int | None = None,
                   height: int | None = None, reference: Model | None = None, runtime: Runtime | None = None,
-                  device: str | None = None) -> tuple[np.ndarray, list[Tile]]:
-    """The contact sheet (H, W, 3) display floats, and the shaded tiles."""
+                  device: str | None = None, progress=None) -> tuple[np.ndarray, list[Tile]]:
+    """The contact sheet (H, W, 3) display floats, and the shaded tiles; `progress(done, total)` per model."""
     frame = prepare_frame(scene, width, height)
     rt = runtime or get_runtime(device)
-    tiles = shade_all(frame, models, rt)
+    tiles = shade_all(frame, models, rt, progress=progress)
     rows = []
     for group, items in group_rows(tiles):
         rows.append((group, [(to_display(t.image, frame.scene), model_title(t.model), f"{t.ms:.2f} ms/frame")
@@ -153,9 +157,10 @@ SWEEP_ROUGHNESS = (0.05, 0.15, 0.3, 0.5, 0.7, 0.9)
 
 
 def sweep_sheet(scene: Scene | str | Path, models: list[Model], roughness: tuple[float, ...] = SWEEP_ROUGHNESS,
-                *, size: int = 160, runtime: Runtime | None = None, device: str | None = None) -> np.ndarray:
+                *, size: int = 160, runtime: Runtime | None = None, device: str | None = None,
+                progress=None) -> np.ndarray:
     """Rows = models, columns = roughness (every material of the scene set to it; the
-    Phong exponent follows as n = 2/α² − 2). The study's Figure 4."""
+    Phong exponent follows as n = 2/α² − 2). The study's Figure 4. `progress(done, total)` per column."""
     scene = scene if isinstance(scene, Scene) else load_scene(scene)
     rt = runtime or get_runtime(device)
     columns = []
@@ -163,6 +168,8 @@ def sweep_sheet(scene: Scene | str | Path, models: list[Model], roughness: tuple
         mats = {k: dataclasses.replace(m, roughness=r) for k, m in scene.materials.items()}
         frame = prepare_frame(dataclasses.replace(scene, materials=mats), size, size)
         columns.append((r, frame, shade_all(frame, models, rt, repeats=1)))
+        if progress is not None:
+            progress(len(columns), len(roughness))
     rows = []
     for i, model in enumerate(models):
         cells = []

@@ -154,3 +154,38 @@ def test_readme_robot_image_matches_its_command(tmp_path):
     now, doc = read_image(out), read_image(ROOT / "docs" / "images" / "robot.png")
     assert now.shape == doc.shape
     assert np.abs(now - doc).mean() <= 1 / 255, "run python docs/make_images.py"
+
+
+def test_progress_only_on_a_terminal(monkeypatch):
+    import io
+    from clshade.cli import progress_bar
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    log = io.StringIO()
+    monkeypatch.setattr(sys, "stderr", log)
+    with progress_bar("work", "step") as progress:
+        assert progress is None                 # not a terminal: no bar, no callback
+    assert log.getvalue() == ""
+    term = Terminal()
+    monkeypatch.setattr(sys, "stderr", term)
+    with progress_bar("work", "step") as progress:
+        progress(1, 3)
+        progress(3, 3)
+    assert "work:" in term.getvalue() and "/3 " in term.getvalue()   # drawn (then cleared: leave=False)
+
+
+def test_long_commands_report_progress(runtime):
+    """The loops behind sweep, compare, check stability and models call progress(done, total)."""
+    from clshade.compare import sweep_sheet
+    from clshade.verify import stability
+    calls = []
+    sweep_sheet(RED_BALL, [models.resolve("lambert")], (0.2, 0.8), size=4, runtime=runtime,
+                progress=lambda d, t: calls.append((d, t)))
+    assert calls == [(1, 2), (2, 2)]
+    calls.clear()
+    stability.run([models.resolve("lambert")], runtime=runtime, fast_math=(False,), shading=False, extras=False,
+                  progress=lambda d, t: calls.append((d, t)))
+    assert calls == [(1, 1)]
