@@ -877,14 +877,18 @@ def light_rays(scene: Scene, px: Pixels) -> Iterator[tuple[int, Array, Array]]:
         yield i, l, E
 
 
-def _surface_args(model: Model, px: Pixels, alpha_floor: float) -> dict:
-    """Keyword arguments of :func:`brdf` for every pixel (the workflow's inputs)."""
-    m = px.material
-    kdks = model.workflow == "kdks"
-    args = dict(base_color=px.base, roughness=px.roughness, metallic=px.metallic, workflow=model.workflow,
+def surface_args(model: Model, base: ArrayLike, roughness: ArrayLike, metallic: ArrayLike, material: ArrayLike,
+                 alpha_floor: float) -> dict:
+    """Keyword arguments of :func:`brdf` for a clshade model at K points: base (K, 3),
+    roughness and metallic (K,), material (K, 4, 4) rows of the material table
+    (surface.h layout: kd, ks, ka, shininess | ior, f90 | eta | k). Metallic
+    workflow: F0 from base and metallic; k_d + k_s = 1: the material's kd, ks and
+    F0 = ((ior - 1)/(ior + 1))**2."""
+    m = _f(material)
+    args = dict(base_color=_f(base), roughness=_f(roughness), metallic=_f(metallic), workflow=model.workflow,
                 fresnel=model.fresnel, ior=m[:, 1, 0], f90=m[:, 1, 1], eta=m[:, 2, :3], k=m[:, 3, :3],
                 shininess=m[:, 0, 3], alpha_floor=alpha_floor)
-    if kdks:
+    if model.workflow == "kdks":
         r0 = (m[:, 1, 0] - 1.0) / (m[:, 1, 0] + 1.0)
         args.update(kd=m[:, 0, 0], ks=m[:, 0, 1], f0=(r0 * r0)[:, None])
     return args
@@ -954,7 +958,7 @@ def radiance(
     with precision(dtype):
         px = pixels(gbuffer, camera)
         vis = None if visibility is None else _f(visibility).reshape(len(scene.lights), -1)[:, px.index]
-        args = _surface_args(model, px, alpha_floor)
+        args = surface_args(model, px.base, px.roughness, px.metallic, px.material, alpha_floor)
         L = _f(np.zeros((len(px.index), 3)))
         for i, l, E in light_rays(scene, px):
             if vis is not None:
