@@ -74,6 +74,7 @@ from clshade.render.scene import Camera, Scene
 from clshade.render.shadows import ShadowMaps, shadow_visibility as _map_visibility
 from clshade.render.transforms import pixel_rays
 from clshade.resources import constant
+from clshade.verify.quadrature import hemisphere_rule
 
 __all__ = [
     "EPS_LENGTH",
@@ -704,27 +705,6 @@ def brdf(
 # --------------------------------------------------------------------------
 
 
-def _graded_breaks(
-    lo: float, hi: float, centres: tuple[float, ...], levels: int, ratio: float
-) -> Array:
-    """Panel breakpoints on [lo, hi] geometrically graded towards each centre."""
-    pts = [lo, hi, *centres]
-    for centre in centres:
-        for end in (lo, hi):
-            d = end - centre
-            if d != 0.0:
-                pts += [centre + d * ratio**j for j in range(1, levels + 1)]
-    return np.unique(np.clip(np.asarray(pts), lo, hi))
-
-
-def _composite_gl(breaks: Array, order: int) -> tuple[Array, Array]:
-    """Nodes and weights of composite Gauss-Legendre on the given panels."""
-    x, w = np.polynomial.legendre.leggauss(order)
-    a, b = breaks[:-1, None], breaks[1:, None]
-    half = 0.5 * (b - a)
-    return (a + half * (x + 1.0)).ravel(), (half * w).ravel()
-
-
 def directional_albedo(
     fn: Callable[[Array, Array, Array], ArrayLike],
     n_theta: int = 12,
@@ -771,25 +751,14 @@ def directional_albedo(
     t, b = _orthonormal_basis(nn)
     mu_v = float(np.clip(nn @ vv, 0.0, 1.0))
     vt, vb = float(vv @ t), float(vv @ b)
-    mu_breaks = _graded_breaks(0.0, 1.0, (mu_v, 1.0), levels, ratio)
-    if math.hypot(vt, vb) > EPS_TANGENT:
-        phi_r = math.atan2(vb, vt) + math.pi
-        pb = _graded_breaks(-math.pi, math.pi, (0.0,), levels, ratio)
-        phi_breaks = np.unique(np.concatenate([pb, [-0.5 * math.pi, 0.5 * math.pi]])) + phi_r
-    else:
-        phi_breaks = np.linspace(0.0, 2.0 * math.pi, 5)
+    phi_v = math.atan2(vb, vt) if math.hypot(vt, vb) > EPS_TANGENT else None
 
     def rule(o_mu: int, o_phi: int) -> Array:
-        mu, w_mu = _composite_gl(mu_breaks, o_mu)
-        phi, w_phi = _composite_gl(phi_breaks, o_phi)
-        sin_t = np.sqrt((1.0 - mu) * (1.0 + mu))
-        cp, sp = np.cos(phi), np.sin(phi)
-        l = (sin_t[:, None, None] * (cp[None, :, None] * t + sp[None, :, None] * b)
-             + mu[:, None, None] * nn)
+        l, weights = hemisphere_rule(nn, t, b, mu_v, phi_v, o_mu, o_phi, levels, ratio)
+        shape = l.shape[:2]
         l = l.reshape(-1, 3)
         f = _f(fn(np.broadcast_to(nn, l.shape), l, np.broadcast_to(vv, l.shape)))
-        weights = (w_mu * mu)[:, None] * w_phi[None, :]
-        f = f.reshape((mu.size, phi.size) + f.shape[1:])
+        f = f.reshape(shape + f.shape[1:])
         return np.tensordot(weights, f, axes=([0, 1], [0, 1]))
 
     coarse = rule(n_theta, n_phi)
