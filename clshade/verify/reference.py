@@ -566,8 +566,10 @@ def ggx_smith_schlick(
     return _microfacet(d_ggx(nh, alpha), g_smith_schlick(nl, nv, alpha), nl, nv, fresnel)
 
 
-_EMPIRICAL_LOBES = ("phong", "phong_normalized", "blinn_phong", "blinn_phong_normalized")
-_DIFFUSE_LOBES = ("lambert", "burley", "oren_nayar", "none")
+# The formula of each lobe (the registry lists the lobes; these are their float64 terms).
+_EMPIRICAL_FN = {"phong": (phong, "r.v"), "phong_normalized": (phong_normalized, "r.v"),
+                 "blinn_phong": (blinn_phong, "n.h"), "blinn_phong_normalized": (blinn_phong_normalized, "n.h")}
+_DIFFUSE_LOBES = ("lambert", "burley", "oren_nayar", "none")   # the branches of brdf()
 _MICROFACET_FN = {
     "cook_torrance": cook_torrance,
     "walter_ggx": walter_ggx,
@@ -633,7 +635,7 @@ def brdf(
         raise ValueError(f"unknown workflow {workflow!r}; expected 'metallic' or 'kdks'")
     if fresnel not in ("schlick", "dielectric", "conductor"):
         raise ValueError(f"unknown fresnel {fresnel!r}")
-    if specular not in (*_MICROFACET_FN, *_EMPIRICAL_LOBES, "none") or diffuse not in _DIFFUSE_LOBES:
+    if specular not in (*_MICROFACET_FN, *_EMPIRICAL_FN, "none") or diffuse not in _DIFFUSE_LOBES:
         raise ValueError(f"lobe {diffuse!r}/{specular!r} has no float64 formula in clshade.verify.reference")
     if workflow == "metallic" and specular in EMPIRICAL_MODELS:
         raise ValueError(f"empirical lobe {specular!r} needs workflow='kdks'")
@@ -665,13 +667,11 @@ def brdf(
     if specular == "none":
         f_spec = _f(np.zeros(1))
     elif specular in EMPIRICAL_MODELS:
-        s = _f(shininess)
-        if specular in ("phong", "phong_normalized"):
-            rv = _cos(_dot(reflect(g.l, g.n), g.v))
-            lobe = phong(rv, s) if specular == "phong" else phong_normalized(rv, s)
-        else:
-            lobe = blinn_phong(g.nh, s) if specular == "blinn_phong" else blinn_phong_normalized(g.nh, s)
-        lobe = np.where(g.h_ok | specular.startswith("phong"), lobe, 0.0)
+        fn, about = _EMPIRICAL_FN[specular]
+        if about == "r.v":
+            lobe = fn(_cos(_dot(reflect(g.l, g.n), g.v)), _f(shininess))
+        else:   # n.h: undefined without a half vector
+            lobe = np.where(g.h_ok, fn(g.nh, _f(shininess)), 0.0)
         f_spec = _tint(lobe, _f(ks)[..., None])
     else:
         if fresnel == "schlick":

@@ -451,7 +451,7 @@ def clamp_bias(rt: Runtime) -> list[dict[str, Any]]:
             bias = abs(1.0 - float(albedo))
             if bias >= worst[0]:
                 worst = (bias, f"{name}, n·v = {cv:g}: albedo {float(albedo):.6f}")
-    out.append(dict(clamp="MIN_ALPHA", value=1e-4, active="roughness r < 0.01",
+    out.append(dict(clamp="MIN_ALPHA", value=constant("MIN_ALPHA"), active="roughness r < 0.01",
                     bias=worst[0], measure="|1 − directional albedo| of the F = 1 specular lobe at r = 0 "
                     "(the α → 0 limit is a mirror of albedo 1)", worst=worst[1]))
 
@@ -478,7 +478,7 @@ def clamp_bias(rt: Runtime) -> list[dict[str, Any]]:
                             worst_abs = float(d[i])
                             where = f"{name}, r = {r:g}, n·{which} = {c[i]:g}, other cosine {other:g}, " \
                                     f"f32 {f[i]:.4g} vs f64 {ref[i]:.4g}"
-        out.append(dict(clamp=clamp, value=1e-4, active=f"0 < n·{which} < 1e-4", bias=worst_abs,
+        out.append(dict(clamp=clamp, value=constant(clamp), active=f"0 < n·{which} < 1e-4", bias=worst_abs,
                         measure="max |f32 − f64|·(n·l): radiance error per unit irradiance", worst=where))
 
     # MIN_HALF_LEN2: with both cosines positive |l + v| ≥ n·l + n·v, so it acts only when
@@ -497,22 +497,22 @@ def clamp_bias(rt: Runtime) -> list[dict[str, Any]]:
                 if f * c >= worst_abs:
                     worst_abs, where = f * c, f"{name}, r = {r:g}, n·l = n·v = {c:g} at the mirror: " \
                                               f"f32·(n·l) {f * c:.3g}, unclamped f64·(n·l) {ref * c:.3g}"
-    out.append(dict(clamp="MIN_HALF_LEN2", value=1e-30, active="|l + v|² < 1e-30 (n·l + n·v < 1e-15)",
+    out.append(dict(clamp="MIN_HALF_LEN2", value=constant("MIN_HALF_LEN2"), active="|l + v|² < 1e-30 (n·l + n·v < 1e-15)",
                     bias=worst_abs, measure="largest kernel radiance per unit irradiance f·(n·l) where it acts "
                     "(the light is 1e-15 above the horizon)", worst=where))
 
     # MIN_N_DOT_H_BECKMANN: the largest float64 Beckmann D that the floor replaces.
     nh = np.array([1e-3, 1e-4, 1e-6])
     d = R.d_beckmann(nh[:, None], np.array([[1.0, 0.5, 1e-4]]))
-    out.append(dict(clamp="MIN_N_DOT_H_BECKMANN", value=1e-3, active="n·h < 1e-3", bias=float(np.max(d)),
+    out.append(dict(clamp="MIN_N_DOT_H_BECKMANN", value=constant("MIN_N_DOT_H_BECKMANN"), active="n·h < 1e-3", bias=float(np.max(d)),
                     measure="largest float64 D_Beckmann(n·h ≤ 1e-3, m ≤ 1) (the kernel's value is 0 too)",
                     worst="m = 1, n·h = 1e-3"))
 
     # MIN_POW_BASE: x = 0 evaluates as (1e-30)ⁿ instead of 0ⁿ (= 0 for n > 0).
     ns = np.array([1e-3, 0.01, 0.1, 0.5, 1.0, 2.0])
-    pw = 1e-30 ** ns
+    pw = constant("MIN_POW_BASE") ** ns
     i = int(np.argmax(pw[ns >= 0.5]))
-    out.append(dict(clamp="MIN_POW_BASE", value=1e-30, active="r·v ≤ 0 or n·h = 0 (Phong/Blinn–Phong base 0)",
+    out.append(dict(clamp="MIN_POW_BASE", value=constant("MIN_POW_BASE"), active="r·v ≤ 0 or n·h = 0 (Phong/Blinn–Phong base 0)",
                     bias=float(pw[ns >= 0.5][i]),
                     measure="(1e-30)ⁿ − 0ⁿ for n ≥ 0.5; for n < 0.5 the true xⁿ is itself discontinuous at 0 "
                             + ", ".join(f"n={a:g}: {b:.3g}" for a, b in zip(ns, pw)),
