@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from clshade.errors import ClshadeError
-from clshade.render.image import srgb_encode, tonemap
+from clshade.render.image import display, srgb_decode
 from clshade.models import GROUPS, Model
 from clshade.pipeline import Frame, prepare_frame
 from clshade.device.runtime import Runtime, get_runtime
@@ -58,9 +58,9 @@ def shade_all(frame: Frame, models: list[Model], runtime: Runtime, repeats: int 
     return tiles
 
 
-def to_display(image: np.ndarray, scene: Scene) -> np.ndarray:
-    """Linear radiance → display sRGB floats in [0, 1], with the scene's exposure and tone map."""
-    return srgb_encode(tonemap(image[..., :3], scene.tonemap, scene.exposure)).astype(np.float32)
+def scene_display(image: np.ndarray, scene: Scene) -> np.ndarray:
+    """image.display with the scene's tone map and exposure (sRGB floats in [0, 1])."""
+    return display(image, scene.tonemap, scene.exposure)
 
 
 def false_colour(x: np.ndarray) -> np.ndarray:
@@ -139,16 +139,16 @@ def compare_sheet(scene: Scene | str | Path, models: list[Model], *, width: int 
     tiles = shade_all(frame, models, rt, progress=progress)
     rows = []
     for group, items in group_rows(tiles):
-        rows.append((group, [(to_display(t.image, frame.scene), model_title(t.model), f"{t.ms:.2f} ms/frame")
+        rows.append((group, [(scene_display(t.image, frame.scene), model_title(t.model), f"{t.ms:.2f} ms/frame")
                              for t in items]))
     if reference is not None:
         ref_tile = next((t for t in tiles if t.model == reference), None) or shade_all(frame, [reference], rt)[0]
-        ref_rgb = to_display(ref_tile.image, frame.scene)
-        diffs = [difference(to_display(t.image, frame.scene), ref_rgb) for t in tiles if t.model != reference]
+        ref_rgb = scene_display(ref_tile.image, frame.scene)
+        diffs = [difference(scene_display(t.image, frame.scene), ref_rgb) for t in tiles if t.model != reference]
         scale = max((s for _, s in diffs), default=1.0)
         rows.append((f"|model - {reference.label}| (display values, full scale = {scale:.3f})",
-                     [(difference(to_display(t.image, frame.scene), ref_rgb, scale)[0], t.model.label,
-                       f"max {np.abs(to_display(t.image, frame.scene) - ref_rgb).max():.3f}")
+                     [(difference(scene_display(t.image, frame.scene), ref_rgb, scale)[0], t.model.label,
+                       f"max {np.abs(scene_display(t.image, frame.scene) - ref_rgb).max():.3f}")
                       for t in tiles if t.model != reference]))
     return layout(rows), tiles
 
@@ -175,7 +175,7 @@ def sweep_sheet(scene: Scene | str | Path, models: list[Model], roughness: tuple
         cells = []
         for r, frame, tiles in columns:
             n = next(iter(frame.scene.materials.values())).exponent
-            cells.append((to_display(tiles[i].image, frame.scene), *sweep_labels(model, r, n)))
+            cells.append((scene_display(tiles[i].image, frame.scene), *sweep_labels(model, r, n)))
         rows.append((model_title(model), cells))
     return layout(rows, max_columns=len(roughness))    # one row per model: every roughness side by side
 
@@ -194,6 +194,6 @@ def write_sheet(path: str | Path, sheet: np.ndarray, protected=()) -> Path:
     """Write a display-referred sheet (already sRGB encoded) as 8-bit."""
     from clshade.render.image import write_image
     # write_image tone maps linear input; hand it values that survive 'none' + sRGB unchanged.
-    linear = np.where(sheet <= 0.04045, sheet / 12.92, ((sheet + 0.055) / 1.055) ** 2.4)
+    linear = srgb_decode(sheet)
     rgba = np.concatenate([linear, np.ones(linear.shape[:2] + (1,), np.float32)], axis=-1)
     return write_image(path, rgba, "none", 0.0, protected)

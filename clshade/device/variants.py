@@ -53,6 +53,7 @@ class Features:
     half_gbuffer: bool = False
     fast_math: bool = False
     general: bool = False          # the general kernel; the fields above are its runtime switches
+    raw_radiance: bool = False     # no MAX_RADIANCE clamp: NaN/Inf reach the output (stability check only)
 
     @property
     def num_lights(self) -> int:
@@ -70,6 +71,8 @@ class Features:
         out.append(f"ambient occlusion: {'on (occlusion channel multiplies the ambient term)' if self.occlusion else 'off'}")
         out.append(f"G-buffer storage: {'half (normal, base colour)' if self.half_gbuffer else 'float32'}")
         out.append(f"math: {'fast-relaxed' if self.fast_math else 'precise'}")
+        if self.raw_radiance:
+            out.append("radiance: RAW (no MAX_RADIANCE clamp; NaN/Inf written as computed)")
         out.append("output: exposure, tone map and sRGB encoding on the host (clshade/render/image.py)")
         return out
 
@@ -140,11 +143,12 @@ class Variant:
     def defines(self) -> dict[str, str]:
         f, m = self.features, self.model
         effects = {"HAS_EMISSIVE": str(int(f.emissive)), "HAS_OCCLUSION": str(int(f.occlusion))}
+        raw = {"RAW_RADIANCE": "1"} if f.raw_radiance else {}
         if f.general:
             return {"GENERAL": "1", **effects, "HAS_DIFFUSE": str(int(m.diffuse != NONE)),
                     "HAS_SPECULAR": str(int(m.specular != NONE)),
                     "SPECULAR_FRESNEL": str(int(m.uses_fresnel)),
-                    "FRESNEL": FRESNEL_DEFINES[m.fresnel], "WORKFLOW": WORKFLOW_DEFINES[m.workflow]}
+                    "FRESNEL": FRESNEL_DEFINES[m.fresnel], "WORKFLOW": WORKFLOW_DEFINES[m.workflow], **raw}
         d = {
             "NUM_DIR": str(f.num_dir), "NUM_POINT": str(f.num_point), "NUM_SPOT": str(f.num_spot),
             "HAS_AMBIENT": str(int(f.ambient)),
@@ -163,6 +167,7 @@ class Variant:
             d["SHADOW_PCF"] = str(f.shadow_pcf)
         if f.half_gbuffer:
             d["HALF_GBUFFER"] = "1"
+        d.update(raw)
         if self.baked_material is not None:
             values = np.asarray(self.baked_material, np.float32).reshape(4, 4)
             for r in range(4):
