@@ -18,7 +18,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
 import subprocess
 import sys
 import tempfile
@@ -26,6 +25,9 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "benchmarks"))
+from results_io import publish  # noqa: E402
+
 SCENE = ROOT / "scenes" / "robot.toml"
 LIMIT_BYTES_PER_PIXEL = 64
 
@@ -42,7 +44,7 @@ def run_one(size: int, folder: Path) -> dict:
     proc.returncode = os.waitstatus_to_exitcode(status)
     stages = next((line for line in stdout.splitlines() if line.startswith("stages:")), "")
     row = {"size": size, "pixels": size * size, "exit_status": proc.returncode, "wall_s": round(wall, 2),
-           "peak_rss_bytes": usage.ru_maxrss * 1024, "stderr": stderr.strip().splitlines()[0] if stderr.strip() else "",
+           "peak_rss_bytes": usage.ru_maxrss * 1024, "stderr": stderr.strip().splitlines()[-1] if stderr.strip() else "",
            "stages": stages.removeprefix("stages: "), "written": out.is_file()}
     if out.is_file():
         out.unlink()
@@ -61,21 +63,12 @@ def summarize(rows: list[dict]) -> dict:
     return {"base_size": base["size"] if base else None, "base_peak_rss_bytes": base["peak_rss_bytes"] if base else None}
 
 
-def machine() -> dict:
-    cpu = next((line.split(":", 1)[1].strip() for line in Path("/proc/cpuinfo").read_text().splitlines()
-                if line.startswith("model name")), platform.processor())
-    mem = next((int(line.split()[1]) * 1024 for line in Path("/proc/meminfo").read_text().splitlines()
-                if line.startswith("MemTotal")), None)
-    return {"cpu": cpu, "cores": os.cpu_count(), "memory_bytes": mem, "python": platform.python_version(),
-            "load_average_at_start": os.getloadavg()}
-
-
 def markdown(doc: dict) -> str:
     lines = [f"# Peak host memory of `clshade render scenes/robot.toml` (PNG)", "",
              f"Measured {doc['date']} on {doc['machine']['cpu']} ({doc['machine']['cores']} cores, "
              f"{doc['machine']['memory_bytes'] / 2**30:.0f} GiB; load average at start "
              f"{', '.join(f'{x:.1f}' for x in doc['machine']['load_average_at_start'])}) by "
-             f"`python benchmarks/memory_bench.py`; device: {doc['device']}.", "",
+             f"`python benchmarks/memory_bench.py`; device: {doc['machine']['device']}.", "",
              f"Limit (issue 14): peak ≤ {LIMIT_BYTES_PER_PIXEL} B/px × pixels + the fixed base "
              f"(the peak of the {doc['summary']['base_size']}² render).", "",
              "| size | exit | peak RSS (MiB) | B/px above base | B/px whole process | within limit | wall (s) | note |",
@@ -97,21 +90,16 @@ def main() -> int:
     parser.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "memory.json"))
     parser.add_argument("--markdown-only", action="store_true")
     args = parser.parse_args()
-    out = Path(args.out)
-    if args.markdown_only:
-        doc = json.loads(out.read_text(encoding="utf-8"))
-    else:
-        from clshade.device.runtime import get_runtime
-        doc = {"date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "machine": machine(),
-               "device": get_runtime().info.description, "scene": "scenes/robot.toml", "rows": []}
+
+    def measure() -> dict:
+        rows = []
         with tempfile.TemporaryDirectory() as tmp:
             for size in (int(s) for s in args.sizes.split(",")):
-                doc["rows"].append(run_one(size, Path(tmp)))
-                print(json.dumps(doc["rows"][-1]), flush=True)
-        doc["summary"] = summarize(doc["rows"])
-        out.write_text(json.dumps(doc, indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
-    out.with_suffix(".md").write_text(markdown(doc), encoding="utf-8")
-    print(f"wrote {out} and {out.with_suffix('.md')}")
+                rows.append(run_one(size, Path(tmp)))
+                print(json.dumps(rows[-1]), flush=True)
+        return {"scene": "scenes/robot.toml", "rows": rows, "summary": summarize(rows)}
+
+    publish(Path(args.out), measure, markdown, args.markdown_only)
     return 0
 
 

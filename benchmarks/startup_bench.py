@@ -19,9 +19,7 @@ are shared, so compare runs only with similar load.
 from __future__ import annotations
 
 import argparse
-import json
 import os
-import platform
 import statistics
 import subprocess
 import sys
@@ -30,6 +28,9 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "benchmarks"))
+from results_io import publish  # noqa: E402
+
 TARGET_S = 0.6
 
 
@@ -90,7 +91,7 @@ def markdown(doc: dict) -> str:
              f"Measured {doc['date']} on {doc['machine']['cpu']} ({doc['machine']['cores']} cores, shared; "
              f"1-minute load average {doc['load_average_1min']['min']:.1f}–{doc['load_average_1min']['max']:.1f} "
              f"during the run) by `python benchmarks/startup_bench.py` ({doc['repeats']} interleaved rounds after a "
-             f"warm-up); device: {doc['device']}.", "",
+             f"warm-up); device: {doc['machine']['device']}.", "",
              f"Target (issue 14): ≤ {TARGET_S} s wall. Median render: **{w['render']['median']:.2f} s** "
              f"(minimum {w['render']['min']:.2f} s): "
              f"{'meets' if w['render']['median'] <= TARGET_S else 'misses'} the target at this load.", "",
@@ -111,20 +112,9 @@ def main() -> int:
     parser.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "startup.json"))
     parser.add_argument("--markdown-only", action="store_true")
     args = parser.parse_args()
-    out = Path(args.out)
-    if args.markdown_only:
-        doc = json.loads(out.read_text(encoding="utf-8"))
-    else:
-        from clshade.device.runtime import get_runtime
-        cpu = next((l.split(":", 1)[1].strip() for l in Path("/proc/cpuinfo").read_text().splitlines()
-                    if l.startswith("model name")), platform.processor())
-        doc = {"date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
-               "machine": {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version()},
-               "device": get_runtime().info.description, "repeats": args.repeats, "target_s": TARGET_S,
-               **measure(args.repeats)}
-        out.write_text(json.dumps(doc, indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
-    out.with_suffix(".md").write_text(markdown(doc), encoding="utf-8")
-    print(out.with_suffix(".md").read_text(encoding="utf-8"))
+    doc = publish(Path(args.out), lambda: {"repeats": args.repeats, "target_s": TARGET_S, **measure(args.repeats)},
+                  markdown, args.markdown_only)
+    print(markdown(doc))
     return 0
 
 
