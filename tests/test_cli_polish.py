@@ -189,3 +189,28 @@ def test_long_commands_report_progress(runtime):
     stability.run([models.resolve("lambert")], runtime=runtime, fast_math=(False,), shading=False, extras=False,
                   progress=lambda d, t: calls.append((d, t)))
     assert calls == [(1, 1)]
+
+
+@pytest.mark.parametrize("flag, value, message", [
+    ("--json", "nodir/b.json", "does not exist"), ("--csv", "nodir/b.csv", "does not exist"),
+    ("--plot", "b.txt", "unsupported format .txt"), ("--plot", "nodir/b.png", "does not exist"),
+    ("--json", ".", "is a folder"),
+])
+def test_bench_outputs_checked_before_the_run(monkeypatch, capsys, tmp_path, flag, value, message):
+    import clshade.bench.run as bench_run
+
+    def never(*a, **k):
+        raise AssertionError("the benchmark ran before its outputs were checked")
+
+    monkeypatch.setattr(bench_run, "run_bench", never)
+    monkeypatch.chdir(tmp_path)
+    err = _error(capsys, ["bench", RED_BALL, "--frames", "1", flag, value])
+    assert flag in err and message in err
+
+
+def test_bench_plot_needs_matplotlib_before_the_run(monkeypatch, capsys, tmp_path):
+    import clshade.bench.run as bench_run
+    monkeypatch.setattr(bench_run, "run_bench", lambda *a, **k: (_ for _ in ()).throw(AssertionError("ran")))
+    monkeypatch.setitem(sys.modules, "matplotlib", None)          # import matplotlib → ImportError
+    err = _error(capsys, ["bench", RED_BALL, "--frames", "1", "--plot", str(tmp_path / "b.png")])
+    assert "needs matplotlib" in err and "clshade[bench]" in err
