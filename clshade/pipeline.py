@@ -1,5 +1,7 @@
 """The deferred pipeline, stage by stage, with a wall-clock time per stage:
-scene → geometry → rasterizer → G-buffer → kernel variant → image."""
+scene → geometry → rasterizer → G-buffer → kernel variant → image. `render` keeps the
+whole frame (its G-buffer is shared by several models: compare, bench); `render_streamed`
+(the CLI's render) works in bands of rows so that only the output image is full-frame."""
 from __future__ import annotations
 
 import os
@@ -104,13 +106,14 @@ def render(scene: Scene | str | Path, model: Model, *, width: int | None = None,
 # ---------------------------------------------------------------- large frames: bands of rows
 
 #: Pixels per band of a streamed render: the working set of one band (fragments,
-#: G-buffer, device buffers and their temporaries, ~250 B/px) stays ~130 MB whatever
-#: the frame size; only the output image is full-frame.
+#: G-buffer, device buffers and their temporaries) is bounded by this whatever the
+#: frame size; only the output image is full-frame (3 B/px 8-bit RGB for PNG/JPEG,
+#: 16 B/px float RGBA for EXR).
 BAND_PIXELS = 1 << 19
-#: Host bytes per pixel of a streamed render that scale with the frame: the output
-#: image (3 B/px 8-bit RGB for PNG/JPEG, 16 B/px float RGBA for EXR) plus the
-#: coverage count (none kept). benchmarks/memory_bench.py measures the whole process.
-STREAM_BASE_BYTES = 320 << 20   # interpreter, NumPy, PoCL, one band's working set (measured ~250 MB)
+#: The allowance for everything that does not scale with the frame — interpreter, NumPy,
+#: PoCL, geometry, one band's working set — when deciding whether a frame fits.
+#: benchmarks/memory_bench.py measures the real peaks (benchmarks/results/memory.md).
+STREAM_BASE_BYTES = 320 << 20
 
 
 def band_rows(width: int, height: int, band_pixels: int = BAND_PIXELS) -> int:
