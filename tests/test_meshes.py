@@ -356,3 +356,27 @@ def test_primitives_are_closed_and_outward(kind, args, volume, lo, hi):
     _, counts = np.unique(edges, axis=0, return_counts=True)
     assert np.all(counts == 2)
     assert np.allclose(v.min(0), lo, atol=1e-9) and np.allclose(v.max(0), hi, atol=1e-9)
+
+
+def test_gbuffer_normals_unit_and_nonfinite_pixels_uncovered(meshes):
+    """Interpolated normals are written normalised; pixels whose normal is NaN are counted,
+    zeroed and leave the coverage (the CLI's covered-pixel count)."""
+    from clshade.render.gbuffer import build_gbuffer
+    from clshade.render.raster import rasterize
+    scene = parse_scene(_scene(meshes, '[[objects]]\nprimitive = "sphere"\nsubdivisions = 1\nmaterial = "m"\n'
+                                       'smooth = true'), meshes / "scene.toml")
+    g = build_geometry(scene)
+    cam = scene.camera
+    frags = rasterize(g.vertices, g.faces, cam.view_matrix(), cam.projection_matrix(), cam.width, cam.height,
+                      cull_backfaces=g.cull)
+    gb = build_gbuffer(scene, g, frags, cam)
+    cov = gb.coverage.reshape(-1)
+    n = gb.channels["normal"].reshape(-1, 3)[cov]
+    assert cov.sum() > 100 and np.allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-6)
+    g.normals[g.faces[0]] = np.nan                          # poison the corners of face 0
+    bad = build_gbuffer(scene, g, frags, cam)
+    hit = (frags.tri_id.reshape(-1) >= 0) & np.isin(frags.tri_id.reshape(-1), np.flatnonzero(
+        np.isin(g.faces, g.faces[0]).any(axis=1)))
+    assert 0 < bad.nonfinite_pixels <= hit.sum()
+    assert bad.coverage.sum() == gb.coverage.sum() - bad.nonfinite_pixels
+    assert np.isfinite(bad.channels["normal"]).all()
