@@ -135,9 +135,12 @@ def load_texture_file(path: Path, srgb: bool, scene_file: Path | str | None, key
 
 
 def texture_from_image(image, srgb: bool, name: str = "") -> Texture:
-    """A PIL image (as trimesh loads glTF textures) → Texture."""
-    rgb = _to_rgb(np.asarray(image.convert("RGB") if image.mode not in ("RGB", "L") else image, np.float32) / 255.0)
-    return Texture.from_pixels(srgb_decode(rgb) if srgb else rgb, name)
+    """A PIL image (as trimesh loads glTF textures) → Texture. 8-bit values decode through a
+    256-entry table of the same codec (srgb_decode of k/255): equal values, no per-pixel pow."""
+    codes = _to_rgb(np.asarray(image.convert("RGB") if image.mode not in ("RGB", "L") else image, np.uint8))
+    levels = np.arange(256, dtype=np.float32) / np.float32(255.0)
+    table = srgb_decode(levels) if srgb else levels
+    return Texture.from_pixels(table[codes], name)
 
 
 @dataclass(frozen=True)
