@@ -28,7 +28,7 @@ def pytest_report_header(config) -> str:
 
 
 def pytest_sessionstart(session) -> None:
-    if os.environ.get("CLSHADE_EXPECT_INSTALLED") == "1" and PACKAGE.is_relative_to(ROOT):
+    if os.environ.get("CLSHADE_EXPECT_INSTALLED") == "1" and PACKAGE == ROOT / "clshade":
         raise pytest.UsageError(f"CLSHADE_EXPECT_INSTALLED=1 but clshade was imported from the checkout "
                                 f"({PACKAGE}), not from the installed package")
 
