@@ -10,6 +10,7 @@ Nothing here repeats model metadata: the lobe sections come from the
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import time
 from pathlib import Path
@@ -22,7 +23,6 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 from accuracy_table import accuracy_lines  # noqa: E402
 from clshade.verify import accuracy as A  # noqa: E402
 from clshade.verify import plausibility as P
-from clshade.verify.bias import floor_bias  # noqa: E402
 from clshade.models import GROUPS, lobes, presets  # noqa: E402
 
 
@@ -46,10 +46,14 @@ def lobe_sections() -> list[str]:
 
 
 def clamp_bias() -> dict[str, str]:
-    """Measured bias of each named floor, where it acts: clshade.verify.bias.floor_bias, the one
-    measurement every doc quotes (the same figures as `clshade check stability`)."""
-    return {row["clamp"]: f"{row['bias']:.3g} ({row['measure']}; active when {row['active']}; worst: {row['worst']})"
-            for row in floor_bias()}
+    """The measured bias of each named floor, quoted from benchmarks/results/floor_bias.json (written by
+    benchmarks/floor_bias.py, the one measurement; docs/stability.md renders the same file)."""
+    path = ROOT / "benchmarks" / "results" / "floor_bias.json"
+    if not path.exists():
+        return {}
+    doc = json.loads(path.read_text(encoding="utf-8"))
+    return {row["clamp"]: f"{row['bias']:.3g} ({row['measure']}; floor_bias.json, {doc['created'][:10]})"
+            for row in doc["floors"]}
 
 
 def clamp_lines() -> list[str]:
