@@ -286,6 +286,83 @@ def render_bench(doc: dict[str, Any]) -> str:
     return "\n".join(md)
 
 
+# ------------------------------------------------------------------ effects, raster
+
+
+def render_effects(r: dict[str, Any]) -> str:
+    """benchmarks/results/effects.md from effects.json."""
+    w, h = r["size"]
+    lines = [f"# Effect costs ({r['device']})", "",
+             f"{w}×{h} pixels, device time per frame (median of {r['rounds']} interleaved rounds; ratios are "
+             "paired per round, then the median); "
+             f"shadow maps {r['shadow_map_size']}², PCF {r['shadow_pcf']}×{r['shadow_pcf']}. "
+             "Rendered by `python benchmarks/publish.py` from effects.json (measured by `python benchmarks/effects_bench.py`).", "",
+             f"**Specialisation gain, {r['target']['case']}: {r['target']['specialised_gain']:.2f}× "
+             f"(target ≥ {r['target']['required']}×: {'met' if r['target']['met'] else 'NOT met'})**", "",
+             "## What each effect adds (specialised kernels; ratios to the same model's 1-light frame)", "",
+             "| model | 1 light ms | 4 lights | 16 lights | ms / extra light | shadows ×(1 / 4 / 16 lights) "
+             "| textures (kernel) |", "|---|---|---|---|---|---|---|"]
+    for e in r["effects"]:
+        s = e["shadows_ratio"]
+        lines.append(f"| {e['model']} | {e['base_ms']:.2f} | {e['lights_4_ratio']:.2f}× | {e['lights_16_ratio']:.2f}× "
+                     f"| {e['ms_per_extra_light']:.3f} | {s['1']:.2f}× / {s['4']:.2f}× / {s['16']:.2f}× "
+                     f"| {e['textures_kernel_ratio']:.2f}× |")
+    keys = list(r["effects"][0]["general_over_specialised"])
+    lines += ["", "## General kernel time ÷ specialised kernel time", "",
+              "| model | " + " | ".join(keys) + " |", "|---|" + "---|" * len(keys)]
+    for e in r["effects"]:
+        lines.append(f"| {e['model']} | " + " | ".join(f"{e['general_over_specialised'][k]:.2f}×" for k in keys) + " |")
+    lines += ["", "## Host stages (ms): textures cost here (sampled into the G-buffer), shadows add the map rasterisation",
+              "", "| configuration | geometry | rasterize | g-buffer | shadow maps |", "|---|---|---|---|---|"]
+    for name, st in r["host_stages_ms"].items():
+        lines.append(f"| {name} | {st.get('geometry', 0):.1f} | {st.get('rasterize', 0):.1f} | "
+                     f"{st.get('g-buffer', 0):.1f} | {st.get('shadow maps', 0):.1f} |")
+    lines += ["", "Why shadows cost more than the BRDF, and why the specialisation gain is what it is: "
+              "[docs/effects-notes.md](../../docs/effects-notes.md) (dated notes)."]
+    lines += ["", f"Kernel builds and frames: {r['build_s']} s; whole run {r['total_s']} s.", ""]
+    return "\n".join(lines)
+
+
+def render_raster(data: dict[str, Any]) -> str:
+    """benchmarks/results/raster.md from raster.json."""
+    m = data["machine"]
+    lines = [
+        "# Rasterizer benchmark (measured by `python benchmarks/raster_bench.py`, rendered by `benchmarks/publish.py`)",
+        "",
+        f"Machine: {m['cpu_model'] or m['processor'] or m['machine']}, {m['cpu_count']} CPUs, Python {m['python']}, "
+        f"NumPy {m['numpy']}, trimesh {m['trimesh']}, embreex {m['embreex']}; {m['platform']}.",
+        f"Median of {data['repeats']} interleaved repeats; times in seconds.  `full G-buffer` = rasterize "
+        "(back faces culled) + build_gbuffer (normals interpolated, material channels written), the stage "
+        "`clshade render` runs; `raster` keeps back faces (same visibility as the ray caster), `raster (cull)` "
+        "drops them.  Embree times exclude ray generation and the BVH build.",
+        "",
+        "| scene | triangles | resolution | coverage | full G-buffer | raster | raster (cull) | embree first hit "
+        "| speedup | speedup (cull) | id agreement |",
+        "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for r in data["scenes"]:
+        lines.append(
+            f"| {r['scene']} | {r['triangles']:,} | {r['width']}x{r['height']} | {r['coverage']:.1%} "
+            f"| {r['gbuffer_full_median_s']:.3f} | {r['raster_median_s']:.3f} | {r['raster_cull_median_s']:.3f} "
+            f"| {r['embree_median_s']:.3f} "
+            f"| x{r['speedup_vs_embree']:.2f} | x{r['speedup_cull_vs_embree']:.2f} "
+            f"| {r['id_agreement_vs_embree']:.3%} |")
+    for s in data.get("skipped", []):
+        lines.append(f"| {s} | skipped | | | | | | | | | |")
+    mem = data.get("memory")
+    if mem:
+        lines += [
+            "",
+            f"Memory: {mem['triangles']:,} triangles at {mem['width']}x{mem['height']} rasterized in "
+            f"{mem['time_s']:.3f} s; peak memory allocated during the call "
+            f"**{mem['peak_alloc_during_call_MiB']:.0f} MiB** (tracemalloc; includes the "
+            f"{mem['output_MiB']:.0f} MiB output, excludes the {mem['input_MiB']:.0f} MiB input); "
+            f"process max RSS {mem['process_max_rss_MiB']:.0f} MiB.",
+        ]
+    return "\n".join(lines) + "\n"
+
+
+
 # ------------------------------------------------------------------ mutants, floor bias
 
 
@@ -337,6 +414,9 @@ def renderings() -> dict[Path, Callable[[str], str]]:
     out[readme] = lambda text: replace_region(replace_region(text, "bench-table", readme_bench_table(load(BENCH_JSON)),
                                                              readme), "bench-targets",
                                               "\n".join(target_rows(load(BENCH_JSON))), readme)
+    for name, render in (("effects", render_effects), ("raster", render_raster)):
+        if (RESULTS / f"{name}.json").exists():
+            out[RESULTS / f"{name}.md"] = (lambda r, j: lambda text: r(load(j)))(render, RESULTS / f"{name}.json")
     if REPORT_JSON.exists():
         out[ROOT / "benchmarks" / "REPORT.md"] = lambda text: render_report(load(REPORT_JSON))
     if MUTANTS_JSON.exists():
