@@ -17,9 +17,10 @@ import pytest
 from clshade.models import resolve
 from clshade.pipeline import render
 from clshade.render.scene import load_scene
+from clshade.resources import scenes_dir
 from clshade.verify import reference as R
 
-SCENES = Path(__file__).resolve().parents[1] / "scenes"
+SCENES = scenes_dir()      # the scenes the imported clshade ships (textures included)
 TOLERANCE = 1e-4        # relative, the bound
 DARK = 1e-3             # relative error below DARK · peak radiance counts as absolute
 MIN_COS = 1e-3          # n·l and n·v at least this far from 0
