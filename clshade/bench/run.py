@@ -143,7 +143,8 @@ def _timed(shader: Shader, dispatch) -> tuple[float, float]:
 def _numpy_wall(c: Case) -> float:
     """Wall ms of one NumPy frame of the case."""
     t0 = time.perf_counter()
-    shade_numpy(c.model, c.gbuffer, c.scene, c.shader.camera, c.features.half_gbuffer, c.visibility)
+    shade_numpy(c.model, c.gbuffer, c.scene, c.shader.camera, c.features.half_gbuffer,
+                c.shader.shadows if c.features.shadows else None)
     return (time.perf_counter() - t0) * 1e3
 
 
