@@ -264,11 +264,12 @@ def run_shade(model: Model, rt: Runtime, fast_math: bool) -> ShadeResult:
 def _oracle_deviation(model: Model, gb, scene, camera, raw: np.ndarray) -> tuple[float, int]:
     """Largest |raw − oracle| / max(|oracle|, DEVIATION_FLOOR) over the pixels where every
     light and the viewer are DEVIATION_COSINE or more from the horizon and the normal is
-    usable; and their count."""
+    usable (longer than the kernels' MIN_UNIT_LEN2: shorter ones shade as n = v by design);
+    and their count."""
     want = R.radiance(gb, scene, model, camera=camera).reshape(-1, 3)
     px = R.pixels(gb, camera)
     n_len2 = np.sum(gb.channels["normal"].reshape(-1, 3).astype(np.float64) ** 2, axis=1)
-    keep = (np.sum(px.n * px.v, axis=1) >= DEVIATION_COSINE) & (n_len2 > 1e-20)
+    keep = (np.sum(px.n * px.v, axis=1) >= DEVIATION_COSINE) & (n_len2 > constant("MIN_UNIT_LEN2"))
     for _, l, _ in R.light_rays(scene, px):
         keep &= np.abs(np.sum(px.n * l, axis=1)) >= DEVIATION_COSINE
     idx = px.index[keep]
@@ -284,100 +285,10 @@ def _oracle_deviation(model: Model, gb, scene, camera, raw: np.ndarray) -> tuple
 
 
 def clamp_bias(rt: Runtime) -> list[dict[str, Any]]:
-    """Bias of each named clamp of brdf.h against the unclamped float64 reference,
-    measured where the clamp is active (precise build)."""
-    from clshade.models import preset
-    out: list[dict[str, Any]] = []
-    z = np.array([0.0, 0.0, 1.0])
-
-    def samples(n, l, v, r, base=1.0, metallic=1.0) -> Samples:
-        k = len(l)
-        from clshade.device.evaluate import constant_materials
-        return Samples(np.broadcast_to(n, (k, 3)), l, v, np.full((k, 3), base), np.full(k, r),
-                       np.full(k, metallic), constant_materials(k, f90=1.0))
-
-    # MIN_ALPHA: energy of the sharpest lobe (r < 0.01 renders as α = 1e-4) against the
-    # α → 0 mirror limit, whose albedo with F = 1 is exactly 1; kernel albedo by quadrature.
-    worst = (0.0, "")
-    for name in ("ggx_correlated", "walter_ggx", "cook_torrance"):
-        model = preset(name).with_options(workflow="metallic")
-        spec_only = Model("none", model.specular, model.fresnel, model.workflow)
-        for cv in (1.0, 0.5):
-            v = _dirs(np.array([cv]), np.array([0.0]))[0]
-
-            def fn(nn, ll, vv, _m=spec_only):
-                return eval_brdf(_m, samples(nn[0], ll, vv, 0.0), rt)[:, 0]
-            albedo = R.directional_albedo(fn, 8, v=v, levels=12, ratio=0.25)
-            bias = abs(1.0 - float(albedo))
-            if bias >= worst[0]:
-                worst = (bias, f"{name}, n·v = {cv:g}: albedo {float(albedo):.6f}")
-    out.append(dict(clamp="MIN_ALPHA", value=constant("MIN_ALPHA"), active="roughness r < 0.01",
-                    bias=worst[0], measure="|1 − directional albedo| of the F = 1 specular lobe at r = 0 "
-                    "(the α → 0 limit is a mirror of albedo 1)", worst=worst[1]))
-
-    # MIN_N_DOT_L / MIN_N_DOT_V: radiance per unit irradiance f·(n·l) of kernel vs reference.
-    cos_small = np.array([1e-7, 1e-6, 1e-5, 5e-5, 9.9e-5])
-    for clamp, which in (("MIN_N_DOT_L", "l"), ("MIN_N_DOT_V", "v")):
-        worst_abs, where = 0.0, ""
-        for name in ("ggx_correlated", "walter_ggx", "cook_torrance", "burley", "oren_nayar"):
-            model = preset(name)
-            for other in (1.0, 0.5):
-                for r in (0.045, 0.5, 1.0):
-                    for phi in (0.0, math.pi):
-                        c = np.repeat(cos_small, 1)
-                        small = _dirs(c, np.full_like(c, phi))
-                        big = np.broadcast_to(_dirs(np.array([other]), np.array([0.0]))[0], small.shape)
-                        l, v = (small, big) if which == "l" else (big, small)
-                        s = samples(z, l, v, r, base=1.0, metallic=0.0)
-                        f = eval_brdf(model, s, rt).astype(np.float64)[:, 0]
-                        ref = reference_f(model, s, alpha_floor=MIN_ALPHA)[:, 0]
-                        nl = _f32(l)[:, 2]
-                        d = np.abs(f - ref) * nl
-                        i = int(np.argmax(d))
-                        if d[i] >= worst_abs:
-                            worst_abs = float(d[i])
-                            where = f"{name}, r = {r:g}, n·{which} = {c[i]:g}, other cosine {other:g}, " \
-                                    f"f32 {f[i]:.4g} vs f64 {ref[i]:.4g}"
-        out.append(dict(clamp=clamp, value=constant(clamp), active=f"0 < n·{which} < 1e-4", bias=worst_abs,
-                        measure="max |f32 − f64|·(n·l): radiance error per unit irradiance", worst=where))
-
-    # MIN_HALF_LEN2: with both cosines positive |l + v| ≥ n·l + n·v, so it acts only when
-    # n·l + n·v < 1e-15; there MIN_N_DOT_L/V act too and the unclamped reference diverges
-    # (∝ 1/(n·l n·v)), so the measure is the kernel's radiance per unit irradiance itself.
-    worst_abs, where = 0.0, ""
-    for name in ("ggx_correlated", "walter_ggx", "cook_torrance", "blinn_phong_normalized"):
-        model = preset(name)
-        for c in (1e-16, 4e-16):
-            l = _dirs(np.array([c]), np.array([math.pi]))
-            v = _dirs(np.array([c]), np.array([0.0]))
-            for r in (0.045, 0.5, 1.0):
-                s = samples(z, l, v, r)
-                f = float(eval_brdf(model, s, rt)[0, 0])
-                ref = float(reference_f(model, s)[0, 0])
-                if f * c >= worst_abs:
-                    worst_abs, where = f * c, f"{name}, r = {r:g}, n·l = n·v = {c:g} at the mirror: " \
-                                              f"f32·(n·l) {f * c:.3g}, unclamped f64·(n·l) {ref * c:.3g}"
-    out.append(dict(clamp="MIN_HALF_LEN2", value=constant("MIN_HALF_LEN2"), active="|l + v|² < 1e-30 (n·l + n·v < 1e-15)",
-                    bias=worst_abs, measure="largest kernel radiance per unit irradiance f·(n·l) where it acts "
-                    "(the light is 1e-15 above the horizon)", worst=where))
-
-    # MIN_N_DOT_H_BECKMANN: the largest float64 Beckmann D that the floor replaces.
-    nh = np.array([1e-3, 1e-4, 1e-6])
-    d = R.d_beckmann(nh[:, None], np.array([[1.0, 0.5, 1e-4]]))
-    out.append(dict(clamp="MIN_N_DOT_H_BECKMANN", value=constant("MIN_N_DOT_H_BECKMANN"), active="n·h < 1e-3", bias=float(np.max(d)),
-                    measure="largest float64 D_Beckmann(n·h ≤ 1e-3, m ≤ 1) (the kernel's value is 0 too)",
-                    worst="m = 1, n·h = 1e-3"))
-
-    # MIN_POW_BASE: x = 0 evaluates as (1e-30)ⁿ instead of 0ⁿ (= 0 for n > 0).
-    ns = np.array([1e-3, 0.01, 0.1, 0.5, 1.0, 2.0])
-    pw = constant("MIN_POW_BASE") ** ns
-    i = int(np.argmax(pw[ns >= 0.5]))
-    out.append(dict(clamp="MIN_POW_BASE", value=constant("MIN_POW_BASE"), active="r·v ≤ 0 or n·h = 0 (Phong/Blinn–Phong base 0)",
-                    bias=float(pw[ns >= 0.5][i]),
-                    measure="(1e-30)ⁿ − 0ⁿ for n ≥ 0.5; for n < 0.5 the true xⁿ is itself discontinuous at 0 "
-                            + ", ".join(f"n={a:g}: {b:.3g}" for a, b in zip(ns, pw)),
-                    worst="n = 0.5"))
-    return out
+    """Bias of each named floor of brdf.h where it acts: the one measurement,
+    clshade.verify.bias.floor_bias (through the shade kernel, precise build)."""
+    from clshade.verify.bias import floor_bias   # bias.py uses reference_f from this module
+    return floor_bias(rt)
 
 
 def continuity(rt: Runtime) -> list[dict[str, Any]]:
