@@ -380,3 +380,36 @@ def test_gbuffer_normals_unit_and_nonfinite_pixels_uncovered(meshes):
     assert 0 < bad.nonfinite_pixels <= hit.sum()
     assert bad.coverage.sum() == gb.coverage.sum() - bad.nonfinite_pixels
     assert np.isfinite(bad.channels["normal"]).all()
+
+
+def test_water_bottle_brings_emission_and_occlusion(assets, tmp_path):
+    """Khronos' WaterBottle (emissive and occlusion-roughness-metallic textures): with its glTF
+    materials the G-buffer gets emissive and occlusion channels from the textures."""
+    path = tmp_path / "bottle.toml"
+    path.write_text(f"""
+[camera]
+position = [0.0, 0.05, 0.45]
+width = 64
+height = 80
+[render]
+ambient = 0.4
+[[lights]]
+type = "directional"
+direction = [-0.5, -0.3, -1.0]
+[materials.m]
+roughness = 0.5
+[[objects]]
+mesh = "{assets / 'gltf' / 'WaterBottle' / 'WaterBottle.gltf'}"
+mesh_material = true
+material = "m"
+""")
+    from clshade.device.shade import scene_features
+    frame = prepare_frame(parse_scene(path.read_text(), path))
+    features = scene_features(frame.scene, geometry=frame.geometry)
+    assert features.emissive and features.occlusion and features.textures
+    cov = frame.gbuffer.coverage.reshape(-1)
+    occlusion = frame.gbuffer.channels["occlusion"][cov]
+    emissive = frame.gbuffer.channels["emissive"].reshape(-1, 3)[cov]
+    assert cov.sum() > 500
+    assert occlusion.min() < 0.9 and occlusion.max() <= 1.0       # the texture, not the constant 1
+    assert 0 < (emissive.max(axis=1) > 0).sum() < cov.sum()         # the emissive label, not the whole bottle
