@@ -17,7 +17,7 @@ run and interleaved (so machine noise hits both alike):
 
 It also rasterizes a 1,310,720-triangle mesh and reports the peak memory
 allocated during the call (tracemalloc sees NumPy's allocations).  Results go
-to a JSON file and a Markdown table next to it (same name, ``.md``).
+to a JSON file; ``python benchmarks/publish.py`` renders the Markdown table next to it (same name, ``.md``).
 """
 from __future__ import annotations
 
@@ -182,44 +182,6 @@ def bench_memory(width, height):
     return res
 
 
-def write_markdown(path: Path, data: dict) -> None:
-    m = data["machine"]
-    lines = [
-        "# Rasterizer benchmark (`benchmarks/raster_bench.py`)",
-        "",
-        f"Machine: {m['cpu_model'] or m['processor'] or m['machine']}, {m['cpu_count']} CPUs, Python {m['python']}, "
-        f"NumPy {m['numpy']}, trimesh {m['trimesh']}, embreex {m['embreex']}; {m['platform']}.",
-        f"Median of {data['repeats']} interleaved repeats; times in seconds.  `full G-buffer` = rasterize "
-        "(back faces culled) + build_gbuffer (normals interpolated, material channels written), the stage "
-        "`clshade render` runs; `raster` keeps back faces (same visibility as the ray caster), `raster (cull)` "
-        "drops them.  Embree times exclude ray generation and the BVH build.",
-        "",
-        "| scene | triangles | resolution | coverage | full G-buffer | raster | raster (cull) | embree first hit "
-        "| speedup | speedup (cull) | id agreement |",
-        "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|",
-    ]
-    for r in data["scenes"]:
-        lines.append(
-            f"| {r['scene']} | {r['triangles']:,} | {r['width']}x{r['height']} | {r['coverage']:.1%} "
-            f"| {r['gbuffer_full_median_s']:.3f} | {r['raster_median_s']:.3f} | {r['raster_cull_median_s']:.3f} "
-            f"| {r['embree_median_s']:.3f} "
-            f"| x{r['speedup_vs_embree']:.2f} | x{r['speedup_cull_vs_embree']:.2f} "
-            f"| {r['id_agreement_vs_embree']:.3%} |")
-    for s in data.get("skipped", []):
-        lines.append(f"| {s} | skipped | | | | | | | | | |")
-    mem = data.get("memory")
-    if mem:
-        lines += [
-            "",
-            f"Memory: {mem['triangles']:,} triangles at {mem['width']}x{mem['height']} rasterized in "
-            f"{mem['time_s']:.3f} s; peak memory allocated during the call "
-            f"**{mem['peak_alloc_during_call_MiB']:.0f} MiB** (tracemalloc; includes the "
-            f"{mem['output_MiB']:.0f} MiB output, excludes the {mem['input_MiB']:.0f} MiB input); "
-            f"process max RSS {mem['process_max_rss_MiB']:.0f} MiB.",
-        ]
-    path.write_text("\n".join(lines) + "\n")
-
-
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results" / "raster.json")
@@ -258,9 +220,7 @@ def main(argv=None) -> None:
         data["memory"] = bench_memory(args.width, args.height)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(data, indent=2) + "\n")
-    md = args.out.with_suffix(".md")
-    write_markdown(md, data)
-    print(f"wrote {args.out} and {md}")
+    print(f"wrote {args.out}; render the Markdown with: python benchmarks/publish.py")
 
 
 if __name__ == "__main__":

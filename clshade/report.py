@@ -126,6 +126,58 @@ def bench_plots(doc: dict, path: Path) -> None:
         plot_ladder(doc["ladder"], path.with_name(path.stem + "_ladder" + path.suffix), title)
 
 
+# ---------------------------------------------------------------- check stability
+
+
+def stability_text(rep) -> str:
+    """What `clshade check stability` prints for a clshade.verify.stability.Report."""
+    from clshade.verify.stability import DEVIATION_COSINE, DEVIATION_FLOOR
+    d = rep.as_dict()
+    raw = d["raw_radiance"]
+    per_build = ", ".join(f"{k} {v}" for k, v in d["distinct_inputs"].items())
+    lines = [f"device: {rep.device}",
+             f"evaluations: {rep.cases} over {len(d['builds'])} builds ({', '.join(d['builds'])}); "
+             f"distinct inputs per build: {per_build}",
+             f"BRDF NaN/Inf: {sum(r.nonfinite for r in rep.results)}, negative: {sum(r.negative for r in rep.results)} "
+             "(must be 0)",
+             f"shaded pixels, raw radiance (no MAX_RADIANCE clamp): NaN {raw['nan']}, Inf {raw['inf']}, "
+             f"negative {raw['negative']}; saturated (≥ MAX_RADIANCE {raw['max_radiance_clamp']:.3g}) "
+             f"{raw['saturated_pixels']}; largest finite {raw['max_radiance']:.3g}; shipped build NaN/Inf "
+             f"{raw['clamped_build_nonfinite']}", "",
+             f"largest deviation from the float64 reference, |f32 − f64| / max(|f64|, {DEVIATION_FLOOR:g}):"]
+    rows = []
+    for r in rep.results:
+        at = r.max_deviation_at
+        where = ", ".join(f"{k}={at[k]}" for k in ("n.l", "n.v", "azimuth", "normal", "roughness_label", "base",
+                                                    "metallic", "f90", "ior", "eta_label", "shininess") if k in at)
+        rows.append([r.model, "fast" if r.fast_math else "precise", r.cases, r.distinct_inputs,
+                     f"{r.max_deviation:.2e}", f"{r.max_deviation_unclamped:.2e}", where])
+    lines.append(markdown(["model", "build", "cases", "distinct", "all", "cos ≥ 1e-4", "where (all)"], rows))
+    bad = [f"  BAD {r.model} ({'fast' if r.fast_math else 'precise'}): {r.first_bad}" for r in rep.results if r.first_bad]
+    lines += bad
+    if rep.shading:
+        lines += ["", "shading pass, raw radiance (lights 0, 1e-30, 1e30: 4 directional, a point light on the "
+                  f"surface, a point, a spot; ambient); deviation vs the frame oracle at unit lights, "
+                  f"n·l and n·v ≥ {DEVIATION_COSINE:g}:",
+                  markdown(["model", "build", "pixels", "distinct", "NaN", "Inf", "negative", "saturated",
+                            "shipped NaN/Inf", "max radiance", "vs oracle", "compared"],
+                           [[s.model, "fast" if s.fast_math else "precise", s.pixels, s.distinct_inputs, s.nan, s.inf,
+                             s.negative, s.saturated, s.clamped_nonfinite, f"{s.max_radiance:.3g}",
+                             f"{s.max_deviation:.2e}", s.deviation_pixels] for s in rep.shading])]
+    if rep.clamps:
+        lines += ["", "clamp bias (precise build, against the unclamped float64 reference):",
+                  markdown(["clamp", "value", "active when", "bias", "measure", "worst"],
+                           [[c["clamp"], f"{c['value']:g}", c["active"], f"{c['bias']:.3g}", c["measure"], c["worst"]]
+                            for c in rep.clamps])]
+    if rep.continuity:
+        lines += ["", "continuity near the limits:",
+                  markdown(["model", "check", "max relative step", "where"],
+                           [[c["model"], c["check"], f"{c['max_relative_step']:.3g}", c["where"]]
+                            for c in rep.continuity])]
+    lines += ["", f"{'OK' if rep.ok else 'FAILED'} in {rep.seconds:.1f} s"]
+    return "\n".join(lines)
+
+
 # ---------------------------------------------------------------- anti-aliasing (clshade aa)
 
 AA_ERRORS = (("frame_rel_error", "whole frame"), ("silhouette_rel_error", "silhouette pixels"),
@@ -195,4 +247,3 @@ def plot_aa(doc: dict, path: Path) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
-

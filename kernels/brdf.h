@@ -35,8 +35,9 @@
  * the same 1e-4 (MIN_N_DOT_V). Bias: none for n·v ≥ 1e-4. */
 #define MIN_N_DOT_V 1.0e-4f
 
-/* Floor on n·l inside the lobes (the light itself is dropped when n·l ≤ 0).
- * Same reason and value as MIN_N_DOT_V: the V terms divide by 4(n·l)(n·v). */
+/* Floor on n·l inside the lobes only (the light itself is dropped when
+ * n·l ≤ 0, and the irradiance uses the true cosine, compose.h). Same reason and
+ * value as MIN_N_DOT_V: the V terms divide by 4(n·l)(n·v). */
 #define MIN_N_DOT_L 1.0e-4f
 
 /* |l + v|² below which the half vector is undefined (l = −v). The floor keeps
@@ -254,8 +255,10 @@ INLINE real Fd_OrenNayar(real nl, real nv, real lv, real sigma) {
 
 /* ---- empirical lobes ----------------------------------------------------- */
 
-/* Phong 1975, as a BRDF ("modified Phong", Lewis 1994): (r·v)ⁿ, r = 2(n·l)n − l. */
-INLINE real Fs_Phong(real rv, real n) { return pow_runtime(fmax(rv, 0.0f), n); }
+/* Phong 1975, as a BRDF ("modified Phong", Lewis 1994): (r·v)ⁿ, r = 2(n·l)n − l.
+ * r·v = 2(n·l)(n·v) − l·v of unit vectors rounds up to 1 + 1.1e-6 in float32;
+ * (r·v)ⁿ would then exceed the lobe's peak by n·1.1e-6, so r·v is capped at 1. */
+INLINE real Fs_Phong(real rv, real n) { return pow_runtime(saturate(rv), n); }
 
 /* Blinn 1977: (n·h)ⁿ. */
 INLINE real Fs_BlinnPhong(real nh, real n) { return pow_runtime(nh, n); }

@@ -33,8 +33,11 @@ INLINE vec3 brdf(const Geometry g, const Surface s) {
 }
 
 /* Radiance reflected towards v from one light of irradiance E arriving from l
- * (unit, towards the light): f · (n·l) · E, and exactly 0 below the horizon.
- * E·(n·l) is formed first so that a huge E times a 0 lobe never makes NaN. */
+ * (unit, towards the light): f · (n·l) · E with the true cosine max(n·l, 0),
+ * and exactly 0 below the horizon. The floor MIN_N_DOT_L acts only inside the
+ * lobes' denominators (g.nl), never on the irradiance: a pixel at n·l = 1e-5
+ * receives 1e-5 · E, not 1e-4 · E. E·(n·l) is formed first so that a huge E
+ * times a 0 lobe never makes NaN. */
 INLINE vec3 shade_light(vec3 n, vec3 v, vec3 l, vec3 E, const Surface s) {
     /* Every lane below the horizon or unlit (outside a spot cone): the sum
      * below would add exactly 0, so skip the BRDF. One branch per work-item
@@ -44,7 +47,7 @@ INLINE vec3 shade_light(vec3 n, vec3 v, vec3 l, vec3 E, const Surface s) {
     if (!ANY(faces_light(n, l) & (e_max > 0.0f)))
         return v3s((real)(0.0f));
     Geometry g = make_geometry(n, l, v);
-    vec3 e = v3scale(E, g.nl);
+    vec3 e = v3scale(E, fmax(g.nl_raw, 0.0f));
     vec3 lo = v3mul(brdf(g, s), e);
     return v3select(g.nl_raw > 0.0f, lo, v3s((real)(0.0f)));
 }

@@ -12,11 +12,17 @@
  *   HAS_MATERIAL                   per-pixel material id + material table
  *   MAT_M0..MAT_M3                 the material constants when HAS_MATERIAL is 0
  *   HAS_AMBIENT                    constant ambient radiance
+ *   HAS_EMISSIVE                   per-pixel emitted radiance, added unlit
+ *   HAS_OCCLUSION                  per-pixel ambient occlusion multiplying the ambient term
+ *                                  (both compile-time in the general kernel too)
  *   HALF_GBUFFER                   normal and base colour stored as half floats
  *   HAS_SHADOWS, SHADOW_PCF        shadow-map lookup (shadow.h), PCF kernel width
  *   SIMD                           pixels per work-item (1, 4 or 8)
  *   SPECULAR_AA                    specular lobe widened by the normal's screen-space
  *                                  variance (specular_aa.h); absent unless the scene asks
+ *   RAW_RADIANCE                   no MAX_RADIANCE clamp: the radiance as summed,
+ *                                  NaN/Inf included (`clshade check stability`
+ *                                  counts them before any clamp)
  *   GENERAL                        the general kernel: every channel read, the
  *                                  light count, ambient and shadows runtime
  *                                  switches; the reference every specialised
@@ -30,6 +36,8 @@
  *   base      3 planes of float: linear base colour (or half)
  *   roughness float   perceptual roughness
  *   metallic  float
+ *   emissive  3 planes of float: emitted radiance (HAS_EMISSIVE)
+ *   occlusion float   ambient occlusion in [0, 1] (HAS_OCCLUSION)
  *   material  uchar   index into the material table (MATERIAL_STRIDE float4)
  * Lights (__constant float4, directional first, then point, then spot):
  *   directional: (direction of travel, 0), (irradiance RGB, 0)
@@ -52,6 +60,12 @@
 #ifndef HAS_SHADOWS
 #define HAS_SHADOWS 0
 #endif
+#ifndef HAS_EMISSIVE
+#define HAS_EMISSIVE 0
+#endif
+#ifndef HAS_OCCLUSION
+#define HAS_OCCLUSION 0
+#endif
 #if GENERAL
 /* The general kernel reads every channel; its switches are runtime arguments. */
 #undef HAS_ROUGHNESS
@@ -68,6 +82,24 @@
 
 /* Largest radiance written: finite by contract even for 1e30 lights. */
 #define MAX_RADIANCE 3.0e38f
+
+/* The one copy of the light formulas, shared by the specialised and the general
+ * paths (scenes/README.md): a point or spot light of intensity I at `pos` gives
+ * E = I / r² at P; a spot also its cone. */
+
+/* Unit direction from P towards `pos`; *d2 = squared distance, floored at MIN_LIGHT_DIST2. */
+INLINE vec3 towards_light(float4 pos, vec3 P, real* d2) {
+    vec3 d = v3sub(v3c(pos.xyz), P);
+    *d2 = fmax(v3dot(d, d), MIN_LIGHT_DIST2);
+    return v3scale(d, rsqrt(*d2));
+}
+
+/* Smooth cone: 0 outside the outer cone, 1 inside the inner, t² between; l towards
+ * the light, `axis` the direction the light travels. */
+INLINE real spot_cone(vec3 l, float4 axis, float cos_outer, float cos_inner) {
+    real t = saturate((v3dot(v3neg(l), v3c(axis.xyz)) - cos_outer) / fmax(cos_inner - cos_outer, 1.0e-6f));
+    return t * t;
+}
 
 #if HAS_MATERIAL
 /* Each lane's row of the material table (a gather: lanes may differ). */
@@ -108,6 +140,12 @@ __kernel void shade(
 #endif
 #if HAS_METALLIC
     , __global const float* metallic
+#endif
+#if HAS_EMISSIVE
+    , __global const float* emissive
+#endif
+#if HAS_OCCLUSION
+    , __global const float* occlusion
 #endif
 #if HAS_MATERIAL
     , __global const uchar* material, __constant float4* materials
@@ -181,6 +219,11 @@ __kernel void shade(
 #endif
 
     vec3 L = v3s((real)(0.0f));
+#if HAS_OCCLUSION
+#define AMBIENT(A) v3scale(ambient_term(v3c((A).xyz), s), saturate(VLOAD(i, occlusion)))
+#else
+#define AMBIENT(A) ambient_term(v3c((A).xyz), s)
+#endif
 #if GENERAL || NUM_POINT + NUM_SPOT > 0 || HAS_SHADOWS
     vec3 P = v3add(v3c(cam_pos.xyz), v3scale(ray, z));
 #endif
@@ -193,14 +236,11 @@ __kernel void shade(
             l = v3c(-a.xyz);
             E = v3c(c.xyz);
         } else {
-            vec3 d = v3sub(v3c(a.xyz), P);
-            real d2 = fmax(v3dot(d, d), MIN_LIGHT_DIST2);
-            l = v3scale(d, rsqrt(d2));
+            real d2;
+            l = towards_light(a, P, &d2);
             if (kind == LIGHT_SPOT) {
                 float4 e = lights[4 * k + 2];
-                float cos_inner = lights[4 * k + 3].x;
-                real t = saturate((v3dot(v3neg(l), v3c(e.xyz)) - e.w) / fmax(cos_inner - e.w, 1.0e-6f));
-                E = v3scale(v3c(c.xyz), t * t / d2);
+                E = v3scale(v3c(c.xyz), spot_cone(l, e, e.w, lights[4 * k + 3].x) / d2);
             } else {
                 E = v3scale(v3c(c.xyz), 1.0f / d2);
             }
@@ -210,7 +250,7 @@ __kernel void shade(
         L = v3add(L, shade_light(n, v, l, E, s));
     }
     if (has_ambient)
-        L = v3add(L, ambient_term(v3c(ambient.xyz), s));
+        L = v3add(L, AMBIENT(ambient));
 #else
 #if HAS_SHADOWS
 /* Only where some lane faces the light: shade_light() adds nothing otherwise. */
@@ -232,9 +272,8 @@ __kernel void shade(
 #if NUM_POINT > 0
     for (int k = 0; k < NUM_POINT; ++k) {
         int o = 2 * NUM_DIR + 2 * k;
-        vec3 d = v3sub(v3c(lights[o].xyz), P);
-        real d2 = fmax(v3dot(d, d), MIN_LIGHT_DIST2);
-        vec3 l = v3scale(d, rsqrt(d2));
+        real d2;
+        vec3 l = towards_light(lights[o], P, &d2);
         L = v3add(L, shade_light(n, v, l, v3scale(v3c(lights[o + 1].xyz), 1.0f / d2), s));
     }
 #endif
@@ -242,20 +281,22 @@ __kernel void shade(
     for (int k = 0; k < NUM_SPOT; ++k) {
         int o = 2 * NUM_DIR + 2 * NUM_POINT + 3 * k;
         float4 p = lights[o], e = lights[o + 1], a = lights[o + 2];
-        vec3 d = v3sub(v3c(p.xyz), P);
-        real d2 = fmax(v3dot(d, d), MIN_LIGHT_DIST2);
-        vec3 l = v3scale(d, rsqrt(d2));
-        /* Smooth cone: 0 outside the outer cone, 1 inside the inner, t² between. */
-        real t = saturate((v3dot(v3neg(l), v3c(a.xyz)) - p.w) / fmax(e.w - p.w, 1.0e-6f));
-        vec3 E = v3scale(v3c(e.xyz), t * t / d2);
+        real d2;
+        vec3 l = towards_light(p, P, &d2);
+        vec3 E = v3scale(v3c(e.xyz), spot_cone(l, a, p.w, e.w) / d2);
         SHADOW(E, a.w);
         L = v3add(L, shade_light(n, v, l, E, s));
     }
 #endif
 #if HAS_AMBIENT
-    L = v3add(L, ambient_term(v3c(ambient.xyz), s));
+    L = v3add(L, AMBIENT(ambient));
 #endif
 #endif
-    L = v3min(L, MAX_RADIANCE);
+#if HAS_EMISSIVE
+    L = v3add(L, v3max(load3f(i, emissive, plane), 0.0f));
+#endif
+#ifndef RAW_RADIANCE
+    L = v3min(L, MAX_RADIANCE);   /* fmin: also turns a NaN into MAX_RADIANCE */
+#endif
     store4(i, out, v3select(covered, L, v3c(background.xyz)), covered ? (real)(1.0f) : (real)(background.w));
 }

@@ -1,19 +1,50 @@
-"""Shared fixtures: the OpenCL runtime (PoCL CPU by default) and the third-party assets folder."""
+"""Shared fixtures: the OpenCL runtime (PoCL CPU by default), the bundled data as installed, the checkout and
+the third-party assets folder.
+
+The tests run against whatever `import clshade` finds. CI (.ci/run) installs the package non-editable and runs
+pytest from tests/, so `clshade` and its data (kernels, scenes, textures) come from site-packages and a file
+missing from the wheel fails a test. With CLSHADE_EXPECT_INSTALLED=1 the session refuses a clshade imported
+from the checkout.
+"""
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
 
+import clshade
+from clshade.resources import scenes_dir
+
 ROOT = Path(__file__).resolve().parents[1]
 ASSETS = ROOT.parent / "shared" / "assets"
-SCENES = ROOT / "scenes"
+SCENES = scenes_dir()  # the scenes the imported clshade ships (site-packages when installed)
+PACKAGE = Path(clshade.__file__).resolve().parent
+CHECKOUT = ROOT if (ROOT / "pyproject.toml").is_file() else None
+
+
+def pytest_report_header(config) -> str:
+    return f"clshade imported from {PACKAGE}; scenes from {SCENES}"
+
+
+def pytest_sessionstart(session) -> None:
+    if os.environ.get("CLSHADE_EXPECT_INSTALLED") == "1" and PACKAGE == ROOT / "clshade":
+        raise pytest.UsageError(f"CLSHADE_EXPECT_INSTALLED=1 but clshade was imported from the checkout "
+                                f"({PACKAGE}), not from the installed package")
 
 
 @pytest.fixture(scope="session")
 def runtime():
     from clshade.device.runtime import get_runtime
     return get_runtime()
+
+
+@pytest.fixture(scope="session")
+def checkout() -> Path:
+    """The source checkout (docs/, benchmarks/); tests reading it skip when the tests run without it."""
+    if CHECKOUT is None:
+        pytest.skip(f"no source checkout at {ROOT} (tests copied without the repository)")
+    return CHECKOUT
 
 
 @pytest.fixture(scope="session")

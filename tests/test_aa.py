@@ -13,7 +13,7 @@ from clshade.cli import main
 from clshade.device.shade import Shader, camera_args, scene_features
 from clshade.errors import ClshadeError
 from clshade.models import resolve
-from clshade.pipeline import prepare_frame, render
+from clshade.pipeline import prepare_frame, render, render_streamed
 from clshade.render.gbuffer import build_gbuffer
 from clshade.render.image import read_image
 from clshade.render.meshes import build_geometry
@@ -112,6 +112,23 @@ def test_supersampling_equals_the_mean_of_jittered_frames(spheres, runtime, shif
     # Edge decisions of the two rasters may differ by rounding on a handful of samples.
     assert np.mean(diff < 1e-5) > 0.995
     assert np.median(diff) < 1e-6
+
+
+def test_supersampling_in_bands_equals_the_whole_frame(spheres, runtime):
+    """The CLI renders in bands of rows (pipeline.render_streamed): a supersampled band is
+    the band of the supersampled frame (Camera.band with the N·W × N·H raster)."""
+    scene, geometry = spheres
+    ss = dataclasses.replace(scene, samples=2)
+    whole = _render(ss, geometry, runtime).image
+    out = np.zeros_like(whole)
+
+    def keep(r0, band):
+        out[r0:r0 + len(band)] = band
+
+    result = render_streamed(ss, GGX, keep, runtime=runtime, band_pixels=4 * W * 10)
+    assert result.bands == 5
+    diff = np.abs(out - whole).max(axis=-1)
+    assert np.mean(diff < 1e-5) > 0.995 and np.median(diff) < 1e-6
 
 
 def test_samples_convergence_against_the_float64_pixel_integral(spheres, runtime):

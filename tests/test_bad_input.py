@@ -197,9 +197,8 @@ def test_debug_shows_traceback(tmp_path):
 
 def test_subprocess_exit_status_and_one_line(tmp_path):
     scene = write(tmp_path, SCENE.replace("roughness = 0.4", "roughnes = 0.4"))
-    root = Path(__file__).resolve().parents[1]
     proc = subprocess.run([sys.executable, "-m", "clshade", "render", str(scene), "-o", str(tmp_path / "o.png")],
-                          capture_output=True, text=True, cwd=root, timeout=60)
+                          capture_output=True, text=True, cwd=tmp_path, timeout=60)
     assert proc.returncode == 2
     assert proc.stderr.count("\n") == 1 and proc.stderr.startswith("clshade: error: ")
     assert "Traceback" not in proc.stderr and "did you mean 'roughness'" in proc.stderr

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import re
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,13 +12,14 @@ from clshade.bench.run import frame_stats, pareto
 from clshade.cli import main
 from clshade.render.gbuffer import GBuffer
 
-ROOT = Path(__file__).resolve().parents[1]
-SCHEMA_DOC = ROOT / "docs" / "bench-schema.md"
+from conftest import CHECKOUT, SCENES
 
 
 def documented_keys(section: str) -> set[str]:
-    """Keys listed as `| `key` |` rows under the '## <section>' heading of the schema doc."""
-    text = SCHEMA_DOC.read_text(encoding="utf-8")
+    """Keys listed as `| `key` |` rows under the '## <section>' heading of the schema doc (in the checkout)."""
+    if CHECKOUT is None:
+        pytest.skip("docs/bench-schema.md is not installed; this check needs the source checkout")
+    text = (CHECKOUT / "docs" / "bench-schema.md").read_text(encoding="utf-8")
     body = text.split(f"## {section}", 1)[1].split("\n## ", 1)[0]
     return set(re.findall(r"^\| `([a-z0-9_.]+)` \|", body, re.M))
 
@@ -27,7 +27,7 @@ def documented_keys(section: str) -> set[str]:
 @pytest.fixture(scope="module")
 def report(tmp_path_factory) -> dict:
     out = tmp_path_factory.mktemp("bench") / "bench.json"
-    rc = main(["bench", str(ROOT / "scenes" / "sphere_grid.toml"), "-m", "lambert,ggx_correlated",
+    rc = main(["bench", str(SCENES / "sphere_grid.toml"), "-m", "lambert,ggx_correlated",
                "--frames", "20", "--warmup", "2", "--width", "64", "--height", "48", "--numpy-frames", "1",
                "--no-progress", "--json", str(out)])
     assert rc == 0
@@ -90,7 +90,7 @@ def test_numpy_baseline_matches_kernel(spec):
     from clshade.bench.run import Bench
     from clshade.models import resolve
     from clshade.bench.numpy_baseline import shade_numpy
-    bench = Bench.prepare(ROOT / "scenes" / "sphere_grid.toml", 64, 48)
+    bench = Bench.prepare(SCENES / "sphere_grid.toml", 64, 48)
     model = resolve(spec)
     case = bench.case(model)
     image = case.shader.render(model, case.features)

@@ -3,15 +3,15 @@ returns a Scene or raises ClshadeError — never another exception."""
 from __future__ import annotations
 
 import tomllib
-from pathlib import Path
 
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from clshade.errors import ClshadeError
+from clshade.resources import scenes_dir
 from clshade.render.scene import Scene, parse_scene
 
-SCENES = sorted((Path(__file__).resolve().parents[1] / "scenes").glob("*.toml"))
+SCENES = sorted(scenes_dir().glob("*.toml"))
 TEXTS = [p.read_text() for p in SCENES]
 VALUES = st.one_of(st.none(), st.booleans(), st.integers(-10**20, 10**20),
                    st.floats(allow_nan=True, allow_infinity=True), st.text(max_size=8),

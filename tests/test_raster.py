@@ -8,7 +8,6 @@ plane.
 """
 from __future__ import annotations
 
-import sys
 import warnings
 from pathlib import Path
 
@@ -18,17 +17,12 @@ import trimesh
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-ROOT = Path(__file__).resolve().parents[1]
-try:  # plain `pytest` from the repo root does not put the root on sys.path
-    from clshade.render import raster
-except ImportError:
-    sys.path.insert(0, str(ROOT))
-    from clshade.render import raster
+from clshade.render import raster
 from clshade.render import transforms
 from clshade.render.raster import Fragments, rasterize
 from clshade.render.transforms import look_at, pixel_rays
 
-ASSETS = ROOT.parent / "shared" / "assets"
+from conftest import ASSETS
 
 W, H = 320, 240
 NEAR, FAR = 0.1, 100.0

@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,11 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import integrate
 
-try:  # plain `pytest` from the repo root does not put the root on sys.path
-    import clshade.verify.reference as R
-except ImportError:  # pragma: no cover
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-    import clshade.verify.reference as R
+import clshade.verify.reference as R
 
 ALBEDO_TOL = 1e-4  # required accuracy of the golden albedo values
 Z = (0.0, 0.0, 1.0)

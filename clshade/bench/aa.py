@@ -41,7 +41,7 @@ import numpy as np
 
 from clshade import __version__
 from clshade.bench.run import REL_ERROR_FLOOR, machine_info, mark_pareto
-from clshade.compare import layout, to_display
+from clshade.compare import layout, scene_display
 from clshade.device.resolve import CoverageBlend
 from clshade.device.runtime import Runtime, get_runtime
 from clshade.device.shade import Shader, scene_features
@@ -373,7 +373,7 @@ def crop_sheet(scene: Scene, models: list[Model], images: dict[tuple[str, str], 
         for m in models:
             t = truths[m.id]
             img = t.radiance if rung is None else images[(m.id, rung.label)][..., :3]
-            disp = to_display(np.asarray(img, np.float32), scene)
+            disp = scene_display(np.asarray(img, np.float32), scene)
             for kind in ("highlight", "silhouette"):
                 r = None if rung is None else err[(m.id, rung.label)]
                 sub = (f"{t.samples}x{t.samples} float64" if r is None

@@ -56,7 +56,8 @@ def supersampled(camera: Camera, samples: int) -> Camera:
     (a jitter `shift` stays the same fraction of an output pixel)."""
     if samples == 1:
         return camera
-    return dataclasses.replace(camera, width=camera.width * samples, height=camera.height * samples,
+    crop = (camera.crop[0] * samples, camera.crop[1] * samples) if camera.crop else None
+    return dataclasses.replace(camera, width=camera.width * samples, height=camera.height * samples, crop=crop,
                                shift=(camera.shift[0] * samples, camera.shift[1] * samples))
 
 

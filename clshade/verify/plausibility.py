@@ -25,11 +25,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field
-from functools import lru_cache
 
 import numpy as np
 
 from clshade.device.evaluate import Samples, constant_materials, eval_brdf
+from clshade.verify import quadrature
 from clshade.models import NONE, Model, lobes, presets
 from clshade.device.runtime import Runtime, get_runtime
 
@@ -82,37 +82,13 @@ QUICK = Sweep(diffuse_roughness=(0.15, 1.0), microfacet_roughness=(0.25, 1.0), s
 
 # ---- quadrature --------------------------------------------------------------
 
-def _graded(lo: float, hi: float, centres: tuple[float, ...], levels: int) -> np.ndarray:
-    """Panel breaks on [lo, hi], geometrically graded (factor RATIO) towards each centre."""
-    pts = [lo, hi, *centres]
-    for c in centres:
-        for end in (lo, hi):
-            if end != c:
-                pts += [c + (end - c) * RATIO ** j for j in range(1, levels + 1)]
-    return np.unique(np.clip(pts, lo, hi))
-
-
-def _gauss(breaks: np.ndarray, order: int) -> tuple[np.ndarray, np.ndarray]:
-    x, w = np.polynomial.legendre.leggauss(order)
-    a, b = breaks[:-1, None], breaks[1:, None]
-    half = 0.5 * (b - a)
-    return (a + half * (x + 1.0)).ravel(), (half * w).ravel()
-
-
 def hemisphere_rule(view_cos: float, order: int, levels: int) -> tuple[np.ndarray, np.ndarray]:
     """Nodes l (M, 3) and weights (M,) of ∫ g(l) (n·l) dω over the hemisphere of n = +z,
-    for v = (√(1−μv²), 0, μv): Gauss–Legendre in μ = n·l and φ, panels graded towards the
-    mirror direction (μv, φ = π) and the pole, with breaks at φ = π/2, 3π/2 (Oren–Nayar's
-    max(0, cos Δφ) kink). The (n·l) factor is in the weights."""
-    mu, w_mu = _gauss(_graded(0.0, 1.0, (view_cos, 1.0), levels), order)
-    if view_cos < 1.0:
-        phi_breaks = np.union1d(_graded(0.0, 2.0 * math.pi, (math.pi,), levels), [0.5 * math.pi, 1.5 * math.pi])
-    else:
-        phi_breaks = np.linspace(0.0, 2.0 * math.pi, 5)
-    phi, w_phi = _gauss(phi_breaks, order)
-    s = np.sqrt((1.0 - mu) * (1.0 + mu))
-    l = np.stack([np.outer(s, np.cos(phi)), np.outer(s, np.sin(phi)), np.outer(mu, np.ones_like(phi))], axis=-1)
-    return l.reshape(-1, 3), np.outer(w_mu * mu, w_phi).ravel()
+    for v = (√(1−μv²), 0, μv): clshade.verify.quadrature's rule (the reference's), graded
+    (factor RATIO) towards the mirror direction and the pole. The (n·l) factor is in the weights."""
+    n, t, b = np.array([0.0, 0.0, 1.0]), np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
+    l, w = quadrature.hemisphere_rule(n, t, b, view_cos, 0.0 if view_cos < 1.0 else None, order, order, levels, RATIO)
+    return l.reshape(-1, 3), w.ravel()
 
 
 def view_vector(view_cos: float) -> np.ndarray:
@@ -291,9 +267,9 @@ def lobe_model(lobe: str, preset_model: Model) -> Model:
 
 
 def evaluate_presets(sweep: Sweep = Sweep(), device: str | None = None,
-                     models: list[Model] | None = None) -> list[Verdict]:
+                     models: list[Model] | None = None, progress=None) -> list[Verdict]:
     """Measure every preset (or `models`): each lobe at its most reflective setting,
-    and the composition as it renders."""
+    and the composition as it renders. `progress(done, total)` after each preset."""
     rt = get_runtime(device)
     cache: dict[str, Measurement] = {}
 
@@ -304,7 +280,8 @@ def evaluate_presets(sweep: Sweep = Sweep(), device: str | None = None,
         return cache[model.id]
 
     out = []
-    for model in models or presets():
+    todo = list(models or presets())
+    for model in todo:
         parts = {lobe.id: lobe_measurement(lobe.id, model) for lobe in model.lobes}
         if model.diffuse != NONE and model.specular != NONE:
             composed = measure(model, _settings(model, sweep, lobe_only=False), sweep, rt)
@@ -320,13 +297,20 @@ def evaluate_presets(sweep: Sweep = Sweep(), device: str | None = None,
             quadrature_error=max(m.max_quadrature_error for m in everything),
             composed_albedo=composed.max_albedo, composed_albedo_at=composed.argmax_albedo,
             lobes={k: (m.max_albedo, m.argmax_albedo) for k, m in parts.items()}))
+        if progress is not None:
+            progress(len(out), len(todo))
     return out
 
 
-@lru_cache(maxsize=4)
-def physically_based(device: str | None = None) -> dict[str, bool]:
+def physically_based(device: str | None = None, progress=None) -> dict[str, bool]:
     """Preset id → the measured verdict, from the reduced sweep QUICK (cached in-process)."""
-    return {v.preset: v.physically_based for v in evaluate_presets(QUICK, device)}
+    if device not in _PHYSICALLY_BASED:
+        _PHYSICALLY_BASED[device] = {v.preset: v.physically_based
+                                     for v in evaluate_presets(QUICK, device, progress=progress)}
+    return _PHYSICALLY_BASED[device]
+
+
+_PHYSICALLY_BASED: dict[str | None, dict[str, bool]] = {}
 
 
 def albedo(model: Model, setting: Setting, view_cos: float = 1.0, order: int = 2 * ORDER,

@@ -74,6 +74,7 @@ from clshade.render.scene import Camera, Scene
 from clshade.render.shadows import ShadowMaps, shadow_visibility as _map_visibility
 from clshade.render.transforms import pixel_rays
 from clshade.resources import constant
+from clshade.verify.quadrature import hemisphere_rule
 
 __all__ = [
     "EPS_LENGTH",
@@ -565,8 +566,10 @@ def ggx_smith_schlick(
     return _microfacet(d_ggx(nh, alpha), g_smith_schlick(nl, nv, alpha), nl, nv, fresnel)
 
 
-_EMPIRICAL_LOBES = ("phong", "phong_normalized", "blinn_phong", "blinn_phong_normalized")
-_DIFFUSE_LOBES = ("lambert", "burley", "oren_nayar", "none")
+# The formula of each lobe (the registry lists the lobes; these are their float64 terms).
+_EMPIRICAL_FN = {"phong": (phong, "r.v"), "phong_normalized": (phong_normalized, "r.v"),
+                 "blinn_phong": (blinn_phong, "n.h"), "blinn_phong_normalized": (blinn_phong_normalized, "n.h")}
+_DIFFUSE_LOBES = ("lambert", "burley", "oren_nayar", "none")   # the branches of brdf()
 _MICROFACET_FN = {
     "cook_torrance": cook_torrance,
     "walter_ggx": walter_ggx,
@@ -632,7 +635,7 @@ def brdf(
         raise ValueError(f"unknown workflow {workflow!r}; expected 'metallic' or 'kdks'")
     if fresnel not in ("schlick", "dielectric", "conductor"):
         raise ValueError(f"unknown fresnel {fresnel!r}")
-    if specular not in (*_MICROFACET_FN, *_EMPIRICAL_LOBES, "none") or diffuse not in _DIFFUSE_LOBES:
+    if specular not in (*_MICROFACET_FN, *_EMPIRICAL_FN, "none") or diffuse not in _DIFFUSE_LOBES:
         raise ValueError(f"lobe {diffuse!r}/{specular!r} has no float64 formula in clshade.verify.reference")
     if workflow == "metallic" and specular in EMPIRICAL_MODELS:
         raise ValueError(f"empirical lobe {specular!r} needs workflow='kdks'")
@@ -664,13 +667,11 @@ def brdf(
     if specular == "none":
         f_spec = _f(np.zeros(1))
     elif specular in EMPIRICAL_MODELS:
-        s = _f(shininess)
-        if specular in ("phong", "phong_normalized"):
-            rv = _cos(_dot(reflect(g.l, g.n), g.v))
-            lobe = phong(rv, s) if specular == "phong" else phong_normalized(rv, s)
-        else:
-            lobe = blinn_phong(g.nh, s) if specular == "blinn_phong" else blinn_phong_normalized(g.nh, s)
-        lobe = np.where(g.h_ok | specular.startswith("phong"), lobe, 0.0)
+        fn, about = _EMPIRICAL_FN[specular]
+        if about == "r.v":
+            lobe = fn(_cos(_dot(reflect(g.l, g.n), g.v)), _f(shininess))
+        else:   # n.h: undefined without a half vector
+            lobe = np.where(g.h_ok, fn(g.nh, _f(shininess)), 0.0)
         f_spec = _tint(lobe, _f(ks)[..., None])
     else:
         if fresnel == "schlick":
@@ -702,27 +703,6 @@ def brdf(
 # --------------------------------------------------------------------------
 # directional albedo
 # --------------------------------------------------------------------------
-
-
-def _graded_breaks(
-    lo: float, hi: float, centres: tuple[float, ...], levels: int, ratio: float
-) -> Array:
-    """Panel breakpoints on [lo, hi] geometrically graded towards each centre."""
-    pts = [lo, hi, *centres]
-    for centre in centres:
-        for end in (lo, hi):
-            d = end - centre
-            if d != 0.0:
-                pts += [centre + d * ratio**j for j in range(1, levels + 1)]
-    return np.unique(np.clip(np.asarray(pts), lo, hi))
-
-
-def _composite_gl(breaks: Array, order: int) -> tuple[Array, Array]:
-    """Nodes and weights of composite Gauss-Legendre on the given panels."""
-    x, w = np.polynomial.legendre.leggauss(order)
-    a, b = breaks[:-1, None], breaks[1:, None]
-    half = 0.5 * (b - a)
-    return (a + half * (x + 1.0)).ravel(), (half * w).ravel()
 
 
 def directional_albedo(
@@ -771,25 +751,14 @@ def directional_albedo(
     t, b = _orthonormal_basis(nn)
     mu_v = float(np.clip(nn @ vv, 0.0, 1.0))
     vt, vb = float(vv @ t), float(vv @ b)
-    mu_breaks = _graded_breaks(0.0, 1.0, (mu_v, 1.0), levels, ratio)
-    if math.hypot(vt, vb) > EPS_TANGENT:
-        phi_r = math.atan2(vb, vt) + math.pi
-        pb = _graded_breaks(-math.pi, math.pi, (0.0,), levels, ratio)
-        phi_breaks = np.unique(np.concatenate([pb, [-0.5 * math.pi, 0.5 * math.pi]])) + phi_r
-    else:
-        phi_breaks = np.linspace(0.0, 2.0 * math.pi, 5)
+    phi_v = math.atan2(vb, vt) if math.hypot(vt, vb) > EPS_TANGENT else None
 
     def rule(o_mu: int, o_phi: int) -> Array:
-        mu, w_mu = _composite_gl(mu_breaks, o_mu)
-        phi, w_phi = _composite_gl(phi_breaks, o_phi)
-        sin_t = np.sqrt((1.0 - mu) * (1.0 + mu))
-        cp, sp = np.cos(phi), np.sin(phi)
-        l = (sin_t[:, None, None] * (cp[None, :, None] * t + sp[None, :, None] * b)
-             + mu[:, None, None] * nn)
+        l, weights = hemisphere_rule(nn, t, b, mu_v, phi_v, o_mu, o_phi, levels, ratio)
+        shape = l.shape[:2]
         l = l.reshape(-1, 3)
         f = _f(fn(np.broadcast_to(nn, l.shape), l, np.broadcast_to(vv, l.shape)))
-        weights = (w_mu * mu)[:, None] * w_phi[None, :]
-        f = f.reshape((mu.size, phi.size) + f.shape[1:])
+        f = f.reshape(shape + f.shape[1:])
         return np.tensordot(weights, f, axes=([0, 1], [0, 1]))
 
     coarse = rule(n_theta, n_phi)
@@ -832,7 +801,7 @@ def pixels(gbuffer: GBuffer, camera: Camera) -> Pixels:
     cam = camera.with_size(gbuffer.width, gbuffer.height)
     _, d = pixel_rays(cam.view_matrix(), cam.projection_matrix(), cam.width, cam.height, index)
     fwd = cam.basis()[0]
-    P = np.asarray(cam.position, np.float64) + d * (ch["depth"][index].astype(np.float64) / (d @ fwd))[:, None]
+    P = np.asarray(cam.position, np.float64) + d * (ch["depth"][index].astype(np.float64) / _dot(d, fwd))[:, None]
     v = _f(-d)
     n, ok = normalize(_f(ch["normal"].reshape(-1, 3)[index]))
     n = np.where(ok[:, None], n, v)
@@ -871,20 +840,24 @@ def light_rays(scene: Scene, px: Pixels) -> Iterator[tuple[int, Array, Array]]:
         E = colour / d2[:, None]
         if light.kind == "spot":
             axis, _ = normalize(_f(light.direction))
-            cone = spot_cone(-(l @ axis), math.cos(math.radians(light.outer_angle)),
+            cone = spot_cone(-_dot(l, axis), math.cos(math.radians(light.outer_angle)),
                              math.cos(math.radians(light.inner_angle)))
             E = E * cone[:, None]
         yield i, l, E
 
 
-def _surface_args(model: Model, px: Pixels, alpha_floor: float) -> dict:
-    """Keyword arguments of :func:`brdf` for every pixel (the workflow's inputs)."""
-    m = px.material
-    kdks = model.workflow == "kdks"
-    args = dict(base_color=px.base, roughness=px.roughness, metallic=px.metallic, workflow=model.workflow,
+def surface_args(model: Model, base: ArrayLike, roughness: ArrayLike, metallic: ArrayLike, material: ArrayLike,
+                 alpha_floor: float) -> dict:
+    """Keyword arguments of :func:`brdf` for a clshade model at K points: base (K, 3),
+    roughness and metallic (K,), material (K, 4, 4) rows of the material table
+    (surface.h layout: kd, ks, ka, shininess | ior, f90 | eta | k). Metallic
+    workflow: F0 from base and metallic; k_d + k_s = 1: the material's kd, ks and
+    F0 = ((ior - 1)/(ior + 1))**2."""
+    m = _f(material)
+    args = dict(base_color=_f(base), roughness=_f(roughness), metallic=_f(metallic), workflow=model.workflow,
                 fresnel=model.fresnel, ior=m[:, 1, 0], f90=m[:, 1, 1], eta=m[:, 2, :3], k=m[:, 3, :3],
                 shininess=m[:, 0, 3], alpha_floor=alpha_floor)
-    if kdks:
+    if model.workflow == "kdks":
         r0 = (m[:, 1, 0] - 1.0) / (m[:, 1, 0] + 1.0)
         args.update(kd=m[:, 0, 0], ks=m[:, 0, 1], f0=(r0 * r0)[:, None])
     return args
@@ -933,16 +906,19 @@ def radiance(
     dtype: type = np.float64,
     camera: Camera | None = None,
     alpha_floor: float | None = None,
+    shadows: ShadowMaps | None = None,
 ) -> Array:
     """The radiance the shading pass should write, (H, W, 3), in ``dtype``.
 
     Covered pixels: ``sum over lights of f(n, l, v) * max(n.l, 0) * E * visibility``
-    plus :func:`ambient`; f is :func:`brdf` of ``model`` (either workflow, any
+    plus :func:`ambient` (times the G-buffer's ambient occlusion when it has one) plus
+    the emitted radiance (when the G-buffer has an emissive channel); f is :func:`brdf` of ``model`` (either workflow, any
     Fresnel) with the pixel's G-buffer inputs (textures are already sampled into
     them) and material-table row; lights as in :func:`light_rays`.  Empty pixels:
     the scene's background.  ``visibility`` is ``(num_lights, H, W)`` in [0, 1]
     (scene order; :func:`visibility` computes it from the shadow maps the kernel
-    reads); None = unshadowed.  ``alpha_floor`` defaults to the kernels' MIN_ALPHA
+    reads); None = unshadowed, unless ``shadows`` (the frame's shadow maps) is given:
+    then the lookup is done here.  ``alpha_floor`` defaults to the kernels' MIN_ALPHA
     (documented: roughness below 0.01 renders as 0.01).  Nothing is clamped
     at the top (the kernels' MAX_RADIANCE is not part of the physics).  f = 0 where
     n.v <= 0 (the kernels floor n.v instead: compare where n.v > 0).
@@ -953,8 +929,11 @@ def radiance(
     h, w = gbuffer.height, gbuffer.width
     with precision(dtype):
         px = pixels(gbuffer, camera)
-        vis = None if visibility is None else _f(visibility).reshape(len(scene.lights), -1)[:, px.index]
-        args = _surface_args(model, px, alpha_floor)
+        if visibility is not None:
+            vis = _f(visibility).reshape(len(scene.lights), -1)[:, px.index]
+        else:   # looked up here (or unshadowed): the same as visibility(gbuffer, scene, shadows, camera)
+            vis = None if shadows is None else _f(_map_visibility(shadows, px.P, px.n))
+        args = surface_args(model, px.base, px.roughness, px.metallic, px.material, alpha_floor)
         L = _f(np.zeros((len(px.index), 3)))
         for i, l, E in light_rays(scene, px):
             if vis is not None:
@@ -969,7 +948,12 @@ def radiance(
             with np.errstate(**_ERR):
                 L[lit] += f * (E[lit] * nl[lit][:, None])
         if any(a > 0 for a in scene.ambient):
-            L = L + ambient(model, px, scene.ambient)
+            reflected = ambient(model, px, scene.ambient)
+            if "occlusion" in gbuffer.channels:      # glTF occlusion: the ambient term only
+                reflected = reflected * np.clip(_f(gbuffer.channels["occlusion"][px.index]), 0.0, 1.0)[:, None]
+            L = L + reflected
+        if "emissive" in gbuffer.channels:           # emitted radiance, added unlit
+            L = L + np.maximum(_f(gbuffer.channels["emissive"].reshape(-1, 3)[px.index]), 0.0)
         out = np.empty((h * w, 3), dtype)
         out[:] = np.asarray(scene.background, dtype)
         out[px.index] = L

@@ -1,0 +1,277 @@
+"""Mutation testing: does the test suite catch small semantic bugs?
+
+Each mutant of the catalogue is (file, exact original snippet, replacement, description). For every mutant
+the script copies the repository to a temporary folder, applies the one edit (a snippet that is not found
+exactly once is an error: the catalogue must track the code), and runs the test suite there, fail-fast,
+with PYTHONPATH pointing at the copy: the copy's Python code and the copy's kernels are the ones used
+(the run checks that clshade.resources.kernels_dir() lies inside the copy; PoCL caches binaries by source,
+so a mutated kernel is compiled afresh). Killed = the suite failed; survived = it passed.
+
+    python benchmarks/mutants.py [--jobs 2] [--only NAME,...] [--json benchmarks/results/mutants.json]
+
+Writes JSON only; `python benchmarks/publish.py` renders benchmarks/results/mutants.md from it.
+"""
+from __future__ import annotations
+
+import argparse
+import datetime as _dt
+import json
+import os
+import platform
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+OUT = ROOT / "benchmarks" / "results" / "mutants.json"
+COPY_IGNORE = shutil.ignore_patterns(".venv", ".git", "__pycache__", "*.egg-info", "build", "dist",
+                                     ".pytest_cache", ".hypothesis", "out")
+TEST_TIMEOUT_S = 900
+
+
+@dataclass(frozen=True)
+class Mutant:
+    name: str
+    file: str
+    original: str
+    replacement: str
+    description: str
+
+
+M = Mutant
+CATALOGUE: list[Mutant] = [
+    # ---- term functions (kernels/brdf.h)
+    M("ggx_d_square", "kernels/brdf.h", "return a2 / (CLSHADE_PI * d * d);", "return a2 / (CLSHADE_PI * d);",
+      "GGX D: denominator not squared"),
+    M("beckmann_exp_sign", "kernels/brdf.h", "return exp_lanes(-sin2_nh * t)", "return exp_lanes(-0.5f * sin2_nh * t)",
+      "Beckmann D: exponent halved"),
+    M("v_correlated_half", "kernels/brdf.h", "return 0.5f / (gv + gl);", "return 0.25f / (gv + gl);",
+      "height-correlated Smith V: 0.5 → 0.25"),
+    M("v_separable_swap", "kernels/brdf.h", "real sv = nv + sqrt(a2 + (1.0f - a2) * nv * nv);",
+      "real sv = nv + sqrt(a2 + (1.0f - a2) * nl * nl);", "separable Smith V: G1(v) uses n·l"),
+    M("v_schlick_k", "kernels/brdf.h", "real k = 0.5f * alpha;", "real k = alpha;",
+      "Smith–Schlick V: k = α instead of α/2"),
+    M("v_cook_torrance_2", "kernels/brdf.h", "return fmin(2.0f * nh * fmin(nv, nl), b) / (4.0f * nl * nv * b);",
+      "return fmin(nh * fmin(nv, nl), b) / (4.0f * nl * nv * b);", "V-cavity G: factor 2 dropped"),
+    M("schlick_pow4", "kernels/brdf.h", "real w = pow5(1.0f - vh);", "real w = sq(sq(1.0f - vh));",
+      "Schlick Fresnel: (1 − v·h)⁴ instead of ⁵"),
+    M("schlick_f90", "kernels/brdf.h", "f0.x + (f90 - f0.x) * w", "f0.x + (1.0f - f0.x) * w",
+      "Schlick Fresnel: red channel ignores f90"),
+    M("dielectric_half", "kernels/brdf.h", "real f = 0.5f * a * a * (1.0f + b * b);",
+      "real f = 0.5f * a * a * (1.0f + b);", "exact dielectric Fresnel: b² → b"),
+    M("dielectric_tir", "kernels/brdf.h", "return g2 < 0.0f ? (real)(1.0f) : saturate(f);",
+      "return g2 < 0.0f ? (real)(0.0f) : saturate(f);", "dielectric: total internal reflection gives 0"),
+    M("conductor_rp", "kernels/brdf.h", "real rp = rs * (t3 - t4) / (t3 + t4);", "real rp = rs * (t3 + t4) / (t3 + t4);",
+      "conductor Fresnel: R_p = R_s"),
+    M("conductor_channel", "kernels/brdf.h",
+      "fresnel_conductor_channel(c, eta.z, k.z)", "fresnel_conductor_channel(c, eta.y, k.y)",
+      "conductor Fresnel: blue channel uses green's η, k"),
+    M("lambert_pi", "kernels/brdf.h", "INLINE real Fd_Lambert(void) { return (real)(CLSHADE_INV_PI); }",
+      "INLINE real Fd_Lambert(void) { return (real)(0.5f * CLSHADE_INV_PI); }", "Lambert: 1/(2π)"),
+    M("burley_f90", "kernels/brdf.h", "real f90 = 0.5f + 2.0f * alpha * lh * lh;", "real f90 = 0.5f + alpha * lh * lh;",
+      "Burley: F90 = 0.5 + α(l·h)²"),
+    M("burley_view", "kernels/brdf.h", "real view = 1.0f + (f90 - 1.0f) * pow5(1.0f - nv);",
+      "real view = 1.0f + (f90 - 1.0f) * pow5(1.0f - nl);", "Burley: view factor uses n·l"),
+    M("oren_nayar_b", "kernels/brdf.h", "real B = 0.45f * s2 / (s2 + 0.09f);", "real B = 0.45f * s2 / (s2 + 0.9f);",
+      "Oren–Nayar: B denominator 0.09 → 0.9"),
+    M("oren_nayar_a", "kernels/brdf.h", "real A = 1.0f - 0.5f * s2 / (s2 + 0.33f);", "real A = 1.0f - 0.5f * s2 / (s2 + 0.033f);",
+      "Oren–Nayar: A denominator 0.33 → 0.033"),
+    M("phong_clamp", "kernels/brdf.h", "return pow_runtime(saturate(rv), n);", "return pow_runtime(fabs(rv), n);",
+      "Phong: |r·v| instead of max(r·v, 0)"),
+    M("log2_poly", "kernels/brdf.h", "real c01 = 3.3333331174e-1f - 2.4999993993e-1f * f;",
+      "real c01 = 3.3333331174e-1f - 2.4999e-1f * f;", "log2_lanes: one polynomial coefficient rounded"),
+    M("exp_reduction", "kernels/brdf.h", "real r = (c - kf * 0.693359375f) + kf * 2.12194440e-4f;",
+      "real r = (c - kf * 0.693359375f);", "exp_lanes: Cody–Waite low part dropped"),
+    # ---- model lobes (kernels/models)
+    M("blinn_norm", "kernels/models/blinn_phong_normalized.cl", "(s.shininess + 8.0f) * (0.125f * CLSHADE_INV_PI)",
+      "(s.shininess + 2.0f) * (0.125f * CLSHADE_INV_PI)", "normalized Blinn–Phong: (n+2)/8π"),
+    M("phong_norm", "kernels/models/phong_normalized.cl", "(s.shininess + 2.0f) * (0.5f * CLSHADE_INV_PI)",
+      "(s.shininess + 1.0f) * (0.5f * CLSHADE_INV_PI)", "normalized Phong: (n+1)/2π"),
+    M("ggx_lobe_no_f", "kernels/models/ggx_correlated.cl", "return v3scale(fresnel(g, s), D * V);",
+      "return v3s(D * V);", "GGX height-correlated: Fresnel dropped"),
+    # ---- geometry (kernels/surface.h)
+    M("rv_sign", "kernels/surface.h", "g.rv = 2.0f * g.nl_raw * nv_raw - g.lv;", "g.rv = 2.0f * g.nl_raw * nv_raw + g.lv;",
+      "Phong mirror: r·v = 2(n·l)(n·v) + l·v"),
+    M("vh_uses_l", "kernels/surface.h", "g.vh = saturate(v3dot(v, h));", "g.vh = saturate(v3dot(n, h));",
+      "v·h computed as n·h"),
+    M("f0_dielectric", "kernels/surface.h", "s.f0 = v3mix(v3s((real)(F0_DIELECTRIC)), base, metallic);",
+      "s.f0 = v3mix(v3s((real)(0.08f)), base, metallic);", "metallic workflow: dielectric F0 = 0.08"),
+    M("diffuse_metallic", "kernels/surface.h", "s.diffuse_color = v3scale(base, 1.0f - metallic);",
+      "s.diffuse_color = base;", "metallic workflow: metals keep a diffuse colour"),
+    M("kdks_r0", "kernels/surface.h", "real r0 = (s.ior - 1.0f) / (s.ior + 1.0f);", "real r0 = (s.ior - 1.0f) / (s.ior + 2.0f);",
+      "k_d + k_s workflow: F0 from IOR wrong"),
+    M("alpha_floor_square", "kernels/surface.h", "s.alpha = fmax(roughness * roughness, MIN_ALPHA);",
+      "s.alpha = fmax(roughness, MIN_ALPHA);", "α = r instead of r²"),
+    # ---- composition and workflows (kernels/compose.h)
+    M("kd_one_sided", "kernels/compose.h", "(1.0f - fl.x) * (1.0f - fv.x)", "(1.0f - fl.x)",
+      "metallic k_d: red channel drops (1 − F(n·v))"),
+    M("ks_ignored", "kernels/compose.h", "f = v3add(f, v3scale(specular_lobe(g, s), s.ks));",
+      "f = v3add(f, specular_lobe(g, s));", "k_s weight ignored"),
+    M("irradiance_floor", "kernels/compose.h", "vec3 e = v3scale(E, fmax(g.nl_raw, 0.0f));",
+      "vec3 e = v3scale(E, g.nl);", "irradiance uses the floored n·l (the bug of issue 13)"),
+    M("horizon_select", "kernels/compose.h", "return v3select(g.nl_raw > 0.0f, lo, v3s((real)(0.0f)));",
+      "return lo;", "light below the horizon not dropped"),
+    M("ambient_ka", "kernels/compose.h", "return v3mul(v3scale(A, s.ka), r);", "return v3mul(A, r);",
+      "ambient ignores k_a"),
+    M("ambient_spec", "kernels/compose.h", "r = v3add(r, v3scale(s.f0, s.ks));", "r = v3add(r, v3scale(s.f0, 0.8f * s.ks));",
+      "ambient specular term × 0.8 (issue 13)"),
+    M("ambient_metal_kd", "kernels/compose.h",
+      "r = v3add(r, v3mul(v3sub(v3s((real)(1.0f)), s.f0), s.diffuse_color));",
+      "r = v3add(r, s.diffuse_color);", "ambient metallic workflow: k_d = 1 instead of 1 − F0"),
+    # ---- light kinds (kernels/shade.cl, specialised path)
+    M("point_falloff", "kernels/shade.cl", "v3scale(v3c(lights[o + 1].xyz), 1.0f / d2), s));",
+      "v3scale(v3c(lights[o + 1].xyz), rsqrt(d2)), s));", "point light falloff 1/d² → 1/d (issue 13)"),
+    M("spot_cone_square", "kernels/shade.cl", "vec3 E = v3scale(v3c(e.xyz), t * t / d2);",
+      "vec3 E = v3scale(v3c(e.xyz), t / d2);", "spot cone falloff t² → t (issue 13)"),
+    M("spot_axis_sign", "kernels/shade.cl", "real t = saturate((v3dot(v3neg(l), v3c(a.xyz)) - p.w) / fmax(e.w - p.w, 1.0e-6f));",
+      "real t = saturate((v3dot(l, v3c(a.xyz)) - p.w) / fmax(e.w - p.w, 1.0e-6f));", "spot: axis sign flipped"),
+    M("dir_light_sign", "kernels/shade.cl", "vec3 l = v3c(-lights[2 * k].xyz);", "vec3 l = v3c(lights[2 * k].xyz);",
+      "directional light: l points along the light's travel"),
+    M("pixel_centre_x", "kernels/shade.cl", "real sx = (convert_real(px) + 0.5f) * inv_width2 - 1.0f;",
+      "real sx = (convert_real(px)) * inv_width2 - 1.0f;", "shade.cl: view ray through the pixel corner"),
+    M("ambient_dropped", "kernels/shade.cl", "#if HAS_AMBIENT\n    L = v3add(L, ambient_term(v3c(ambient.xyz), s));",
+      "#if HAS_AMBIENT\n    L = v3add(L, v3s((real)(0.0f)));", "specialised kernel: ambient dropped"),
+    M("lane_wrap", "kernels/shade.cl", "py = wrap ? py + 1u : py;", "py = py;",
+      "SIMD lanes wrapping to the next row keep the row"),
+    # ---- shadows (kernels/shadow.h)
+    M("shadow_compare", "kernels/shadow.h", "lit += ((inside == 0) | (ref <= d)) ? (real)(1.0f) : (real)(0.0f);",
+      "lit += ((inside == 0) | (ref >= d)) ? (real)(1.0f) : (real)(0.0f);", "shadow compare reversed"),
+    M("shadow_bias", "kernels/shadow.h", "#define SHADOW_NORMAL_OFFSET_TEXELS 1.0f", "#define SHADOW_NORMAL_OFFSET_TEXELS 0.0f",
+      "shadow normal offset removed (acne)"),
+    M("shadow_pcf_norm", "kernels/shadow.h", "return front ? lit / (float)(w * w) : (real)(1.0f);",
+      "return front ? lit / (float)(w * w + 1) : (real)(1.0f);", "PCF average over w² + 1 taps"),
+    # ---- SIMD lane / tail and storage (kernels/simd.h, gbuffer.h)
+    M("simd_iota", "kernels/simd.h", "#define LANE_IOTA ((uint8)(0u, 1u, 2u, 3u, 4u, 5u, 6u, 7u))",
+      "#define LANE_IOTA ((uint8)(0u, 1u, 2u, 3u, 4u, 5u, 7u, 6u))", "SIMD-8: lanes 6 and 7 swapped"),
+    M("store_lane", "kernels/gbuffer.h", "vstore8((float8)(c.x.s6, c.y.s6, c.z.s6, a.s6, c.x.s7, c.y.s7, c.z.s7, a.s7), 3, o);",
+      "vstore8((float8)(c.x.s6, c.y.s6, c.z.s6, a.s6, c.x.s6, c.y.s7, c.z.s7, a.s7), 3, o);",
+      "SIMD-8 store: lane 7 red written from lane 6"),
+    M("half_plane", "kernels/gbuffer.h", "#define LOAD_PLANE(i, p) VLOAD_HALF((i), (p))",
+      "#define LOAD_PLANE(i, p) VLOAD_HALF((i), (p)) * 0.999f", "half-float G-buffer: loads scaled"),
+    M("tail_pad", "clshade/device/shade.py", "planes[:, :self.gb.pixels] = data.T", "planes[:, :self.gb.pixels - 1] = data.T[:, :-1]",
+      "upload drops the last pixel (tail)"),
+    # ---- Python stages
+    M("raster_top_left", "clshade/render/raster.py", "owns = (ea > 0.0) | ((ea == 0.0) & (eb > 0.0))",
+      "owns = (ea >= 0.0)", "raster: top-left rule broken (ties owned twice)"),
+    M("raster_centre", "clshade/render/raster.py", "            xc = xabs + 0.5\n", "            xc = xabs + 0.0\n",
+      "raster: pixel centres at the corner"),
+    M("near_clip", "clshade/render/raster.py", "    dist = z + w  # near plane: dist >= 0 is visible\n",
+      "    dist = z + 0.9 * w  # near plane: dist >= 0 is visible\n", "near clipping at the wrong plane"),
+    M("srgb_decode", "clshade/render/textures.py", "((c + 0.055) / 1.055) ** 2.4", "((c + 0.055) / 1.055) ** 2.2",
+      "texture sRGB decode: exponent 2.2"),
+    M("uv_orientation", "clshade/render/textures.py", "y = (1.0 - uv[:, 1]) * h - 0.5", "y = uv[:, 1] * h - 0.5",
+      "texture V axis flipped"),
+    M("normal_map_sign", "clshade/render/gbuffer.py",
+      "mapped = m[:, 0:1] * T + m[:, 1:2] * B + m[:, 2:3] * normal", "mapped = m[:, 0:1] * T - m[:, 1:2] * B + m[:, 2:3] * normal",
+      "normal map: green channel sign"),
+    M("mr_channels", "clshade/render/gbuffer.py", "        rough *= mr[:, 1]\n        metal *= mr[:, 2]\n",
+      "        rough *= mr[:, 2]\n        metal *= mr[:, 1]\n", "glTF metallic-roughness: G/B swapped"),
+    M("gltf_factor", "clshade/render/meshes.py", "tuple(float(c) / 255.0 for c in np.asarray(factor)[:3])",
+      "tuple(float(c) / 256.0 for c in np.asarray(factor)[:3])", "glTF baseColorFactor / 256"),
+    M("gbuffer_roughness", "clshade/render/gbuffer.py", "rough = np.full(k, t.roughness_factor, np.float32)",
+      "rough = np.full(k, t.metallic_factor, np.float32)", "textured G-buffer: roughness channel from metallic factor"),
+    M("scene_default_roughness", "clshade/render/scene.py", 'roughness=r.number("roughness", 0.5, 0.0, 1.0),',
+      'roughness=r.number("roughness", 0.4, 0.0, 1.0),', "scene default roughness 0.4"),
+    M("scene_default_ks", "clshade/render/scene.py", 'ks=r.number("ks", 0.3, 0.0, 1.0),',
+      'ks=r.number("ks", 0.25, 0.0, 1.0),', "scene default k_s 0.25"),
+    M("tonemap_exposure", "clshade/render/image.py", "* (2.0 ** exposure)", "* (2.0 ** (0.5 * exposure))",
+      "exposure halved"),
+    M("tonemap_reinhard", "clshade/render/image.py", "y = x / (1.0 + x)", "y = x / (1.0 + 0.5 * x)",
+      "Reinhard x/(1 + x/2)"),
+    M("srgb_encode", "clshade/render/image.py", "1.055 * np.power(c, 1 / 2.4) - 0.055", "1.055 * np.power(c, 1 / 2.2) - 0.055",
+      "sRGB encode exponent 1/2.2"),
+]
+
+
+def apply(root: Path, mutant: Mutant) -> None:
+    """Apply one mutant in the tree at `root`; the original must occur exactly once."""
+    path = root / mutant.file
+    text = path.read_text(encoding="utf-8")
+    count = text.count(mutant.original)
+    if count != 1:
+        raise SystemExit(f"mutant {mutant.name}: snippet found {count} times in {mutant.file} "
+                         f"(the catalogue must track the code): {mutant.original!r}")
+    path.write_text(text.replace(mutant.original, mutant.replacement), encoding="utf-8")
+
+
+def check_catalogue(root: Path = ROOT) -> None:
+    """Every snippet occurs exactly once and names are unique (no tests run)."""
+    names = [m.name for m in CATALOGUE]
+    dupes = {n for n in names if names.count(n) > 1}
+    if dupes:
+        raise SystemExit(f"duplicate mutant names: {sorted(dupes)}")
+    for mutant in CATALOGUE:
+        text = (root / mutant.file).read_text(encoding="utf-8")
+        if text.count(mutant.original) != 1:
+            raise SystemExit(f"mutant {mutant.name}: snippet found {text.count(mutant.original)} times in "
+                             f"{mutant.file}: {mutant.original!r}")
+
+
+def run_one(mutant: Mutant, python: str) -> dict:
+    start = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix=f"mutant-{mutant.name}-") as tmp:
+        copy = Path(tmp) / "repo"
+        shutil.copytree(ROOT, copy, ignore=COPY_IGNORE)
+        apply(copy, mutant)
+        env = dict(os.environ, PYTHONPATH=str(copy), PYTHONDONTWRITEBYTECODE="1")
+        env.pop("CLSHADE_EXPECT_INSTALLED", None)
+        where = subprocess.run([python, "-c", "import clshade.resources as r; print(r.kernels_dir())"],
+                               cwd=copy, env=env, capture_output=True, text=True)
+        kernels = where.stdout.strip()
+        if where.returncode or not Path(kernels).resolve().is_relative_to(copy.resolve()):
+            raise SystemExit(f"mutant {mutant.name}: the copy's kernels are not the ones used ({kernels!r} "
+                             f"{where.stderr.strip()})")
+        try:
+            proc = subprocess.run([python, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider", "tests"],
+                                  cwd=copy, env=env, capture_output=True, text=True, timeout=TEST_TIMEOUT_S)
+            rc, tail = proc.returncode, proc.stdout.strip().splitlines()
+        except subprocess.TimeoutExpired:
+            rc, tail = -1, ["timeout"]
+    failed = [line for line in tail if line.startswith("FAILED") or line.startswith("ERROR")]
+    return dict(name=mutant.name, file=mutant.file, description=mutant.description,
+                status="killed" if rc not in (0, 5) else "survived", returncode=rc,
+                killed_by=failed[0].split(" - ")[0].removeprefix("FAILED ").removeprefix("ERROR ") if failed else "",
+                seconds=round(time.perf_counter() - start, 1), summary=tail[-1] if tail else "")
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--jobs", type=int, default=2, help="mutants run at the same time (≤ 2 on the shared machine)")
+    parser.add_argument("--only", default="", help="comma-separated mutant names")
+    parser.add_argument("--json", default=str(OUT))
+    parser.add_argument("--check", action="store_true", help="only check that every snippet is found once")
+    args = parser.parse_args(argv)
+    check_catalogue()
+    if args.check:
+        print(f"{len(CATALOGUE)} mutants, every snippet found once")
+        return 0
+    chosen = [m for m in CATALOGUE if not args.only or m.name in args.only.split(",")]
+    start = time.perf_counter()
+    results: list[dict] = []
+    with ThreadPoolExecutor(max_workers=max(1, min(args.jobs, 2))) as pool:
+        for res in pool.map(lambda m: run_one(m, sys.executable), chosen):
+            results.append(res)
+            print(f"{res['status']:8s} {res['name']:24s} {res['seconds']:6.1f} s  {res['killed_by']}", flush=True)
+    out = Path(args.json)
+    previous = json.loads(out.read_text(encoding="utf-8")) if out.exists() and args.only else None
+    if previous:   # a partial run updates those rows of the committed file
+        by_name = {r["name"]: r for r in previous["mutants"]}
+        by_name.update({r["name"]: r for r in results})
+        results = [by_name[m.name] for m in CATALOGUE if m.name in by_name]
+    doc = dict(schema=1, created=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+               machine=f"{platform.node()} {platform.machine()}", command="python benchmarks/mutants.py",
+               seconds=round(time.perf_counter() - start, 1), total=len(results),
+               killed=sum(r["status"] == "killed" for r in results),
+               survived=sum(r["status"] == "survived" for r in results), mutants=results)
+    out.write_text(json.dumps(doc, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
+    print(f"{doc['killed']}/{doc['total']} killed; wrote {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

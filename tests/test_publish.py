@@ -1,0 +1,72 @@
+"""Published numbers come from the results JSON: README.md's and REPORT.md's tables (and every other file
+benchmarks/publish.py renders) equal their rendering from the JSON, so a number edited by hand fails here."""
+from __future__ import annotations
+
+import importlib.util
+import json
+import re
+
+import pytest
+
+
+@pytest.fixture(scope="module")
+def publish(checkout):
+    spec = importlib.util.spec_from_file_location("publish", checkout / "benchmarks" / "publish.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_every_published_file_equals_its_rendering(publish):
+    stale = publish.stale()
+    assert not stale, f"edited by hand or JSON changed without `python benchmarks/publish.py`: {stale}"
+
+
+def _table_rows(text: str, start: str) -> list[list[str]]:
+    block = text[text.index(start):].split("\n\n", 1)[0]
+    rows = [line.strip("|").split("|") for line in block.splitlines() if line.startswith("|")]
+    return [[c.strip() for c in r] for r in rows[2:]]
+
+
+def test_readme_table_numbers_equal_the_json(publish, checkout):
+    text = (checkout / "README.md").read_text(encoding="utf-8")
+    region = text.split("<!-- publish:bench-table -->", 1)[1]
+    rows = _table_rows(region, "| model |")
+    bench = json.loads(publish.BENCH_JSON.read_text(encoding="utf-8"))
+    assert [r[0] for r in rows] == [m["label"] for m in bench["models"]]
+    for cells, m in zip(rows, bench["models"]):
+        assert int(cells[1]) == m["frames"]
+        assert float(cells[2]) == pytest.approx(m["mean_ms"], abs=0.05)
+        assert float(cells[3]) == pytest.approx(m["avg_fps"], abs=0.5)
+        assert float(cells[4]) == pytest.approx(m["low1_fps"], abs=0.5)
+        assert cells[5] == ("–" if m["frames"] < 1000 else f"{m['low01_fps']:.0f}")
+        assert float(cells[6]) == pytest.approx(m["copy_ratio"], abs=0.005)
+        assert float(cells[8]) == pytest.approx(m["max_rel_error"], rel=0.006)
+
+
+def test_report_prints_frames_and_no_low01_below_1000_frames(publish, checkout):
+    text = (checkout / "benchmarks" / "REPORT.md").read_text(encoding="utf-8")
+    doc = json.loads(publish.REPORT_JSON.read_text(encoding="utf-8"))
+    rows = _table_rows(text, "| model | frames |")
+    assert len(rows) == len(doc["models"])
+    for cells, m in zip(rows, doc["models"]):
+        assert int(cells[1]) == m["frames"]
+        assert float(cells[2]) == pytest.approx(m["mean_ms"], abs=0.005)
+        assert (cells[5] == "–") == (m["frames"] < publish.LOW01_MIN_FRAMES)
+    assert ("Noise band:" in text) == (publish.noise_band(doc) is not None)
+
+
+@pytest.mark.parametrize("which", ["README.md", "benchmarks/REPORT.md"])
+def test_a_number_edited_by_hand_is_caught(publish, checkout, which):
+    """Change one digit in a table row of the published file: its rendering no longer matches."""
+    path = checkout / which
+    render = publish.renderings()[path]
+    text = path.read_text(encoding="utf-8")
+    assert render(text) == text
+    rows = [m for m in re.finditer(r"^\| [^|\n]+ \| (\d+) \| (\d+\.\d+) \|", text, re.M)]
+    assert rows, f"no numeric table row in {which}"
+    m = rows[len(rows) // 2]
+    i = m.start(2)
+    digit = text[i]
+    edited = text[:i] + ("1" if digit != "1" else "2") + text[i + 1:]
+    assert render(edited) != edited
