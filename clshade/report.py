@@ -226,6 +226,10 @@ def plot_aa(doc: dict, path: Path) -> None:
     fig, axes = plt.subplots(1, 3, figsize=(13, 4.3))
     rows = doc["ladder"]
     for ax, (key, name) in zip(axes, AA_ERRORS):
+        ax.set_title(name, fontsize=9)
+        if all(r[key] is None for r in rows):
+            ax.text(0.5, 0.5, f"no {name} in this frame", ha="center", transform=ax.transAxes)
+            continue
         for group in dict.fromkeys(r["group"] for r in rows):
             pts = [r for r in rows if r["group"] == group and r[key] is not None]
             errs = [max(r[key], 1e-9) for r in pts]
@@ -239,7 +243,6 @@ def plot_aa(doc: dict, path: Path) -> None:
         ax.set_yscale("log")
         ax.set_xlabel("mean device frame time (ms)")
         ax.set_ylabel(f"mean relative error, {name}")
-        ax.set_title(name, fontsize=9)
     axes[0].legend(fontsize=7)
     t = doc["truth"][0]["samples"] if doc["truth"] else "?"
     fig.suptitle(f"anti-aliasing ladder vs the pixel integral ({t}x{t} float64), {doc['scene']} "

@@ -367,8 +367,8 @@ def test_render_command_samples(tmp_path, capsys):
 
 def test_aa_command_writes_its_results(tmp_path, capsys):
     prefix = tmp_path / "aa"
-    assert main(["aa", "--width", "64", "--height", "30", "--frames", "1", "--truth-samples", "3",
-                 "--check-samples", "4", "--temporal-frames", "2", "-o", str(prefix)]) == 0
+    assert main(["aa", "-m", "ggx_correlated", "--width", "48", "--height", "22", "--frames", "1",
+                 "--truth-samples", "2", "--check-samples", "3", "--temporal-frames", "2", "-o", str(prefix)]) == 0
     for suffix in (".json", ".md", "_ladder.png", "_crops.png"):
         assert (tmp_path / f"aa{suffix}").stat().st_size > 0
     text = capsys.readouterr().out

@@ -45,12 +45,12 @@ from clshade.compare import layout, scene_display
 from clshade.device.resolve import CoverageBlend
 from clshade.device.runtime import Runtime, get_runtime
 from clshade.device.shade import Shader, scene_features
-from clshade.errors import ClshadeError
 from clshade.models import NONE, Model, resolve
 from clshade.pipeline import Frame, prepare_frame
 from clshade.render.meshes import Geometry, build_geometry
 from clshade.render.samples import coverage_gbuffer, jittered, sample_offsets
 from clshade.render.scene import Scene, load_scene
+from clshade.tables import cell
 from clshade.verify import reference
 
 
@@ -335,23 +335,26 @@ def temporal(scene: Scene, geometry: Geometry, models: list[Model], runtime: Run
 
 def crop_boxes(truth: Truth, scene: Scene) -> dict[str, tuple[int, int]]:
     """Top-left corners of a highlight crop (the brightest highlight pixel of the
-    sharpest sphere that still has highlight pixels) and a silhouette crop (the
-    top-left rim of the same sphere)."""
+    sharpest sphere that has highlight pixels; else the brightest covered pixel) and a
+    silhouette crop (the top-left rim of the same sphere; else any silhouette pixel)."""
     m = masks(truth)
     h, w = truth.coverage.shape
+    lum = truth.radiance.sum(-1)
+    box = np.ones((h, w), bool)
     for ball in sorted(spheres(scene), key=lambda b: b.roughness):
         r0, r1, c0, c1 = ball.box()
-        r0, c0 = max(r0, 0), max(c0, 0)
-        hl = np.zeros_like(m["highlight"])
-        hl[r0:r1, c0:c1] = m["highlight"][r0:r1, c0:c1]
-        if hl.any():
-            lum = np.where(hl, truth.radiance.sum(-1), -1)
-            y, x = np.unravel_index(int(np.argmax(lum)), lum.shape)
-            sil = np.argwhere(m["silhouette"][r0:r1, c0:c1])
-            sy, sx = sil[np.argmin(sil[:, 0] + sil[:, 1])] + (r0, c0)
-            clamp = lambda a, n: int(min(max(a - CROP_PX // 2, 0), n - CROP_PX))  # noqa: E731
-            return {"highlight": (clamp(y, h), clamp(x, w)), "silhouette": (clamp(sy + 4, h), clamp(sx + 4, w))}
-    raise ClshadeError("crop sheet: no highlight pixels in the truth frame")
+        inside = np.zeros((h, w), bool)
+        inside[max(r0, 0):max(r1, 0), max(c0, 0):max(c1, 0)] = True
+        if (m["highlight"] & inside).any():
+            box = inside
+            break
+    spot = m["highlight"] & box if (m["highlight"] & box).any() else (truth.coverage > 0)
+    y, x = np.unravel_index(int(np.argmax(np.where(spot, lum, -np.inf))), lum.shape)
+    rim = m["silhouette"] & box if (m["silhouette"] & box).any() else m["silhouette"]
+    sil = np.argwhere(rim) if rim.any() else np.array([[y, x]])
+    sy, sx = sil[np.argmin(sil[:, 0] + sil[:, 1])]
+    clamp = lambda a, n: int(min(max(a - CROP_PX // 2, 0), max(n - CROP_PX, 0)))  # noqa: E731
+    return {"highlight": (clamp(y, h), clamp(x, w)), "silhouette": (clamp(sy + 4, h), clamp(sx + 4, w))}
 
 
 def _zoom(image: np.ndarray, corner: tuple[int, int]) -> np.ndarray:
@@ -377,7 +380,7 @@ def crop_sheet(scene: Scene, models: list[Model], images: dict[tuple[str, str], 
             for kind in ("highlight", "silhouette"):
                 r = None if rung is None else err[(m.id, rung.label)]
                 sub = (f"{t.samples}x{t.samples} float64" if r is None
-                       else f"err {r[kind + '_rel_error']:.3f}, {r['mean_ms']:.2f} ms")
+                       else f"err {cell(r[kind + '_rel_error'], '.3f')}, {r['mean_ms']:.2f} ms")
                 tiles.append((_zoom(disp, corners[m.id][kind]), kind, sub))
         title = f"{t.samples}x{t.samples} ground truth" if rung is None else rung.label
         out.append((f"{title} — {columns}", tiles))
