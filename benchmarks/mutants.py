@@ -1,7 +1,7 @@
 """Mutation testing: does the test suite catch small semantic bugs?
 
 Each mutant of the catalogue is (file, exact original snippet, replacement, description). For every mutant
-the script copies the repository to a temporary folder, applies the one edit (a snippet that is not found
+the script copies the repository (its committed HEAD) to a temporary folder, applies the one edit (a snippet that is not found
 exactly once is an error: the catalogue must track the code), and runs the test suite there, fail-fast,
 with PYTHONPATH pointing at the copy: the copy's Python code and the copy's kernels are the ones used
 (the run checks that clshade.resources.kernels_dir() lies inside the copy; PoCL caches binaries by source,
@@ -212,11 +212,28 @@ def check_catalogue(root: Path = ROOT) -> None:
                              f"{mutant.file}: {mutant.original!r}")
 
 
+def head_commit() -> str | None:
+    proc = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "HEAD"], capture_output=True, text=True)
+    return proc.stdout.strip() if proc.returncode == 0 else None
+
+
+def snapshot(dest: Path) -> None:
+    """The tree under test: the committed HEAD (git archive), so that edits made while the catalogue runs
+    cannot leak into a mutant; a plain copy of the working tree where there is no git checkout."""
+    if head_commit():
+        dest.mkdir(parents=True)
+        archive = subprocess.run(["git", "-C", str(ROOT), "archive", "--format=tar", "HEAD"], capture_output=True,
+                                 check=True)
+        subprocess.run(["tar", "-x", "-C", str(dest)], input=archive.stdout, check=True)
+    else:
+        shutil.copytree(ROOT, dest, ignore=COPY_IGNORE)
+
+
 def run_one(mutant: Mutant, python: str) -> dict:
     start = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix=f"mutant-{mutant.name}-") as tmp:
         copy = Path(tmp) / "repo"
-        shutil.copytree(ROOT, copy, ignore=COPY_IGNORE)
+        snapshot(copy)
         apply(copy, mutant)
         env = dict(os.environ, PYTHONPATH=str(copy), PYTHONDONTWRITEBYTECODE="1")
         env.pop("CLSHADE_EXPECT_INSTALLED", None)
@@ -246,7 +263,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--json", default=str(OUT))
     parser.add_argument("--check", action="store_true", help="only check that every snippet is found once")
     args = parser.parse_args(argv)
-    check_catalogue()
+    commit = head_commit()
+    with tempfile.TemporaryDirectory(prefix="mutants-check-") as tmp:
+        snapshot(Path(tmp) / "repo")
+        check_catalogue(Path(tmp) / "repo")     # the catalogue must match the tree the mutants run on
     if args.check:
         print(f"{len(CATALOGUE)} mutants, every snippet found once")
         return 0
@@ -265,6 +285,7 @@ def main(argv: list[str] | None = None) -> int:
         results = [by_name[m.name] for m in CATALOGUE if m.name in by_name]
     doc = dict(schema=1, created=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
                machine=f"{platform.node()} {platform.machine()}", command="python benchmarks/mutants.py",
+               commit=commit,
                seconds=round(time.perf_counter() - start, 1), total=len(results),
                killed=sum(r["status"] == "killed" for r in results),
                survived=sum(r["status"] == "survived" for r in results), mutants=results)
