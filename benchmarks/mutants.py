@@ -105,6 +105,8 @@ CATALOGUE: list[Mutant] = [
       "s.diffuse_color = base;", "metallic workflow: metals keep a diffuse colour"),
     M("kdks_r0", "kernels/surface.h", "real r0 = (s.ior - 1.0f) / (s.ior + 1.0f);", "real r0 = (s.ior - 1.0f) / (s.ior + 2.0f);",
       "k_d + k_s workflow: F0 from IOR wrong"),
+    M("material_f90", "kernels/surface.h", "    s.f90 = m.f90;", "    s.f90 = (real)(1.0f);",
+      "the material's Schlick f90 ignored (f90 = 1)"),
     M("alpha_floor_square", "kernels/surface.h", "s.alpha = fmax(roughness * roughness, MIN_ALPHA);",
       "s.alpha = fmax(roughness, MIN_ALPHA);", "α = r instead of r²"),
     # ---- composition and workflows (kernels/compose.h)

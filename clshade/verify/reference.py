@@ -574,6 +574,7 @@ def brdf(
     eta: ArrayLike | None = None,
     k: ArrayLike | None = None,
     f0: ArrayLike | None = None,
+    f90: ArrayLike = 1.0,
     kd: ArrayLike = 1.0,
     ks: ArrayLike = 0.0,
     shininess: ArrayLike = 32.0,
@@ -586,7 +587,7 @@ def brdf(
     ``sigma = roughness``.
 
     Fresnel F (microfacet lobes only; channel-last):
-      'schlick'    -- ``f_schlick(v.h, F0)``, ``F0 = f0`` if given, else
+      'schlick'    -- ``f_schlick(v.h, F0, f90)`` (f90 default 1), ``F0 = f0`` if given, else
                       ``mix(DIELECTRIC_F0, base_color, metallic)``;
       'dielectric' -- ``f_dielectric(v.h, ior)`` (metallic ignored for F);
       'conductor'  -- ``f_conductor(v.h, eta, k)`` (eta, k required).
@@ -654,7 +655,9 @@ def brdf(
                 f0_c = DIELECTRIC_F0 * (1.0 - m) + base * m
             else:
                 f0_c = _channels(f0)
-            fres = lambda c: f_schlick(c, f0_c)  # noqa: E731
+            f90_c = _f(f90)
+            f90_c = f90_c[..., None] if f90_c.ndim else f90_c
+            fres = lambda c: f_schlick(c, f0_c, f90_c)  # noqa: E731
         elif fresnel == "dielectric":
             fres = lambda c: f_dielectric(c, _f(ior)[..., None])  # noqa: E731
         else:
