@@ -21,8 +21,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from clshade.bench.run import (Bench, frame_stats, ladder_cases, mark_pareto, plot_fps, plot_ladder,  # noqa: E402
-                           report, run_cases, summarize, with_lights, write_csv)
+from clshade.bench.run import (Bench, frame_stats, ladder_cases, mark_pareto,  # noqa: E402
+                               report, run_cases, summarize, with_lights)
+from clshade.report import bench_csv as write_csv, plot_fps, plot_ladder  # noqa: E402
 from clshade.models import resolve_many  # noqa: E402
 
 OUT = ROOT / "benchmarks" / "results"

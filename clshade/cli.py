@@ -4,7 +4,6 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from importlib import import_module
 from pathlib import Path
 
 from clshade import __version__
@@ -65,14 +64,87 @@ def build_parser() -> argparse.ArgumentParser:
                            description="Measurements that back the claims clshade makes about its models.")
     checks = check.add_subparsers(dest="check", metavar="CHECK")
     checks.required = True
-    for module in EXTENSIONS:
-        import_module(f"clshade.{module}").add_parser(sub, checks)
+    _add_compare(sub)
+    _add_bench(sub)
+    _add_checks(checks)
     return parser
 
 
-# Modules that add commands: each defines add_parser(sub, checks), where `sub`
-# holds the top-level commands and `checks` the `clshade check ...` commands.
-EXTENSIONS: tuple[str, ...] = ("compare", "bench.run", "verify.stability", "verify.plausibility")
+def _add_compare(sub: argparse._SubParsersAction) -> None:
+    from clshade.compare import SWEEP_ROUGHNESS
+    p = sub.add_parser("compare", help="contact sheet of several models on one G-buffer",
+                       description="Rasterise once, shade with every model, write a labelled contact sheet "
+                                   "(model name and device time per frame under each tile).")
+    p.add_argument("scene")
+    p.add_argument("-m", "--models", default="all", help="comma-separated models, a group "
+                   "(diffuse, empirical, microfacet) or all (default)")
+    p.add_argument("-o", "--output", default="sheet.png")
+    p.add_argument("--reference", help="add a false-colour difference row against this model")
+    p.add_argument("--width", type=int, default=None)
+    p.add_argument("--height", type=int, default=None)
+    p.add_argument("--tile", type=int, default=320, help="tile width when --width is not given (default 320)")
+    p.add_argument("--device")
+    p.set_defaults(func=cmd_compare)
+
+    p = sub.add_parser("sweep", help="smoothness sweep: rows = models, columns = roughness",
+                       description="The study's Figure 4: the same material at increasing roughness, per model. "
+                                   "Normalised models brighten their highlights as they narrow.")
+    p.add_argument("scene", nargs="?", help="scene (default: the bundled red_ball.toml)")
+    p.add_argument("-m", "--models", default="phong,phong_normalized,blinn_phong,blinn_phong_normalized,"
+                   "cook_torrance,walter_ggx,ggx_correlated")
+    p.add_argument("-o", "--output", default="sweep.png")
+    p.add_argument("--roughness", default=",".join(f"{r:g}" for r in SWEEP_ROUGHNESS),
+                   help="comma-separated roughness values (columns)")
+    p.add_argument("--size", type=int, default=160, help="tile size in pixels")
+    p.add_argument("--device")
+    p.set_defaults(func=cmd_sweep)
+
+
+def _add_bench(sub: argparse._SubParsersAction) -> None:
+    from clshade.bench.run import NUMPY_FRAMES
+    p = sub.add_parser("bench", help="frame-time statistics, accuracy and bandwidth floor per model",
+                       description="Rasterise SCENE once, dispatch each model's kernel N times and report FPS "
+                                   "with 1 % and 0.1 % lows, the copy-kernel floor, the NumPy float32 "
+                                   "baseline (timed in the same rounds, wall time on both sides) and the error "
+                                   "against the float64 frame oracle.")
+    p.add_argument("scene", help="scene file (TOML)")
+    p.add_argument("-m", "--models", default="all", help="comma-separated models, a group or 'all' (default)")
+    p.add_argument("--frames", type=int, default=1000, help="timed frames per model (default 1000)")
+    p.add_argument("--warmup", type=int, default=10, help="untimed frames per kernel first (default 10)")
+    p.add_argument("--width", type=int, help="override camera.width")
+    p.add_argument("--height", type=int, help="override camera.height")
+    p.add_argument("--lights", type=int, help="use exactly N lights (extra directional lights are added)")
+    p.add_argument("--ladder", action="store_true", help="also run the approximation ladders")
+    p.add_argument("--numpy-frames", type=int, default=NUMPY_FRAMES,
+                   help=f"NumPy frames per model, spread over the timed rounds (median; default {NUMPY_FRAMES})")
+    p.add_argument("--json", metavar="OUT", help="write the results as JSON (docs/bench-schema.md)")
+    p.add_argument("--csv", metavar="OUT", help="write the per-model table as CSV")
+    p.add_argument("--plot", metavar="OUT.png", help="bar chart of FPS and lows (ladder plot beside it)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    p.add_argument("--device", metavar="D", help="OpenCL device (see `clshade devices`)")
+    p.set_defaults(func=cmd_bench)
+
+
+def _add_checks(checks: argparse._SubParsersAction) -> None:
+    p = checks.add_parser("plausibility", help="non-negativity, reciprocity and energy conservation of every preset",
+                          description="Measure, on the OpenCL device, each preset's minimum f, reciprocity error "
+                                      "and maximum directional albedo over a roughness/shininess sweep, and give "
+                                      "the verdicts (physically based = all three).")
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.add_argument("--device", metavar="D", help="OpenCL device (see `clshade devices`)")
+    p.add_argument("--quick", action="store_true", help="the reduced sweep of `clshade models` (a few seconds)")
+    p.set_defaults(func=cmd_plausibility)
+
+    p = checks.add_parser("stability", help="torture grid: raw NaN/Inf/negative counts before any clamp, "
+                          "saturated pixels, deviation from float64",
+                          description="Hard inputs for every preset on the device, both builds (precise and fast "
+                                      "math), through the BRDF evaluation and the whole shading pass with every "
+                                      "light kind; NaN/Inf/negative counted on the raw radiance.")
+    p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.add_argument("--device", metavar="D", help="OpenCL device (see `clshade devices`)")
+    p.add_argument("--model", metavar="M", help="restrict to these models (comma-separated; default: every preset, "
+                   "microfacet presets with each Fresnel)")
+    p.set_defaults(func=cmd_stability)
 
 
 def _size(value: int | None, name: str) -> int | None:
@@ -176,6 +248,101 @@ def cmd_devices(args: argparse.Namespace) -> int:
         print(f"{mark} {info.spec}  {info.kind:10s} {info.device}  |  {info.platform} | {info.platform_version}")
     print("(* = default; choose with --device P:D or CLSHADE_DEVICE)")
     return 0
+
+
+def cmd_compare(args: argparse.Namespace) -> int:
+    from clshade.compare import compare_sheet, write_sheet
+    from clshade.models import resolve, resolve_many
+    from clshade.render.image import check_output_path
+    from clshade.render.scene import load_scene
+    scene = load_scene(args.scene)
+    check_output_path(Path(args.output), scene.inputs())
+    models = resolve_many(args.models)
+    width = args.width or args.tile
+    height = args.height or max(1, round(width * scene.camera.height / scene.camera.width))
+    reference = resolve(args.reference) if args.reference else None
+    sheet, tiles = compare_sheet(scene, models, width=width, height=height, reference=reference, device=args.device)
+    out = write_sheet(args.output, sheet, scene.inputs())
+    print(f"wrote {out} ({len(tiles)} models, {width}x{height} tiles)")
+    for t in tiles:
+        print(f"  {t.model.label:28s} {t.ms:8.3f} ms/frame")
+    return 0
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    from clshade.compare import sweep_sheet, write_sheet
+    from clshade.models import resolve_many
+    from clshade.render.image import check_output_path
+    from clshade.render.scene import load_scene
+    from clshade.resources import scenes_dir
+    scene = load_scene(args.scene or scenes_dir() / "red_ball.toml")
+    check_output_path(Path(args.output), scene.inputs())
+    try:
+        values = tuple(float(x) for x in args.roughness.split(",") if x.strip())
+    except ValueError as exc:
+        raise ClshadeError(f"--roughness = {args.roughness!r}: not a list of numbers") from exc
+    if not values or any(not 0 <= v <= 1 for v in values):
+        raise ClshadeError(f"--roughness = {args.roughness!r}: values must be within [0, 1]")
+    sheet = sweep_sheet(scene, resolve_many(args.models), values, size=args.size, device=args.device)
+    out = write_sheet(args.output, sheet, scene.inputs())
+    print(f"wrote {out}")
+    return 0
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    from clshade.bench.run import run_bench
+    from clshade.models import resolve_many
+    from clshade.report import bench_csv, bench_plots, bench_text
+    progress = None
+    if not args.no_progress:
+        from tqdm import tqdm
+        bar = tqdm(total=args.frames, desc="bench", unit="round", file=sys.stderr, leave=False)
+        progress = lambda done, total: bar.update(done - bar.n)  # noqa: E731
+    doc = run_bench(args.scene, resolve_many(args.models), args.frames, args.warmup, width=args.width,
+                    height=args.height, lights=args.lights, ladder=args.ladder, numpy_frames=args.numpy_frames,
+                    device=args.device, progress=progress)
+    if progress is not None:
+        bar.close()
+    print(bench_text(doc))
+    if args.json:
+        Path(args.json).write_text(json.dumps(doc, indent=2, ensure_ascii=False), encoding="utf-8")
+    if args.csv:
+        bench_csv(doc["models"], Path(args.csv))
+    if args.plot:
+        bench_plots(doc, Path(args.plot))
+    return 0
+
+
+def cmd_plausibility(args: argparse.Namespace) -> int:
+    from dataclasses import asdict
+    from clshade.verify import plausibility as P
+    sweep = P.QUICK if args.quick else P.Sweep()
+    verdicts = P.evaluate_presets(sweep, args.device)
+    if args.json:
+        print(json.dumps({"energy_tol": P.ENERGY_TOL, "reciprocity_tol": P.RECIPROCITY_TOL,
+                          "sweep": asdict(sweep), "presets": [v.as_dict() for v in verdicts]},
+                         indent=2, ensure_ascii=False))
+    else:
+        for line in P.table(verdicts) + [""] + P.describe_method(sweep):
+            print(line)
+    return 0 if all(v.non_negative and v.reciprocal for v in verdicts) else 1
+
+
+def cmd_stability(args: argparse.Namespace) -> int:
+    from clshade.models import FRESNELS, resolve_many
+    from clshade.report import stability_text
+    from clshade.verify import stability
+    models = None
+    if args.model:
+        models = []
+        for m in resolve_many(args.model):
+            models += [m.with_options(fresnel=f) for f in FRESNELS] if m.uses_fresnel else [m]
+    rep = stability.run(models, device=args.device)
+    if args.json:
+        print(json.dumps(rep.as_dict(), indent=2, ensure_ascii=False, default=str))
+    else:
+        print(stability_text(rep))
+    return 0 if rep.ok else 1
 
 
 def main(argv: list[str] | None = None) -> int:

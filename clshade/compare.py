@@ -12,8 +12,8 @@ from pathlib import Path
 import numpy as np
 
 from clshade.errors import ClshadeError
-from clshade.render.image import srgb_encode, tonemap
-from clshade.models import GROUPS, Model, resolve, resolve_many
+from clshade.render.image import display, srgb_decode
+from clshade.models import GROUPS, Model
 from clshade.pipeline import Frame, prepare_frame
 from clshade.device.runtime import Runtime, get_runtime
 from clshade.render.scene import Scene, load_scene
@@ -53,9 +53,9 @@ def shade_all(frame: Frame, models: list[Model], runtime: Runtime, repeats: int 
     return tiles
 
 
-def to_display(image: np.ndarray, scene: Scene) -> np.ndarray:
-    """Linear radiance → display sRGB floats in [0, 1], with the scene's exposure and tone map."""
-    return srgb_encode(tonemap(image[..., :3], scene.tonemap, scene.exposure)).astype(np.float32)
+def scene_display(image: np.ndarray, scene: Scene) -> np.ndarray:
+    """image.display with the scene's tone map and exposure (sRGB floats in [0, 1])."""
+    return display(image, scene.tonemap, scene.exposure)
 
 
 def false_colour(x: np.ndarray) -> np.ndarray:
@@ -133,16 +133,16 @@ def compare_sheet(scene: Scene | str | Path, models: list[Model], *, width: int 
     tiles = shade_all(frame, models, rt)
     rows = []
     for group, items in group_rows(tiles):
-        rows.append((group, [(to_display(t.image, frame.scene), t.model.label, f"{t.ms:.2f} ms/frame")
+        rows.append((group, [(scene_display(t.image, frame.scene), t.model.label, f"{t.ms:.2f} ms/frame")
                              for t in items]))
     if reference is not None:
         ref_tile = next((t for t in tiles if t.model == reference), None) or shade_all(frame, [reference], rt)[0]
-        ref_rgb = to_display(ref_tile.image, frame.scene)
-        diffs = [difference(to_display(t.image, frame.scene), ref_rgb) for t in tiles if t.model != reference]
+        ref_rgb = scene_display(ref_tile.image, frame.scene)
+        diffs = [difference(scene_display(t.image, frame.scene), ref_rgb) for t in tiles if t.model != reference]
         scale = max((s for _, s in diffs), default=1.0)
         rows.append((f"|model - {reference.label}| (display values, full scale = {scale:.3f})",
-                     [(difference(to_display(t.image, frame.scene), ref_rgb, scale)[0], t.model.label,
-                       f"max {np.abs(to_display(t.image, frame.scene) - ref_rgb).max():.3f}")
+                     [(difference(scene_display(t.image, frame.scene), ref_rgb, scale)[0], t.model.label,
+                       f"max {np.abs(scene_display(t.image, frame.scene) - ref_rgb).max():.3f}")
                       for t in tiles if t.model != reference]))
     return layout(rows), tiles
 
@@ -166,7 +166,7 @@ def sweep_sheet(scene: Scene | str | Path, models: list[Model], roughness: tuple
         cells = []
         for r, frame, tiles in columns:
             n = next(iter(frame.scene.materials.values())).exponent
-            cells.append((to_display(tiles[i].image, frame.scene), f"r = {r:g}", f"n = {n:.3g}"))
+            cells.append((scene_display(tiles[i].image, frame.scene), f"r = {r:g}", f"n = {n:.3g}"))
         rows.append((model.label, cells))
     return layout(rows)
 
@@ -175,68 +175,6 @@ def write_sheet(path: str | Path, sheet: np.ndarray, protected=()) -> Path:
     """Write a display-referred sheet (already sRGB encoded) as 8-bit."""
     from clshade.render.image import write_image
     # write_image tone maps linear input; hand it values that survive 'none' + sRGB unchanged.
-    linear = np.where(sheet <= 0.04045, sheet / 12.92, ((sheet + 0.055) / 1.055) ** 2.4)
+    linear = srgb_decode(sheet)
     rgba = np.concatenate([linear, np.ones(linear.shape[:2] + (1,), np.float32)], axis=-1)
     return write_image(path, rgba, "none", 0.0, protected)
-
-
-def add_parser(sub, checks) -> None:
-    p = sub.add_parser("compare", help="contact sheet of several models on one G-buffer",
-                       description="Rasterise once, shade with every model, write a labelled contact sheet "
-                                   "(model name and device time per frame under each tile).")
-    p.add_argument("scene")
-    p.add_argument("-m", "--models", default="all", help="comma-separated models, a group "
-                   "(diffuse, empirical, microfacet) or all (default)")
-    p.add_argument("-o", "--output", default="sheet.png")
-    p.add_argument("--reference", help="add a false-colour difference row against this model")
-    p.add_argument("--width", type=int, default=None)
-    p.add_argument("--height", type=int, default=None)
-    p.add_argument("--tile", type=int, default=320, help="tile width when --width is not given (default 320)")
-    p.add_argument("--device")
-    p.set_defaults(func=_cmd_compare)
-
-    p = sub.add_parser("sweep", help="smoothness sweep: rows = models, columns = roughness",
-                       description="The study's Figure 4: the same material at increasing roughness, per model. "
-                                   "Normalised models brighten their highlights as they narrow.")
-    p.add_argument("scene", nargs="?", help="scene (default: the bundled red_ball.toml)")
-    p.add_argument("-m", "--models", default="phong,phong_normalized,blinn_phong,blinn_phong_normalized,"
-                   "cook_torrance,walter_ggx,ggx_correlated")
-    p.add_argument("-o", "--output", default="sweep.png")
-    p.add_argument("--roughness", default=",".join(f"{r:g}" for r in SWEEP_ROUGHNESS),
-                   help="comma-separated roughness values (columns)")
-    p.add_argument("--size", type=int, default=160, help="tile size in pixels")
-    p.add_argument("--device")
-    p.set_defaults(func=_cmd_sweep)
-
-
-def _cmd_compare(args) -> int:
-    from clshade.render.image import check_output_path
-    scene = load_scene(args.scene)
-    check_output_path(Path(args.output), scene.inputs())
-    models = resolve_many(args.models)
-    width = args.width or args.tile
-    height = args.height or max(1, round(width * scene.camera.height / scene.camera.width))
-    reference = resolve(args.reference) if args.reference else None
-    sheet, tiles = compare_sheet(scene, models, width=width, height=height, reference=reference, device=args.device)
-    out = write_sheet(args.output, sheet, scene.inputs())
-    print(f"wrote {out} ({len(tiles)} models, {width}x{height} tiles)")
-    for t in tiles:
-        print(f"  {t.model.label:28s} {t.ms:8.3f} ms/frame")
-    return 0
-
-
-def _cmd_sweep(args) -> int:
-    from clshade.render.image import check_output_path
-    from clshade.resources import scenes_dir
-    scene = load_scene(args.scene or scenes_dir() / "red_ball.toml")
-    check_output_path(Path(args.output), scene.inputs())
-    try:
-        values = tuple(float(x) for x in args.roughness.split(",") if x.strip())
-    except ValueError as exc:
-        raise ClshadeError(f"--roughness = {args.roughness!r}: not a list of numbers") from exc
-    if not values or any(not 0 <= v <= 1 for v in values):
-        raise ClshadeError(f"--roughness = {args.roughness!r}: values must be within [0, 1]")
-    sheet = sweep_sheet(scene, resolve_many(args.models), values, size=args.size, device=args.device)
-    out = write_sheet(args.output, sheet, scene.inputs())
-    print(f"wrote {out}")
-    return 0

@@ -15,6 +15,9 @@
  *   HALF_GBUFFER                   normal and base colour stored as half floats
  *   HAS_SHADOWS, SHADOW_PCF        shadow-map lookup (shadow.h), PCF kernel width
  *   SIMD                           pixels per work-item (1, 4 or 8)
+ *   RAW_RADIANCE                   no MAX_RADIANCE clamp: the radiance as summed,
+ *                                  NaN/Inf included (`clshade check stability`
+ *                                  counts them before any clamp)
  *   GENERAL                        the general kernel: every channel read, the
  *                                  light count, ambient and shadows runtime
  *                                  switches; the reference every specialised
@@ -250,6 +253,8 @@ __kernel void shade(
     L = v3add(L, ambient_term(v3c(ambient.xyz), s));
 #endif
 #endif
-    L = v3min(L, MAX_RADIANCE);
+#ifndef RAW_RADIANCE
+    L = v3min(L, MAX_RADIANCE);   /* fmin: also turns a NaN into MAX_RADIANCE */
+#endif
     store4(i, out, v3select(covered, L, v3c(background.xyz)), covered ? (real)(1.0f) : (real)(background.w));
 }

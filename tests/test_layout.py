@@ -15,13 +15,13 @@ import clshade
 PACKAGE = Path(clshade.__file__).resolve().parent
 
 RANK = {
-    "clshade": 0, "clshade.errors": 0, "clshade.resources": 0,
+    "clshade": 0, "clshade.errors": 0, "clshade.resources": 0, "clshade.tables": 0,
     "clshade.models": 1,
     "clshade.render": 2,
     "clshade.device": 3,
     "clshade.pipeline": 4,
     "clshade.verify": 5,
-    "clshade.bench": 6, "clshade.compare": 6,
+    "clshade.bench": 6, "clshade.compare": 6, "clshade.report": 6,
     "clshade.cli": 7, "clshade.__main__": 7,
 }
 

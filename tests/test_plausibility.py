@@ -33,19 +33,6 @@ def test_burley_exceeds_one_at_roughness_one(runtime) -> None:
     assert value > 1.0 + CLOSED_FORM_TOL
 
 
-def test_quadrature_matches_reference_rule() -> None:
-    """The device rule integrates a float64 function as reference.directional_albedo does."""
-    import numpy as np
-    from clshade.verify import reference as R
-    for mu_v in (1.0, 0.3):
-        v = P.view_vector(mu_v)
-        fn = lambda n, l, vv: R.brdf("oren_nayar", "ggx_correlated", n, l, vv, base_color=1.0,  # noqa: E731
-                                     roughness=0.3, metallic=1.0)[..., 0]
-        l, w = P.hemisphere_rule(mu_v, 2 * P.ORDER, P.LEVELS)
-        ours = float(w @ fn(np.array([0.0, 0.0, 1.0]), l, v))
-        assert abs(ours - R.directional_albedo(fn, v=v)) < 1e-6
-
-
 def test_verdicts_separate_empirical_from_physically_based() -> None:
     verdicts = {v.preset: v for v in P.evaluate_presets(P.QUICK)}
     for preset in ("lambert+phong", "lambert+blinn_phong"):            # unnormalised: albedo > 1

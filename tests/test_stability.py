@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from clshade.verify import stability
 from clshade.models import resolve
+from clshade.report import stability_text
 
 # docs/stability.md: "where no clamp is active the precise build stays within 3e-4 of the float64 reference".
 DOCUMENTED_PRECISE_DEVIATION = 3e-4
@@ -11,7 +12,48 @@ DOCUMENTED_PRECISE_DEVIATION = 3e-4
 def test_grid_finite_non_negative_and_accurate() -> None:
     models = [resolve("ggx_correlated@conductor"), resolve("ggx_correlated@dielectric"), resolve("phong")]
     rep = stability.run(models, extras=False)
-    assert rep.ok, stability.format_report(rep)
+    assert rep.ok, stability_text(rep)
     assert rep.results and all(r.cases > 0 for r in rep.results)
     precise = [r for r in rep.results if not r.fast_math]
-    assert all(r.max_deviation_unclamped < DOCUMENTED_PRECISE_DEVIATION for r in precise), stability.format_report(rep)
+    assert all(r.max_deviation_unclamped < DOCUMENTED_PRECISE_DEVIATION for r in precise), stability_text(rep)
+
+
+def test_raw_radiance_shows_what_the_clamp_hides(runtime) -> None:
+    """A NaN in the shading sum (here a NaN ambient channel, which scene files cannot
+    produce) is turned into MAX_RADIANCE by the shipped build's fmin; the raw build that
+    `check stability` counts on writes it as NaN."""
+    import dataclasses
+
+    import numpy as np
+
+    from clshade.device.shade import Shader, scene_features
+    from clshade.render.gbuffer import GBuffer, material_table
+    from clshade.render.scene import Camera, Material, Scene
+
+    w, h = 8, 2
+    npix = w * h
+    channels = {"depth": np.full(npix, 1.0, np.float32), "normal": np.tile([0, 0, 1.0], npix).astype(np.float32),
+                "base": np.full(3 * npix, 0.5, np.float32), "roughness": np.full(npix, 0.5, np.float32),
+                "metallic": np.zeros(npix, np.float32), "material": np.zeros(npix, np.uint8)}
+    camera = Camera(position=np.array([0.0, 0.0, 1.0]), target=np.zeros(3), up=np.array([0.0, 1.0, 0.0]),
+                    fov=10.0, width=w, height=h)
+    scene = Scene(path=None, camera=camera, lights=(), materials={"m": Material("m")}, objects=(),
+                  ambient=(1.0, float("nan"), 1.0))
+    gb = GBuffer(w, h, channels, material_table(scene), np.ones((h, w), bool))
+    shader = Shader(runtime, gb, scene, camera)
+    features = scene_features(scene)
+    model = resolve("lambert")
+    shipped = shader.render(model, features)[..., :3]
+    raw = shader.render(model, dataclasses.replace(features, raw_radiance=True))[..., :3]
+    assert np.isfinite(shipped).all() and (shipped[..., 1] == np.float32(stability.MAX_RADIANCE)).all()
+    assert np.isnan(raw[..., 1]).all() and np.isfinite(raw[..., [0, 2]]).all()
+
+
+def test_json_reports_raw_counts_saturation_and_distinct_inputs() -> None:
+    rep = stability.run([resolve("lambert")], extras=False).as_dict()
+    raw = rep["raw_radiance"]
+    assert {"nan", "inf", "negative", "saturated_pixels", "max_radiance", "clamped_build_nonfinite"} <= set(raw)
+    assert set(rep["distinct_inputs"]) == {"precise", "fast"} == set(rep["builds"])
+    # per build, distinct inputs are fewer than the evaluations of both builds (normal scales coincide)
+    assert 0 < rep["distinct_inputs"]["precise"] < rep["cases"] / 2
+    assert all(s["deviation_pixels"] > 0 and s["max_deviation"] < stability.PRECISE_TOLERANCE for s in rep["shading"])

@@ -51,6 +51,7 @@ class Features:
     half_gbuffer: bool = False
     fast_math: bool = False
     general: bool = False          # the general kernel; the fields above are its runtime switches
+    raw_radiance: bool = False     # no MAX_RADIANCE clamp: NaN/Inf reach the output (stability check only)
 
     @property
     def num_lights(self) -> int:
@@ -66,6 +67,8 @@ class Features:
         out.append(f"textures: {'on (sampled into the G-buffer on the host, trilinear mipmaps)' if self.textures else 'off'}")
         out.append(f"G-buffer storage: {'half (normal, base colour)' if self.half_gbuffer else 'float32'}")
         out.append(f"math: {'fast-relaxed' if self.fast_math else 'precise'}")
+        if self.raw_radiance:
+            out.append("radiance: RAW (no MAX_RADIANCE clamp; NaN/Inf written as computed)")
         out.append("output: exposure, tone map and sRGB encoding on the host (clshade/render/image.py)")
         return out
 
@@ -132,11 +135,12 @@ class Variant:
 
     def defines(self) -> dict[str, str]:
         f, m = self.features, self.model
+        raw = {"RAW_RADIANCE": "1"} if f.raw_radiance else {}
         if f.general:
             return {"GENERAL": "1", "HAS_DIFFUSE": str(int(m.diffuse != NONE)),
                     "HAS_SPECULAR": str(int(m.specular != NONE)),
                     "SPECULAR_FRESNEL": str(int(m.uses_fresnel)),
-                    "FRESNEL": FRESNEL_DEFINES[m.fresnel], "WORKFLOW": WORKFLOW_DEFINES[m.workflow]}
+                    "FRESNEL": FRESNEL_DEFINES[m.fresnel], "WORKFLOW": WORKFLOW_DEFINES[m.workflow], **raw}
         d = {
             "NUM_DIR": str(f.num_dir), "NUM_POINT": str(f.num_point), "NUM_SPOT": str(f.num_spot),
             "HAS_AMBIENT": str(int(f.ambient)),
@@ -154,6 +158,7 @@ class Variant:
             d["SHADOW_PCF"] = str(f.shadow_pcf)
         if f.half_gbuffer:
             d["HALF_GBUFFER"] = "1"
+        d.update(raw)
         if self.baked_material is not None:
             values = np.asarray(self.baked_material, np.float32).reshape(4, 4)
             for r in range(4):

@@ -37,16 +37,28 @@ def tonemap(rgb: np.ndarray, method: str = "aces", exposure: float = 0.0) -> np.
     return np.clip(y, 0.0, 1.0)
 
 
+# The sRGB codec (IEC 61966-2-1): the one encode and the one decode of the package.
 def srgb_encode(linear: np.ndarray) -> np.ndarray:
-    """The sRGB OETF (IEC 61966-2-1) on values in [0, 1]."""
+    """The sRGB OETF on values in [0, 1] (clipped)."""
     c = np.clip(linear, 0.0, 1.0)
     return np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1 / 2.4) - 0.055)
 
 
+def srgb_decode(encoded: np.ndarray) -> np.ndarray:
+    """The sRGB EOTF: encoded [0, 1] (clipped) → linear, float32."""
+    c = np.clip(encoded, 0.0, 1.0)
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4).astype(np.float32)
+
+
+def display(image: np.ndarray, method: str = "aces", exposure: float = 0.0) -> np.ndarray:
+    """The display transform: (H, W, 3 or 4) linear radiance → (H, W, 3) sRGB-encoded float32
+    in [0, 1] (exposure, tone map, sRGB OETF)."""
+    return srgb_encode(tonemap(image[..., :3], method, exposure)).astype(np.float32)
+
+
 def to_display(image: np.ndarray, method: str = "aces", exposure: float = 0.0) -> np.ndarray:
-    """(H, W, 4) linear radiance + coverage → (H, W, 3) uint8 sRGB."""
-    encoded = srgb_encode(tonemap(image[..., :3], method, exposure))
-    return np.round(encoded * 255.0).astype(np.uint8)
+    """:func:`display` quantised to (H, W, 3) uint8, as PNG/JPEG store it."""
+    return np.round(display(image, method, exposure) * 255.0).astype(np.uint8)
 
 
 def check_output_path(path: Path, protected: list[Path] | tuple[Path, ...] = ()) -> Path:

@@ -25,6 +25,7 @@ from clshade.render.meshes import Geometry
 from clshade.render.raster import rasterize
 from clshade.render.scene import Light, Scene
 from clshade.render.transforms import look_along, orthographic, perspective
+from clshade.resources import constant
 
 SHADOW_ROWS = 6
 # Depth written where a map sees no surface: any receiver is nearer, so lit.
@@ -102,3 +103,44 @@ def build_shadow_maps(scene: Scene, geometry: Geometry) -> ShadowMaps | None:
         params[slot, 5] = [texel, float(perspective), 0.0, 0.0]
         slots[index] = slot
     return ShadowMaps(size, scene.shadow_pcf, maps, params, tuple(slots))
+
+
+def shadow_visibility(shadows: ShadowMaps, points: np.ndarray, normals: np.ndarray, *,
+                      offset: tuple[float, float] = (0.0, 0.0)) -> np.ndarray:
+    """(num_lights, K) fraction of PCF taps that see each light from the points (K, 3)
+    with unit shading normals (K, 3), in float64, as the lookup of kernels/shadow.h is
+    documented: the point moves texel · (radius + SHADOW_NORMAL_OFFSET_TEXELS) along its
+    normal, its light-view depth less texel · SHADOW_BIAS_TEXELS is compared with each
+    of the (2·radius + 1)² map texels around its projection; taps outside the map, and
+    points behind a spot's projection centre, are lit. Lights without a map: 1.
+    `offset` moves the projection by that many texels (x right, y down)."""
+    radius = shadows.pcf // 2
+    normal_offset, bias = constant("SHADOW_NORMAL_OFFSET_TEXELS"), constant("SHADOW_BIAS_TEXELS")
+    size = shadows.size
+    P = np.asarray(points, np.float64)
+    n = np.asarray(normals, np.float64)
+    out = np.ones((len(shadows.light_slot), len(P)))
+    for light, slot in enumerate(shadows.light_slot):
+        if slot < 0:
+            continue
+        m = shadows.params[slot].astype(np.float64)
+        depth = lambda q: q @ m[4, :3] + m[4, 3]  # noqa: E731  light-view depth
+        texel = m[5, 0] * depth(P) if m[5, 1] > 0.5 else np.full(len(P), m[5, 0])
+        q = P + n * (texel * (radius + normal_offset))[:, None]
+        clip = q @ m[:4, :3].T + m[:4, 3]
+        front = clip[:, 3] > 0
+        w = np.where(front, clip[:, 3], 1.0)
+        fx = (clip[:, 0] / w * 0.5 + 0.5) * size + offset[0]
+        fy = (0.5 - clip[:, 1] / w * 0.5) * size + offset[1]
+        ref = depth(q) - texel * bias
+        ix = np.floor(np.clip(fx, -radius - 1, size + radius)).astype(np.int64)
+        iy = np.floor(np.clip(fy, -radius - 1, size + radius)).astype(np.int64)
+        lit = np.zeros(len(P))
+        for dy in range(-radius, radius + 1):
+            for dx in range(-radius, radius + 1):
+                x, y = ix + dx, iy + dy
+                inside = (x >= 0) & (y >= 0) & (x < size) & (y < size)
+                stored = shadows.maps[slot][np.where(inside, y, 0), np.where(inside, x, 0)]
+                lit += ~inside | (ref <= stored)
+        out[light] = np.where(front, lit / (2 * radius + 1) ** 2, 1.0)
+    return out

@@ -28,16 +28,11 @@ from pathlib import Path
 import numpy as np
 
 from clshade.errors import located
+from clshade.render.image import srgb_decode
 
 # A texture set whose tangent frame has |T|² below this keeps the interpolated
 # normal: degenerate UVs (all corners mapped to one texel) define no tangent.
 MIN_TANGENT_LEN2 = 1e-20
-
-
-def srgb_decode(encoded: np.ndarray) -> np.ndarray:
-    """The sRGB EOTF (IEC 61966-2-1): encoded [0, 1] → linear."""
-    c = np.clip(encoded, 0.0, 1.0)
-    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4).astype(np.float32)
 
 
 def _half(a: np.ndarray) -> np.ndarray:

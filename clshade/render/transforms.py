@@ -49,17 +49,21 @@ def orthographic(left: float, right: float, bottom: float, top: float, near: flo
     return m
 
 
-def pixel_rays(view: np.ndarray, proj: np.ndarray, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
-    """World-space rays through the pixel centres (row 0 at the top), by inverting
-    proj @ view: origins on the near plane and unit directions, each (H·W, 3). The
-    rasterizer's oracle (an independent ray caster) and the raster benchmark use it."""
+def pixel_rays(view: np.ndarray, proj: np.ndarray, width: int, height: int,
+               index: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """World-space rays through the pixel centres (row 0 at the top; pixel (i, j) at
+    (j + 0.5, i + 0.5)), by inverting proj @ view: origins on the near plane and unit
+    directions, each (H·W, 3), or (K, 3) for the flat pixel indices `index`. The one
+    camera-ray function: the rasterizer's oracle (an independent ray caster), the
+    frame oracle (clshade.verify.reference) and the raster benchmark use it."""
     inv = np.linalg.inv(proj @ view)
-    j, i = np.meshgrid(np.arange(width), np.arange(height))
-    x = (j + 0.5) / width * 2.0 - 1.0
-    y = 1.0 - (i + 0.5) / height * 2.0
-    ends = []
-    for z_ndc in (-1.0, 1.0):
-        p = np.stack([x, y, np.full_like(x, z_ndc), np.ones_like(x)], axis=-1).reshape(-1, 4) @ inv.T
-        ends.append(p[:, :3] / p[:, 3:])
+    flat = np.arange(width * height) if index is None else np.asarray(index)
+    i, j = np.divmod(flat, width)
+    x = (j + 0.5) * (2.0 / width) - 1.0
+    y = 1.0 - (i + 0.5) * (2.0 / height)
+    # inv · (x, y, ±1, 1) as outer products with its columns (cheaper than a (K, 4) matmul)
+    xy = x[:, None] * inv[:, 0] + y[:, None] * inv[:, 1] + inv[:, 3]
+    near, far = xy - inv[:, 2], xy + inv[:, 2]
+    ends = [p[:, :3] / p[:, 3:] for p in (near, far)]
     d = ends[1] - ends[0]
-    return ends[0], d / np.linalg.norm(d, axis=1, keepdims=True)
+    return ends[0], d / np.sqrt(np.einsum("ij,ij->i", d, d))[:, None]

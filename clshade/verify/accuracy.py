@@ -30,13 +30,13 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass
-from functools import lru_cache
 from typing import Callable
 
 import numpy as np
 
 from clshade.verify import reference as R
 from clshade.errors import ClshadeError
+from clshade.resources import KernelConstant, constant, kernel_constants  # noqa: F401
 from clshade.device.evaluate import Samples, eval_brdf
 from clshade.models import NONE, Model, presets, resolve
 from clshade.resources import kernels_dir
@@ -121,38 +121,8 @@ def f32(x) -> np.ndarray:
 
 # ---- kernel constants ------------------------------------------------------
 
-@dataclass(frozen=True)
-class KernelConstant:
-    """A `#define NAME value` of a kernel header with the comment above it."""
-    name: str
-    value: float
-    comment: str
-    file: str
-
-
-_DEFINE = re.compile(r"/\*(?P<comment>(?:(?!\*/).)*)\*/\s*#define\s+(?P<name>[A-Z0-9_]+)\s+(?P<value>[-+0-9.eE]+)f?\s*$",
-                     re.S | re.M)
-
-
-@lru_cache(maxsize=None)
-def kernel_constants() -> dict[str, KernelConstant]:
-    """Named numeric constants of brdf.h and surface.h (the clamps), read from the headers."""
-    out: dict[str, KernelConstant] = {}
-    for name in ("brdf.h", "surface.h"):
-        text = (kernels_dir() / name).read_text(encoding="utf-8")
-        for m in _DEFINE.finditer(text):
-            comment = " ".join(line.strip().lstrip("*").strip() for line in m.group("comment").splitlines()).strip()
-            out[m.group("name")] = KernelConstant(m.group("name"), float(m.group("value")), comment, name)
-    return out
-
-
-def constant(name: str) -> float:
-    """The value of a kernel constant, e.g. constant('MIN_ALPHA')."""
-    try:
-        return kernel_constants()[name].value
-    except KeyError:
-        raise ClshadeError(f"kernels/brdf.h, kernels/surface.h: no '#define {name}' with a comment above it") from None
-
+# kernel_constants() / constant(): the kernel headers' named clamps, read from the
+# source by clshade.resources (re-exported here for the accuracy report).
 
 # ---- terms -----------------------------------------------------------------
 

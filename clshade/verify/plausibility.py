@@ -23,8 +23,6 @@ its lobes with k_d = (1 − F(n·l))(1 − F(n·v)) (kernels/compose.h).
 """
 from __future__ import annotations
 
-import argparse
-import json
 import math
 from dataclasses import asdict, dataclass, field
 from functools import lru_cache
@@ -32,6 +30,7 @@ from functools import lru_cache
 import numpy as np
 
 from clshade.device.evaluate import Samples, constant_materials, eval_brdf
+from clshade.verify import quadrature
 from clshade.models import NONE, Model, lobes, presets
 from clshade.device.runtime import Runtime, get_runtime
 
@@ -84,37 +83,13 @@ QUICK = Sweep(diffuse_roughness=(0.15, 1.0), microfacet_roughness=(0.25, 1.0), s
 
 # ---- quadrature --------------------------------------------------------------
 
-def _graded(lo: float, hi: float, centres: tuple[float, ...], levels: int) -> np.ndarray:
-    """Panel breaks on [lo, hi], geometrically graded (factor RATIO) towards each centre."""
-    pts = [lo, hi, *centres]
-    for c in centres:
-        for end in (lo, hi):
-            if end != c:
-                pts += [c + (end - c) * RATIO ** j for j in range(1, levels + 1)]
-    return np.unique(np.clip(pts, lo, hi))
-
-
-def _gauss(breaks: np.ndarray, order: int) -> tuple[np.ndarray, np.ndarray]:
-    x, w = np.polynomial.legendre.leggauss(order)
-    a, b = breaks[:-1, None], breaks[1:, None]
-    half = 0.5 * (b - a)
-    return (a + half * (x + 1.0)).ravel(), (half * w).ravel()
-
-
 def hemisphere_rule(view_cos: float, order: int, levels: int) -> tuple[np.ndarray, np.ndarray]:
     """Nodes l (M, 3) and weights (M,) of ∫ g(l) (n·l) dω over the hemisphere of n = +z,
-    for v = (√(1−μv²), 0, μv): Gauss–Legendre in μ = n·l and φ, panels graded towards the
-    mirror direction (μv, φ = π) and the pole, with breaks at φ = π/2, 3π/2 (Oren–Nayar's
-    max(0, cos Δφ) kink). The (n·l) factor is in the weights."""
-    mu, w_mu = _gauss(_graded(0.0, 1.0, (view_cos, 1.0), levels), order)
-    if view_cos < 1.0:
-        phi_breaks = np.union1d(_graded(0.0, 2.0 * math.pi, (math.pi,), levels), [0.5 * math.pi, 1.5 * math.pi])
-    else:
-        phi_breaks = np.linspace(0.0, 2.0 * math.pi, 5)
-    phi, w_phi = _gauss(phi_breaks, order)
-    s = np.sqrt((1.0 - mu) * (1.0 + mu))
-    l = np.stack([np.outer(s, np.cos(phi)), np.outer(s, np.sin(phi)), np.outer(mu, np.ones_like(phi))], axis=-1)
-    return l.reshape(-1, 3), np.outer(w_mu * mu, w_phi).ravel()
+    for v = (√(1−μv²), 0, μv): clshade.verify.quadrature's rule (the reference's), graded
+    (factor RATIO) towards the mirror direction and the pole. The (n·l) factor is in the weights."""
+    n, t, b = np.array([0.0, 0.0, 1.0]), np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
+    l, w = quadrature.hemisphere_rule(n, t, b, view_cos, 0.0 if view_cos < 1.0 else None, order, order, levels, RATIO)
+    return l.reshape(-1, 3), w.ravel()
 
 
 def view_vector(view_cos: float) -> np.ndarray:
@@ -373,28 +348,3 @@ def describe_method(sweep: Sweep = Sweep()) -> list[str]:
         "white base, or k_d = 0.7, k_s = 0.3); the metallic workflow couples its lobes with "
         "k_d = (1 − F(n·l))(1 − F(n·v)).",
     ]
-
-
-def add_parser(sub, checks) -> None:
-    """`clshade check plausibility`."""
-    p = checks.add_parser("plausibility", help="non-negativity, reciprocity and energy conservation of every preset",
-                          description="Measure, on the OpenCL device, each preset's minimum f, reciprocity error "
-                                      "and maximum directional albedo over a roughness/shininess sweep, and give "
-                                      "the verdicts (physically based = all three).")
-    p.add_argument("--json", action="store_true", help="machine-readable output")
-    p.add_argument("--device", metavar="D", help="OpenCL device (see `clshade devices`)")
-    p.add_argument("--quick", action="store_true", help="the reduced sweep of `clshade models` (a few seconds)")
-    p.set_defaults(func=cmd_plausibility)
-
-
-def cmd_plausibility(args: argparse.Namespace) -> int:
-    sweep = QUICK if args.quick else Sweep()
-    verdicts = evaluate_presets(sweep, args.device)
-    if args.json:
-        print(json.dumps({"energy_tol": ENERGY_TOL, "reciprocity_tol": RECIPROCITY_TOL,
-                          "sweep": asdict(sweep), "presets": [v.as_dict() for v in verdicts]},
-                         indent=2, ensure_ascii=False))
-    else:
-        for line in table(verdicts) + [""] + describe_method(sweep):
-            print(line)
-    return 0 if all(v.non_negative and v.reciprocal for v in verdicts) else 1

@@ -60,11 +60,21 @@ Gauss-Legendre rule and reports an error estimate.
 from __future__ import annotations
 
 import math
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass
-from typing import Callable, Literal
+from typing import Callable, Iterator, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from clshade.models import NONE, Model, diffuse_lobes, lobes
+from clshade.render.gbuffer import GBuffer
+from clshade.render.scene import Camera, Scene
+from clshade.render.shadows import ShadowMaps, shadow_visibility as _map_visibility
+from clshade.render.transforms import pixel_rays
+from clshade.resources import constant
+from clshade.verify.quadrature import hemisphere_rule
 
 __all__ = [
     "EPS_LENGTH",
@@ -124,19 +134,11 @@ DIELECTRIC_F0: float = 0.04
 
 INV_PI: float = 1.0 / math.pi
 
-DIFFUSE_MODELS: tuple[str, ...] = ("lambert", "oren_nayar", "burley", "none")
-MICROFACET_MODELS: tuple[str, ...] = (
-    "cook_torrance",
-    "walter_ggx",
-    "ggx_correlated",
-    "ggx_smith_schlick",
-)
-EMPIRICAL_MODELS: tuple[str, ...] = (
-    "phong",
-    "blinn_phong",
-    "phong_normalized",
-    "blinn_phong_normalized",
-)
+# Lobe families from the one registry (clshade.models, read from kernels/models/*.cl);
+# this module holds the float64 formula of each lobe, not the list of lobes.
+DIFFUSE_MODELS: tuple[str, ...] = (*diffuse_lobes(), NONE)
+MICROFACET_MODELS: tuple[str, ...] = tuple(k for k, v in lobes().items() if v.family == "microfacet")
+EMPIRICAL_MODELS: tuple[str, ...] = tuple(k for k, v in lobes().items() if v.family == "empirical")
 SPECULAR_MODELS: tuple[str, ...] = EMPIRICAL_MODELS + MICROFACET_MODELS + ("none",)
 
 _ERR = dict(divide="ignore", invalid="ignore", over="ignore", under="ignore")
@@ -147,8 +149,24 @@ _ERR = dict(divide="ignore", invalid="ignore", over="ignore", under="ignore")
 # --------------------------------------------------------------------------
 
 
+# The floating-point type every term computes in: float64 (the reference), or
+# float32 for the NumPy baseline (clshade.bench), the same code instantiated in
+# single precision by :func:`precision`.
+_DTYPE: ContextVar[type] = ContextVar("clshade_reference_dtype", default=np.float64)
+
+
+@contextmanager
+def precision(dtype: type) -> Iterator[None]:
+    """Evaluate the reference's terms in ``dtype`` (np.float64 or np.float32) inside the block."""
+    token = _DTYPE.set(np.dtype(dtype).type)
+    try:
+        yield
+    finally:
+        _DTYPE.reset(token)
+
+
 def _f(x: ArrayLike) -> Array:
-    return np.asarray(x, dtype=np.float64)
+    return np.asarray(x, dtype=_DTYPE.get())
 
 
 def _dot(a: Array, b: Array) -> Array:
@@ -281,7 +299,7 @@ def d_beckmann(nh: ArrayLike, m: ArrayLike) -> Array:
     with np.errstate(**_ERR):
         logd = -tan2 / (ms * ms) - math.log(math.pi) - 2.0 * np.log(ms) - 4.0 * np.log(cs)
         d = np.exp(logd)
-    delta = np.where(c == 1.0, np.inf, 0.0)
+    delta = np.where(c == 1.0, _f(np.inf), _f(0.0))
     return np.where(pos, d, np.where(m == 0.0, delta, 0.0) * (c > 0.0))
 
 
@@ -507,8 +525,11 @@ def blinn_phong_normalized(nh: ArrayLike, shininess: ArrayLike) -> Array:
 def _microfacet(d: Array, g: Array, nl: Array, nv: Array, fresnel: ArrayLike) -> Array:
     nl, nv = _cos(nl), _cos(nv)
     ok = (nl > 0.0) & (nv > 0.0)
-    den = np.where(ok, 4.0 * nl * nv, 1.0)
-    core = np.where(ok, _mul0(d, g) / den, 0.0)
+    # G/(n.l)/(n.v) divided one cosine at a time: G vanishes with each cosine, while
+    # 4 (n.l)(n.v) underflows to 0 for cosines ~1e-200 (0/0 = NaN otherwise).
+    nls, nvs = np.where(ok, nl, 1.0), np.where(ok, nv, 1.0)
+    with np.errstate(**_ERR):
+        core = np.where(ok, _mul0(d, g / (4.0 * nls) / nvs), 0.0)
     return _tint(core, fresnel)
 
 
@@ -545,6 +566,10 @@ def ggx_smith_schlick(
     return _microfacet(d_ggx(nh, alpha), g_smith_schlick(nl, nv, alpha), nl, nv, fresnel)
 
 
+# The formula of each lobe (the registry lists the lobes; these are their float64 terms).
+_EMPIRICAL_FN = {"phong": (phong, "r.v"), "phong_normalized": (phong_normalized, "r.v"),
+                 "blinn_phong": (blinn_phong, "n.h"), "blinn_phong_normalized": (blinn_phong_normalized, "n.h")}
+_DIFFUSE_LOBES = ("lambert", "burley", "oren_nayar", "none")   # the branches of brdf()
 _MICROFACET_FN = {
     "cook_torrance": cook_torrance,
     "walter_ggx": walter_ggx,
@@ -587,7 +612,7 @@ def brdf(
     ``sigma = roughness``.
 
     Fresnel F (microfacet lobes only; channel-last):
-      'schlick'    -- ``f_schlick(v.h, F0, f90)`` (f90 default 1), ``F0 = f0`` if given, else
+      'schlick'    -- ``f_schlick(v.h, F0, f90)``, ``F0 = f0`` if given, else
                       ``mix(DIELECTRIC_F0, base_color, metallic)``;
       'dielectric' -- ``f_dielectric(v.h, ior)`` (metallic ignored for F);
       'conductor'  -- ``f_conductor(v.h, eta, k)`` (eta, k required).
@@ -610,6 +635,8 @@ def brdf(
         raise ValueError(f"unknown workflow {workflow!r}; expected 'metallic' or 'kdks'")
     if fresnel not in ("schlick", "dielectric", "conductor"):
         raise ValueError(f"unknown fresnel {fresnel!r}")
+    if specular not in (*_MICROFACET_FN, *_EMPIRICAL_FN, "none") or diffuse not in _DIFFUSE_LOBES:
+        raise ValueError(f"lobe {diffuse!r}/{specular!r} has no float64 formula in clshade.verify.reference")
     if workflow == "metallic" and specular in EMPIRICAL_MODELS:
         raise ValueError(f"empirical lobe {specular!r} needs workflow='kdks'")
     if fresnel == "conductor" and specular in MICROFACET_MODELS and (eta is None or k is None):
@@ -623,7 +650,7 @@ def brdf(
 
     # ---- diffuse (scalar lobe, shape S) ----
     if diffuse == "lambert":
-        fd = np.where(g.valid, INV_PI, 0.0)
+        fd = np.where(g.valid, _f(INV_PI), _f(0.0))
     elif diffuse == "burley":
         fd = fd_burley(g.nl, g.nv, g.vh, alpha)
     elif diffuse == "oren_nayar":
@@ -638,15 +665,13 @@ def brdf(
 
     # ---- specular ----
     if specular == "none":
-        f_spec = np.zeros(1)
+        f_spec = _f(np.zeros(1))
     elif specular in EMPIRICAL_MODELS:
-        s = _f(shininess)
-        if specular in ("phong", "phong_normalized"):
-            rv = _cos(_dot(reflect(g.l, g.n), g.v))
-            lobe = phong(rv, s) if specular == "phong" else phong_normalized(rv, s)
-        else:
-            lobe = blinn_phong(g.nh, s) if specular == "blinn_phong" else blinn_phong_normalized(g.nh, s)
-        lobe = np.where(g.h_ok | specular.startswith("phong"), lobe, 0.0)
+        fn, about = _EMPIRICAL_FN[specular]
+        if about == "r.v":
+            lobe = fn(_cos(_dot(reflect(g.l, g.n), g.v)), _f(shininess))
+        else:   # n.h: undefined without a half vector
+            lobe = np.where(g.h_ok, fn(g.nh, _f(shininess)), 0.0)
         f_spec = _tint(lobe, _f(ks)[..., None])
     else:
         if fresnel == "schlick":
@@ -671,34 +696,13 @@ def brdf(
 
     with np.errstate(**_ERR):
         out = f_diffuse + f_spec
-    out = out + np.zeros(g.nl.shape + (3,))
+    out = out + _f(np.zeros(g.nl.shape + (3,)))
     return np.where(g.valid[..., None], out, 0.0)
 
 
 # --------------------------------------------------------------------------
 # directional albedo
 # --------------------------------------------------------------------------
-
-
-def _graded_breaks(
-    lo: float, hi: float, centres: tuple[float, ...], levels: int, ratio: float
-) -> Array:
-    """Panel breakpoints on [lo, hi] geometrically graded towards each centre."""
-    pts = [lo, hi, *centres]
-    for centre in centres:
-        for end in (lo, hi):
-            d = end - centre
-            if d != 0.0:
-                pts += [centre + d * ratio**j for j in range(1, levels + 1)]
-    return np.unique(np.clip(np.asarray(pts), lo, hi))
-
-
-def _composite_gl(breaks: Array, order: int) -> tuple[Array, Array]:
-    """Nodes and weights of composite Gauss-Legendre on the given panels."""
-    x, w = np.polynomial.legendre.leggauss(order)
-    a, b = breaks[:-1, None], breaks[1:, None]
-    half = 0.5 * (b - a)
-    return (a + half * (x + 1.0)).ravel(), (half * w).ravel()
 
 
 def directional_albedo(
@@ -747,25 +751,14 @@ def directional_albedo(
     t, b = _orthonormal_basis(nn)
     mu_v = float(np.clip(nn @ vv, 0.0, 1.0))
     vt, vb = float(vv @ t), float(vv @ b)
-    mu_breaks = _graded_breaks(0.0, 1.0, (mu_v, 1.0), levels, ratio)
-    if math.hypot(vt, vb) > EPS_TANGENT:
-        phi_r = math.atan2(vb, vt) + math.pi
-        pb = _graded_breaks(-math.pi, math.pi, (0.0,), levels, ratio)
-        phi_breaks = np.unique(np.concatenate([pb, [-0.5 * math.pi, 0.5 * math.pi]])) + phi_r
-    else:
-        phi_breaks = np.linspace(0.0, 2.0 * math.pi, 5)
+    phi_v = math.atan2(vb, vt) if math.hypot(vt, vb) > EPS_TANGENT else None
 
     def rule(o_mu: int, o_phi: int) -> Array:
-        mu, w_mu = _composite_gl(mu_breaks, o_mu)
-        phi, w_phi = _composite_gl(phi_breaks, o_phi)
-        sin_t = np.sqrt((1.0 - mu) * (1.0 + mu))
-        cp, sp = np.cos(phi), np.sin(phi)
-        l = (sin_t[:, None, None] * (cp[None, :, None] * t + sp[None, :, None] * b)
-             + mu[:, None, None] * nn)
+        l, weights = hemisphere_rule(nn, t, b, mu_v, phi_v, o_mu, o_phi, levels, ratio)
+        shape = l.shape[:2]
         l = l.reshape(-1, 3)
         f = _f(fn(np.broadcast_to(nn, l.shape), l, np.broadcast_to(vv, l.shape)))
-        weights = (w_mu * mu)[:, None] * w_phi[None, :]
-        f = f.reshape((mu.size, phi.size) + f.shape[1:])
+        f = f.reshape(shape + f.shape[1:])
         return np.tensordot(weights, f, axes=([0, 1], [0, 1]))
 
     coarse = rule(n_theta, n_phi)
@@ -773,3 +766,199 @@ def directional_albedo(
     err = float(np.max(np.abs(fine - coarse)))
     value: float | Array = float(fine) if fine.ndim == 0 else fine
     return (value, err) if return_error else value
+
+
+# --------------------------------------------------------------------------
+# the frame oracle: the whole shading pass at image level
+# --------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Pixels:
+    """The covered pixels of a G-buffer as the shading pass sees them (K pixels)."""
+
+    index: NDArray[np.intp]   # (K,) flat pixel index, row 0 at the top
+    P: Array                  # (K, 3) world position: eye + depth along the camera axis
+    n: Array                  # (K, 3) unit shading normal (the viewer's direction where unusable)
+    v: Array                  # (K, 3) unit direction towards the eye
+    base: Array               # (K, 3) base colour, >= 0
+    roughness: Array          # (K,) in [0, 1]
+    metallic: Array           # (K,) in [0, 1]
+    material: Array           # (K, 4, 4) the pixel's row of the material table (surface.h layout)
+
+
+def pixels(gbuffer: GBuffer, camera: Camera) -> Pixels:
+    """Read the covered pixels of ``gbuffer`` (depth > 0) with their view geometry.
+
+    The eye ray of pixel (i, j) passes through its centre (j + 0.5, i + 0.5)
+    (scenes/README.md; :func:`clshade.render.transforms.pixel_rays`); the
+    G-buffer depth is measured along the camera axis, so the point is
+    ``eye + d * depth / (d . forward)``.  Inputs are clamped to their documented
+    ranges (base >= 0, roughness and metallic in [0, 1]).
+    """
+    ch = gbuffer.channels
+    index = np.flatnonzero(ch["depth"] > 0)
+    cam = camera.with_size(gbuffer.width, gbuffer.height)
+    _, d = pixel_rays(cam.view_matrix(), cam.projection_matrix(), cam.width, cam.height, index)
+    fwd = cam.basis()[0]
+    P = np.asarray(cam.position, np.float64) + d * (ch["depth"][index].astype(np.float64) / (d @ fwd))[:, None]
+    v = _f(-d)
+    n, ok = normalize(_f(ch["normal"].reshape(-1, 3)[index]))
+    n = np.where(ok[:, None], n, v)
+    rows = gbuffer.materials[ch["material"][index].astype(np.intp)] if len(gbuffer.materials) \
+        else np.zeros((len(index), 4, 4), np.float32)
+    return Pixels(index, _f(P), n, v, np.maximum(_f(ch["base"].reshape(-1, 3)[index]), 0.0),
+                  np.clip(_f(ch["roughness"][index]), 0.0, 1.0), np.clip(_f(ch["metallic"][index]), 0.0, 1.0),
+                  _f(rows))
+
+
+def spot_cone(cos_axis: ArrayLike, cos_outer: float, cos_inner: float) -> Array:
+    """Spot falloff (scenes/README.md): 1 inside the inner angle, 0 outside the outer,
+    ``t**2`` between, t the position of the cosine between the two cone cosines."""
+    c = _f(cos_axis)
+    if cos_inner <= cos_outer:           # no transition band: a hard edge at the outer cone
+        return np.where(c >= cos_outer, _f(1.0), _f(0.0))
+    t = np.clip((c - cos_outer) / (cos_inner - cos_outer), 0.0, 1.0)
+    return t * t
+
+
+def light_rays(scene: Scene, px: Pixels) -> Iterator[tuple[int, Array, Array]]:
+    """(scene light index, unit direction towards the light l (K, 3), irradiance E (K, 3))
+    per light, in scene order: directional E = irradiance; point and spot
+    E = intensity / r**2 (r**2 floored at the kernels' MIN_LIGHT_DIST2, a light on the
+    surface), spot times :func:`spot_cone`."""
+    min_d2 = constant("MIN_LIGHT_DIST2")
+    for i, light in enumerate(scene.lights):
+        colour = _f(light.color)
+        if light.kind == "directional":
+            l, _ = normalize(-_f(light.direction))
+            yield i, np.broadcast_to(l, px.P.shape), np.broadcast_to(colour, px.P.shape)
+            continue
+        d = _f(light.position) - px.P
+        d2 = np.maximum(_dot(d, d), min_d2)
+        l = d / np.sqrt(d2)[:, None]
+        E = colour / d2[:, None]
+        if light.kind == "spot":
+            axis, _ = normalize(_f(light.direction))
+            cone = spot_cone(-(l @ axis), math.cos(math.radians(light.outer_angle)),
+                             math.cos(math.radians(light.inner_angle)))
+            E = E * cone[:, None]
+        yield i, l, E
+
+
+def surface_args(model: Model, base: ArrayLike, roughness: ArrayLike, metallic: ArrayLike, material: ArrayLike,
+                 alpha_floor: float) -> dict:
+    """Keyword arguments of :func:`brdf` for a clshade model at K points: base (K, 3),
+    roughness and metallic (K,), material (K, 4, 4) rows of the material table
+    (surface.h layout: kd, ks, ka, shininess | ior, f90 | eta | k). Metallic
+    workflow: F0 from base and metallic; k_d + k_s = 1: the material's kd, ks and
+    F0 = ((ior - 1)/(ior + 1))**2."""
+    m = _f(material)
+    args = dict(base_color=_f(base), roughness=_f(roughness), metallic=_f(metallic), workflow=model.workflow,
+                fresnel=model.fresnel, ior=m[:, 1, 0], f90=m[:, 1, 1], eta=m[:, 2, :3], k=m[:, 3, :3],
+                shininess=m[:, 0, 3], alpha_floor=alpha_floor)
+    if model.workflow == "kdks":
+        r0 = (m[:, 1, 0] - 1.0) / (m[:, 1, 0] + 1.0)
+        args.update(kd=m[:, 0, 0], ks=m[:, 0, 1], f0=(r0 * r0)[:, None])
+    return args
+
+
+def normal_reflectance(model: Model, px: Pixels) -> Array:
+    """F0, the reflectance at normal incidence of the workflow (scenes/README.md):
+    ``mix(0.04, base, metallic)`` (metallic), ``((ior - 1)/(ior + 1))**2`` (k_d + k_s = 1)."""
+    if model.workflow == "kdks":
+        r0 = (px.material[:, 1, 0] - 1.0) / (px.material[:, 1, 0] + 1.0)
+        return np.broadcast_to((r0 * r0)[:, None], px.base.shape)
+    m = px.metallic[:, None]
+    return DIELECTRIC_F0 * (1.0 - m) + px.base * m
+
+
+def ambient(model: Model, px: Pixels, A: ArrayLike) -> Array:
+    """Constant ambient radiance A reflected (scenes/README.md): ``k_a A (k_d diffuse + k_s F0)``.
+
+    Metallic workflow: diffuse colour ``base (1 - metallic)``, k_a = k_s = 1, and
+    k_d = 1 - F0 when a Fresnel-bearing specular lobe takes F0's share (1 otherwise);
+    k_d + k_s = 1 workflow: the material's k_a, k_d, k_s and diffuse colour = base.
+    A model without a diffuse (specular) lobe has no diffuse (F0) part.
+    """
+    f0 = normal_reflectance(model, px)
+    m = px.material
+    if model.workflow == "kdks":
+        ka, ks, diffuse = m[:, 0, 2], m[:, 0, 1], px.base * m[:, 0, 0][:, None]
+    else:
+        ka, ks = np.ones_like(px.roughness), np.ones_like(px.roughness)
+        colour = px.base * (1.0 - px.metallic)[:, None]
+        diffuse = colour * (1.0 - f0) if model.specular != NONE and model.uses_fresnel else colour
+    out = _f(np.zeros(px.base.shape))
+    if model.diffuse != NONE:
+        out = out + diffuse
+    if model.specular != NONE:
+        out = out + ks[:, None] * f0
+    return (ka[:, None] * _f(A)) * out
+
+
+def radiance(
+    gbuffer: GBuffer,
+    scene: Scene,
+    model: Model,
+    *,
+    visibility: ArrayLike | None = None,
+    dtype: type = np.float64,
+    camera: Camera | None = None,
+    alpha_floor: float | None = None,
+) -> Array:
+    """The radiance the shading pass should write, (H, W, 3), in ``dtype``.
+
+    Covered pixels: ``sum over lights of f(n, l, v) * max(n.l, 0) * E * visibility``
+    plus :func:`ambient`; f is :func:`brdf` of ``model`` (either workflow, any
+    Fresnel) with the pixel's G-buffer inputs (textures are already sampled into
+    them) and material-table row; lights as in :func:`light_rays`.  Empty pixels:
+    the scene's background.  ``visibility`` is ``(num_lights, H, W)`` in [0, 1]
+    (scene order; :func:`visibility` computes it from the shadow maps the kernel
+    reads); None = unshadowed.  ``alpha_floor`` defaults to the kernels' MIN_ALPHA
+    (documented: roughness below 0.01 renders as 0.01).  Nothing is clamped
+    at the top (the kernels' MAX_RADIANCE is not part of the physics).  f = 0 where
+    n.v <= 0 (the kernels floor n.v instead: compare where n.v > 0).
+    ``dtype=np.float32`` is the NumPy baseline: the same code in single precision.
+    """
+    camera = scene.camera if camera is None else camera
+    alpha_floor = constant("MIN_ALPHA") if alpha_floor is None else alpha_floor
+    h, w = gbuffer.height, gbuffer.width
+    with precision(dtype):
+        px = pixels(gbuffer, camera)
+        vis = None if visibility is None else _f(visibility).reshape(len(scene.lights), -1)[:, px.index]
+        args = surface_args(model, px.base, px.roughness, px.metallic, px.material, alpha_floor)
+        L = _f(np.zeros((len(px.index), 3)))
+        for i, l, E in light_rays(scene, px):
+            if vis is not None:
+                E = E * vis[i][:, None]
+            nl = _dot(px.n, l)
+            lit = np.flatnonzero((nl > 0.0) & (E.max(axis=1) > 0.0))    # the work this light needs
+            if not len(lit):
+                continue
+            sub = {k: (a[lit] if isinstance(a, np.ndarray) and a.ndim and len(a) == len(px.index) else a)
+                   for k, a in args.items()}
+            f = brdf(model.diffuse, model.specular, px.n[lit], l[lit], px.v[lit], **sub)
+            with np.errstate(**_ERR):
+                L[lit] += f * (E[lit] * nl[lit][:, None])
+        if any(a > 0 for a in scene.ambient):
+            L = L + ambient(model, px, scene.ambient)
+        out = np.empty((h * w, 3), dtype)
+        out[:] = np.asarray(scene.background, dtype)
+        out[px.index] = L
+    return out.reshape(h, w, 3)
+
+
+def visibility(gbuffer: GBuffer, scene: Scene, shadows: ShadowMaps | None, camera: Camera | None = None,
+               *, offset: tuple[float, float] = (0.0, 0.0)) -> Array | None:
+    """(num_lights, H, W) shadow factor of every covered pixel, looked up in the shadow
+    maps the kernel reads (:func:`clshade.render.shadows.shadow_visibility`, float64);
+    1 for lights without a map and for empty pixels; None without shadow maps.
+    ``offset`` shifts the lookup by that many map texels (to find pixels at a texel edge)."""
+    if shadows is None:
+        return None
+    camera = scene.camera if camera is None else camera
+    px = pixels(gbuffer, camera)
+    out = np.ones((len(scene.lights), gbuffer.pixels))
+    out[:, px.index] = _map_visibility(shadows, px.P, px.n, offset=offset)
+    return out.reshape(len(scene.lights), gbuffer.height, gbuffer.width)

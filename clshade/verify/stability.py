@@ -4,10 +4,14 @@ the float64 reference — `clshade check stability`.
 Contract checked: every finite input gives a finite, non-negative output, in
 both the precise and the fast-math (-cl-fast-relaxed-math) builds, for the
 BRDF alone (kernels/eval.cl) and for whole pixels through the shading pass
-(kernels/shade.cl, a hand-made G-buffer) with light intensities 0, 1e-30 and
-1e30.
+(kernels/shade.cl, a hand-made G-buffer, every light kind and ambient) with
+light intensities 0, 1e-30 and 1e30. The shaded pixels are counted on the raw
+radiance (built with -D RAW_RADIANCE: no MAX_RADIANCE clamp, whose fmin would
+turn a NaN into a number); pixels the clamp acts on are counted as saturated;
+the shipped build is checked finite as well. Cases are reported per build as
+evaluations and as distinct inputs (after normalising the directions).
 
-Grid (every value is float32 on the device; the reference gets the same
+Grid (clshade/verify/torture.py; every value is float32 on the device; the reference gets the same
 float32-rounded inputs in float64):
 
 * ROUGHNESS_GRID, read twice: as perceptual roughness r, and as α = r² (the
@@ -29,8 +33,6 @@ n = v by design; for n·v ≤ 0 the kernel floors n·v at MIN_N_DOT_V by design
 """
 from __future__ import annotations
 
-import argparse
-import json
 import math
 import time
 from dataclasses import dataclass, field
@@ -38,27 +40,19 @@ from typing import Any
 
 import numpy as np
 
-from clshade.verify import reference as R
 from clshade.device.evaluate import Samples, eval_brdf
-from clshade.models import FRESNELS, Model, presets
 from clshade.device.runtime import Runtime, get_runtime
-from clshade.render.scene import GOLD_ETA, GOLD_K
+from clshade.models import FRESNELS, Model, presets
+from clshade.resources import constant
+from clshade.verify import reference as R
+from clshade.verify.torture import (COSINE_GRID, IOR_GRID, LIGHT_INTENSITIES, NORMAL_SCALES, ROUGHNESS_GRID,
+                                    SHININESS_GRID, DENORMAL, Grid, _dirs, build_samples, geometry_grid, shade_normals)
 
-# ------------------------------------------------------------------ the grid
-
-ROUGHNESS_GRID: tuple[float, ...] = (0.0, 1e-8, 1e-4, 0.002, 0.045, 0.5, 1.0)
-SHININESS_GRID: tuple[float, ...] = (0.0, 1.0, 1e4, 1e6)
-COSINE_GRID: tuple[float, ...] = (1.0, 0.5, 1e-3, 1e-7, 0.0, -1e-7, -0.5)
-IOR_GRID: tuple[float, ...] = (1.0, 1.0001, 1.5, 3.0)
-LIGHT_INTENSITIES: tuple[float, ...] = (0.0, 1e-30, 1e30)
-# Smallest positive float32 denormal range value used as an input.
-DENORMAL = 1e-40
-# Normal scales: unit, unnormalised both ways, a length whose square is a
-# float32 denormal (flushed: shades as n = v), and zero.
-NORMAL_SCALES: dict[str, float] = {"unit": 1.0, "x1e3": 1e3, "x1e-3": 1e-3, "denormal": 1e-39, "zero": 0.0}
-# Values the kernel floors (brdf.h); kept here only to label where a clamp is active.
-MIN_ALPHA = 1e-4
-MIN_COSINE = 1e-4
+# Values the kernel floors (kernels/brdf.h), read from there; used to label where a clamp is active.
+MIN_ALPHA = constant("MIN_ALPHA")
+MIN_COSINE = constant("MIN_N_DOT_V")
+# The shading pass's clamp of its output (kernels/shade.cl).
+MAX_RADIANCE = constant("MAX_RADIANCE")
 # Deviations are relative to max(|f64|, DEVIATION_FLOOR): below 1e-3 sr⁻¹ a
 # BRDF value is invisible next to any lit pixel, and a relative error of a
 # value that the reference itself rounds to ~0 carries no information.
@@ -66,122 +60,6 @@ DEVIATION_FLOOR = 1e-3
 # Microfacet/diffuse lobes may only deviate by float32 rounding where no clamp
 # is active: the acceptance bound of the precise build (fast math is reported, not bounded).
 PRECISE_TOLERANCE = 1e-3
-
-
-def _dirs(cos: np.ndarray, azimuth: np.ndarray) -> np.ndarray:
-    """Unit vectors with n·x = cos (n = +z) at the given azimuth (radians)."""
-    s = np.sqrt(np.maximum(1.0 - cos * cos, 0.0))
-    return np.stack([s * np.cos(azimuth), s * np.sin(azimuth), cos], axis=-1)
-
-
-@dataclass
-class Grid:
-    """Geometry × normal cases, repeated for every parameter row."""
-    n: np.ndarray
-    l: np.ndarray
-    v: np.ndarray
-    labels: dict[str, np.ndarray]
-
-    def __len__(self) -> int:
-        return len(self.n)
-
-
-def geometry_grid() -> Grid:
-    """Every (n·l, n·v, azimuth) case and L = −V, times every normal scale."""
-    cl, cv = np.meshgrid(COSINE_GRID, COSINE_GRID, indexing="ij")
-    cl, cv = cl.ravel(), cv.ravel()
-    ls, vs, lab_l, lab_v, lab_az = [], [], [], [], []
-    for name, phi in (("same", 0.0), ("opposite", math.pi), ("perpendicular", 0.5 * math.pi)):
-        ls.append(_dirs(cl, np.full_like(cl, phi)))
-        vs.append(_dirs(cv, np.zeros_like(cv)))
-        lab_l.append(cl)
-        lab_v.append(cv)
-        lab_az += [name] * len(cl)
-    c = np.asarray(COSINE_GRID)
-    v = _dirs(c, np.zeros_like(c))
-    ls.append(-v)
-    vs.append(v)
-    lab_l.append(-c)
-    lab_v.append(c)
-    lab_az += ["l=-v"] * len(c)
-    l, v = np.concatenate(ls), np.concatenate(vs)
-    nl, nv = np.concatenate(lab_l), np.concatenate(lab_v)
-    az = np.array(lab_az)
-    rows = len(l)
-    n_all, l_all, v_all, scale_lab = [], [], [], []
-    for name, scale in NORMAL_SCALES.items():
-        n_all.append(np.tile([0.0, 0.0, scale], (rows, 1)))
-        l_all.append(l)
-        v_all.append(v)
-        scale_lab += [name] * rows
-    # Denormal direction components: tiny x/y added to n, l and v.
-    n_all.append(np.tile([DENORMAL, -DENORMAL, 1.0], (rows, 1)))
-    l_all.append(l + [DENORMAL, DENORMAL, 0.0])
-    v_all.append(v + [-DENORMAL, 0.0, 0.0])
-    scale_lab += ["denormal-components"] * rows
-    k = len(NORMAL_SCALES) + 1
-    labels = {"n.l": np.tile(nl, k), "n.v": np.tile(nv, k), "azimuth": np.tile(az, k), "normal": np.array(scale_lab)}
-    return Grid(np.concatenate(n_all), np.concatenate(l_all), np.concatenate(v_all), labels)
-
-
-def roughness_values() -> list[tuple[str, float]]:
-    """(label, perceptual roughness r): the grid as r, then as α (r = √α)."""
-    out = [(f"r={x:g}", x) for x in ROUGHNESS_GRID]
-    out += [(f"alpha={x:g}", math.sqrt(x)) for x in ROUGHNESS_GRID if x not in (0.0, 1.0)]
-    out.append(("r=denormal", DENORMAL))
-    return out
-
-
-def parameter_rows(model: Model) -> list[dict[str, Any]]:
-    """Parameter combinations for one model (its lobes decide which matter)."""
-    uses = model.uses
-    rows: list[dict[str, Any]] = []
-    colours = [(b, m) for b in (0.0, 1.0) for m in (0.0, 1.0)] + [(DENORMAL, 0.0)]
-    rough = roughness_values() if "roughness" in uses else [("r=0.5", 0.5)]
-    for rl, r in rough:
-        for base, metallic in colours:
-            common = dict(roughness_label=rl, roughness=r, base=base, metallic=metallic, f90=1.0, ior=1.5,
-                          eta=GOLD_ETA, k=GOLD_K, eta_label="gold", kd=0.7, ks=0.3, shininess=32.0)
-            if "shininess" in uses:
-                for s in (*SHININESS_GRID, DENORMAL):
-                    for kd, ks in ((0.7, 0.3), (0.0, 1.0), (1.0, 0.0)):
-                        rows.append({**common, "shininess": s, "kd": kd, "ks": ks})
-            elif model.uses_fresnel and model.fresnel == "schlick":
-                rows += [{**common, "f90": f90} for f90 in (0.0, 1.0)]
-            elif model.uses_fresnel and model.fresnel == "dielectric":
-                rows += [{**common, "ior": ior} for ior in IOR_GRID]
-            elif model.uses_fresnel and model.fresnel == "conductor":
-                rows += [{**common, "eta": (e, e, e), "k": (0.0, 0.0, 0.0), "eta_label": f"eta={e:g},k=0"}
-                         for e in IOR_GRID]
-                rows.append(common)
-            else:
-                rows.append(common)
-    return rows
-
-
-def build_samples(model: Model, grid: Grid) -> tuple[Samples, dict[str, np.ndarray]]:
-    """The full sample set of one model: every parameter row × every geometry."""
-    rows = parameter_rows(model)
-    g, p = len(grid), len(rows)
-    col = lambda key: np.repeat(np.array([r[key] for r in rows], dtype=object if isinstance(rows[0][key], (str, tuple)) else float), g)  # noqa: E731
-    count = g * p
-    mats = np.zeros((count, 4, 4), np.float32)
-    mats[:, 0, 0] = col("kd")
-    mats[:, 0, 1] = col("ks")
-    mats[:, 0, 2] = 1.0
-    mats[:, 0, 3] = col("shininess")
-    mats[:, 1, 0] = col("ior")
-    mats[:, 1, 1] = col("f90")
-    mats[:, 2, :3] = np.repeat(np.array([r["eta"] for r in rows], float), g, axis=0)
-    mats[:, 3, :3] = np.repeat(np.array([r["k"] for r in rows], float), g, axis=0)
-    base = np.repeat(np.array([r["base"] for r in rows], float), g)
-    samples = Samples(n=np.tile(grid.n, (p, 1)), l=np.tile(grid.l, (p, 1)), v=np.tile(grid.v, (p, 1)),
-                      base=np.repeat(base[:, None], 3, axis=1), roughness=col("roughness"),
-                      metallic=col("metallic"), materials=mats)
-    labels = {k: np.tile(v, p) for k, v in grid.labels.items()}
-    for key in ("roughness_label", "base", "metallic", "f90", "ior", "eta_label", "kd", "ks", "shininess"):
-        labels[key] = col(key)
-    return samples, labels
 
 
 # ------------------------------------------------------------- the reference
@@ -192,37 +70,26 @@ def _f32(x: np.ndarray) -> np.ndarray:
 
 
 def reference_f(model: Model, s: Samples, alpha_floor: float = MIN_ALPHA) -> np.ndarray:
-    """float64 f of the float32-rounded inputs; Schlick with f90 ≠ 1 by linearity in F."""
+    """float64 f of the float32-rounded inputs: the frame oracle's composition
+    (reference.surface_args + reference.brdf), true cosines, any Fresnel and f90."""
     n, l, v = _f32(s.n), _f32(s.l), _f32(s.v)
-    m = _f32(s.materials)
-    base, r, metal = _f32(s.base), _f32(s.roughness), _f32(s.metallic)
-    kw = dict(base_color=base, roughness=r, metallic=metal, alpha_floor=alpha_floor,
-              workflow=model.workflow, kd=m[:, 0, 0], ks=m[:, 0, 1], shininess=m[:, 0, 3])
+    args = R.surface_args(model, _f32(s.base), _f32(s.roughness), _f32(s.metallic), _f32(s.materials), alpha_floor)
     with np.errstate(all="ignore"):
-        if model.specular == "none" or model.workflow == "kdks" and not model.uses_fresnel:
-            return R.brdf(model.diffuse, model.specular, n, l, v, **kw)
-        diffuse = R.brdf(model.diffuse, "none", n, l, v, **kw) if model.diffuse != "none" else 0.0
-        if model.workflow == "metallic":
-            # The metallic workflow weights diffuse by (1 − F(n·l))(1 − F(n·v)) (compose.h),
-            # with the kernel's cosine floors.
-            geo = R.geometry(n, l, v)
+        return R.brdf(model.diffuse, model.specular, n, l, v, **args)
 
-            def fres(c: np.ndarray) -> np.ndarray:
-                if model.fresnel == "schlick":
-                    f0 = 0.04 * (1.0 - metal[:, None]) + base * metal[:, None]
-                    return f0 + (m[:, 1, 1][:, None] - f0) * (1.0 - np.clip(c, 0, 1))[:, None] ** 5
-                if model.fresnel == "dielectric":
-                    return R.f_dielectric(c, m[:, 1, 0][:, None])     # per-sample IOR, one channel
-                return R.f_conductor(c, m[:, 2, :3], m[:, 3, :3])
-            diffuse = diffuse * (1.0 - fres(np.maximum(geo.nl, MIN_COSINE))) * (1.0 - fres(np.maximum(geo.nv, MIN_COSINE)))
-        if model.fresnel == "schlick":
-            f0 = 0.04 * (1.0 - metal[:, None]) + base * metal[:, None]
-            one = R.brdf("none", model.specular, n, l, v, f0=np.ones_like(base), **kw)
-            zero = R.brdf("none", model.specular, n, l, v, f0=np.zeros_like(base), **kw)
-            return diffuse + f0 * one + (m[:, 1, 1][:, None] - f0) * zero
-        spec = R.brdf("none", model.specular, n, l, v, fresnel=model.fresnel, ior=m[:, 1, 0],
-                      eta=m[:, 2, :3], k=m[:, 3, :3], **kw)
-        return diffuse + spec
+
+def distinct_inputs(*columns: np.ndarray) -> int:
+    """Number of distinct rows of the float32 inputs (each column (K,) or (K, c))."""
+    rows = np.ascontiguousarray(np.column_stack([np.asarray(c, np.float32).reshape(len(c), -1) for c in columns]))
+    return len(np.unique(rows.view(np.dtype((np.void, rows.dtype.itemsize * rows.shape[1]))).ravel()))
+
+
+def _unit32(x: np.ndarray) -> np.ndarray:
+    """Directions normalised (zero stays zero), rounded to float32: inputs that differ only
+    in length are one input to the kernel."""
+    x = _f32(x)
+    length = np.linalg.norm(x, axis=1, keepdims=True)
+    return np.where(length > 0, x / np.where(length > 0, length, 1.0), 0.0).astype(np.float32)
 
 
 # --------------------------------------------------------------- the report
@@ -234,6 +101,7 @@ class ModelResult:
     model: str
     fast_math: bool
     cases: int = 0
+    distinct_inputs: int = 0
     nonfinite: int = 0
     negative: int = 0
     max_deviation: float = 0.0
@@ -261,7 +129,10 @@ def run_model(model: Model, grid: Grid, rt: Runtime, fast_math: bool,
     """Evaluate the grid for one model on the device and compare with the reference."""
     samples, labels = build_samples(model, grid)
     f = eval_brdf(model, samples, rt, fast_math=fast_math).astype(np.float64)
-    res = ModelResult(model.id, fast_math, cases=len(samples))
+    res = ModelResult(model.id, fast_math, cases=len(samples),
+                      distinct_inputs=distinct_inputs(_unit32(samples.n), _unit32(samples.l), _unit32(samples.v),
+                                                      samples.base, samples.roughness, samples.metallic,
+                                                      samples.materials.reshape(len(samples), -1)))
     finite = np.isfinite(f).all(1)
     negative = (f < 0).any(1)
     res.nonfinite, res.negative = int((~finite).sum()), int(negative.sum())
@@ -299,35 +170,41 @@ def run_model(model: Model, grid: Grid, rt: Runtime, fast_math: bool,
 
 @dataclass
 class ShadeResult:
+    """One model × build through the shading pass, counted on the raw radiance."""
     model: str
     fast_math: bool
     pixels: int = 0
-    nonfinite: int = 0
-    negative: int = 0
-    max_radiance: float = 0.0
+    distinct_inputs: int = 0
+    nan: int = 0                   # raw radiance NaN (pixels)
+    inf: int = 0                   # raw radiance ±Inf (pixels)
+    negative: int = 0              # raw radiance < 0 in a channel (pixels)
+    saturated: int = 0             # pixels the MAX_RADIANCE clamp acts on (raw ≥ MAX_RADIANCE)
+    clamped_nonfinite: int = 0     # the shipped (clamped) build's NaN/Inf pixels
+    max_radiance: float = 0.0      # largest finite raw radiance
+    max_deviation: float = 0.0     # vs the float64 frame oracle, unit lights, n·l and n·v ≥ DEVIATION_COSINE
+    deviation_pixels: int = 0
+
+    @property
+    def nonfinite(self) -> int:
+        return self.nan + self.inf
 
 
-def _shade_normals() -> np.ndarray:
-    """Normals for the shading grid: a Fibonacci sphere (front and back facing),
-    exact cases for the lights used, unnormalised, denormal and zero."""
-    k = 48
-    i = np.arange(k) + 0.5
-    z = 1.0 - 2.0 * i / k
-    phi = math.pi * (1.0 + 5.0 ** 0.5) * i
-    sphere = np.stack([np.sqrt(1 - z * z) * np.cos(phi), np.sqrt(1 - z * z) * np.sin(phi), z], 1)
-    special = np.array([[0, 0, 1], [0, 0, -1], [1, 0, 0], [0, 1, 0], [1, 1, 1], [0, 0, 1e3], [0, 0, 1e-3],
-                        [0, 0, 1e-39], [0, 0, 0], [DENORMAL, DENORMAL, 1.0], [1e-7, 0, 1], [1, 0, 1e-7]], float)
-    return np.concatenate([sphere, special])
+# Shaded pixels compared with the frame oracle: every light at least this far above or
+# below the horizon, the viewer too (below it the kernels' documented floors act).
+DEVIATION_COSINE = 1e-3
 
 
 def run_shade(model: Model, rt: Runtime, fast_math: bool) -> ShadeResult:
     """Render a hand-made G-buffer through the shading pass with 0, 1e-30 and 1e30 lights
-    (four directional, a point light on the surface point, a far point light, a spot) and ambient."""
+    (four directional, a point light on the surface point, a far point light, a spot) and
+    ambient, in the raw build (counted) and the shipped build (checked finite); at unit
+    intensity the raw radiance is compared with the float64 frame oracle."""
+    import dataclasses
+    from clshade.device.shade import Shader, scene_features
     from clshade.render.gbuffer import GBuffer, material_table
     from clshade.render.scene import Camera, Light, Material, Scene
-    from clshade.device.shade import Shader, scene_features
 
-    normals = _shade_normals()
+    normals = shade_normals()
     params = [(r, b, m) for r in (0.0, DENORMAL, 1e-4, 0.045, 0.5, 1.0) for b in (0.0, 1.0) for m in (0.0, 1.0)]
     width, height = len(normals), len(params)
     n = np.tile(normals, (height, 1))
@@ -343,6 +220,7 @@ def run_shade(model: Model, rt: Runtime, fast_math: bool) -> ShadeResult:
                     fov=1e-3, width=width, height=height)
     res = ShadeResult(model.id, fast_math)
     shininess_values = (0.0, 1e6) if "shininess" in model.uses else (32.0,)
+    res.distinct_inputs = distinct_inputs(_unit32(n), rough, base, metal) * len(shininess_values) * len(LIGHT_INTENSITIES)
     directions = [np.array(d) / np.linalg.norm(d) for d in ([0, 0, -1.0], [0, 0, 1.0], [1.0, 0, 0], [-1.0, -1.0, -1.0])]
     for shininess in shininess_values:
         material = Material("m", shininess=shininess, ior=1.0 if shininess else 3.0, f90=0.0 if shininess else 1.0)
@@ -350,7 +228,7 @@ def run_shade(model: Model, rt: Runtime, fast_math: bool) -> ShadeResult:
             rgb = np.full(3, e)
             # Light along −v, along v (l = −v), grazing and oblique; a point light on the
             # surface point itself (MIN_LIGHT_DIST2) and one far away; a spot. All at once,
-            # so that 1e30 lights also overflow the sum (clamped to MAX_RADIANCE).
+            # so that 1e30 lights also overflow the sum (where MAX_RADIANCE clamps).
             lights = tuple(Light("directional", rgb, direction=d) for d in directions) + (
                 Light("point", rgb, position=np.zeros(3)), Light("point", rgb, position=10.0 * directions[3]),
                 Light("spot", rgb, direction=directions[3], position=-5.0 * directions[3], inner_angle=0.0,
@@ -358,15 +236,48 @@ def run_shade(model: Model, rt: Runtime, fast_math: bool) -> ShadeResult:
             scene = Scene(path=None, camera=camera, lights=lights, materials={"m": material}, objects=(),
                           ambient=(1.0, 1.0, 1.0))
             gb = GBuffer(width, height, channels, material_table(scene), np.ones((height, width), bool))
-            image = Shader(rt, gb, scene, camera).render(model, scene_features(scene, fast_math=fast_math))
-            rgb_out = image[..., :3].astype(np.float64)
+            shader = Shader(rt, gb, scene, camera)
+            features = scene_features(scene, fast_math=fast_math)
+            raw = shader.render(model, dataclasses.replace(features, raw_radiance=True))[..., :3].astype(np.float64)
+            shipped = shader.render(model, features)[..., :3]
             res.pixels += npix
-            res.nonfinite += int((~np.isfinite(rgb_out).all(-1)).sum())
-            res.negative += int((rgb_out < 0).any(-1).sum())
-            fin = rgb_out[np.isfinite(rgb_out)]
+            res.nan += int(np.isnan(raw).any(-1).sum())
+            res.inf += int((np.isinf(raw).any(-1) & ~np.isnan(raw).any(-1)).sum())
+            res.negative += int((raw < 0).any(-1).sum())
+            res.saturated += int((raw >= MAX_RADIANCE).any(-1).sum())
+            res.clamped_nonfinite += int((~np.isfinite(shipped).all(-1)).sum())
+            fin = raw[np.isfinite(raw)]
             if fin.size:
                 res.max_radiance = max(res.max_radiance, float(fin.max()))
+        # Unit lights against the frame oracle, without the light on the surface (its direction
+        # is undefined there): the shaded path's accuracy, not only its finiteness.
+        unit = dataclasses.replace(scene, lights=tuple(dataclasses.replace(l, color=np.ones(3))
+                                                       for l in lights[:4] + lights[5:]))
+        lit = Shader(rt, gb, unit, camera).render(
+            model, dataclasses.replace(scene_features(unit, fast_math=fast_math), raw_radiance=True))
+        dev, count = _oracle_deviation(model, gb, unit, camera, lit[..., :3].astype(np.float64))
+        res.max_deviation = max(res.max_deviation, dev)
+        res.deviation_pixels += count
     return res
+
+
+def _oracle_deviation(model: Model, gb, scene, camera, raw: np.ndarray) -> tuple[float, int]:
+    """Largest |raw − oracle| / max(|oracle|, DEVIATION_FLOOR) over the pixels where every
+    light and the viewer are DEVIATION_COSINE or more from the horizon and the normal is
+    usable; and their count."""
+    want = R.radiance(gb, scene, model, camera=camera).reshape(-1, 3)
+    px = R.pixels(gb, camera)
+    n_len2 = np.sum(gb.channels["normal"].reshape(-1, 3).astype(np.float64) ** 2, axis=1)
+    keep = (np.sum(px.n * px.v, axis=1) >= DEVIATION_COSINE) & (n_len2 > 1e-20)
+    for _, l, _ in R.light_rays(scene, px):
+        keep &= np.abs(np.sum(px.n * l, axis=1)) >= DEVIATION_COSINE
+    idx = px.index[keep]
+    if not len(idx):
+        return 0.0, 0
+    got, ref = raw.reshape(-1, 3)[idx], want[idx]
+    with np.errstate(invalid="ignore"):
+        dev = np.abs(got - ref) / np.maximum(np.abs(ref), DEVIATION_FLOOR)
+    return float(np.nanmax(np.where(np.isfinite(dev), dev, np.inf))), len(idx)
 
 
 # ----------------------------------------------------- clamps and continuity
@@ -433,12 +344,27 @@ class Report:
     seconds: float
 
     @property
+    def builds(self) -> list[str]:
+        return sorted({"fast" if r.fast_math else "precise" for r in self.results + self.shading})
+
+    @property
     def cases(self) -> int:
+        """Evaluations, every build counted (BRDF samples + shaded pixels)."""
         return sum(r.cases for r in self.results) + sum(s.pixels for s in self.shading)
+
+    def distinct_inputs(self) -> dict[str, int]:
+        """Distinct inputs per build (BRDF samples and shaded pixels), normalised directions."""
+        out: dict[str, int] = {}
+        for r in self.results + self.shading:
+            key = "fast" if r.fast_math else "precise"
+            out[key] = out.get(key, 0) + r.distinct_inputs
+        return out
 
     @property
     def nonfinite(self) -> int:
-        return sum(r.nonfinite for r in self.results) + sum(s.nonfinite for s in self.shading)
+        """NaN/Inf: BRDF evaluations plus raw shaded radiance NaN (+Inf is overflow, counted as saturated)."""
+        return sum(r.nonfinite for r in self.results) + sum(s.nan for s in self.shading) + \
+            sum(s.clamped_nonfinite for s in self.shading)
 
     @property
     def negative(self) -> int:
@@ -450,13 +376,23 @@ class Report:
 
     def as_dict(self) -> dict[str, Any]:
         from dataclasses import asdict
-        return dict(ok=self.ok, cases=self.cases, nonfinite=self.nonfinite, negative=self.negative,
+        shading = [{**asdict(s), "nonfinite": s.nonfinite} for s in self.shading]
+        return dict(ok=self.ok, cases=self.cases, builds=self.builds, distinct_inputs=self.distinct_inputs(),
+                    nonfinite=self.nonfinite, negative=self.negative,
+                    raw_radiance=dict(nan=sum(s.nan for s in self.shading), inf=sum(s.inf for s in self.shading),
+                                      negative=sum(s.negative for s in self.shading),
+                                      saturated_pixels=sum(s.saturated for s in self.shading),
+                                      max_radiance=max((s.max_radiance for s in self.shading), default=0.0),
+                                      max_radiance_clamp=MAX_RADIANCE,
+                                      clamped_build_nonfinite=sum(s.clamped_nonfinite for s in self.shading),
+                                      pixels=sum(s.pixels for s in self.shading)),
                     device=self.device, seconds=self.seconds, grid=dict(
                         roughness=ROUGHNESS_GRID, roughness_reading="each value as r and as α = r²",
                         shininess=SHININESS_GRID, cosines=COSINE_GRID, ior=IOR_GRID,
                         light_intensities=LIGHT_INTENSITIES, normals=list(NORMAL_SCALES),
+                        shaded_lights="4 directional, 2 point (one on the surface), 1 spot, ambient",
                         deviation="|f32 − f64| / max(|f64|, %g), reference alpha_floor = %g" % (DEVIATION_FLOOR, MIN_ALPHA)),
-                    models=[asdict(r) for r in self.results], shading=[asdict(s) for s in self.shading],
+                    models=[asdict(r) for r in self.results], shading=shading,
                     clamps=self.clamps, continuity=self.continuity)
 
 
@@ -476,63 +412,3 @@ def run(models: list[Model] | None = None, device: str | None = None, runtime: R
     clamps = clamp_bias(rt) if extras else []
     cont = continuity(rt) if extras else []
     return Report(results, shades, clamps, cont, rt.info.description, time.perf_counter() - start)
-
-
-def format_report(rep: Report) -> str:
-    lines = [f"device: {rep.device}",
-             f"cases run: {rep.cases} ({sum(r.cases for r in rep.results)} BRDF evaluations, "
-             f"{sum(s.pixels for s in rep.shading)} shaded pixels)",
-             f"NaN/Inf: {rep.nonfinite} (must be 0)", f"negative: {rep.negative} (must be 0)", "",
-             "largest deviation from the float64 reference, |f32 − f64| / max(|f64|, %g):" % DEVIATION_FLOOR,
-             f"  {'model':34s} {'build':8s} {'all':>9s} {'cos≥1e-4':>9s}  where (all)"]
-    for r in rep.results:
-        at = r.max_deviation_at
-        where = ", ".join(f"{k}={at[k]}" for k in ("n.l", "n.v", "azimuth", "normal", "roughness_label", "base",
-                                                    "metallic", "f90", "ior", "eta_label", "shininess") if k in at)
-        lines.append(f"  {r.model:34s} {'fast' if r.fast_math else 'precise':8s} {r.max_deviation:9.2e} "
-                     f"{r.max_deviation_unclamped:9.2e}  {where}")
-        if r.first_bad:
-            lines.append(f"    BAD: {r.first_bad}")
-    if rep.shading:
-        lines.append("")
-        lines.append("shading pass (lights 0, 1e-30, 1e30; directional, point on the surface, point, spot; ambient):")
-        for s in rep.shading:
-            lines.append(f"  {s.model:34s} {'fast' if s.fast_math else 'precise':8s} pixels {s.pixels:7d}  "
-                         f"NaN/Inf {s.nonfinite}  negative {s.negative}  max radiance {s.max_radiance:.3g}")
-    if rep.clamps:
-        lines += ["", "clamp bias (precise build, against the unclamped float64 reference):"]
-        for c in rep.clamps:
-            lines.append(f"  {c['clamp']:22s} {c['value']:<8g} active when {c['active']}: bias {c['bias']:.3g}")
-            lines.append(f"  {'':22s} measure: {c['measure']}; worst: {c['worst']}")
-    if rep.continuity:
-        lines += ["", "continuity near the limits:"]
-        for c in rep.continuity:
-            lines.append(f"  {c['model']:16s} {c['check']}: max relative step {c['max_relative_step']:.3g} ({c['where']})")
-    lines += ["", f"{'OK' if rep.ok else 'FAILED'} in {rep.seconds:.1f} s"]
-    return "\n".join(lines)
-
-
-def cmd_stability(args: argparse.Namespace) -> int:
-    from clshade.models import resolve_many
-    models = None
-    if args.model:
-        models = []
-        for m in resolve_many(args.model):
-            models += [m.with_options(fresnel=f) for f in FRESNELS] if m.uses_fresnel else [m]
-    rep = run(models, device=args.device)
-    if args.json:
-        print(json.dumps(rep.as_dict(), indent=2, ensure_ascii=False, default=str))
-    else:
-        print(format_report(rep))
-    return 0 if rep.ok else 1
-
-
-def add_parser(sub: argparse._SubParsersAction, checks: argparse._SubParsersAction) -> None:
-    """`clshade check stability [--json] [--device D] [--model M]`."""
-    p = checks.add_parser("stability", help="torture grid: finite, non-negative outputs; deviation and clamp bias",
-                          description=__doc__.split("\n\n")[0])
-    p.add_argument("--json", action="store_true", help="machine-readable output")
-    p.add_argument("--device", metavar="D", help="OpenCL device (see `clshade devices`)")
-    p.add_argument("--model", metavar="M", help="restrict to these models (comma-separated; default: every preset, "
-                   "microfacet presets with each Fresnel)")
-    p.set_defaults(func=cmd_stability)

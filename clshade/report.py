@@ -1,0 +1,175 @@
+"""Formatting for every command: measured data (dicts and dataclasses from
+clshade.bench and clshade.verify) → Markdown tables, CSV and plots. Nothing here
+measures; clshade.cli prints what these functions return."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from clshade.errors import ClshadeError
+from clshade.tables import cell, markdown, write_csv
+
+# ---------------------------------------------------------------- bench
+
+BENCH_CSV_FIRST = ("model", "name", "mean_ms", "avg_fps", "low1_fps", "low01_fps", "median_ms", "p99_ms",
+                   "host_overhead_ms", "mpixel_per_s", "bytes_per_pixel", "mean_bytes_per_pixel", "lambert_ratio",
+                   "copy_ratio", "copy_mean_ms", "wall_median_ms", "numpy_ms", "numpy_ratio", "numpy_frames",
+                   "max_rel_error", "mean_rel_error", "frames")
+
+
+def numpy_header(doc: dict | None = None) -> str:
+    """The × NumPy column's header: the clock and the thread count of each side."""
+    if doc is None:
+        return "× NumPy (wall time)"
+    cu = doc.get("device", {}).get("compute_units")
+    return f"× NumPy (wall time; OpenCL {cu} CU, NumPy {doc.get('numpy_threads', 1)} thread)"
+
+
+def bench_table(rows: list[dict], ladder: bool = False, doc: dict | None = None) -> str:
+    """A Markdown table of bench rows (model rows, or ladder rungs with `ladder`); `doc`
+    (the whole JSON document) names the thread counts in the NumPy column's header."""
+    if ladder:
+        return markdown(
+            ["ladder", "rung", "model", "mean ms", "copy ×", "max rel err", "mean rel err", "error vs", "Pareto"],
+            [[r["group"], r["label"], r["model"], cell(r["mean_ms"], ".2f"), cell(r["copy_ratio"], ".2f"),
+              cell(r["max_rel_error"], ".2e"), cell(r["mean_rel_error"], ".2e"), r.get("error_target", ""),
+              "●" if r.get("pareto") else ""] for r in rows])
+    return markdown(
+        ["model", "mean ms", "avg FPS", "1 % low", "0.1 % low", "median ms", "p99 ms", "host ms", "Mpix/s", "B/px",
+         "mean B/px", "× Lambert", "× copy", "NumPy ms", numpy_header(doc), "max rel err", "mean rel err"],
+        [[r["label"], cell(r["mean_ms"], ".2f"), cell(r["avg_fps"], ".1f"), cell(r["low1_fps"], ".1f"),
+          cell(r["low01_fps"], ".1f"), cell(r["median_ms"], ".2f"), cell(r["p99_ms"], ".2f"),
+          cell(r["host_overhead_ms"], ".3f"), cell(r["mpixel_per_s"], ".1f"), cell(r["bytes_per_pixel"]),
+          cell(r["mean_bytes_per_pixel"], ".1f"), cell(r["lambert_ratio"], ".2f"), cell(r["copy_ratio"], ".2f"),
+          cell(r["numpy_ms"], ".1f"), cell(r["numpy_ratio"], ".1f"), cell(r["max_rel_error"], ".2e"),
+          cell(r["mean_rel_error"], ".2e")] for r in rows])
+
+
+def bench_csv(rows: list[dict], path: Path | str) -> None:
+    """The per-model rows as CSV."""
+    write_csv(rows, path, BENCH_CSV_FIRST)
+
+
+def _pyplot():
+    try:
+        import matplotlib
+    except ImportError as exc:
+        raise ClshadeError("--plot needs matplotlib: pip install 'clshade[bench]'") from exc
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def _finish(plt, fig, ax, path: Path, title: str, legend_size: int) -> None:
+    """Title, legend, tight layout; write the PNG and close the figure."""
+    ax.set_title(title, fontsize=10)
+    ax.legend(fontsize=legend_size)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def plot_fps(rows: list[dict], path: Path, title: str) -> None:
+    """Bar chart: average FPS with 1 % and 0.1 % lows per model."""
+    plt = _pyplot()
+    x = np.arange(len(rows))
+    fig, ax = plt.subplots(figsize=(max(6, 0.9 * len(rows) + 2), 4.5))
+    w = 0.27
+    for off, key, name in ((-w, "avg_fps", "average"), (0, "low1_fps", "1 % low"), (w, "low01_fps", "0.1 % low")):
+        bars = ax.bar(x + off, [r[key] for r in rows], w, label=name)
+        ax.bar_label(bars, fmt="%.1f", fontsize=6, rotation=90, padding=2)
+    ax.set_xticks(x, [r["label"] for r in rows], rotation=35, ha="right", fontsize=8)
+    ax.set_ylabel("frames per second")
+    _finish(plt, fig, ax, path, title, legend_size=8)
+
+
+def plot_ladder(rows: list[dict], path: Path, title: str) -> None:
+    """Time vs error (log error axis), Pareto front of each ladder marked with a ring."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for group in dict.fromkeys(r["group"] for r in rows):
+        pts = [r for r in rows if r["group"] == group]
+        errs = [max(r["mean_rel_error"], 1e-9) for r in pts]
+        sc = ax.scatter([r["mean_ms"] for r in pts], errs, label=group)
+        for r, e in zip(pts, errs):
+            ax.annotate(r["label"], (r["mean_ms"], e), fontsize=6, xytext=(3, 3), textcoords="offset points")
+            if r.get("pareto"):
+                ax.scatter([r["mean_ms"]], [e], s=160, facecolors="none", edgecolors=sc.get_facecolor()[0])
+    ax.set_yscale("log")
+    ax.set_xlabel("mean frame time (ms)")
+    ax.set_ylabel("mean relative error vs the ladder's exact model (float64)")
+    _finish(plt, fig, ax, path, title, legend_size=7)
+
+
+def bench_text(doc: dict) -> str:
+    """What `clshade bench` prints: a header line, the model table, the ladder table."""
+    scene = Path(doc["scene"]).name if doc.get("scene") else "scene"
+    lines = [f"{scene} {doc['width']}x{doc['height']}, {doc['frames']} frames after {doc['warmup']} warm-up, "
+             f"{doc['features']['num_dir'] + doc['features']['num_point'] + doc['features']['num_spot']} lights, "
+             f"device {doc['device']['name']} [{doc['device']['platform_version']}]",
+             bench_table(doc["models"], doc=doc)]
+    if doc["ladder"]:
+        lines += ["", bench_table(doc["ladder"], ladder=True)]
+    return "\n".join(lines)
+
+
+def bench_plots(doc: dict, path: Path) -> None:
+    """The FPS bar chart at `path` and, with ladders, the ladder plot beside it."""
+    title = f"{Path(doc['scene']).stem if doc.get('scene') else 'scene'} {doc['width']}x{doc['height']}, " \
+            f"{doc['device']['name']}"
+    plot_fps(doc["models"], path, title)
+    if doc["ladder"]:
+        plot_ladder(doc["ladder"], path.with_name(path.stem + "_ladder" + path.suffix), title)
+
+
+# ---------------------------------------------------------------- check stability
+
+
+def stability_text(rep) -> str:
+    """What `clshade check stability` prints for a clshade.verify.stability.Report."""
+    from clshade.verify.stability import DEVIATION_COSINE, DEVIATION_FLOOR
+    d = rep.as_dict()
+    raw = d["raw_radiance"]
+    per_build = ", ".join(f"{k} {v}" for k, v in d["distinct_inputs"].items())
+    lines = [f"device: {rep.device}",
+             f"evaluations: {rep.cases} over {len(d['builds'])} builds ({', '.join(d['builds'])}); "
+             f"distinct inputs per build: {per_build}",
+             f"BRDF NaN/Inf: {sum(r.nonfinite for r in rep.results)}, negative: {sum(r.negative for r in rep.results)} "
+             "(must be 0)",
+             f"shaded pixels, raw radiance (no MAX_RADIANCE clamp): NaN {raw['nan']}, Inf {raw['inf']}, "
+             f"negative {raw['negative']}; saturated (≥ MAX_RADIANCE {raw['max_radiance_clamp']:.3g}) "
+             f"{raw['saturated_pixels']}; largest finite {raw['max_radiance']:.3g}; shipped build NaN/Inf "
+             f"{raw['clamped_build_nonfinite']}", "",
+             f"largest deviation from the float64 reference, |f32 − f64| / max(|f64|, {DEVIATION_FLOOR:g}):"]
+    rows = []
+    for r in rep.results:
+        at = r.max_deviation_at
+        where = ", ".join(f"{k}={at[k]}" for k in ("n.l", "n.v", "azimuth", "normal", "roughness_label", "base",
+                                                    "metallic", "f90", "ior", "eta_label", "shininess") if k in at)
+        rows.append([r.model, "fast" if r.fast_math else "precise", r.cases, r.distinct_inputs,
+                     f"{r.max_deviation:.2e}", f"{r.max_deviation_unclamped:.2e}", where])
+    lines.append(markdown(["model", "build", "cases", "distinct", "all", "cos ≥ 1e-4", "where (all)"], rows))
+    bad = [f"  BAD {r.model} ({'fast' if r.fast_math else 'precise'}): {r.first_bad}" for r in rep.results if r.first_bad]
+    lines += bad
+    if rep.shading:
+        lines += ["", "shading pass, raw radiance (lights 0, 1e-30, 1e30: 4 directional, a point light on the "
+                  f"surface, a point, a spot; ambient); deviation vs the frame oracle at unit lights, "
+                  f"n·l and n·v ≥ {DEVIATION_COSINE:g}:",
+                  markdown(["model", "build", "pixels", "distinct", "NaN", "Inf", "negative", "saturated",
+                            "shipped NaN/Inf", "max radiance", "vs oracle", "compared"],
+                           [[s.model, "fast" if s.fast_math else "precise", s.pixels, s.distinct_inputs, s.nan, s.inf,
+                             s.negative, s.saturated, s.clamped_nonfinite, f"{s.max_radiance:.3g}",
+                             f"{s.max_deviation:.2e}", s.deviation_pixels] for s in rep.shading])]
+    if rep.clamps:
+        lines += ["", "clamp bias (precise build, against the unclamped float64 reference):",
+                  markdown(["clamp", "value", "active when", "bias", "measure", "worst"],
+                           [[c["clamp"], f"{c['value']:g}", c["active"], f"{c['bias']:.3g}", c["measure"], c["worst"]]
+                            for c in rep.clamps])]
+    if rep.continuity:
+        lines += ["", "continuity near the limits:",
+                  markdown(["model", "check", "max relative step", "where"],
+                           [[c["model"], c["check"], f"{c['max_relative_step']:.3g}", c["where"]]
+                            for c in rep.continuity])]
+    lines += ["", f"{'OK' if rep.ok else 'FAILED'} in {rep.seconds:.1f} s"]
+    return "\n".join(lines)
