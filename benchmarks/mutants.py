@@ -164,7 +164,7 @@ CATALOGUE: list[Mutant] = [
       "raster: pixel centres at the corner"),
     M("near_clip", "clshade/render/raster.py", "    dist = z + w  # near plane: dist >= 0 is visible\n",
       "    dist = z + 0.9 * w  # near plane: dist >= 0 is visible\n", "near clipping at the wrong plane"),
-    M("srgb_decode", "clshade/render/textures.py", "((c + 0.055) / 1.055) ** 2.4", "((c + 0.055) / 1.055) ** 2.2",
+    M("srgb_decode", "clshade/render/image.py", "((c + 0.055) / 1.055) ** 2.4", "((c + 0.055) / 1.055) ** 2.2",
       "texture sRGB decode: exponent 2.2"),
     M("uv_orientation", "clshade/render/textures.py", "y = (1.0 - uv[:, 1]) * h - 0.5", "y = uv[:, 1] * h - 0.5",
       "texture V axis flipped"),
