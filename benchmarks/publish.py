@@ -422,8 +422,9 @@ def renderings() -> dict[Path, Callable[[str], str]]:
     if MUTANTS_JSON.exists():
         out[RESULTS / "mutants.md"] = lambda text: render_mutants(load(MUTANTS_JSON))
     if FLOOR_BIAS_JSON.exists():
-        stab = ROOT / "docs" / "stability.md"
-        out[stab] = lambda text: replace_region(text, "floor-bias", floor_bias_table(load(FLOOR_BIAS_JSON)), stab)
+        for doc in (ROOT / "docs" / "stability.md", ROOT / "docs" / "models.md"):
+            out[doc] = (lambda d: lambda text: replace_region(text, "floor-bias", floor_bias_table(load(FLOOR_BIAS_JSON)),
+                                                              d))(doc)
     return out
 
 
