@@ -231,11 +231,12 @@ def snapshot(dest: Path) -> None:
         shutil.copytree(ROOT, dest, ignore=COPY_IGNORE)
 
 
-def run_one(mutant: Mutant, python: str) -> dict:
+def run_one(mutant: Mutant, python: str, base: Path) -> dict:
+    """Copy the snapshot `base`, apply the mutant, run the suite there fail-fast."""
     start = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix=f"mutant-{mutant.name}-") as tmp:
         copy = Path(tmp) / "repo"
-        snapshot(copy)
+        shutil.copytree(base, copy)
         apply(copy, mutant)
         env = dict(os.environ, PYTHONPATH=str(copy), PYTHONDONTWRITEBYTECODE="1")
         env.pop("CLSHADE_EXPECT_INSTALLED", None)
@@ -266,9 +267,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--check", action="store_true", help="only check that every snippet is found once")
     args = parser.parse_args(argv)
     commit = head_commit()
-    with tempfile.TemporaryDirectory(prefix="mutants-check-") as tmp:
-        snapshot(Path(tmp) / "repo")
-        check_catalogue(Path(tmp) / "repo")     # the catalogue must match the tree the mutants run on
+    holder = tempfile.TemporaryDirectory(prefix="mutants-base-")
+    base = Path(holder.name) / "repo"
+    snapshot(base)                      # one snapshot for the whole run: later commits cannot leak in
+    check_catalogue(base)               # the catalogue must match the tree the mutants run on
     if args.check:
         print(f"{len(CATALOGUE)} mutants, every snippet found once")
         return 0
@@ -276,7 +278,7 @@ def main(argv: list[str] | None = None) -> int:
     start = time.perf_counter()
     results: list[dict] = []
     with ThreadPoolExecutor(max_workers=max(1, min(args.jobs, 2))) as pool:
-        for res in pool.map(lambda m: run_one(m, sys.executable), chosen):
+        for res in pool.map(lambda m: run_one(m, sys.executable, base), chosen):
             results.append(res)
             print(f"{res['status']:8s} {res['name']:24s} {res['seconds']:6.1f} s  {res['killed_by']}", flush=True)
     out = Path(args.json)
