@@ -238,7 +238,7 @@ def run_one(mutant: Mutant, python: str, base: Path) -> dict:
         copy = Path(tmp) / "repo"
         shutil.copytree(base, copy)
         apply(copy, mutant)
-        env = dict(os.environ, PYTHONPATH=str(copy), PYTHONDONTWRITEBYTECODE="1")
+        env = dict(os.environ, PYTHONPATH=str(copy), PYTHONDONTWRITEBYTECODE="1", CLSHADE_MUTANT=mutant.name)
         env.pop("CLSHADE_EXPECT_INSTALLED", None)
         where = subprocess.run([python, "-c", "import clshade.resources as r; print(r.kernels_dir())"],
                                cwd=copy, env=env, capture_output=True, text=True)
