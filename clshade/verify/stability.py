@@ -403,19 +403,26 @@ class Report:
 
 
 def run(models: list[Model] | None = None, device: str | None = None, runtime: Runtime | None = None,
-        fast_math: tuple[bool, ...] = (False, True), shading: bool = True, extras: bool = True) -> Report:
-    """Run the whole grid (both builds), the shading pass, the clamp biases and the continuity checks."""
+        fast_math: tuple[bool, ...] = (False, True), shading: bool = True, extras: bool = True,
+        progress=None) -> Report:
+    """Run the whole grid (both builds), the shading pass, the clamp biases and the continuity checks;
+    `progress(done, total)` after each model × build (and after the extras)."""
     start = time.perf_counter()
     rt = runtime or get_runtime(device)
     grid = geometry_grid()
     models = models if models is not None else grid_models()
     results, shades, cache = [], [], {}
+    total = len(models) * len(fast_math) + (1 if extras else 0)
     for model in models:
         for fm in fast_math:
             results.append(run_model(model, grid, rt, fm, cache))
             if shading:
                 shades.append(run_shade(model, rt, fm))
+            if progress is not None:
+                progress(len(results), total)
     clamps = clamp_bias(rt) if extras else []
     cont = continuity(rt) if extras else []
+    if progress is not None and extras:
+        progress(total, total)
     return Report(results, shades, clamps, cont, rt.info.description, time.perf_counter() - start,
                   time.strftime("%Y-%m-%dT%H:%M:%S%z"))
