@@ -176,7 +176,8 @@ def _add_aa(sub: argparse._SubParsersAction) -> None:
     from clshade.bench.aa import CHECK_SAMPLES, DEFAULT_MODELS, TEMPORAL_FRAMES, TRUTH_SAMPLES
     p = sub.add_parser("aa", help="anti-aliasing ladder: supersampling and specular AA vs the float64 pixel integral",
                        description="Render SCENE at each anti-aliasing rung (1 sample, 2x2, 4x4, specular AA, "
-                                   "specular AA + 2x2), time it, and measure its error against the pixel integral "
+                                   "specular AA + 2x2, MSAA-style 4x4 coverage), time it, and measure its error "
+                                   "against the pixel integral "
                                    "(a dense supersampled float64 frame from the oracle); temporal stability under a "
                                    "sub-pixel pan; a crop sheet of one highlight and one silhouette per rung.")
     p.add_argument("scene", nargs="?", help="scene (default: the bundled aa_spheres.toml)")
