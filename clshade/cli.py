@@ -462,6 +462,18 @@ def cmd_bench(args: argparse.Namespace) -> int:
     return 0
 
 
+def _check_aa_outputs(prefix: Path) -> None:
+    """The four output files and matplotlib (the ladder plot), before the long run."""
+    from clshade.outputs import check_output_file
+    from clshade.report import _pyplot
+    for suffix in (".json", ".md", "_ladder.png", "_crops.png"):
+        check_output_file(prefix.with_name(prefix.name + suffix), "-o")
+    try:
+        _pyplot()
+    except ClshadeError as exc:
+        raise ClshadeError(f"clshade aa plots the ladder: {exc}") from exc
+
+
 def cmd_aa(args: argparse.Namespace) -> int:
     from clshade.bench.aa import run
     from clshade.compare import write_sheet
@@ -469,6 +481,7 @@ def cmd_aa(args: argparse.Namespace) -> int:
     from clshade.report import aa_markdown, plot_aa
     from clshade.resources import scenes_dir
     scene = args.scene or str(scenes_dir() / "aa_spheres.toml")
+    _check_aa_outputs(Path(args.output))
     if args.frames < 1 or args.truth_samples < 1 or args.check_samples < 0 or args.temporal_frames < 0:
         raise ClshadeError(f"--frames = {args.frames}, --truth-samples = {args.truth_samples}, --check-samples = "
                            f"{args.check_samples}, --temporal-frames = {args.temporal_frames}: need ≥ 1, ≥ 1, ≥ 0, ≥ 0")
