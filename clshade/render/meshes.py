@@ -83,8 +83,11 @@ def split_sharp_edges(vertices: np.ndarray, faces: np.ndarray, degrees: float = 
     within = np.arange(len(a)) - np.repeat(np.cumsum(pair_counts) - pair_counts, pair_counts)
     b = order[first + within]
     keep = np.einsum("ij,ij->i", unit[fid[a]], unit[fid[b]]) >= np.cos(np.radians(degrees))
-    normals = np.zeros((len(vid), 3))
-    np.add.at(normals, a[keep], unit[fid[b[keep]]] * angle[b[keep], None])
+    # Sum per corner with one weighted bincount per axis: the same additions in the same
+    # order as np.add.at(normals, a[keep], ...), several times faster.
+    ak, bk = a[keep], b[keep]
+    weighted = unit[fid[bk]] * angle[bk, None]
+    normals = np.stack([np.bincount(ak, weighted[:, d], minlength=len(vid)) for d in range(3)], axis=1)
     n = np.linalg.norm(normals, axis=1, keepdims=True)
     normals = np.divide(normals, n, out=np.repeat(unit, 3, axis=0), where=n > 0)
     return vertices[vid], np.arange(len(vid)).reshape(-1, 3), normals
