@@ -14,8 +14,10 @@ from __future__ import annotations
 import hashlib
 import os
 import re
+import tempfile
 from dataclasses import dataclass
 from functools import lru_cache
+from pathlib import Path
 
 import numpy as np
 
@@ -107,6 +109,24 @@ def select_device(spec: str | None = None):
     raise ClshadeError(f"device {spec!r} matches no OpenCL device (have: {known})")
 
 
+ENV_NO_BINARY_CACHE = "CLSHADE_NO_BINARY_CACHE"
+ENV_CACHE_DIR = "CLSHADE_CACHE_DIR"
+
+
+def binary_cache_dir() -> Path | None:
+    """The folder of cached program binaries: $CLSHADE_CACHE_DIR, else
+    $XDG_CACHE_HOME/clshade/programs (~/.cache/clshade/programs); None when
+    CLSHADE_NO_BINARY_CACHE=1. A warm build from source still costs the driver
+    ~30 ms of CPU (PoCL hashes and links it again); from the binary ~5 ms."""
+    if os.environ.get(ENV_NO_BINARY_CACHE, "").strip() not in ("", "0"):
+        return None
+    folder = os.environ.get(ENV_CACHE_DIR, "").strip()
+    if folder:
+        return Path(folder)
+    base = os.environ.get("XDG_CACHE_HOME", "").strip() or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "clshade" / "programs"
+
+
 # Lanes per work-item the kernels support (kernels/simd.h); buffers are padded to the largest.
 SIMD_WIDTHS = ("1", "4", "8")
 SIMD_PAD = 8
@@ -136,6 +156,8 @@ class Runtime:
             return self._kernels[(key, name)]
         program = self._programs.get(key)
         if program is None:
+            program = self._cached_program(source, options)
+        if program is None:
             program = self.cl.Program(self.context, source)
             try:
                 program.build(options=list(options))
@@ -144,10 +166,53 @@ class Runtime:
                 log = str(exc).strip()
                 raise ClshadeError(f"kernel build failed for {label or name} (files: {files}; "
                                    f"options: {' '.join(options) or 'none'}) on {self.info.description}:\n{log}") from exc
-            self._programs[key] = program
+            self._store_program(source, options, program)
+        self._programs[key] = program
         kernel = self.cl.Kernel(program, name)
         self._kernels[(key, name)] = kernel
         return kernel
+
+    def _binary_path(self, source: str, options: tuple[str, ...]) -> Path | None:
+        """Where the program binary of (device, driver, source, options) is cached; None when
+        caching is off (CLSHADE_NO_BINARY_CACHE=1) or there is no cache folder."""
+        folder = binary_cache_dir()
+        if folder is None:
+            return None
+        device = self.device
+        ident = "\0".join((self.info.platform, self.info.platform_version, self.info.device,
+                            device.version, device.driver_version, self.cl.VERSION_TEXT,
+                            *options, source))
+        return folder / (hashlib.sha256(ident.encode()).hexdigest() + ".bin")
+
+    def _cached_program(self, source: str, options: tuple[str, ...]):
+        """The program built from its cached binary, or None (no entry, unreadable, or the
+        driver refuses it: the caller then builds from source and stores a new entry)."""
+        path = self._binary_path(source, options)
+        if path is None or not path.is_file():
+            return None
+        try:
+            program = self.cl.Program(self.context, [self.device], [path.read_bytes()])
+            return program.build(options=list(options))
+        except (OSError, self.cl.Error):
+            return None
+
+    def _store_program(self, source: str, options: tuple[str, ...], program) -> None:
+        """Cache the built program's binary (atomically: a temporary file, then a rename);
+        a failure to write leaves the cache as it was."""
+        path = self._binary_path(source, options)
+        if path is None:
+            return
+        try:
+            binary = program.get_info(self.cl.program_info.BINARIES)[0]
+            if not binary:
+                return
+            path.parent.mkdir(parents=True, exist_ok=True)
+            fd, tmp = tempfile.mkstemp(prefix=".", suffix=".bin", dir=path.parent)
+            with os.fdopen(fd, "wb") as f:
+                f.write(binary)
+            os.replace(tmp, path)
+        except (OSError, self.cl.Error):
+            pass
 
     def to_device(self, array: np.ndarray):
         """Upload a contiguous array into a read-only device buffer."""
