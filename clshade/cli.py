@@ -128,7 +128,7 @@ def _add_compare(sub: argparse._SubParsersAction) -> None:
 
 
 def _add_bench(sub: argparse._SubParsersAction) -> None:
-    from clshade.bench.run import NUMPY_FRAMES
+    from clshade.bench import NUMPY_FRAMES
     p = sub.add_parser("bench", help="frame-time statistics, accuracy and bandwidth floor per model",
                        description="Rasterise SCENE once, dispatch each model's kernel N times and report FPS "
                                    "with 1 % and 0.1 % lows, the copy-kernel floor, the NumPy float32 "
