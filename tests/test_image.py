@@ -37,3 +37,12 @@ def test_png_holds_the_display_transform_of_the_radiance(tmp_path):
     expected = to_display(radiance)
     decoded = np.round(read_image(png) * 255.0).astype(np.uint8)
     np.testing.assert_array_equal(decoded, expected)
+
+
+def test_png_declares_srgb(tmp_path):
+    """The PNG says it is sRGB (sRGB chunk before the image data) without the oiio:ColorSpace
+    attribute that write_encoded no longer sets for PNG."""
+    out = image.write_encoded(tmp_path / "tag.png", np.zeros((4, 5, 3), np.uint8))
+    data = out.read_bytes()
+    assert b"sRGB" in data and data.index(b"sRGB") < data.index(b"IDAT")
+    assert read_image(out).shape == (4, 5, 3)
