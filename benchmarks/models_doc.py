@@ -10,7 +10,6 @@ Nothing here repeats model metadata: the lobe sections come from the
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
@@ -20,7 +19,6 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
-from accuracy_table import accuracy_lines  # noqa: E402
 from clshade.verify import accuracy as A  # noqa: E402
 from clshade.verify import plausibility as P
 from clshade.models import GROUPS, lobes, presets  # noqa: E402
@@ -45,24 +43,17 @@ def lobe_sections() -> list[str]:
     return out
 
 
-def clamp_bias() -> dict[str, str]:
-    """The measured bias of each named floor, quoted from benchmarks/results/floor_bias.json (written by
-    benchmarks/floor_bias.py, the one measurement; docs/stability.md renders the same file)."""
-    path = ROOT / "benchmarks" / "results" / "floor_bias.json"
-    if not path.exists():
-        return {}
-    doc = json.loads(path.read_text(encoding="utf-8"))
-    return {row["clamp"]: f"{row['bias']:.3g} ({row['measure']}; floor_bias.json, {doc['created'][:10]})"
-            for row in doc["floors"]}
-
-
 def clamp_lines() -> list[str]:
-    bias = clamp_bias()
-    lines = ["| constant | value | file | why (from the header) | measured bias |", "|---|---|---|---|---|"]
+    """The named floors from the kernel headers; their measured bias is the table of
+    benchmarks/results/floor_bias.json (benchmarks/floor_bias.py, the one measurement), which
+    benchmarks/publish.py renders into the region below — the same table as docs/stability.md."""
+    lines = ["| constant | value | file | why (from the header) |", "|---|---|---|---|"]
     for c in A.kernel_constants().values():
         if c.name.startswith("MIN_"):
-            lines.append(f"| {c.name} | {c.value:g} | kernels/{c.file} | {c.comment} | {bias.get(c.name, '–')} |")
-    return lines
+            lines.append(f"| {c.name} | {c.value:g} | kernels/{c.file} | {c.comment} |")
+    return lines + ["", "Measured bias of each floor where it acts:", "", "<!-- publish:floor-bias -->",
+                    "(rendered by benchmarks/publish.py from benchmarks/results/floor_bias.json)",
+                    "<!-- /publish:floor-bias -->"]
 
 
 def main() -> int:
@@ -80,12 +71,14 @@ def main() -> int:
              "## Presets (the study's shaders)", "", *preset_lines, "",
              "Groups: " + "; ".join(f"{k}: {', '.join(v)}" for k, v in GROUPS.items()), "",
              *lobe_sections(),
-             "## Accuracy against the float64 reference", "", *accuracy_lines(), "",
+             "## Accuracy against the float64 reference", "",
+             "Every term and model against the float64 reference: [accuracy.md](accuracy.md) (measured by "
+             "`python benchmarks/accuracy_table.py`, rendered from benchmarks/results/accuracy.json).", "",
              "## Physical plausibility (measured on the device: `clshade check plausibility`)", "",
              *P.table(verdicts), "", *[f"- {x}" for x in P.describe_method()], "",
              "## Named clamps and their measured bias", "", *clamp_lines(), ""]
     Path(args.out).write_text("\n".join(lines), encoding="utf-8")
-    print(f"wrote {args.out} in {time.perf_counter() - start:.1f} s")
+    print(f"wrote {args.out} in {time.perf_counter() - start:.1f} s; fill its floor table with: python benchmarks/publish.py")
     return 0
 
 

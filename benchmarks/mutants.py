@@ -1,7 +1,7 @@
 """Mutation testing: does the test suite catch small semantic bugs?
 
 Each mutant of the catalogue is (file, exact original snippet, replacement, description). For every mutant
-the script copies the repository to a temporary folder, applies the one edit (a snippet that is not found
+the script copies the repository (its committed HEAD) to a temporary folder, applies the one edit (a snippet that is not found
 exactly once is an error: the catalogue must track the code), and runs the test suite there, fail-fast,
 with PYTHONPATH pointing at the copy: the copy's Python code and the copy's kernels are the ones used
 (the run checks that clshade.resources.kernels_dir() lies inside the copy; PoCL caches binaries by source,
@@ -105,6 +105,8 @@ CATALOGUE: list[Mutant] = [
       "s.diffuse_color = base;", "metallic workflow: metals keep a diffuse colour"),
     M("kdks_r0", "kernels/surface.h", "real r0 = (s.ior - 1.0f) / (s.ior + 1.0f);", "real r0 = (s.ior - 1.0f) / (s.ior + 2.0f);",
       "k_d + k_s workflow: F0 from IOR wrong"),
+    M("material_f90", "kernels/surface.h", "    s.f90 = m.f90;", "    s.f90 = (real)(1.0f);",
+      "the material's Schlick f90 ignored (f90 = 1)"),
     M("alpha_floor_square", "kernels/surface.h", "s.alpha = fmax(roughness * roughness, MIN_ALPHA);",
       "s.alpha = fmax(roughness, MIN_ALPHA);", "α = r instead of r²"),
     # ---- composition and workflows (kernels/compose.h)
@@ -126,15 +128,15 @@ CATALOGUE: list[Mutant] = [
     # ---- light kinds (kernels/shade.cl, specialised path)
     M("point_falloff", "kernels/shade.cl", "v3scale(v3c(lights[o + 1].xyz), 1.0f / d2), s));",
       "v3scale(v3c(lights[o + 1].xyz), rsqrt(d2)), s));", "point light falloff 1/d² → 1/d (issue 13)"),
-    M("spot_cone_square", "kernels/shade.cl", "vec3 E = v3scale(v3c(e.xyz), t * t / d2);",
-      "vec3 E = v3scale(v3c(e.xyz), t / d2);", "spot cone falloff t² → t (issue 13)"),
-    M("spot_axis_sign", "kernels/shade.cl", "real t = saturate((v3dot(v3neg(l), v3c(a.xyz)) - p.w) / fmax(e.w - p.w, 1.0e-6f));",
-      "real t = saturate((v3dot(l, v3c(a.xyz)) - p.w) / fmax(e.w - p.w, 1.0e-6f));", "spot: axis sign flipped"),
+    M("spot_cone_square", "kernels/shade.cl", "    return t * t;\n}",
+      "    return t;\n}", "spot cone falloff t² → t (issue 13; spot_cone, both kernel paths)"),
+    M("spot_axis_sign", "kernels/shade.cl", "real t = saturate((v3dot(v3neg(l), v3c(axis.xyz)) - cos_outer)",
+      "real t = saturate((v3dot(l, v3c(axis.xyz)) - cos_outer)", "spot: axis sign flipped"),
     M("dir_light_sign", "kernels/shade.cl", "vec3 l = v3c(-lights[2 * k].xyz);", "vec3 l = v3c(lights[2 * k].xyz);",
       "directional light: l points along the light's travel"),
     M("pixel_centre_x", "kernels/shade.cl", "real sx = (convert_real(px) + 0.5f) * inv_width2 - 1.0f;",
       "real sx = (convert_real(px)) * inv_width2 - 1.0f;", "shade.cl: view ray through the pixel corner"),
-    M("ambient_dropped", "kernels/shade.cl", "#if HAS_AMBIENT\n    L = v3add(L, ambient_term(v3c(ambient.xyz), s));",
+    M("ambient_dropped", "kernels/shade.cl", "#if HAS_AMBIENT\n    L = v3add(L, AMBIENT(ambient));",
       "#if HAS_AMBIENT\n    L = v3add(L, v3s((real)(0.0f)));", "specialised kernel: ambient dropped"),
     M("lane_wrap", "kernels/shade.cl", "py = wrap ? py + 1u : py;", "py = py;",
       "SIMD lanes wrapping to the next row keep the row"),
@@ -162,7 +164,7 @@ CATALOGUE: list[Mutant] = [
       "raster: pixel centres at the corner"),
     M("near_clip", "clshade/render/raster.py", "    dist = z + w  # near plane: dist >= 0 is visible\n",
       "    dist = z + 0.9 * w  # near plane: dist >= 0 is visible\n", "near clipping at the wrong plane"),
-    M("srgb_decode", "clshade/render/textures.py", "((c + 0.055) / 1.055) ** 2.4", "((c + 0.055) / 1.055) ** 2.2",
+    M("srgb_decode", "clshade/render/image.py", "((c + 0.055) / 1.055) ** 2.4", "((c + 0.055) / 1.055) ** 2.2",
       "texture sRGB decode: exponent 2.2"),
     M("uv_orientation", "clshade/render/textures.py", "y = (1.0 - uv[:, 1]) * h - 0.5", "y = uv[:, 1] * h - 0.5",
       "texture V axis flipped"),
@@ -212,13 +214,31 @@ def check_catalogue(root: Path = ROOT) -> None:
                              f"{mutant.file}: {mutant.original!r}")
 
 
-def run_one(mutant: Mutant, python: str) -> dict:
+def head_commit() -> str | None:
+    proc = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "HEAD"], capture_output=True, text=True)
+    return proc.stdout.strip() if proc.returncode == 0 else None
+
+
+def snapshot(dest: Path) -> None:
+    """The tree under test: the committed HEAD (git archive), so that edits made while the catalogue runs
+    cannot leak into a mutant; a plain copy of the working tree where there is no git checkout."""
+    if head_commit():
+        dest.mkdir(parents=True)
+        archive = subprocess.run(["git", "-C", str(ROOT), "archive", "--format=tar", "HEAD"], capture_output=True,
+                                 check=True)
+        subprocess.run(["tar", "-x", "-C", str(dest)], input=archive.stdout, check=True)
+    else:
+        shutil.copytree(ROOT, dest, ignore=COPY_IGNORE)
+
+
+def run_one(mutant: Mutant, python: str, base: Path) -> dict:
+    """Copy the snapshot `base`, apply the mutant, run the suite there fail-fast."""
     start = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix=f"mutant-{mutant.name}-") as tmp:
         copy = Path(tmp) / "repo"
-        shutil.copytree(ROOT, copy, ignore=COPY_IGNORE)
+        shutil.copytree(base, copy)
         apply(copy, mutant)
-        env = dict(os.environ, PYTHONPATH=str(copy), PYTHONDONTWRITEBYTECODE="1")
+        env = dict(os.environ, PYTHONPATH=str(copy), PYTHONDONTWRITEBYTECODE="1", CLSHADE_MUTANT=mutant.name)
         env.pop("CLSHADE_EXPECT_INSTALLED", None)
         where = subprocess.run([python, "-c", "import clshade.resources as r; print(r.kernels_dir())"],
                                cwd=copy, env=env, capture_output=True, text=True)
@@ -246,7 +266,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--json", default=str(OUT))
     parser.add_argument("--check", action="store_true", help="only check that every snippet is found once")
     args = parser.parse_args(argv)
-    check_catalogue()
+    commit = head_commit()
+    holder = tempfile.TemporaryDirectory(prefix="mutants-base-")
+    base = Path(holder.name) / "repo"
+    snapshot(base)                      # one snapshot for the whole run: later commits cannot leak in
+    check_catalogue(base)               # the catalogue must match the tree the mutants run on
     if args.check:
         print(f"{len(CATALOGUE)} mutants, every snippet found once")
         return 0
@@ -254,7 +278,7 @@ def main(argv: list[str] | None = None) -> int:
     start = time.perf_counter()
     results: list[dict] = []
     with ThreadPoolExecutor(max_workers=max(1, min(args.jobs, 2))) as pool:
-        for res in pool.map(lambda m: run_one(m, sys.executable), chosen):
+        for res in pool.map(lambda m: run_one(m, sys.executable, base), chosen):
             results.append(res)
             print(f"{res['status']:8s} {res['name']:24s} {res['seconds']:6.1f} s  {res['killed_by']}", flush=True)
     out = Path(args.json)
@@ -265,6 +289,7 @@ def main(argv: list[str] | None = None) -> int:
         results = [by_name[m.name] for m in CATALOGUE if m.name in by_name]
     doc = dict(schema=1, created=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
                machine=f"{platform.node()} {platform.machine()}", command="python benchmarks/mutants.py",
+               commit=commit,
                seconds=round(time.perf_counter() - start, 1), total=len(results),
                killed=sum(r["status"] == "killed" for r in results),
                survived=sum(r["status"] == "survived" for r in results), mutants=results)

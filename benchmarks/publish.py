@@ -286,6 +286,32 @@ def render_bench(doc: dict[str, Any]) -> str:
     return "\n".join(md)
 
 
+# ------------------------------------------------------------------ accuracy
+
+
+def render_accuracy(doc: dict[str, Any]) -> str:
+    """docs/accuracy.md from benchmarks/results/accuracy.json."""
+    lines = ["# Accuracy of the kernels against the float64 reference", "",
+             f"Rendered by `python benchmarks/publish.py` from benchmarks/results/accuracy.json (measured "
+             f"{doc['created']} by `{doc['command']}`); checked by tests/test_terms.py and tests/test_accuracy.py.",
+             "", f"Device: {doc['device']}. Precise math (no -cl-fast-relaxed-math). Target: max relative error ≤ "
+             f"{doc['target']:g}.", "",
+             f"Metric: |f − g| / max(|g|, {doc['floor_rel']:g} · peak), g the float64 reference on float32-rounded "
+             f"inputs, max over samples and RGB. Limits: n·l, n·v ≥ {doc['min_cosine']}; microfacet r ≥ "
+             f"{doc['min_roughness']} and α·min(n·l, n·v) ≥ {doc['min_alpha_cosine']:g} (the float32 half vector's "
+             f"conditioning; samples outside are reported in the last column); Phong/Blinn–Phong n ≤ "
+             f"{doc['max_shininess']:g}.", "",
+             "| term (brdf.h) | samples | max rel err | median |", "|---|---|---|---|"]
+    lines += [f"| {t['name']} | {t['samples']} | {t['max_rel_err']:.2e} | {t['median_rel_err']:.1e} |"
+              for t in doc["terms"]]
+    lines += ["", "| model | samples | max rel err | median | outside the limits: samples, max rel err |",
+              "|---|---|---|---|---|"]
+    for m in doc["models"]:
+        hard = "–" if m["hard_max_rel_err"] is None else f"{m['hard_samples']}, {m['hard_max_rel_err']:.2e}"
+        lines.append(f"| {m['model']} | {m['samples']} | {m['max_rel_err']:.2e} | {m['median_rel_err']:.1e} | {hard} |")
+    return "\n".join(lines) + "\n"
+
+
 # ------------------------------------------------------------------ effects, raster
 
 
@@ -414,6 +440,8 @@ def renderings() -> dict[Path, Callable[[str], str]]:
     out[readme] = lambda text: replace_region(replace_region(text, "bench-table", readme_bench_table(load(BENCH_JSON)),
                                                              readme), "bench-targets",
                                               "\n".join(target_rows(load(BENCH_JSON))), readme)
+    if (RESULTS / "accuracy.json").exists():
+        out[ROOT / "docs" / "accuracy.md"] = lambda text: render_accuracy(load(RESULTS / "accuracy.json"))
     for name, render in (("effects", render_effects), ("raster", render_raster)):
         if (RESULTS / f"{name}.json").exists():
             out[RESULTS / f"{name}.md"] = (lambda r, j: lambda text: r(load(j)))(render, RESULTS / f"{name}.json")
@@ -422,8 +450,9 @@ def renderings() -> dict[Path, Callable[[str], str]]:
     if MUTANTS_JSON.exists():
         out[RESULTS / "mutants.md"] = lambda text: render_mutants(load(MUTANTS_JSON))
     if FLOOR_BIAS_JSON.exists():
-        stab = ROOT / "docs" / "stability.md"
-        out[stab] = lambda text: replace_region(text, "floor-bias", floor_bias_table(load(FLOOR_BIAS_JSON)), stab)
+        for doc in (ROOT / "docs" / "stability.md", ROOT / "docs" / "models.md"):
+            out[doc] = (lambda d: lambda text: replace_region(text, "floor-bias", floor_bias_table(load(FLOOR_BIAS_JSON)),
+                                                              d))(doc)
     return out
 
 

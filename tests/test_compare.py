@@ -2,10 +2,11 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from clshade import models
 from clshade.cli import main
-from clshade.compare import LABEL_HEIGHT, MAX_COLUMNS, SHEET_BACKGROUND, compare_sheet, difference, sweep_sheet
+from clshade.compare import LABEL_HEIGHT, MAX_COLUMNS, SHEET_BACKGROUND, compare_sheet, difference, false_colour
 from clshade.render.image import read_image
 
 from conftest import SCENES
@@ -31,8 +32,23 @@ def test_difference_view_and_wrapping(runtime):
     sheet, tiles = compare_sheet(SCENES / "sphere_grid.toml", chosen, width=40, height=18,
                                  reference=models.resolve("ggx_correlated"), runtime=runtime)
     assert sheet.shape[1] == 6 + MAX_COLUMNS * (40 + 6)       # rows wrap at MAX_COLUMNS tiles
-    same = difference(np.zeros((2, 2, 3)), np.zeros((2, 2, 3)))[0]
-    assert np.allclose(same, same[0, 0])                       # no difference → one colour
+
+
+def test_difference_maps_the_largest_difference_to_the_top_of_the_ramp():
+    """|a − b| (max over RGB) divided by the scale, through the false-colour ramp: 0 → its first stop, the
+    largest difference → its last, a given scale is honoured, and the sign of a − b does not matter."""
+    a = np.zeros((1, 4, 3))
+    b = np.zeros((1, 4, 3))
+    b[0, 1, 2] = 0.2           # differs in blue only
+    b[0, 2] = -0.4             # the largest difference, negative
+    b[0, 3, 0] = 0.1
+    img, scale = difference(a, b)
+    assert scale == pytest.approx(0.4)
+    ramp = false_colour(np.array([0.0, 0.5, 1.0, 0.25]))
+    np.testing.assert_allclose(img[0], ramp, atol=1e-6)
+    img2, scale2 = difference(a, b, scale=0.8)
+    assert scale2 == 0.8
+    np.testing.assert_allclose(img2[0], false_colour(np.array([0.0, 0.25, 0.5, 0.125])), atol=1e-6)
 
 
 def test_cli_compare_and_sweep(tmp_path, capsys):

@@ -21,14 +21,17 @@ BATCH = 512
 RECIPROCITY_RTOL = 2e-4
 RECIPROCITY_ATOL = 1e-5
 MIN_COSINE = 1e-3
-# Albedo ≤ 1 within the quadrature error of the rule below (a 48×96 midpoint
-# grid in (cos θ, φ), plus float32) — 2 % is well above its error on the
-# smooth lobes used here (roughness ≥ 0.2, shininess ≤ 100).
-ALBEDO_TOL = 0.02
+# Albedo ≤ 1 + ALBEDO_TOL + the quadrature's own error estimate (clshade.verify.reference.directional_albedo:
+# composite Gauss–Legendre graded towards the mirror direction; its estimate is |order 2k − order k|).
+# ALBEDO_TOL covers float32 evaluation only: the largest measured albedo of an energy-conserving preset is
+# normalized Phong's 1 + 8.6e-7 (2026-11-23).
+ALBEDO_TOL = 1e-4
 SETTINGS = settings(max_examples=4, deadline=None, derandomize=True,
                     suppress_health_check=[HealthCheck.too_slow])
 
-ENERGY_CONSERVING = ("lambert", "oren_nayar", "phong_normalized", "cook_torrance", "walter_ggx", "ggx_correlated")
+# Oren–Nayar's qualitative model is not energy conserving (measured albedo up to 1.013 at σ = 0.2, grazing
+# view: test_oren_nayar_is_not_energy_conserving); the microfacet presets are, as composed (dielectric and metal).
+ENERGY_CONSERVING = ("lambert", "phong_normalized", "cook_torrance", "walter_ggx", "ggx_correlated")
 
 
 def _upper(rng: np.random.Generator, k: int) -> np.ndarray:
@@ -71,42 +74,39 @@ def test_reciprocity(name: str, seed: int) -> None:
     np.testing.assert_allclose(f, g, rtol=RECIPROCITY_RTOL, atol=RECIPROCITY_ATOL)
 
 
-def _albedo_grid(k_mu: int = 48, k_phi: int = 96) -> tuple[np.ndarray, np.ndarray]:
-    """Midpoint rule in (μ = cos θ, φ): directions and weights μ·dμ·dφ."""
-    mu = (np.arange(k_mu) + 0.5) / k_mu
-    phi = (np.arange(k_phi) + 0.5) / k_phi * 2 * np.pi
-    m, p = np.meshgrid(mu, phi, indexing="ij")
-    s = np.sqrt(1 - m * m)
-    l = np.stack([s * np.cos(p), s * np.sin(p), m], -1).reshape(-1, 3)
-    w = (m * (1.0 / k_mu) * (2 * np.pi / k_phi)).reshape(-1)
-    return l, w
+def _albedo(name: str, cos_v: float, rough: float, shininess: float, metallic: float) -> tuple[float, float]:
+    """Directional albedo of the device BRDF (white base, Schlick f90 = 1) and its quadrature error."""
+    model = preset(name)
+
+    def fn(n, l, v):
+        k = len(l)
+        s = Samples(np.broadcast_to(n[0], (k, 3)), l, v, np.ones((k, 3)), np.full(k, rough), np.full(k, metallic),
+                    constant_materials(k, kd=0.5, ks=0.5, shininess=shininess, f90=1.0))
+        return eval_brdf(model, s)[:, 0].astype(np.float64)
+    v = np.array([np.sqrt(1 - cos_v ** 2), 0.0, cos_v])
+    albedo, err = R.directional_albedo(fn, 8, v=v, levels=8, ratio=0.25, return_error=True)
+    return float(albedo), float(err)
 
 
 @pytest.mark.parametrize("name", ENERGY_CONSERVING)
 @settings(max_examples=3, deadline=None, derandomize=True)
-@given(cos_v=st.floats(0.05, 1.0), rough=st.floats(0.2, 1.0), shininess=st.floats(0.0, 100.0),
+@given(cos_v=st.sampled_from([0.05, 0.5, 1.0]), rough=st.floats(0.2, 1.0), shininess=st.floats(0.0, 100.0),
        metallic=st.sampled_from([0.0, 1.0]))
 def test_albedo_at_most_one(name: str, cos_v: float, rough: float, shininess: float, metallic: float) -> None:
-    """Base colour 1 and F ≤ 1 (Schlick, f90 = 1): ∫ f cos dω ≤ 1 + ALBEDO_TOL.
-
-    Microfacet presets are checked as metals (metallic = 1, all energy in the
-    specular lobe): the metallic workflow adds Lambert to the specular lobe
-    without a (1 − F) weight, so a white dielectric reflects up to ~4 % more
-    than it receives — a property of the composition, not of a lobe."""
-    model = preset(name)
-    if model.family == "microfacet":
-        metallic = 1.0
-    l, w = _albedo_grid()
-    k = len(l)
-    v = np.tile([np.sqrt(1 - cos_v ** 2), 0.0, cos_v], (k, 1))
-    mats = constant_materials(k, kd=0.5, ks=0.5, shininess=shininess, f90=1.0)
-    s = Samples(np.tile([0.0, 0.0, 1.0], (k, 1)), l, v, np.ones((k, 3)), np.full(k, rough), np.full(k, metallic), mats)
-    albedo = (eval_brdf(model, s).astype(np.float64) * w[:, None]).sum(0)
-    assert (albedo <= 1.0 + ALBEDO_TOL).all(), albedo
+    """∫ f cos dω ≤ 1 for base colour 1 and F ≤ 1, as the model renders (the metallic workflow's dielectric
+    couples its lobes with k_d = (1 − F(n·l))(1 − F(n·v)), so both metallic 0 and 1 are checked)."""
+    albedo, err = _albedo(name, cos_v, rough, shininess, metallic)
+    assert albedo <= 1.0 + ALBEDO_TOL + err, (albedo, err)
 
 
-def test_reference_agrees_on_albedo_rule() -> None:
-    """The midpoint rule itself: Lambert's albedo is 1 to within the stated tolerance."""
-    l, w = _albedo_grid()
-    f = R.brdf("lambert", "none", np.array([0, 0, 1.0]), l, np.array([0, 0.6, 0.8]), base_color=1.0, roughness=0.5)
-    assert abs((f[:, 0] * w).sum() - 1.0) < ALBEDO_TOL / 10
+def test_oren_nayar_is_not_energy_conserving() -> None:
+    """The documented verdict (docs/models.md): Oren–Nayar's albedo exceeds 1 at small σ and a grazing view
+    (measured 1.0129 at σ = 0.2, n·v = 0.05; 2026-11-23)."""
+    albedo, err = _albedo("oren_nayar", 0.05, 0.2, 0.0, 0.0)
+    assert albedo > 1.0 + 10 * (ALBEDO_TOL + err), albedo
+
+
+def test_albedo_rule_is_exact_for_lambert() -> None:
+    """The quadrature itself: Lambert's albedo is 1 to well within ALBEDO_TOL."""
+    f = lambda n, l, v: R.brdf("lambert", "none", n, l, v, base_color=1.0, roughness=0.5)[:, 0]  # noqa: E731
+    assert abs(R.directional_albedo(f, 8, v=np.array([0, 0.6, 0.8]), levels=8, ratio=0.25) - 1.0) < ALBEDO_TOL / 10

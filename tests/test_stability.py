@@ -5,13 +5,17 @@ from clshade.verify import stability
 from clshade.models import resolve
 from clshade.report import stability_text
 
+# docs/stability.md: "where no clamp is active the precise build stays within 3e-4 of the float64 reference".
+DOCUMENTED_PRECISE_DEVIATION = 3e-4
+
 
 def test_grid_finite_non_negative_and_accurate() -> None:
     models = [resolve("ggx_correlated@conductor"), resolve("ggx_correlated@dielectric"), resolve("phong")]
     rep = stability.run(models, extras=False)
     assert rep.ok, stability_text(rep)
+    assert rep.results and all(r.cases > 0 for r in rep.results)
     precise = [r for r in rep.results if not r.fast_math]
-    assert all(r.max_deviation_unclamped < stability.PRECISE_TOLERANCE for r in precise), stability_text(rep)
+    assert all(r.max_deviation_unclamped < DOCUMENTED_PRECISE_DEVIATION for r in precise), stability_text(rep)
 
 
 def test_raw_radiance_shows_what_the_clamp_hides(runtime) -> None:

@@ -39,3 +39,19 @@ def test_conductor_nearly_lossless_below_one() -> None:
     g = R.f_conductor(A.f32(c), A.f32(eta), A.f32(k))
     f = A.eval_term("F_Conductor", x, y, z)[:, :3]
     assert np.max(np.abs(f - g) / np.maximum(g, A.FLOOR_REL)) <= A.TARGET
+
+
+def test_dielectric_from_the_dense_side_total_internal_reflection() -> None:
+    """η < 1 (light inside the denser medium): F = 1 beyond the critical angle (c < √(1 − η²)), the exact
+    reflectance inside it. The accuracy grid draws η ≥ 1 only, where total internal reflection cannot occur."""
+    from clshade.verify import reference as R
+    c = np.linspace(0.0, 1.0, 2001)
+    eta = np.full_like(c, 1.0 / 1.5)
+    x = np.zeros((len(c), 4), np.float32)
+    x[:, 0], x[:, 1] = c, eta
+    f = A.eval_term("F_Dielectric", x, np.zeros_like(x), np.zeros_like(x))[:, 0]
+    g = R.f_dielectric(A.f32(c), A.f32(eta)[:, None])[:, 0]
+    critical = np.sqrt(1.0 - A.f32(eta) ** 2)
+    assert np.all(f[c < critical - 1e-3] == 1.0)
+    away = np.abs(c - critical) > 1e-3      # the critical angle itself: √ of a cancelling difference
+    assert np.max(np.abs(f - g)[away] / np.maximum(g[away], A.FLOOR_REL)) <= A.TARGET

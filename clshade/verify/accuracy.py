@@ -378,7 +378,7 @@ def model_case(model: Model, count: int, rng: np.random.Generator) -> ModelCase:
     mats[:, 0, 2] = 1.0                                   # ka
     mats[:, 0, 3] = shininess
     mats[:, 1, 0] = rng.uniform(*IOR_RANGE, count)        # ior
-    mats[:, 1, 1] = 1.0                                   # f90: the reference's Schlick has f90 = 1
+    mats[:, 1, 1] = np.where(rng.random(count) < 0.5, 1.0, rng.uniform(0.0, 1.0, count))   # Schlick f90
     mats[:, 2, :3] = rng.uniform(*CONDUCTOR_ETA_RANGE, (count, 3))
     mats[:, 3, :3] = rng.uniform(*CONDUCTOR_K_RANGE, (count, 3))
     samples = Samples(n, l, v, base, roughness, metallic, mats)
@@ -386,7 +386,7 @@ def model_case(model: Model, count: int, rng: np.random.Generator) -> ModelCase:
     ior = m[:, 1, 0]
     ref = dict(base_color=base, roughness=roughness, metallic=metallic, workflow=model.workflow,
                fresnel=model.fresnel, ior=ior, eta=m[:, 2, :3], k=m[:, 3, :3], kd=m[:, 0, 0], ks=m[:, 0, 1],
-               shininess=m[:, 0, 3], alpha_floor=constant("MIN_ALPHA"))
+               shininess=m[:, 0, 3], f90=m[:, 1, 1], alpha_floor=constant("MIN_ALPHA"))
     if model.workflow == "kdks" and model.uses_fresnel:
         ref["f0"] = (((ior - 1.0) / (ior + 1.0)) ** 2)[:, None]
     return ModelCase(samples, ref)

@@ -34,6 +34,8 @@ n = v by design; for n·v ≤ 0 the kernel floors n·v at MIN_N_DOT_V by design
 from __future__ import annotations
 
 import math
+import os
+import platform
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -343,6 +345,7 @@ class Report:
     continuity: list[dict[str, Any]]
     device: str
     seconds: float
+    created: str = ""              # local time of the run, ISO 8601
 
     @property
     def builds(self) -> list[str]:
@@ -387,7 +390,9 @@ class Report:
                                       max_radiance_clamp=MAX_RADIANCE,
                                       clamped_build_nonfinite=sum(s.clamped_nonfinite for s in self.shading),
                                       pixels=sum(s.pixels for s in self.shading)),
-                    device=self.device, seconds=self.seconds, grid=dict(
+                    device=self.device, seconds=self.seconds, created=self.created,
+                    machine=dict(machine=platform.machine(), processor=platform.processor() or platform.machine(),
+                                 cpu_count=os.cpu_count(), os=platform.platform()), grid=dict(
                         roughness=ROUGHNESS_GRID, roughness_reading="each value as r and as α = r²",
                         shininess=SHININESS_GRID, cosines=COSINE_GRID, ior=IOR_GRID,
                         light_intensities=LIGHT_INTENSITIES, normals=list(NORMAL_SCALES),
@@ -419,4 +424,5 @@ def run(models: list[Model] | None = None, device: str | None = None, runtime: R
     cont = continuity(rt) if extras else []
     if progress is not None and extras:
         progress(total, total)
-    return Report(results, shades, clamps, cont, rt.info.description, time.perf_counter() - start)
+    return Report(results, shades, clamps, cont, rt.info.description, time.perf_counter() - start,
+                  time.strftime("%Y-%m-%dT%H:%M:%S%z"))

@@ -1,0 +1,42 @@
+"""The mutation-testing catalogue (benchmarks/mutants.py) tracks the code: every mutant's original snippet occurs
+exactly once in its file, so a refactor that moves a snippet fails here until the catalogue follows."""
+from __future__ import annotations
+
+import importlib.util
+import os
+import sys
+
+import pytest
+
+
+@pytest.fixture(scope="module")
+def mutants(checkout):
+    if os.environ.get("CLSHADE_MUTANT"):
+        pytest.skip("running inside a mutant's copy (its snippet is replaced there by design)")
+    spec = importlib.util.spec_from_file_location("mutants", checkout / "benchmarks" / "mutants.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["mutants"] = module          # dataclasses look their module up there
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_every_snippet_found_once(mutants, checkout):
+    assert len(mutants.CATALOGUE) >= 40
+    mutants.check_catalogue(checkout)
+
+
+def test_a_missing_snippet_is_an_error(mutants, tmp_path):
+    (tmp_path / "kernels").mkdir()
+    (tmp_path / "kernels" / "brdf.h").write_text("nothing to mutate here\n")
+    with pytest.raises(SystemExit, match="found 0 times"):
+        mutants.apply(tmp_path, mutants.Mutant("x", "kernels/brdf.h", "return a2;", "return 0;", "test"))
+
+
+def test_results_file_is_the_catalogue(mutants):
+    """The committed results name exactly the catalogue's mutants (rerun after changing the catalogue)."""
+    import json
+    if not mutants.OUT.exists():
+        pytest.skip("no committed results yet")
+    doc = json.loads(mutants.OUT.read_text(encoding="utf-8"))
+    assert [m["name"] for m in doc["mutants"]] == [m.name for m in mutants.CATALOGUE]
+    assert doc["killed"] + doc["survived"] == doc["total"] == len(doc["mutants"])
