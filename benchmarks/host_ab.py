@@ -9,7 +9,8 @@ Usage::
     python benchmarks/host_ab.py [--base main] [--rounds 7] [--out benchmarks/results/host_ab.json]
     python benchmarks/host_ab.py --markdown-only
 
-Rows: geometry (robot.toml), rasterize and G-buffer at 640×640 and 1920×1080, the display
+First the whole warm render (`clshade render scenes/robot.toml`, fresh processes, the ref
+checked out in a temporary detached worktree). Rows: geometry (robot.toml), rasterize and G-buffer at 640×640 and 1920×1080, the display
 transform and the PNG encode at 640×640, and the whole frame of issue 15 (robot at
 1920×1080: rasterize + G-buffer + upload + shade + read back, the camera orbiting 2° a
 frame, kernel built once before). Medians of process CPU time (user + system, all
@@ -77,6 +78,42 @@ def same(a, b) -> bool:
     if hasattr(a, "faces"):
         return all(getattr(a, k).tobytes() == getattr(b, k).tobytes() for k in ("vertices", "normals", "faces"))
     return np.asarray(a).tobytes() == np.asarray(b).tobytes()
+
+
+def render_ab(base_ref: str, rounds: int) -> dict:
+    """Warm `clshade render scenes/robot.toml` (640×640 PNG) in fresh processes, the ref (a
+    detached worktree, imported through PYTHONPATH) and this checkout in interleaved rounds
+    after one warm-up each: median wall and CPU (user + system) seconds; decoded pixels equal."""
+    import os
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    with tempfile.TemporaryDirectory() as tmp:
+        base_tree = Path(tmp) / "base"
+        subprocess.run(["git", "worktree", "add", "--detach", "-q", str(base_tree), base_ref], cwd=ROOT, check=True)
+        try:
+            trees = {"base": base_tree, "new": ROOT}
+            runs = {k: {"wall": [], "cpu": []} for k in trees}
+            for r in range(-1, rounds):
+                for label in (("base", "new") if r % 2 == 0 else ("new", "base")):
+                    png = Path(tmp) / f"{label}.png"
+                    cmd = [sys.executable, "-m", "clshade", "render", "scenes/robot.toml", "-o", str(png)]
+                    start = time.perf_counter()
+                    proc = subprocess.Popen(cmd, cwd=trees[label], env=dict(env, PYTHONPATH=str(trees[label])),
+                                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+                    proc.stdout.read()
+                    err = proc.stderr.read()
+                    _, status, usage = os.wait4(proc.pid, 0)
+                    if os.waitstatus_to_exitcode(status):
+                        raise SystemExit(f"{label} render failed: {err.decode().strip()}")
+                    if r >= 0:
+                        runs[label]["wall"].append(time.perf_counter() - start)
+                        runs[label]["cpu"].append(usage.ru_utime + usage.ru_stime)
+            from clshade.render.image import read_image
+            same_pixels = read_image(Path(tmp) / "base.png").tobytes() == read_image(Path(tmp) / "new.png").tobytes()
+        finally:
+            subprocess.run(["git", "worktree", "remove", "--force", str(base_tree)], cwd=ROOT, check=False)
+    if not same_pixels:
+        raise SystemExit("render: the base and the checkout wrote different pixels")
+    return {k: {m: statistics.median(v[m]) for m in ("wall", "cpu")} for k, v in runs.items()}
 
 
 def measure(base_ref: str, rounds: int) -> dict:
@@ -173,17 +210,23 @@ def measure(base_ref: str, rounds: int) -> dict:
         "whole_frame_1080p": {lab: {st: {"cpu_ms": 1e3 * med(f[st][0] for f in fr),
                                          "wall_ms": 1e3 * med(f[st][1] for f in fr)} for st in fr[0]}
                               for lab, fr in frames.items()},
+        "render_robot_640_s": render_ab(base_ref, rounds),
         "load_average_1min_end": os.getloadavg()[0],
     }
 
 
 def markdown(doc: dict) -> str:
     m = doc["machine"]
+    e2e = doc["render_robot_640_s"]
     lines = [f"# Host stages: this checkout against `{doc['base_ref']}` ({doc['base_commit']})", "",
              f"Measured {doc['date']} on {m['cpu']} ({m['cores']} cores, shared; 1-minute load average "
              f"{m['load_average_at_start'][0]:.1f} at the start, {doc['load_average_1min_end']:.1f} at the end) by "
              f"`python benchmarks/host_ab.py` ({doc['rounds']} interleaved rounds in one process, outputs checked "
              f"byte-equal first); device: {m['device']}.", "",
+             "Warm `clshade render scenes/robot.toml` (640×640 PNG), fresh processes, interleaved, same decoded "
+             f"pixels: median CPU {e2e['base']['cpu']:.3f} s → {e2e['new']['cpu']:.3f} s "
+             f"({e2e['base']['cpu'] / e2e['new']['cpu']:.2f}×), median wall {e2e['base']['wall']:.3f} s → "
+             f"{e2e['new']['wall']:.3f} s ({e2e['base']['wall'] / e2e['new']['wall']:.2f}×).", "",
              "| stage | base CPU ms | new CPU ms | CPU ratio | base wall ms | new wall ms |", "|---|---:|---:|---:|---:|---:|"]
     for name, v in doc["stages"].items():
         b, n = v["base"], v["new"]
