@@ -62,3 +62,13 @@ def test_binary_cache_off(monkeypatch, tmp_path):
     assert R.binary_cache_dir() == tmp_path
     monkeypatch.setenv(R.ENV_NO_BINARY_CACHE, "1")
     assert R.binary_cache_dir() is None
+
+
+def test_binary_cache_key_covers_source_and_options(runtime, tmp_path, monkeypatch):
+    """A fast-math build must never load the precise build's binary: the entry's name changes
+    with the build options and with the source."""
+    monkeypatch.setenv(R.ENV_CACHE_DIR, str(tmp_path))
+    src = "__kernel void k(__global float *x) { x[0] = 1.0f; }"
+    paths = {runtime._binary_path(src, ()), runtime._binary_path(src, ("-cl-fast-relaxed-math",)),
+             runtime._binary_path(src, ("-DA=1",)), runtime._binary_path(src + " ", ())}
+    assert len(paths) == 4 and all(p.parent == tmp_path for p in paths)
