@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import json
 import platform
+import re
 import time
 from pathlib import Path
 
@@ -54,15 +55,18 @@ def pocl_devices() -> list[str]:
     return out
 
 
-def run(scene_path: str, width: int, height: int, rounds: int, warmup: int, frame_scene: str,
-        frame_frames: int, peer_names: tuple[str, ...]) -> dict:
+def compare(scene_path: str, models: list, width: int | None, height: int | None, rounds: int, warmup: int,
+            peer_names: tuple[str, ...], devices: list[str] | None = None, library: bool = True) -> dict:
+    """Every runtime in `devices` (default: every PoCL CPU runtime) × build (inline math,
+    and with `library` the OpenCL library's builtins) × model, their copy kernels and
+    the peers, in the same interleaved rounds; peers verified against the first runtime."""
     frame = prepare_frame(load_scene(scene_path), width, height)
     gb, scene, camera = frame.gbuffer, frame.scene, frame.camera
     feats = scene_features(scene)
-    models = [resolve(m) for m in MODELS]
+    builds = (("inline", ()), ("library", ("-DCLSHADE_LIBRARY_MATH",))) if library else (("inline", ()),)
     configs = []
-    for spec in pocl_devices():
-        for build, opts in (("inline", ()), ("library", ("-DCLSHADE_LIBRARY_MATH",))):
+    for spec in devices or pocl_devices():
+        for build, opts in builds:
             rt = Runtime(spec, options=opts)
             try:
                 sh = Shader(rt, gb, scene, camera)
@@ -131,16 +135,24 @@ def run(scene_path: str, width: int, height: int, rounds: int, warmup: int, fram
     for row in peer_rows:
         if "ms" in row:
             row["median_ms"] = float(np.median(row.pop("ms")))
-    default = Runtime(pocl_devices()[0]) if pocl_devices() else None
+    return dict(schema=SCHEMA, created=time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+                machine=dict(processor=_cpu_name(), cpu_count=__import__("os").cpu_count(), os=platform.platform()),
+                versions=_versions(), libllvm_drjit=peer_mod.drjit_libllvm(), scene=scene_path,
+                width=frame.camera.width, height=frame.camera.height, pixels=gb.pixels,
+                covered_pixels=int(len(covered)), rounds=rounds, warmup=warmup,
+                stream=dict(before=stream_before, after=stream_after, anchor_gbs=anchor),
+                runtimes=runtimes, peers=peer_rows)
+
+
+def run(scene_path: str, width: int, height: int, rounds: int, warmup: int, frame_scene: str,
+        frame_frames: int, peer_names: tuple[str, ...]) -> dict:
+    """Issue 15's document: `compare` on MODELS, whole frames, the targets."""
+    doc = compare(scene_path, [resolve(m) for m in MODELS], width, height, rounds, warmup, peer_names)
+    default = Runtime(pocl_devices()[0])
     frames = whole.whole_frames(load_scene(frame_scene), resolve("ggx_correlated"), default, 1920, 1080, frame_frames)
     frames.pop("frames_s")
     frames["device"] = default.info.description
-    doc = dict(schema=SCHEMA, created=time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-               machine=dict(processor=_cpu_name(), cpu_count=__import__("os").cpu_count(), os=platform.platform()),
-               versions=_versions(), scene=scene_path, width=width, height=height, pixels=gb.pixels,
-               covered_pixels=int(len(covered)), rounds=rounds, warmup=warmup,
-               stream=dict(before=stream_before, after=stream_after, anchor_gbs=anchor),
-               runtimes=runtimes, peers=peer_rows, whole_frame=frames)
+    doc["whole_frame"] = frames
     doc["targets"] = targets(doc)
     return doc
 
@@ -153,6 +165,16 @@ def _cpu_name() -> str:
     except OSError:
         pass
     return platform.processor() or platform.machine()
+
+
+def bench_peers(args) -> dict:
+    """`clshade bench --peers`: the comparison document (the CLI prints its Markdown)."""
+    from clshade.models import resolve_many
+    doc = compare(args.scene, resolve_many(args.models), args.width, args.height, min(args.frames, 200),
+                  args.warmup, tuple(p for p in args.peers.split(",") if p), library=False)
+    doc["targets"] = targets(doc)
+    doc["command"] = "clshade bench " + " ".join(__import__("sys").argv[2:])
+    return doc
 
 
 def targets(doc: dict) -> list[dict]:
@@ -172,17 +194,26 @@ def targets(doc: dict) -> list[dict]:
             if r["model"] == "lambert":
                 out.append(dict(runtime=rt["device"], target=f"Lambert ≤ {LAMBERT_BOUND}× its bytes at the STREAM rate",
                                 value=r["stream_ratio"], met=r["stream_ratio"] <= LAMBERT_BOUND))
-    wf = doc["whole_frame"]
-    out.append(dict(runtime=wf["device"], target="robot 1920×1080 whole frame ≤ 100 ms",
-                    value=wf["median_s"]["frame"] * 1e3, met=wf["median_s"]["frame"] <= 0.1))
+    wf = doc.get("whole_frame")
+    if wf:
+        out.append(dict(runtime=wf["device"], target="robot 1920×1080 whole frame ≤ 100 ms (ms)",
+                        value=wf["median_s"]["frame"] * 1e3, met=wf["median_s"]["frame"] <= 0.1))
     return out
+
+
+def short(device: str) -> str:
+    """'pthread-… [OpenCL 3.0 PoCL 3.1+debian …, LLVM 15.0.6, …]' → 'pthread-… (PoCL 3.1+debian, LLVM 15.0.6)'."""
+    name = device.split(" [")[0]
+    pocl = re.search(r"PoCL (\S+)", device)
+    llvm = re.search(r"LLVM (\S+?),", device)
+    return f"{name} (PoCL {pocl.group(1) if pocl else '?'}, LLVM {llvm.group(1) if llvm else '?'})"
 
 
 def markdown(doc: dict) -> str:
     """The results file, rendered from the JSON document only."""
     s = doc["stream"]
     L = [f"# Performance on the runtimes users get (issue 15)", "",
-         f"Generated {doc['created']} by `python -m clshade.bench.perf --out benchmarks/results/perf_1080p` "
+         f"Generated {doc['created']} by `{doc.get('command', '')}` "
          f"on {doc['machine']['processor']} ({doc['machine']['cpu_count']} cores, {doc['machine']['os']}); "
          f"{doc['scene']} {doc['width']}×{doc['height']}, {doc['rounds']} interleaved rounds, medians. "
          f"Versions: " + ", ".join(f"{k} {v}" for k, v in doc["versions"].items()) + ".", "",
@@ -197,12 +228,12 @@ def markdown(doc: dict) -> str:
          "|---|---|---|---|---|---|---|---|---|"]
     for rt in doc["runtimes"]:
         if "error" in rt:
-            L.append(f"| {rt['device']} | {rt['build']} | — | build failed: {rt['error']} | | | | | |")
+            L.append(f"| {short(rt['device'])} | {rt['build']} | — | build failed: {rt['error']} | | | | | |")
             continue
         for r in rt["models"]:
-            L.append(f"| {rt['device']} | {rt['build']} | {rt['simd']} | {r['name']} | {r['median_ms']:.2f} | "
+            L.append(f"| {short(rt['device'])} | {rt['build']} | {rt['simd']} | {r['name']} | {r['median_ms']:.2f} | "
                      f"{r['copy_ratio']:.2f} | {r['gbs']:.1f} | {r['stream_ratio']:.2f} | {r['max_rel_diff_vs_first']:.1e} |")
-        L.append(f"| {rt['device']} | {rt['build']} | {rt['simd']} | copy kernel | {rt['copy_ms']:.2f} | 1.00 | "
+        L.append(f"| {short(rt['device'])} | {rt['build']} | {rt['simd']} | copy kernel | {rt['copy_ms']:.2f} | 1.00 | "
                  f"{rt['copy_gbs']:.1f} | | |")
     L += ["", "## Peers (same G-buffer, same rounds; verified against clshade on covered pixels, ≤ 1e-4 relative)", "",
           "| peer | model | ms | max rel diff (all covered) | max rel diff (well-conditioned) | verified | note |",
@@ -212,21 +243,22 @@ def markdown(doc: dict) -> str:
             L.append(f"| {p['peer']} | {p['model']} | — | — | — | — | skipped: {p['skipped']} |")
         else:
             note = (f"{p['ill_conditioned_pixels']} pixels with exponent n > "
-                    f"{peer_mod.WELL_CONDITIONED_EXPONENT:.0f} (float32 (r·v)ⁿ differs by ~n·2⁻²³ between "
+                    f"{peer_mod.WELL_CONDITIONED_EXPONENT:.0f} (float32 (r·v)ⁿ differs by ~4·n·2⁻²³ between "
                     f"correct implementations) checked in the first column only" if p["ill_conditioned_pixels"] else "")
             L.append(f"| {p['peer']} {p['version']} | {p['model']} | {p['median_ms']:.2f} | {p['max_rel_diff']:.1e} | "
                      f"{p['max_rel_diff_well_conditioned']:.1e} | {'yes' if p['verified'] else 'NO'} | {note} |")
-    wf = doc["whole_frame"]
-    m = wf["median_s"]
-    L += ["", f"## Whole frames: {wf['scene']} {wf['width']}×{wf['height']}, {wf['model']}, {wf['triangles']} "
-          f"triangles, camera orbiting {wf['step_degrees']}° a frame, {wf['frames']} frames, {wf['device']}", "",
+    wf = doc.get("whole_frame")
+    m = wf["median_s"] if wf else None
+    L += [] if not wf else ["", f"## Whole frames: {wf['scene']} {wf['width']}×{wf['height']}, {wf['model']}, {wf['triangles']} "
+          f"triangles, camera orbiting {wf['step_degrees']}° a frame, {wf['frames']} frames, {short(wf['device'])}", "",
           "| stage | median ms | share |", "|---|---|---|"]
-    for k in whole.STAGES:
+    for k in whole.STAGES if wf else ():
         L.append(f"| {k} | {m[k] * 1e3:.1f} | {m[k] / m['frame']:.0%} |")
-    L.append(f"| **whole frame** | **{m['frame'] * 1e3:.1f}** | 100% |")
+    if wf:
+        L.append(f"| **whole frame** | **{m['frame'] * 1e3:.1f}** | 100% |")
     L += ["", "## Targets", "", "| runtime | target | measured | met |", "|---|---|---|---|"]
     for t in doc["targets"]:
-        L.append(f"| {t['runtime']} | {t['target']} | {t['value']:.2f} | {'met' if t['met'] else 'MISSED'} |")
+        L.append(f"| {short(t['runtime'])} | {t['target']} | {t['value']:.2f} | {'met' if t['met'] else 'MISSED'} |")
     return "\n".join(L) + "\n"
 
 
@@ -244,6 +276,7 @@ def main(argv: list[str] | None = None) -> int:
     a = ap.parse_args(argv)
     doc = run(a.scene, a.width, a.height, a.rounds, a.warmup, a.frame_scene, a.frame_frames,
               tuple(p for p in a.peers.split(",") if p))
+    doc["command"] = "python -m clshade.bench.perf " + " ".join(argv if argv is not None else __import__("sys").argv[1:])
     out = Path(a.out)
     out.with_suffix(".json").write_text(json.dumps(doc, indent=2, ensure_ascii=False), encoding="utf-8")
     out.with_suffix(".md").write_text(markdown(doc), encoding="utf-8")
