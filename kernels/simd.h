@@ -114,12 +114,16 @@ typedef uint16 uindex;
  * features, so every builtin — fmax, sqrt, vload8, vstore8, convert_float8 … —
  * stays an out-of-line call, and float16 arguments cannot even be passed
  * ("LLVM ERROR: Cannot select … fsqrt" in _cl_rsqrtDv16_f). Debian's PoCL 3.1
- * (LLVM 15) compiles for skylake-avx512 and inlines them. The hot builtins are
- * therefore written here as plain operators and clang/x86 builtins, which
- * are code in the kernel itself on every PoCL; same results (sqrt is IEEE
- * sqrt; fmax/fmin keep OpenCL's NaN rule). CLSHADE_LIBRARY_MATH (host:
- * CLSHADE_LIBRARY_MATH=1) builds with the library versions for A/B. */
-#if defined(__x86_64__) && defined(__AVX__) && !defined(CLSHADE_LIBRARY_MATH)
+ * (LLVM 15) compiles for skylake-avx512 and inlines them. Where that mismatch
+ * exists — the host CPU has AVX-512 (the host passes CLSHADE_HOST_AVX512F) and
+ * the kernel is compiled without it — the hot builtins are written here as
+ * plain operators and clang/x86 builtins, which are code in the kernel itself;
+ * same results (sqrt is IEEE sqrt; fmax/fmin keep OpenCL's NaN rule). Elsewhere
+ * the library's own builtins inline, and were measured faster (PoCL 3.1,
+ * benchmarks/results/perf_1080p.md). Host switches for A/B:
+ * CLSHADE_LIBRARY_MATH=1 (never inline), CLSHADE_INLINE_MATH=1 (always). */
+#if defined(__x86_64__) && defined(__AVX__) && !defined(CLSHADE_LIBRARY_MATH) && \
+    (defined(CLSHADE_INLINE_MATH_FORCE) || (defined(CLSHADE_HOST_AVX512F) && !defined(__AVX512F__)))
 #define CLSHADE_INLINE_MATH 1
 #define OVL __attribute__((overloadable, always_inline)) inline
 

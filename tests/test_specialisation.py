@@ -217,13 +217,46 @@ def test_simd_width_is_validated(runtime, monkeypatch):
 @pytest.mark.parametrize("model", ["ggx_correlated", "phong", "cook_torrance@conductor"])
 def test_inline_math_matches_library_math(runtime, model):
     """kernels/simd.h's inline fmax/fmin/sqrt/rsqrt/clamp/loads/stores/conversions give the
-    image the OpenCL library's builtins give (-DCLSHADE_LIBRARY_MATH), shadows and
-    three light kinds included."""
-    from clshade.device.runtime import Runtime
+    image the OpenCL library's builtins give, shadows and three light kinds included."""
+    from clshade.device.runtime import INLINE_MATH, LIBRARY_MATH, Runtime
     frame = prepare_frame(parse_scene(SCENE))
     features = scene_features(frame.scene, geometry=frame.geometry)
     m = models.resolve(model)
-    library = Runtime(runtime.info.spec, options=("-DCLSHADE_LIBRARY_MATH",))
-    images = [Shader(rt, frame.gbuffer, frame.scene, frame.camera, frame.shadows).render(m, features)
-              for rt in (runtime, library)]
+    images = [Shader(Runtime(runtime.info.spec, options=(opt,)), frame.gbuffer, frame.scene, frame.camera,
+                     frame.shadows).render(m, features) for opt in (INLINE_MATH, LIBRARY_MATH)]
     _close(images[0], images[1])
+
+
+def test_inline_math_only_where_the_builtin_library_cannot_inline(runtime):
+    """The runtime tells simd.h whether the host has AVX-512: inline builtins exactly
+    where the host has it and the kernel's compiler target does not (pip's PoCL 3.0
+    on this EPYC), the library's builtins elsewhere (PoCL 3.1 compiles for AVX-512)."""
+    import pyopencl as cl
+    from clshade.device.runtime import host_has_avx512f
+    from clshade.resources import kernels_dir
+    source = (kernels_dir() / "simd.h").read_text() + """
+    __kernel void probe(__global int* out) {
+    #ifdef CLSHADE_INLINE_MATH
+        out[0] = 1;
+    #else
+        out[0] = 0;
+    #endif
+    #if defined(__AVX512F__)
+        out[1] = 1;
+    #else
+        out[1] = 0;
+    #endif
+    #if defined(__x86_64__) && defined(__AVX__)
+        out[2] = 1;
+    #else
+        out[2] = 0;
+    #endif
+    }"""
+    kernel = runtime.kernel(source, "probe")
+    out = np.zeros(3, np.int32)
+    buf = runtime.empty(out.nbytes)
+    kernel.set_args(buf)
+    cl.enqueue_nd_range_kernel(runtime.queue, kernel, (1,), (1,)).wait()
+    cl.enqueue_copy(runtime.queue, out, buf)
+    inline, target_avx512, x86_avx = (bool(x) for x in out)
+    assert inline == (x86_avx and host_has_avx512f() and not target_avx512)

@@ -1,6 +1,6 @@
 """Issue 15's performance run: every PoCL runtime on the machine as its own
-column, the kernels built with inline math (default) and with the OpenCL
-library's builtins (CLSHADE_LIBRARY_MATH, the state before issue 15), the copy
+column, the kernels as clshade builds them, with the OpenCL library's builtins
+everywhere (the state before issue 15) and with simd.h's inline ones, the copy
 kernel, the Numba peer, the STREAM anchor and whole frames — one JSON, one
 Markdown rendered from it.
 
@@ -23,7 +23,7 @@ import numpy as np
 
 from clshade import __version__
 from clshade.bench import bandwidth, frame as whole, peers as peer_mod
-from clshade.device.runtime import Runtime, list_devices
+from clshade.device.runtime import INLINE_MATH, LIBRARY_MATH, Runtime, list_devices
 from clshade.device.shade import Shader, scene_features
 from clshade.models import resolve
 from clshade.pipeline import prepare_frame
@@ -63,7 +63,8 @@ def compare(scene_path: str, models: list, width: int | None, height: int | None
     frame = prepare_frame(load_scene(scene_path), width, height)
     gb, scene, camera = frame.gbuffer, frame.scene, frame.camera
     feats = scene_features(scene)
-    builds = (("inline", ()), ("library", ("-DCLSHADE_LIBRARY_MATH",))) if library else (("inline", ()),)
+    builds = ((("default", ()), ("library", (LIBRARY_MATH,)), ("inline", (INLINE_MATH,))) if library
+              else (("default", ()),))
     configs = []
     for spec in devices or pocl_devices():
         for build, opts in builds:
@@ -182,7 +183,7 @@ def targets(doc: dict) -> list[dict]:
     out = []
     peer_ms = {(p["peer"], p["model"]): p.get("median_ms") for p in doc["peers"] if p.get("verified")}
     for rt in doc["runtimes"]:
-        if "error" in rt or rt["build"] != "inline":
+        if "error" in rt or rt["build"] != "default":
             continue
         for r in rt["models"]:
             out.append(dict(runtime=rt["device"], target=f"{r['name']} ≤ {COPY_BOUND}× copy",
@@ -218,8 +219,10 @@ def markdown(doc: dict) -> str:
          f"{doc['scene']} {doc['width']}×{doc['height']}, {doc['rounds']} interleaved rounds, medians. "
          f"Versions: " + ", ".join(f"{k} {v}" for k, v in doc["versions"].items()) + ".", "",
          "Times are of the shading dispatch alone (OpenCL profiling); the whole-frame figure is below. "
-         "`inline` = kernels/simd.h's inline math (default), `library` = the OpenCL library's builtins "
-         "(the kernels before issue 15; CLSHADE_LIBRARY_MATH=1).", "",
+         "Builds: `default` = what clshade builds (kernels/simd.h's inline builtins only where PoCL's AVX-512 "
+         "builtin library meets a compiler target without AVX-512), `library` = the OpenCL library's "
+         "builtins everywhere (the kernels before issue 15; CLSHADE_LIBRARY_MATH=1), `inline` = inline "
+         "builtins everywhere (CLSHADE_INLINE_MATH=1). Targets are judged on `default`.", "",
          f"**STREAM anchor** ({s['before']['method']}, {s['before']['array_mib']} MiB arrays, best of "
          f"{s['before']['repeats']}): copy {s['before']['copy_best_gbs']:.1f} / {s['after']['copy_best_gbs']:.1f} GB/s, "
          f"triad {s['before']['triad_best_gbs']:.1f} / {s['after']['triad_best_gbs']:.1f} GB/s (before / after the "

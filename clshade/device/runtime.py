@@ -111,9 +111,26 @@ def select_device(spec: str | None = None):
 SIMD_WIDTHS = ("1", "4", "8", "16")
 SIMD_PAD = 16
 ENV_SIMD = "CLSHADE_SIMD"
-# CLSHADE_LIBRARY_MATH=1: build with the OpenCL library's fmax/sqrt/vload… instead of
-# kernels/simd.h's inline forms (an A/B switch; see simd.h for why they exist).
+# kernels/simd.h writes the hot builtins inline where PoCL's AVX-512 builtin library meets a
+# compiler target without AVX-512 (see there). A/B switches: CLSHADE_LIBRARY_MATH=1 never,
+# CLSHADE_INLINE_MATH=1 always.
 ENV_LIBRARY_MATH = "CLSHADE_LIBRARY_MATH"
+ENV_INLINE_MATH = "CLSHADE_INLINE_MATH"
+LIBRARY_MATH = "-DCLSHADE_LIBRARY_MATH"
+INLINE_MATH = "-DCLSHADE_INLINE_MATH_FORCE"
+
+
+def host_has_avx512f() -> bool:
+    """Whether the host CPU reports AVX-512F (/proc/cpuinfo; False where unreadable)."""
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as fh:
+            return any(line.startswith("flags") and " avx512f" in line for line in fh)
+    except OSError:
+        return False
+
+
+def _flag(name: str) -> bool:
+    return os.environ.get(name, "").strip() not in ("", "0")
 
 
 def padded(count: int) -> int:
@@ -125,7 +142,7 @@ class Runtime:
     """One OpenCL context and in-order profiling queue on the chosen device."""
 
     def __init__(self, device: str | None = None, options: tuple[str, ...] = ()) -> None:
-        """`options`: build options added to every program (e.g. "-DCLSHADE_LIBRARY_MATH")."""
+        """`options`: build options added to every program (e.g. LIBRARY_MATH, INLINE_MATH)."""
         cl = _cl()
         self.cl = cl
         self.info, self.device = select_device(device)
@@ -133,8 +150,9 @@ class Runtime:
         self.queue = cl.CommandQueue(self.context, properties=cl.command_queue_properties.PROFILING_ENABLE)
         self._programs: dict[str, object] = {}
         self._kernels: dict[tuple[str, str], object] = {}
-        library_math = os.environ.get(ENV_LIBRARY_MATH, "").strip() not in ("", "0")
-        self.options = tuple(options) + (("-DCLSHADE_LIBRARY_MATH",) if library_math else ())
+        self.options = (tuple(options) + (("-DCLSHADE_HOST_AVX512F",) if host_has_avx512f() else ())
+                        + ((LIBRARY_MATH,) if _flag(ENV_LIBRARY_MATH) else ())
+                        + ((INLINE_MATH,) if _flag(ENV_INLINE_MATH) else ()))
 
     def kernel(self, source: str, name: str, options: tuple[str, ...] = (), label: str = "") -> object:
         """Build (once) and return kernel `name` from `source` with build `options`
