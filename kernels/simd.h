@@ -148,6 +148,8 @@ typedef uchar uchar16u __attribute__((ext_vector_type(16), aligned(1)));
     OVL T clshade_clamp(T x, T lo, T hi) { return clshade_fmin(clshade_fmax(x, lo), hi); }
 CLSHADE_MINMAX(float)
 CLSHADE_MINMAX(double)
+CLSHADE_MINMAX_S(float2)
+CLSHADE_MINMAX_S(float3)
 CLSHADE_MINMAX_S(float4)
 CLSHADE_MINMAX_S(float8)
 CLSHADE_MINMAX_S(float16)
@@ -195,6 +197,21 @@ OVL double clshade_rsqrt(double x) { return 1.0 / clshade_sqrt(x); }
     *(__global const CLSHADE_CAT3(uchar, SIMD, u)*)((p) + SIMD * (size_t)(i)), uindex)
 #define CLSHADE_CAT3_(a, b, c) a##b##c
 #define CLSHADE_CAT3(a, b, c) CLSHADE_CAT3_(a, b, c)
+/* any()/all() of a lane mask from the sign bits (movmskps), as OpenCL's do. */
+#undef ANY
+#undef ALL
+#if SIMD == 4
+#define MASK_BITS(m) __builtin_ia32_movmskps(as_float4(m))
+#define MASK_FULL 0xf
+#elif SIMD == 8
+#define MASK_BITS(m) __builtin_ia32_movmskps256(as_float8(m))
+#define MASK_FULL 0xff
+#else
+#define MASK_BITS(m) (__builtin_ia32_movmskps256(as_float8((m).lo)) | (__builtin_ia32_movmskps256(as_float8((m).hi)) << 8))
+#define MASK_FULL 0xffff
+#endif
+#define ANY(m) (MASK_BITS(m) != 0)
+#define ALL(m) (MASK_BITS(m) == MASK_FULL)
 #endif
 /* vstore8(v, k, p): gbuffer.h's interleaved float4 rows. */
 #define VSTORE8(v, k, p) (*(__global float8u*)((p) + 8 * (size_t)(k)) = (v))
