@@ -216,6 +216,21 @@ class Runtime:
         return max(int(w) for w in SIMD_WIDTHS if int(w) <= max(width, 1))
 
     @property
+    def inline_math(self) -> bool:
+        """Whether kernels built here use kernels/simd.h's inline builtins (the header
+        decides from the compiler target and CLSHADE_HOST_AVX512F; probed on the device)."""
+        from clshade.resources import kernels_dir
+        source = ((kernels_dir() / "simd.h").read_text(encoding="utf-8") + "\n__kernel void probe(__global int* out) {\n"
+                  "#ifdef CLSHADE_INLINE_MATH\n out[0] = 1;\n#else\n out[0] = 0;\n#endif\n}\n")
+        kernel = self.kernel(source, "probe", label="simd.h probe")
+        out = np.zeros(1, np.int32)
+        buf = self.empty(out.nbytes)
+        kernel.set_args(buf)
+        self.cl.enqueue_nd_range_kernel(self.queue, kernel, (1,), (1,)).wait()
+        self.cl.enqueue_copy(self.queue, out, buf)
+        return bool(out[0])
+
+    @property
     def local_size(self) -> int:
         """Work-group size used for every dispatch (one size: PoCL compiles per local size)."""
         return int(min(64, self.device.max_work_group_size))
