@@ -152,23 +152,34 @@ CLSHADE_MINMAX_S(float2)
 CLSHADE_MINMAX_S(float3)
 CLSHADE_MINMAX_S(float4)
 CLSHADE_MINMAX_S(float8)
+#if SIMD == 16     /* float16 arguments only where built (without AVX-512 they warn: ABI) */
 CLSHADE_MINMAX_S(float16)
+#endif
 OVL float clshade_clamp(float x, float lo, float hi) { return clshade_fmin(clshade_fmax(x, lo), hi); }
 
 OVL float clshade_sqrt(float x) { return __builtin_sqrtf(x); }
 OVL double clshade_sqrt(double x) { return __builtin_sqrt(x); }
 OVL float4 clshade_sqrt(float4 x) { return __builtin_ia32_sqrtps(x); }
 OVL float8 clshade_sqrt(float8 x) { return __builtin_ia32_sqrtps256(x); }
+#if SIMD == 16
 OVL float16 clshade_sqrt(float16 x) {
     return (float16)(__builtin_ia32_sqrtps256(x.lo), __builtin_ia32_sqrtps256(x.hi));
 }
+#endif
 #define CLSHADE_RSQRT(T) OVL T clshade_rsqrt(T x) { return 1.0f / clshade_sqrt(x); }
 CLSHADE_RSQRT(float)
 CLSHADE_RSQRT(float4)
 CLSHADE_RSQRT(float8)
+#if SIMD == 16
 CLSHADE_RSQRT(float16)
+#endif
 OVL double clshade_rsqrt(double x) { return 1.0 / clshade_sqrt(x); }
 
+/* PoCL's headers define some builtins as macros (renames) already. */
+#undef fmax
+#undef fmin
+#undef sqrt
+#undef rsqrt
 #define fmax(a, b) clshade_fmax((a), (b))
 #define fmin(a, b) clshade_fmin((a), (b))
 #define sqrt(x) clshade_sqrt(x)
