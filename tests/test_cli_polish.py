@@ -214,3 +214,27 @@ def test_bench_plot_needs_matplotlib_before_the_run(monkeypatch, capsys, tmp_pat
     monkeypatch.setitem(sys.modules, "matplotlib", None)          # import matplotlib → ImportError
     err = _error(capsys, ["bench", RED_BALL, "--frames", "1", "--plot", str(tmp_path / "b.png")])
     assert "needs matplotlib" in err and "clshade[bench]" in err
+
+
+def _unwritable_folder() -> str:
+    """A folder no one can create files in, also as root (os.access says yes to root everywhere)."""
+    for folder in ("/proc", "/sys"):
+        if os.path.isdir(folder):
+            return folder
+    pytest.skip("no /proc or /sys folder on this system")
+
+
+@pytest.mark.parametrize("command", [["render", RED_BALL], ["bench", RED_BALL, "--frames", "1", "--json"]])
+def test_unwritable_output_refused_in_one_line(capsys, command):
+    """An output in a folder that cannot be written is refused before the work, not a traceback after it."""
+    out = os.path.join(_unwritable_folder(), "clshade_out." + ("json" if command[-1] == "--json" else "png"))
+    argv = command + [out] if command[-1] == "--json" else command + ["-o", out]
+    assert "not writable" in _error(capsys, argv)
+
+
+@pytest.mark.parametrize("command", ["render", "compare", "sweep"])
+def test_image_output_that_is_a_folder_refused(capsys, tmp_path, command):
+    folder = tmp_path / "out.png"
+    folder.mkdir()
+    argv = [command, RED_BALL, "-o", str(folder)] + (["-m", "lambert"] if command != "render" else [])
+    assert "is a folder" in _error(capsys, argv)
