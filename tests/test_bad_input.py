@@ -289,3 +289,8 @@ def test_interrupted_write_leaves_nothing(tmp_path, monkeypatch):
         with pytest.raises(KeyboardInterrupt):
             write_image(tmp_path / name, np.ones((4, 5, 4), np.float32))
         assert os.listdir(tmp_path) == []
+
+
+def test_unknown_model_in_the_scene_names_file_and_key(tmp_path, capsys):
+    scene = SCENE.replace('background = [0.1, 0.2, 0.3]', 'background = [0.1, 0.2, 0.3]\nmodel = "ggx_corelated"')
+    render_error(tmp_path, capsys, scene, "render.model = 'ggx_corelated'", "unknown model")

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from clshade.errors import ClshadeError, located
+from clshade.models import resolve
 from clshade.render.transforms import look_at, perspective
 
 TONEMAPS = ("none", "reinhard", "aces")
@@ -482,6 +483,10 @@ def parse_scene(text: str, file: Path | str = "<scene>") -> Scene:
     exposure = rnd.number("exposure", 0.0, *EXPOSURE_RANGE)
     tonemap = rnd.string("tonemap", "aces", TONEMAPS)
     model = rnd.string("model", "ggx_correlated")
+    try:
+        resolve(model)
+    except ClshadeError as exc:       # "model 'x': why" → "file: render.model = 'x': why"
+        raise rnd.error("model", str(exc).removeprefix(f"model {model!r}: ")) from exc
     shadows = rnd.boolean("shadows", False)
     shadow_map_size = rnd.integer("shadow_map_size", DEFAULT_SHADOW_MAP_SIZE, *SHADOW_MAP_SIZES)
     shadow_pcf = rnd.integer("shadow_pcf", DEFAULT_SHADOW_PCF, SHADOW_PCF_SIZES[0], SHADOW_PCF_SIZES[-1])
