@@ -294,3 +294,14 @@ def test_interrupted_write_leaves_nothing(tmp_path, monkeypatch):
 def test_unknown_model_in_the_scene_names_file_and_key(tmp_path, capsys):
     scene = SCENE.replace('background = [0.1, 0.2, 0.3]', 'background = [0.1, 0.2, 0.3]\nmodel = "ggx_corelated"')
     render_error(tmp_path, capsys, scene, "render.model = 'ggx_corelated'", "unknown model")
+
+
+def test_missing_scene_points_to_the_bundled_one(tmp_path, capsys, monkeypatch):
+    """Outside the checkout `clshade render scenes/robot.toml` names where the installed scenes are."""
+    from clshade.resources import scenes_dir
+    monkeypatch.chdir(tmp_path)
+    code, _, err = run_cli(capsys, ["render", "scenes/robot.toml"])
+    assert_clean_error(code, err, "scenes/robot.toml: scene file not found", str(scenes_dir() / "robot.toml"))
+    code, _, err = run_cli(capsys, ["render", "nowhere.toml"])
+    assert_clean_error(code, err, "nowhere.toml: scene file not found")
+    assert "bundled" not in err

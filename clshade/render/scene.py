@@ -17,6 +17,7 @@ import numpy as np
 
 from clshade.errors import ClshadeError, located
 from clshade.models import resolve
+from clshade.resources import scenes_dir
 from clshade.render.transforms import look_at, perspective
 
 TONEMAPS = ("none", "reinhard", "aces")
@@ -525,7 +526,9 @@ def load_scene(path: str | Path) -> Scene:
     try:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError as exc:
-        raise ClshadeError(f"{path}: scene file not found") from exc
+        bundled = scenes_dir() / path.name
+        hint = f" (the bundled scene of that name is {bundled})" if bundled.is_file() else ""
+        raise ClshadeError(f"{path}: scene file not found{hint}") from exc
     except (OSError, UnicodeDecodeError) as exc:
         raise ClshadeError(f"{path}: cannot read scene file ({exc})") from exc
     return parse_scene(text, path.resolve())
