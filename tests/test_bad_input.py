@@ -305,3 +305,13 @@ def test_missing_scene_points_to_the_bundled_one(tmp_path, capsys, monkeypatch):
     code, _, err = run_cli(capsys, ["render", "nowhere.toml"])
     assert_clean_error(code, err, "nowhere.toml: scene file not found")
     assert "bundled" not in err
+
+
+@pytest.mark.parametrize("argv", [["render", "x.toml", "--tonemap", "filmic"], ["render", "x.toml", "--width", "abc"],
+                                  ["check", "nonsense"], ["frobnicate"], ["render"]])
+def test_usage_errors_are_one_line(capsys, argv):
+    with pytest.raises(SystemExit) as exc:
+        cli.main(argv)
+    err = capsys.readouterr().err
+    assert exc.value.code == 2
+    assert len(err.strip().splitlines()) == 1 and ": error: " in err and "--help" in err, err
