@@ -67,8 +67,16 @@ def _load_scene(path, args: argparse.Namespace):
     return with_antialiasing(load_scene(path), args.samples, args.specular_aa)
 
 
+class _Parser(argparse.ArgumentParser):
+    """Usage errors in one line, like every other error (`clshade render: error: ...`), exit status 2;
+    subcommand parsers inherit the class."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message}; see `{self.prog} --help`\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="clshade", description="OpenCL deferred shading: compare lighting models "
+    parser = _Parser(prog="clshade", description="OpenCL deferred shading: compare lighting models "
                                      "as images, measure their cost and their accuracy.")
     parser.add_argument("--version", action="version", version=f"clshade {__version__}")
     parser.add_argument("--debug", action="store_true", help="show tracebacks")

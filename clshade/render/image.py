@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from clshade.errors import ClshadeError
+from clshade.outputs import folder_writable
 
 LINEAR_SUFFIXES = (".exr",)
 DISPLAY_SUFFIXES = (".png", ".jpg", ".jpeg")
@@ -90,10 +91,12 @@ def check_output_path(path: Path, protected: list[Path] | tuple[Path, ...] = ())
     if suffix not in LINEAR_SUFFIXES + DISPLAY_SUFFIXES:
         raise ClshadeError(f"{path}: unsupported output format {suffix or '(none)'}; "
                            f"use .exr (linear float), .png or .jpg (sRGB 8-bit)")
+    if resolved.is_dir():
+        raise ClshadeError(f"{path}: is a folder, not a file")
     folder = resolved.parent
     if not folder.is_dir():
         raise ClshadeError(f"{path}: output folder {folder} does not exist")
-    if not os.access(folder, os.W_OK):
+    if not folder_writable(folder):
         raise ClshadeError(f"{path}: output folder {folder} is not writable")
     return path
 
