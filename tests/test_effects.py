@@ -285,3 +285,38 @@ def test_shadow_keys_are_validated(tmp_path):
     assert not parse_scene(point.replace("[[lights]]", "[[lights]]\nshadows = false")).lights[0].shadows
     with pytest.raises(ClshadeError, match=r"objects\[0\]\.mesh_material = True: applies to mesh files only"):
         parse_scene(base.replace('primitive = "plane"', 'primitive = "plane"\nmesh_material = true', 1))
+
+
+def test_gltf_material_factors_map_to_the_texture_set(tmp_path):
+    """glTF pbrMetallicRoughness factors (written by trimesh, no third-party assets needed): baseColorFactor
+    (stored as uint8 by trimesh) → base factor in [0, 1], roughnessFactor and metallicFactor kept apart."""
+    import trimesh
+    from trimesh.visual import TextureVisuals
+    from trimesh.visual.material import PBRMaterial
+    from clshade.render.meshes import load_gltf_parts
+    box = trimesh.creation.box()
+    box.visual = TextureVisuals(uv=np.zeros((len(box.vertices), 2)),
+                                material=PBRMaterial(baseColorFactor=[255, 51, 102, 255], roughnessFactor=0.25,
+                                                     metallicFactor=0.75))
+    path = tmp_path / "box.glb"
+    box.export(path)
+    (*_, textures), = load_gltf_parts(path)
+    assert textures.base_factor == pytest.approx((1.0, 0.2, 0.4))
+    assert (textures.roughness_factor, textures.metallic_factor) == pytest.approx((0.25, 0.75))
+
+
+def test_metallic_roughness_texture_channels_and_factors():
+    """glTF layout: G = roughness (× roughnessFactor), B = metallic (× metallicFactor), R ignored."""
+    from clshade.render.gbuffer import _apply_texture_set
+    from clshade.render.textures import Texture, TextureSet
+    mr = Texture.from_pixels(np.tile(np.array([0.7, 0.2, 0.9], np.float32), (4, 4, 1)), "mr")
+    t = TextureSet(roughness_factor=0.5, metallic_factor=0.4, metallic_roughness=mr)
+    k = 3
+    uv = np.full((k, 2), 0.5)
+    zero = np.zeros((k, 2))
+    normal = np.tile([0.0, 0.0, 1.0], (k, 1))
+    tangent = np.tile([1.0, 0.0, 0.0, 1.0], (k, 1))
+    base, rough, metal, n = _apply_texture_set(t, uv, zero, zero, normal, tangent)
+    np.testing.assert_allclose(rough, 0.5 * 0.2, rtol=1e-6)
+    np.testing.assert_allclose(metal, 0.4 * 0.9, rtol=1e-6)
+    np.testing.assert_allclose(base, 1.0)
