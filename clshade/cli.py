@@ -60,12 +60,12 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("devices", help="list OpenCL platforms and devices")
     p.set_defaults(func=cmd_devices)
 
+    _add_compare(sub)
+    _add_bench(sub)
     check = sub.add_parser("check", help="measure physical plausibility or numerical stability",
                            description="Measurements that back the claims clshade makes about its models.")
     checks = check.add_subparsers(dest="check", metavar="CHECK")
     checks.required = True
-    _add_compare(sub)
-    _add_bench(sub)
     _add_checks(checks)
     return parser
 

@@ -70,6 +70,24 @@
 /* Largest radiance written: finite by contract even for 1e30 lights. */
 #define MAX_RADIANCE 3.0e38f
 
+/* The one copy of the light formulas, shared by the specialised and the general
+ * paths (scenes/README.md): a point or spot light of intensity I at `pos` gives
+ * E = I / r² at P; a spot also its cone. */
+
+/* Unit direction from P towards `pos`; *d2 = squared distance, floored at MIN_LIGHT_DIST2. */
+INLINE vec3 towards_light(float4 pos, vec3 P, real* d2) {
+    vec3 d = v3sub(v3c(pos.xyz), P);
+    *d2 = fmax(v3dot(d, d), MIN_LIGHT_DIST2);
+    return v3scale(d, rsqrt(*d2));
+}
+
+/* Smooth cone: 0 outside the outer cone, 1 inside the inner, t² between; l towards
+ * the light, `axis` the direction the light travels. */
+INLINE real spot_cone(vec3 l, float4 axis, float cos_outer, float cos_inner) {
+    real t = saturate((v3dot(v3neg(l), v3c(axis.xyz)) - cos_outer) / fmax(cos_inner - cos_outer, 1.0e-6f));
+    return t * t;
+}
+
 #if HAS_MATERIAL
 /* Each lane's row of the material table (a gather: lanes may differ). */
 INLINE Material material_gather(uindex id, __constant float4* materials) {
@@ -190,14 +208,11 @@ __kernel void shade(
             l = v3c(-a.xyz);
             E = v3c(c.xyz);
         } else {
-            vec3 d = v3sub(v3c(a.xyz), P);
-            real d2 = fmax(v3dot(d, d), MIN_LIGHT_DIST2);
-            l = v3scale(d, rsqrt(d2));
+            real d2;
+            l = towards_light(a, P, &d2);
             if (kind == LIGHT_SPOT) {
                 float4 e = lights[4 * k + 2];
-                float cos_inner = lights[4 * k + 3].x;
-                real t = saturate((v3dot(v3neg(l), v3c(e.xyz)) - e.w) / fmax(cos_inner - e.w, 1.0e-6f));
-                E = v3scale(v3c(c.xyz), t * t / d2);
+                E = v3scale(v3c(c.xyz), spot_cone(l, e, e.w, lights[4 * k + 3].x) / d2);
             } else {
                 E = v3scale(v3c(c.xyz), 1.0f / d2);
             }
@@ -229,9 +244,8 @@ __kernel void shade(
 #if NUM_POINT > 0
     for (int k = 0; k < NUM_POINT; ++k) {
         int o = 2 * NUM_DIR + 2 * k;
-        vec3 d = v3sub(v3c(lights[o].xyz), P);
-        real d2 = fmax(v3dot(d, d), MIN_LIGHT_DIST2);
-        vec3 l = v3scale(d, rsqrt(d2));
+        real d2;
+        vec3 l = towards_light(lights[o], P, &d2);
         L = v3add(L, shade_light(n, v, l, v3scale(v3c(lights[o + 1].xyz), 1.0f / d2), s));
     }
 #endif
@@ -239,12 +253,9 @@ __kernel void shade(
     for (int k = 0; k < NUM_SPOT; ++k) {
         int o = 2 * NUM_DIR + 2 * NUM_POINT + 3 * k;
         float4 p = lights[o], e = lights[o + 1], a = lights[o + 2];
-        vec3 d = v3sub(v3c(p.xyz), P);
-        real d2 = fmax(v3dot(d, d), MIN_LIGHT_DIST2);
-        vec3 l = v3scale(d, rsqrt(d2));
-        /* Smooth cone: 0 outside the outer cone, 1 inside the inner, t² between. */
-        real t = saturate((v3dot(v3neg(l), v3c(a.xyz)) - p.w) / fmax(e.w - p.w, 1.0e-6f));
-        vec3 E = v3scale(v3c(e.xyz), t * t / d2);
+        real d2;
+        vec3 l = towards_light(p, P, &d2);
+        vec3 E = v3scale(v3c(e.xyz), spot_cone(l, a, p.w, e.w) / d2);
         SHADOW(E, a.w);
         L = v3add(L, shade_light(n, v, l, E, s));
     }

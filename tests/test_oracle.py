@@ -17,9 +17,10 @@ import pytest
 from clshade.models import resolve
 from clshade.pipeline import render
 from clshade.render.scene import load_scene
+from clshade.resources import scenes_dir
 from clshade.verify import reference as R
 
-SCENES = Path(__file__).resolve().parents[1] / "scenes"
+SCENES = scenes_dir()      # the scenes the imported clshade ships (textures included)
 TOLERANCE = 1e-4        # relative, the issue's bound
 DARK = 1e-3             # relative error below DARK · peak radiance counts as absolute
 MIN_COS = 1e-3          # n·l and n·v at least this far from 0
@@ -197,3 +198,16 @@ def test_spot_cone_and_falloff_follow_the_scene_format():
     co, ci = np.cos(np.radians(spot.outer_angle)), np.cos(np.radians(spot.inner_angle))
     c = np.array([ci + 0.1 * (1 - ci), ci, 0.75 * ci + 0.25 * co, 0.5 * (ci + co), co, co - 0.01])
     np.testing.assert_allclose(R.spot_cone(c, co, ci), [1, 1, 0.75 ** 2, 0.25, 0, 0], atol=1e-12)
+
+
+def test_bench_error_column_is_the_oracle_with_shadows(tmp_path):
+    """`clshade bench` on a shadowed scene: its error column compares with the frame oracle
+    (shadow visibility included), and the NumPy baseline ran in the timed rounds."""
+    import json
+
+    from clshade.cli import main
+    out = tmp_path / "bench.json"
+    assert main(["bench", str(SCENES / "shadows.toml"), "-m", "lambert", "--frames", "3", "--warmup", "0",
+                 "--width", "64", "--height", "40", "--numpy-frames", "2", "--no-progress", "--json", str(out)]) == 0
+    row = json.loads(out.read_text(encoding="utf-8"))["models"][0]
+    assert row["max_rel_error"] < TOLERANCE and row["numpy_frames"] == 2 and row["numpy_ratio"] > 0

@@ -16,9 +16,10 @@ import numpy as np
 from clshade.models import Model
 from clshade.render.gbuffer import GBuffer
 from clshade.render.scene import Camera, Scene
+from clshade.render.shadows import ShadowMaps
 from clshade.verify.reference import radiance
 
-NUMPY_THREADS = 1     # NumPy ufuncs are single-threaded (no BLAS in the shading pass)
+NUMPY_THREADS = 1     # NumPy ufuncs are single-threaded; the oracle's per-pixel path calls no BLAS routine
 
 
 def half_gbuffer(gb: GBuffer) -> GBuffer:
@@ -28,10 +29,10 @@ def half_gbuffer(gb: GBuffer) -> GBuffer:
 
 
 def shade_numpy(model: Model, gb: GBuffer, scene: Scene, camera: Camera, half: bool = False,
-                visibility: np.ndarray | None = None) -> np.ndarray:
+                shadows: ShadowMaps | None = None) -> np.ndarray:
     """The shaded image, (H, W, 4) float32: float32 radiance, coverage in alpha (the
-    scene's background and its alpha 0 where empty, as the kernel writes them)."""
-    rgb = radiance(half_gbuffer(gb) if half else gb, scene, model, visibility=visibility, dtype=np.float32,
-                   camera=camera)
+    scene's background and its alpha 0 where empty, as the kernel writes them). With
+    `shadows`, the shadow-map lookups are part of the work, as in the kernel."""
+    rgb = radiance(half_gbuffer(gb) if half else gb, scene, model, dtype=np.float32, camera=camera, shadows=shadows)
     alpha = gb.coverage.astype(np.float32)[..., None]
     return np.concatenate([rgb, alpha], axis=-1)

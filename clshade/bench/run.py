@@ -143,7 +143,8 @@ def _timed(shader: Shader, dispatch) -> tuple[float, float]:
 def _numpy_wall(c: Case) -> float:
     """Wall ms of one NumPy frame of the case."""
     t0 = time.perf_counter()
-    shade_numpy(c.model, c.gbuffer, c.scene, c.shader.camera, c.features.half_gbuffer, c.visibility)
+    shade_numpy(c.model, c.gbuffer, c.scene, c.shader.camera, c.features.half_gbuffer,
+                c.shader.shadows if c.features.shadows else None)
     return (time.perf_counter() - t0) * 1e3
 
 
@@ -258,6 +259,7 @@ class Bench:
     features: Features
     device: str | None = None
     shaders: dict[int, Shader] = field(default_factory=dict)
+    _visibility: dict[tuple[int, int], np.ndarray | None] = field(default_factory=dict)
 
     @classmethod
     def prepare(cls, scene: Scene | str | Path, width: int | None = None, height: int | None = None,
@@ -277,13 +279,20 @@ class Bench:
             self.shaders[key] = Shader(self.runtime, gb, sc, self.frame.camera, self.frame.shadows)
         return self.shaders[key]
 
+    def visibility(self, gbuffer: GBuffer, scene: Scene) -> np.ndarray | None:
+        """The shadow factors of (gbuffer, scene) from the frame's shadow maps, computed once."""
+        key = (id(gbuffer), id(scene))
+        if key not in self._visibility:
+            self._visibility[key] = reference.visibility(gbuffer, scene, self.frame.shadows, self.frame.camera)
+        return self._visibility[key]
+
     def case(self, model: Model, *, label: str = "", half: bool = False, fast_math: bool = False,
              gbuffer: GBuffer | None = None, scene: Scene | None = None, target: Model | None = None,
              group: str = "", numpy: bool = True) -> Case:
         sc = scene or self.frame.scene
         gb = gbuffer or self.frame.gbuffer
         features = dataclasses.replace(scene_features(sc), half_gbuffer=half, fast_math=fast_math)
-        vis = reference.visibility(gb, sc, self.frame.shadows, self.frame.camera) if features.shadows else None
+        vis = self.visibility(gb, sc) if features.shadows else None
         return Case(label or model.id, model, features, self.shader(gb, sc), sc, gb,
                     target=target, group=group, numpy=numpy, visibility=vis)
 

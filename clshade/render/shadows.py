@@ -124,15 +124,16 @@ def shadow_visibility(shadows: ShadowMaps, points: np.ndarray, normals: np.ndarr
         if slot < 0:
             continue
         m = shadows.params[slot].astype(np.float64)
-        depth = lambda q: q @ m[4, :3] + m[4, 3]  # noqa: E731  light-view depth
-        texel = m[5, 0] * depth(P) if m[5, 1] > 0.5 else np.full(len(P), m[5, 0])
+        # row · (q, 1), element-wise (no BLAS call: the NumPy baseline stays on one thread)
+        row = lambda k, q: q[:, 0] * m[k, 0] + q[:, 1] * m[k, 1] + q[:, 2] * m[k, 2] + m[k, 3]  # noqa: E731
+        texel = m[5, 0] * row(4, P) if m[5, 1] > 0.5 else np.full(len(P), m[5, 0])
         q = P + n * (texel * (radius + normal_offset))[:, None]
-        clip = q @ m[:4, :3].T + m[:4, 3]
+        clip = np.stack([row(k, q) for k in range(4)], axis=1)
         front = clip[:, 3] > 0
         w = np.where(front, clip[:, 3], 1.0)
         fx = (clip[:, 0] / w * 0.5 + 0.5) * size + offset[0]
         fy = (0.5 - clip[:, 1] / w * 0.5) * size + offset[1]
-        ref = depth(q) - texel * bias
+        ref = row(4, q) - texel * bias
         ix = np.floor(np.clip(fx, -radius - 1, size + radius)).astype(np.int64)
         iy = np.floor(np.clip(fy, -radius - 1, size + radius)).astype(np.int64)
         lit = np.zeros(len(P))

@@ -801,7 +801,7 @@ def pixels(gbuffer: GBuffer, camera: Camera) -> Pixels:
     cam = camera.with_size(gbuffer.width, gbuffer.height)
     _, d = pixel_rays(cam.view_matrix(), cam.projection_matrix(), cam.width, cam.height, index)
     fwd = cam.basis()[0]
-    P = np.asarray(cam.position, np.float64) + d * (ch["depth"][index].astype(np.float64) / (d @ fwd))[:, None]
+    P = np.asarray(cam.position, np.float64) + d * (ch["depth"][index].astype(np.float64) / _dot(d, fwd))[:, None]
     v = _f(-d)
     n, ok = normalize(_f(ch["normal"].reshape(-1, 3)[index]))
     n = np.where(ok[:, None], n, v)
@@ -840,7 +840,7 @@ def light_rays(scene: Scene, px: Pixels) -> Iterator[tuple[int, Array, Array]]:
         E = colour / d2[:, None]
         if light.kind == "spot":
             axis, _ = normalize(_f(light.direction))
-            cone = spot_cone(-(l @ axis), math.cos(math.radians(light.outer_angle)),
+            cone = spot_cone(-_dot(l, axis), math.cos(math.radians(light.outer_angle)),
                              math.cos(math.radians(light.inner_angle)))
             E = E * cone[:, None]
         yield i, l, E
@@ -906,6 +906,7 @@ def radiance(
     dtype: type = np.float64,
     camera: Camera | None = None,
     alpha_floor: float | None = None,
+    shadows: ShadowMaps | None = None,
 ) -> Array:
     """The radiance the shading pass should write, (H, W, 3), in ``dtype``.
 
@@ -915,7 +916,8 @@ def radiance(
     them) and material-table row; lights as in :func:`light_rays`.  Empty pixels:
     the scene's background.  ``visibility`` is ``(num_lights, H, W)`` in [0, 1]
     (scene order; :func:`visibility` computes it from the shadow maps the kernel
-    reads); None = unshadowed.  ``alpha_floor`` defaults to the kernels' MIN_ALPHA
+    reads); None = unshadowed, unless ``shadows`` (the frame's shadow maps) is given:
+    then the lookup is done here.  ``alpha_floor`` defaults to the kernels' MIN_ALPHA
     (documented: roughness below 0.01 renders as 0.01).  Nothing is clamped
     at the top (the kernels' MAX_RADIANCE is not part of the physics).  f = 0 where
     n.v <= 0 (the kernels floor n.v instead: compare where n.v > 0).
@@ -926,7 +928,10 @@ def radiance(
     h, w = gbuffer.height, gbuffer.width
     with precision(dtype):
         px = pixels(gbuffer, camera)
-        vis = None if visibility is None else _f(visibility).reshape(len(scene.lights), -1)[:, px.index]
+        if visibility is not None:
+            vis = _f(visibility).reshape(len(scene.lights), -1)[:, px.index]
+        else:   # looked up here (or unshadowed): the same as visibility(gbuffer, scene, shadows, camera)
+            vis = None if shadows is None else _f(_map_visibility(shadows, px.P, px.n))
         args = surface_args(model, px.base, px.roughness, px.metallic, px.material, alpha_floor)
         L = _f(np.zeros((len(px.index), 3)))
         for i, l, E in light_rays(scene, px):

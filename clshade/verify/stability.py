@@ -264,11 +264,12 @@ def run_shade(model: Model, rt: Runtime, fast_math: bool) -> ShadeResult:
 def _oracle_deviation(model: Model, gb, scene, camera, raw: np.ndarray) -> tuple[float, int]:
     """Largest |raw − oracle| / max(|oracle|, DEVIATION_FLOOR) over the pixels where every
     light and the viewer are DEVIATION_COSINE or more from the horizon and the normal is
-    usable; and their count."""
+    usable (longer than the kernels' MIN_UNIT_LEN2: shorter ones shade as n = v by design);
+    and their count."""
     want = R.radiance(gb, scene, model, camera=camera).reshape(-1, 3)
     px = R.pixels(gb, camera)
     n_len2 = np.sum(gb.channels["normal"].reshape(-1, 3).astype(np.float64) ** 2, axis=1)
-    keep = (np.sum(px.n * px.v, axis=1) >= DEVIATION_COSINE) & (n_len2 > 1e-20)
+    keep = (np.sum(px.n * px.v, axis=1) >= DEVIATION_COSINE) & (n_len2 > constant("MIN_UNIT_LEN2"))
     for _, l, _ in R.light_rays(scene, px):
         keep &= np.abs(np.sum(px.n * l, axis=1)) >= DEVIATION_COSINE
     idx = px.index[keep]
