@@ -179,3 +179,19 @@ def test_odd_sized_frame_matches_the_oracle_pixel_by_pixel(runtime, half):
     assert np.std(want[..., 0]) > 0.05 * peak                  # not a uniform image: lanes are distinguishable
     rel = np.abs(image[..., :3] - want) / np.maximum(np.abs(want), 1e-3 * peak)
     assert rel.max() <= 1e-4, rel.max()                       # measured 8e-7 (float32 rounding)
+
+
+@pytest.mark.parametrize("spec", ["phong", "blinn_phong_normalized", "oren_nayar"])
+def test_ambient_weight_ka_and_k_d_k_s_weights(runtime, spec):
+    """The k_d + k_s workflow's own weights (k_a = 0.4, k_d = 0.5, k_s = 0.2: none of them 1 or 1 − the
+    other) under ambient light and a point light, against the frame oracle."""
+    from clshade.verify.reference import radiance
+    text = PLANE_SCENE.replace("[render]\n", "[render]\nambient = [0.3, 0.2, 0.1]\n").replace(
+        "roughness = 0.5", "roughness = 0.5\nka = 0.4\nkd = 0.5\nks = 0.2") + POINT_SPOT
+    scene = parse_scene(text)
+    frame = prepare_frame(scene)
+    model = models.resolve(spec)
+    image = render(scene, model, runtime=runtime, frame=frame).image[..., :3]
+    want = radiance(frame.gbuffer, frame.scene, model, camera=frame.camera)
+    rel = np.abs(image - want) / np.maximum(np.abs(want), 1e-3 * np.abs(want).max())
+    assert rel.max() <= 1e-4, rel.max()
