@@ -295,15 +295,17 @@ def main(argv: list[str] | None = None) -> int:
         for res in pool.map(lambda m: run_one(m, sys.executable, base), chosen):
             results.append(res)
             print(f"{res['status']:8s} {res['name']:24s} {res['seconds']:6.1f} s  {res['killed_by']}", flush=True)
+    for res in results:
+        res["commit"] = commit
     out = Path(args.json)
     previous = json.loads(out.read_text(encoding="utf-8")) if out.exists() and args.only else None
-    if previous:   # a partial run updates those rows of the committed file
-        by_name = {r["name"]: r for r in previous["mutants"]}
+    if previous:   # a partial run updates those rows of the committed file; each row keeps its commit
+        by_name = {r["name"]: {"commit": previous.get("commit"), **r} for r in previous["mutants"]}
         by_name.update({r["name"]: r for r in results})
         results = [by_name[m.name] for m in CATALOGUE if m.name in by_name]
     doc = dict(schema=1, created=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
                machine=f"{platform.node()} {platform.machine()}", command="python benchmarks/mutants.py",
-               commit=commit,
+               commit=commit, commits=sorted({r.get("commit") or "" for r in results}),
                seconds=round(time.perf_counter() - start, 1), total=len(results),
                killed=sum(r["status"] == "killed" for r in results),
                survived=sum(r["status"] == "survived" for r in results), mutants=results)
