@@ -399,10 +399,12 @@ def render_mutants(doc: dict[str, Any]) -> str:
            f"**{doc['killed']} of {doc['total']} mutants killed**, {doc['survived']} survived. Each mutant is one "
            "small semantic bug (catalogue in benchmarks/mutants.py) applied to a copy of the repository; the test "
            "suite runs there fail-fast; killed = a test failed.", "",
-           "| mutant | file | bug | status | first failing test |", "|---|---|---|---|---|"]
+           "| mutant | file | bug | status | first failing test | commit |", "|---|---|---|---|---|---|"]
     for m in doc["mutants"]:
         status = "killed" if m["status"] == "killed" else "**survived**"
-        out.append(f"| {m['name']} | {m['file']} | {m['description']} | {status} | {m['killed_by'] or '–'} |")
+        commit = (m.get("commit") or doc.get("commit") or "")[:10]
+        out.append(f"| {m['name']} | {m['file']} | {_cell(m['description'])} | {status} | {m['killed_by'] or '–'} | "
+                   f"{commit} |")
     return "\n".join(out) + "\n"
 
 
