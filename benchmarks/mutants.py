@@ -289,29 +289,44 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{len(CATALOGUE)} mutants, every snippet found once")
         return 0
     chosen = [m for m in CATALOGUE if not args.only or m.name in args.only.split(",")]
+    out = Path(args.json)
+    previous = json.loads(out.read_text(encoding="utf-8")) if out.exists() and args.only else None
     start = time.perf_counter()
     results: list[dict] = []
     with ThreadPoolExecutor(max_workers=max(1, min(args.jobs, 2))) as pool:
         for res in pool.map(lambda m: run_one(m, sys.executable, base), chosen):
+            res["commit"] = commit
             results.append(res)
             print(f"{res['status']:8s} {res['name']:24s} {res['seconds']:6.1f} s  {res['killed_by']}", flush=True)
-    for res in results:
-        res["commit"] = commit
-    out = Path(args.json)
-    previous = json.loads(out.read_text(encoding="utf-8")) if out.exists() and args.only else None
-    if previous:   # a partial run updates those rows of the committed file; each row keeps its commit
-        by_name = {r["name"]: {"commit": previous.get("commit"), **r} for r in previous["mutants"]}
-        by_name.update({r["name"]: r for r in results})
-        results = [by_name[m.name] for m in CATALOGUE if m.name in by_name]
-    doc = dict(schema=1, created=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-               machine=f"{platform.node()} {platform.machine()}", command="python benchmarks/mutants.py",
-               commit=commit, commits=sorted({r.get("commit") or "" for r in results}),
-               seconds=round(time.perf_counter() - start, 1), total=len(results),
-               killed=sum(r["status"] == "killed" for r in results),
-               survived=sum(r["status"] == "survived" for r in results), mutants=results)
-    out.write_text(json.dumps(doc, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
+            write_results(out, results, chosen, previous, commit, time.perf_counter() - start)
+    doc = write_results(out, results, chosen, previous, commit, time.perf_counter() - start)
     print(f"{doc['killed']}/{doc['total']} killed; wrote {out}")
     return 0
+
+
+def write_results(out: Path, results: list[dict], chosen: list[Mutant], previous: dict | None, commit: str | None,
+                  seconds: float) -> dict:
+    """Write the results so far (after every mutant: a stopped run leaves what it measured); mutants of the
+    run not measured yet are listed as 'not run'. A partial --only run updates its rows of the previous file."""
+    done = {r["name"] for r in results}
+    rows = results + [dict(name=m.name, file=m.file, description=m.description, status="not run", returncode=None,
+                           killed_by="", seconds=0.0, summary="", commit=None) for m in chosen if m.name not in done]
+    if previous:   # each row keeps its commit
+        by_name = {r["name"]: {"commit": previous.get("commit"), **r} for r in previous["mutants"]}
+        by_name.update({r["name"]: r for r in rows if r["status"] != "not run" or r["name"] not in by_name})
+        rows = [by_name[m.name] for m in CATALOGUE if m.name in by_name]
+    else:
+        order = {m.name: i for i, m in enumerate(CATALOGUE)}
+        rows.sort(key=lambda r: order[r["name"]])
+    doc = dict(schema=1, created=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+               machine=f"{platform.node()} {platform.machine()}", command="python benchmarks/mutants.py",
+               commit=commit, commits=sorted({r.get("commit") or "" for r in rows if r.get("commit")}),
+               seconds=round(seconds, 1), total=len(rows),
+               killed=sum(r["status"] == "killed" for r in rows),
+               survived=sum(r["status"] == "survived" for r in rows),
+               not_run=sum(r["status"] == "not run" for r in rows), mutants=rows)
+    out.write_text(json.dumps(doc, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
+    return doc
 
 
 if __name__ == "__main__":

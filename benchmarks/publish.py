@@ -396,12 +396,13 @@ def render_mutants(doc: dict[str, Any]) -> str:
     out = ["# Mutation testing", "",
            f"Rendered by `python benchmarks/publish.py` from benchmarks/results/mutants.json (measured "
            f"{doc['created']} on {doc['machine']} by `{doc['command']}`, {doc['seconds']:.0f} s): "
-           f"**{doc['killed']} of {doc['total']} mutants killed**, {doc['survived']} survived. Each mutant is one "
+           f"**{doc['killed']} of {doc['total']} mutants killed**, {doc['survived']} survived"
+           f"{', ' + str(doc['not_run']) + ' not run (the run was stopped)' if doc.get('not_run') else ''}. Each mutant is one "
            "small semantic bug (catalogue in benchmarks/mutants.py) applied to a copy of the repository; the test "
            "suite runs there fail-fast; killed = a test failed.", "",
            "| mutant | file | bug | status | first failing test | commit |", "|---|---|---|---|---|---|"]
     for m in doc["mutants"]:
-        status = "killed" if m["status"] == "killed" else "**survived**"
+        status = {"killed": "killed", "survived": "**survived**"}.get(m["status"], m["status"])
         commit = (m.get("commit") or doc.get("commit") or "")[:10]
         out.append(f"| {m['name']} | {m['file']} | {_cell(m['description'])} | {status} | {m['killed_by'] or '–'} | "
                    f"{commit} |")
