@@ -320,3 +320,16 @@ def test_metallic_roughness_texture_channels_and_factors():
     np.testing.assert_allclose(rough, 0.5 * 0.2, rtol=1e-6)
     np.testing.assert_allclose(metal, 0.4 * 0.9, rtol=1e-6)
     np.testing.assert_allclose(base, 1.0)
+
+
+@pytest.mark.parametrize("direction", ["[1.0, -0.1, 0.0]"])
+def test_no_self_shadowing_at_grazing_light(direction):
+    """shadow.h's promise: the normal offset keeps lit planes free of acne at every angle, grazing included —
+    a plane with nothing above it renders identically with shadows on and off."""
+    plane_only = SHADOW_SCENE[:SHADOW_SCENE.rindex("[[objects]]")]
+    extra = f"direction = {direction}\nirradiance = 2.0"
+    on = render(parse_scene(plane_only.format(shadows="true", kind="directional", extra=extra)), LAMBERT)
+    off = render(parse_scene(plane_only.format(shadows="false", kind="directional", extra=extra)), LAMBERT)
+    assert on.features.shadows
+    assert (on.image[..., 3] > 0).sum() > 1000
+    np.testing.assert_array_equal(on.image, off.image)
