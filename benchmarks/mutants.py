@@ -139,7 +139,7 @@ CATALOGUE: list[Mutant] = [
       "directional light: l points along the light's travel"),
     M("pixel_centre_x", "kernels/shade.cl", "real sx = (convert_real(px) + 0.5f) * inv_width2 - 1.0f;",
       "real sx = (convert_real(px)) * inv_width2 - 1.0f;", "shade.cl: view ray through the pixel corner"),
-    M("ambient_dropped", "kernels/shade.cl", "#if HAS_AMBIENT\n    L = v3add(L, ambient_term(v3c(ambient.xyz), s));",
+    M("ambient_dropped", "kernels/shade.cl", "#if HAS_AMBIENT\n    L = v3add(L, AMBIENT(ambient));",
       "#if HAS_AMBIENT\n    L = v3add(L, v3s((real)(0.0f)));", "specialised kernel: ambient dropped"),
     M("lane_wrap", "kernels/shade.cl", "py = wrap ? py + 1u : py;", "py = py;",
       "SIMD lanes wrapping to the next row keep the row"),

@@ -3,11 +3,38 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
+import os
 import sys
+from contextlib import contextmanager
 from pathlib import Path
 
 from clshade import __version__
 from clshade.errors import ClshadeError
+
+
+@contextmanager
+def progress_bar(description: str, unit: str):
+    """Yields progress(done, total) drawing a tqdm bar on stderr — only when stderr is a
+    terminal (logs get no bar) and only once there is more than one step."""
+    if not sys.stderr.isatty():
+        yield None
+        return
+    bar = None
+
+    def progress(done: int, total: int) -> None:
+        nonlocal bar
+        if bar is None and total > 1:
+            from tqdm import tqdm
+            bar = tqdm(total=total, desc=description, unit=unit, file=sys.stderr, leave=False, dynamic_ncols=True)
+        if bar is not None:
+            bar.update(done - bar.n)
+
+    try:
+        yield progress
+    finally:
+        if bar is not None:
+            bar.close()
 
 
 def _add_device(p: argparse.ArgumentParser) -> None:
@@ -153,10 +180,43 @@ def _size(value: int | None, name: str) -> int | None:
     return value
 
 
+def _exposure(value: float | None) -> float | None:
+    """--exposure checked like the scene key render.exposure (finite, within ±64 stops)."""
+    from clshade.render.scene import EXPOSURE_RANGE
+    low, high = EXPOSURE_RANGE
+    if value is not None and not (math.isfinite(value) and low <= value <= high):
+        raise ClshadeError(f"--exposure = {value:g}: must be a finite number of stops within [{low:g}, {high:g}]")
+    return value
+
+
+def _model_spec(value: str | None, default: str) -> str:
+    """-m as given (an empty one is refused, not replaced by the scene's model)."""
+    if value is None:
+        return default
+    if not value.strip():
+        raise ClshadeError("-m '': no model given; `clshade models` lists them")
+    return value
+
+
+def _light_warning(scene, emission: bool) -> str | None:
+    """A warning for a scene without lights (None when it has some)."""
+    if scene.lights:
+        return None
+    name = scene.path.name if scene.path else "the scene"
+    if any(a > 0 for a in scene.ambient) or emission:
+        lit = " and ".join(w for w, on in (("the ambient term", any(a > 0 for a in scene.ambient)),
+                                           ("emission", emission)) if on)
+        return f"{name} has no [[lights]]: surfaces get only {lit}"
+    return f"{name} has no [[lights]], no ambient and no emission: every surface renders black"
+
+
 def cmd_render(args: argparse.Namespace) -> int:
-    from clshade.render.image import check_output_path, write_image
+    """Render in bands of rows (pipeline.render_streamed): only the output image is
+    full-frame, so a frame too large for memory is refused before anything is allocated."""
+    import numpy as np
     from clshade.models import resolve
-    from clshade.pipeline import Timings, prepare_frame, render
+    from clshade.pipeline import Timings, check_frame_memory, render_streamed
+    from clshade.render.image import LINEAR_SUFFIXES, check_output_path, to_display, write_encoded
     from clshade.render.scene import load_scene
 
     timings = Timings()
@@ -165,48 +225,69 @@ def cmd_render(args: argparse.Namespace) -> int:
     out = Path(args.output) if args.output else Path.cwd() / f"{Path(args.scene).stem}.png"
     protected = scene.inputs()
     check_output_path(out, protected)
-    model = resolve(args.model or scene.model, args.fresnel, args.workflow)
-    frame = prepare_frame(scene, _size(args.width, "width"), _size(args.height, "height"), timings)
-    result = render(scene, model, device=args.device, half_gbuffer=args.half, fast_math=args.fast_math, frame=frame,
-                    general=args.general)
-    timings.update(result.timings)
+    exposure = scene.exposure if args.exposure is None else _exposure(args.exposure)
+    tonemap = args.tonemap or scene.tonemap
+    model = resolve(_model_spec(args.model, scene.model), args.fresnel, args.workflow)
+    cam = scene.camera.with_size(_size(args.width, "width"), _size(args.height, "height"))
+    linear = out.suffix.lower() in LINEAR_SUFFIXES
+    check_frame_memory(cam.width, cam.height, 16 if linear else 3)
+    pixels = np.empty((cam.height, cam.width, 4 if linear else 3), np.float32 if linear else np.uint8)
+
+    def keep(first_row: int, band: np.ndarray) -> None:
+        pixels[first_row:first_row + len(band)] = band if linear else to_display(band, tonemap, exposure)
+
+    with progress_bar("render", "band") as progress:
+        result = render_streamed(scene, model, keep, width=cam.width, height=cam.height, device=args.device,
+                                 half_gbuffer=args.half, fast_math=args.fast_math, general=args.general,
+                                 timings=timings, progress=progress)
+    warning = _light_warning(scene, result.geometry.has_emission)
+    if warning:
+        print(f"clshade: warning: {warning}", file=sys.stderr)
     if args.explain:
-        variant = result.shader.variant(model, result.features)
-        print(f"model: {model.label} ({model.id}); lobes: {', '.join(l.id for l in model.lobes)}; "
-              f"fresnel: {model.fresnel if model.uses_fresnel else 'n/a'}; workflow: {model.workflow}")
-        for line in result.features.describe():
-            print(f"feature {line}")
-        print(f"G-buffer channels: {', '.join(variant.channels)} "
-              f"({frame.gbuffer.bytes_per_pixel(variant.channels, result.features.half_gbuffer)} B/pixel read, 16 B written)")
-        if frame.shadows is not None:
-            print(f"shadow maps: {frame.shadows.count} x {frame.shadows.size}² (lights "
-                  f"{', '.join(str(i) for i in frame.scene.shadow_lights)}; directional: orthographic fitted to the "
-                  f"scene bounds, spot: perspective), PCF {frame.shadows.pcf}x{frame.shadows.pcf} in the shade kernel")
-        for tset in frame.geometry.texture_sets:
-            print(f"texture set {tset.describe()}")
-        print(f"build options: {' '.join(variant.options()) or '(none)'}")
-        simd = result.shader.rt.simd
-        print("defines: " + " ".join(f"{k}={v}" for k, v in {"SIMD": str(simd), **variant.defines()}.items()))
-        print(f"device: {result.shader.rt.info.description}; {simd} pixel{'s' if simd > 1 else ''} per work-item "
-              f"(kernels/simd.h; CLSHADE_SIMD to override)")
-    if frame.gbuffer.nonfinite_pixels:
-        print(f"clshade: warning: {frame.gbuffer.nonfinite_pixels} pixels had non-finite G-buffer inputs "
+        _explain(model, result)
+    if result.nonfinite:
+        print(f"clshade: warning: {result.nonfinite} pixels had non-finite G-buffer inputs "
               f"(NaN/Inf vertices or normals) and were shaded as background", file=sys.stderr)
     with timings.stage("write"):
-        exposure = scene.exposure if args.exposure is None else args.exposure
-        write_image(out, result.image, args.tonemap or scene.tonemap, exposure, protected)
-    cam = frame.camera
-    print(f"wrote {out} ({cam.width}x{cam.height}, {model.label}, {frame.geometry.triangle_count} triangles, "
-          f"{int(frame.gbuffer.coverage.sum())} covered pixels)")
+        write_encoded(out, pixels, protected)
+    print(f"wrote {out} ({cam.width}x{cam.height}, {model.label}, {result.geometry.triangle_count} triangles, "
+          f"{result.covered} covered pixels)")
     print(f"stages: {timings.line()}")
     return 0
+
+
+def _explain(model, result) -> None:
+    """--explain: the kernel variant of a render (every band uses the same one)."""
+    shader = result.shader
+    variant = shader.variant(model, result.features)
+    print(f"model: {model.label} ({model.id}); lobes: {', '.join(l.id for l in model.lobes)}; "
+          f"fresnel: {model.fresnel if model.uses_fresnel else 'n/a'}; workflow: {model.workflow}")
+    for line in result.features.describe():
+        print(f"feature {line}")
+    print(f"G-buffer channels: {', '.join(variant.channels)} "
+          f"({shader.gb.bytes_per_pixel(variant.channels, result.features.half_gbuffer)} B/pixel read, 16 B written)")
+    if result.bands > 1:
+        print(f"bands: {result.bands} (rows rasterised, written to the G-buffer and shaded band by band)")
+    if result.shadows is not None:
+        print(f"shadow maps: {result.shadows.count} x {result.shadows.size}² (lights "
+              f"{', '.join(str(i) for i in shader.scene.shadow_lights)}; directional: orthographic "
+              f"fitted to the scene bounds, spot: perspective), PCF {result.shadows.pcf}x{result.shadows.pcf} in the "
+              f"shade kernel")
+    for tset in result.geometry.texture_sets:
+        print(f"texture set {tset.describe()}")
+    print(f"build options: {' '.join(variant.options()) or '(none)'}")
+    simd = shader.rt.simd
+    print("defines: " + " ".join(f"{k}={v}" for k, v in {"SIMD": str(simd), **variant.defines()}.items()))
+    print(f"device: {shader.rt.info.description}; {simd} pixel{'s' if simd > 1 else ''} per work-item "
+          f"(kernels/simd.h; CLSHADE_SIMD to override)")
 
 
 def cmd_models(args: argparse.Namespace) -> int:
     from clshade.models import GROUPS, lobes, presets
     from clshade.verify.plausibility import physically_based
     try:  # measured on the device with a reduced sweep (`clshade check plausibility` for the full one)
-        measured: dict[str, bool] = physically_based()
+        with progress_bar("measuring albedo", "preset") as progress:
+            measured: dict[str, bool] = physically_based(progress=progress)
     except ClshadeError as exc:
         print(f"clshade: warning: physically_based not measured ({exc})", file=sys.stderr)
         measured = {}
@@ -251,17 +332,23 @@ def cmd_devices(args: argparse.Namespace) -> int:
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
-    from clshade.compare import compare_sheet, write_sheet
+    from clshade.compare import MAX_TILE, compare_sheet, write_sheet
     from clshade.models import resolve, resolve_many
     from clshade.render.image import check_output_path
     from clshade.render.scene import load_scene
     scene = load_scene(args.scene)
     check_output_path(Path(args.output), scene.inputs())
     models = resolve_many(args.models)
+    for flag, value, high in (("--tile", args.tile, MAX_TILE), ("--width", args.width, 16384),
+                              ("--height", args.height, 16384)):
+        if value is not None and not 1 <= value <= high:
+            raise ClshadeError(f"{flag} = {value}: must be within [1, {high}]")
     width = args.width or args.tile
     height = args.height or max(1, round(width * scene.camera.height / scene.camera.width))
     reference = resolve(args.reference) if args.reference else None
-    sheet, tiles = compare_sheet(scene, models, width=width, height=height, reference=reference, device=args.device)
+    with progress_bar("compare", "model") as progress:
+        sheet, tiles = compare_sheet(scene, models, width=width, height=height, reference=reference,
+                                     device=args.device, progress=progress)
     out = write_sheet(args.output, sheet, scene.inputs())
     print(f"wrote {out} ({len(tiles)} models, {width}x{height} tiles)")
     for t in tiles:
@@ -270,7 +357,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    from clshade.compare import sweep_sheet, write_sheet
+    from clshade.compare import MAX_TILE, sweep_sheet, write_sheet
     from clshade.models import resolve_many
     from clshade.render.image import check_output_path
     from clshade.render.scene import load_scene
@@ -283,26 +370,41 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         raise ClshadeError(f"--roughness = {args.roughness!r}: not a list of numbers") from exc
     if not values or any(not 0 <= v <= 1 for v in values):
         raise ClshadeError(f"--roughness = {args.roughness!r}: values must be within [0, 1]")
-    sheet = sweep_sheet(scene, resolve_many(args.models), values, size=args.size, device=args.device)
+    if not 1 <= args.size <= MAX_TILE:
+        raise ClshadeError(f"--size = {args.size}: must be within [1, {MAX_TILE}]")
+    with progress_bar("sweep", "column") as progress:
+        sheet = sweep_sheet(scene, resolve_many(args.models), values, size=args.size, device=args.device,
+                            progress=progress)
     out = write_sheet(args.output, sheet, scene.inputs())
     print(f"wrote {out}")
     return 0
+
+
+PLOT_SUFFIXES = (".png", ".pdf", ".svg", ".jpg", ".jpeg")
+
+
+def _check_bench_outputs(args: argparse.Namespace) -> None:
+    """Every output path, and matplotlib for --plot, before the benchmark runs."""
+    from clshade.outputs import check_output_file
+    from clshade.report import _pyplot
+    if args.json:
+        check_output_file(args.json, "--json")
+    if args.csv:
+        check_output_file(args.csv, "--csv")
+    if args.plot:
+        check_output_file(args.plot, "--plot", PLOT_SUFFIXES)
+        _pyplot()
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
     from clshade.bench.run import run_bench
     from clshade.models import resolve_many
     from clshade.report import bench_csv, bench_plots, bench_text
-    progress = None
-    if not args.no_progress:
-        from tqdm import tqdm
-        bar = tqdm(total=args.frames, desc="bench", unit="round", file=sys.stderr, leave=False)
-        progress = lambda done, total: bar.update(done - bar.n)  # noqa: E731
-    doc = run_bench(args.scene, resolve_many(args.models), args.frames, args.warmup, width=args.width,
-                    height=args.height, lights=args.lights, ladder=args.ladder, numpy_frames=args.numpy_frames,
-                    device=args.device, progress=progress)
-    if progress is not None:
-        bar.close()
+    _check_bench_outputs(args)
+    with progress_bar("bench", "round") as progress:
+        doc = run_bench(args.scene, resolve_many(args.models), args.frames, args.warmup, width=args.width,
+                        height=args.height, lights=args.lights, ladder=args.ladder, numpy_frames=args.numpy_frames,
+                        device=args.device, progress=None if args.no_progress else progress)
     print(bench_text(doc))
     if args.json:
         Path(args.json).write_text(json.dumps(doc, indent=2, ensure_ascii=False), encoding="utf-8")
@@ -317,7 +419,8 @@ def cmd_plausibility(args: argparse.Namespace) -> int:
     from dataclasses import asdict
     from clshade.verify import plausibility as P
     sweep = P.QUICK if args.quick else P.Sweep()
-    verdicts = P.evaluate_presets(sweep, args.device)
+    with progress_bar("plausibility", "preset") as progress:
+        verdicts = P.evaluate_presets(sweep, args.device, progress=progress)
     if args.json:
         print(json.dumps({"energy_tol": P.ENERGY_TOL, "reciprocity_tol": P.RECIPROCITY_TOL,
                           "sweep": asdict(sweep), "presets": [v.as_dict() for v in verdicts]},
@@ -337,7 +440,8 @@ def cmd_stability(args: argparse.Namespace) -> int:
         models = []
         for m in resolve_many(args.model):
             models += [m.with_options(fresnel=f) for f in FRESNELS] if m.uses_fresnel else [m]
-    rep = stability.run(models, device=args.device)
+    with progress_bar("stability", "step") as progress:
+        rep = stability.run(models, device=args.device, progress=progress)
     if args.json:
         print(json.dumps(rep.as_dict(), indent=2, ensure_ascii=False, default=str))
     else:
@@ -345,11 +449,31 @@ def cmd_stability(args: argparse.Namespace) -> int:
     return 0 if rep.ok else 1
 
 
+def _quiet_broken_pipe() -> int:
+    """stdout's reader went away (`clshade models | head`): stop quietly. stdout is
+    pointed at /dev/null so that the interpreter's final flush does not fail again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):   # not a real file (tests replace stdout)
+        pass
+    return 141   # 128 + SIGPIPE, as a shell reports a process killed by it
+
+
 def main(argv: list[str] | None = None) -> int:
+    try:
+        return _main(argv)
+    except BrokenPipeError:
+        return _quiet_broken_pipe()
+
+
+def _main(argv: list[str] | None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return int(args.func(args) or 0)
+        status = int(args.func(args) or 0)
+        sys.stdout.flush()      # a closed pipe shows here, inside the handler, not at exit
+        return status
     except ClshadeError as exc:
         if args.debug:
             raise

@@ -25,7 +25,8 @@ LABEL_HEIGHT = 40            # px under each tile: two lines
 TITLE_HEIGHT = 30            # px above each group row
 GAP = 6                      # px between tiles
 SHEET_BACKGROUND = (0.08, 0.08, 0.09)
-MAX_COLUMNS = 5              # tiles per row before a row wraps
+MAX_COLUMNS = 5              # tiles per row before a row wraps (contact sheets; sweeps never wrap)
+MAX_TILE = 4096              # px: largest sweep/compare tile side (a sheet holds many)
 TIMING_REPEATS = 7           # device-timed dispatches per tile; the median is shown
 
 
@@ -36,8 +37,10 @@ class Tile:
     ms: float                # median device time per frame
 
 
-def shade_all(frame: Frame, models: list[Model], runtime: Runtime, repeats: int = TIMING_REPEATS) -> list[Tile]:
-    """Shade one G-buffer with every model; time each kernel (median device time)."""
+def shade_all(frame: Frame, models: list[Model], runtime: Runtime, repeats: int = TIMING_REPEATS,
+              progress=None) -> list[Tile]:
+    """Shade one G-buffer with every model; time each kernel (median device time);
+    `progress(done, total)` after each model."""
     shader = Shader(runtime, frame.gbuffer, frame.scene, frame.camera)
     features = scene_features(frame.scene)
     tiles = []
@@ -50,6 +53,8 @@ def shade_all(frame: Frame, models: list[Model], runtime: Runtime, repeats: int 
             event.wait()
             times.append((event.profile.end - event.profile.start) * 1e-6)
         tiles.append(Tile(model, shader.read(), float(np.median(times))))
+        if progress is not None:
+            progress(len(tiles), len(models))
     return tiles
 
 
@@ -82,13 +87,14 @@ def _text(buf, x: int, y: int, text: str, size: int = LABEL_SIZE, colour=(0.92, 
         raise ClshadeError(f"cannot render text with font {FONT!r}: {oiio.geterror()}")
 
 
-def layout(rows: list[tuple[str, list[tuple[np.ndarray, str, str]]]]) -> np.ndarray:
-    """Rows of (title, [(tile RGB in [0, 1], line 1, line 2)]) → one sheet (H, W, 3) float."""
+def layout(rows: list[tuple[str, list[tuple[np.ndarray, str, str]]]], max_columns: int = MAX_COLUMNS) -> np.ndarray:
+    """Rows of (title, [(tile RGB in [0, 1], line 1, line 2)]) → one sheet (H, W, 3) float;
+    rows longer than `max_columns` wrap."""
     import OpenImageIO as oiio
     wrapped = []
     for title, tiles in rows:
-        for start in range(0, len(tiles), MAX_COLUMNS):
-            wrapped.append((title if start == 0 else "", tiles[start:start + MAX_COLUMNS]))
+        for start in range(0, len(tiles), max_columns):
+            wrapped.append((title if start == 0 else "", tiles[start:start + max_columns]))
     rows = wrapped
     th, tw = rows[0][1][0][0].shape[:2]
     columns = max(len(tiles) for _, tiles in rows)
@@ -126,14 +132,14 @@ def group_rows(tiles: list[Tile]) -> list[tuple[str, list[Tile]]]:
 
 def compare_sheet(scene: Scene | str | Path, models: list[Model], *, width: int | None = None,
                   height: int | None = None, reference: Model | None = None, runtime: Runtime | None = None,
-                  device: str | None = None) -> tuple[np.ndarray, list[Tile]]:
-    """The contact sheet (H, W, 3) display floats, and the shaded tiles."""
+                  device: str | None = None, progress=None) -> tuple[np.ndarray, list[Tile]]:
+    """The contact sheet (H, W, 3) display floats, and the shaded tiles; `progress(done, total)` per model."""
     frame = prepare_frame(scene, width, height)
     rt = runtime or get_runtime(device)
-    tiles = shade_all(frame, models, rt)
+    tiles = shade_all(frame, models, rt, progress=progress)
     rows = []
     for group, items in group_rows(tiles):
-        rows.append((group, [(scene_display(t.image, frame.scene), t.model.label, f"{t.ms:.2f} ms/frame")
+        rows.append((group, [(scene_display(t.image, frame.scene), model_title(t.model), f"{t.ms:.2f} ms/frame")
                              for t in items]))
     if reference is not None:
         ref_tile = next((t for t in tiles if t.model == reference), None) or shade_all(frame, [reference], rt)[0]
@@ -151,9 +157,10 @@ SWEEP_ROUGHNESS = (0.05, 0.15, 0.3, 0.5, 0.7, 0.9)
 
 
 def sweep_sheet(scene: Scene | str | Path, models: list[Model], roughness: tuple[float, ...] = SWEEP_ROUGHNESS,
-                *, size: int = 160, runtime: Runtime | None = None, device: str | None = None) -> np.ndarray:
+                *, size: int = 160, runtime: Runtime | None = None, device: str | None = None,
+                progress=None) -> np.ndarray:
     """Rows = models, columns = roughness (every material of the scene set to it; the
-    Phong exponent follows as n = 2/α² − 2). The study's Figure 4."""
+    Phong exponent follows as n = 2/α² − 2). The study's Figure 4. `progress(done, total)` per column."""
     scene = scene if isinstance(scene, Scene) else load_scene(scene)
     rt = runtime or get_runtime(device)
     columns = []
@@ -161,14 +168,26 @@ def sweep_sheet(scene: Scene | str | Path, models: list[Model], roughness: tuple
         mats = {k: dataclasses.replace(m, roughness=r) for k, m in scene.materials.items()}
         frame = prepare_frame(dataclasses.replace(scene, materials=mats), size, size)
         columns.append((r, frame, shade_all(frame, models, rt, repeats=1)))
+        if progress is not None:
+            progress(len(columns), len(roughness))
     rows = []
     for i, model in enumerate(models):
         cells = []
         for r, frame, tiles in columns:
             n = next(iter(frame.scene.materials.values())).exponent
-            cells.append((scene_display(tiles[i].image, frame.scene), f"r = {r:g}", f"n = {n:.3g}"))
-        rows.append((model.label, cells))
-    return layout(rows)
+            cells.append((scene_display(tiles[i].image, frame.scene), *sweep_labels(model, r, n)))
+        rows.append((model_title(model), cells))
+    return layout(rows, max_columns=len(roughness))    # one row per model: every roughness side by side
+
+
+def model_title(model: Model) -> str:
+    """The model's label, with its Fresnel term when a lobe uses one."""
+    return f"{model.label}, {model.fresnel.capitalize()} Fresnel" if model.uses_fresnel else model.label
+
+
+def sweep_labels(model: Model, roughness: float, exponent: float) -> tuple[str, str]:
+    """A sweep tile's two label lines: the roughness, and the Phong exponent for lobes that have one."""
+    return f"r = {roughness:g}", (f"n = {exponent:.3g}" if "shininess" in model.uses else "")
 
 
 def write_sheet(path: str | Path, sheet: np.ndarray, protected=()) -> Path:

@@ -16,6 +16,16 @@ def located(message: str, file: str | Path | None = None, key: str | None = None
     if file is not None:
         parts.append(str(file))
     if key is not None:
-        parts.append(key if not has_value else f"{key} = {value!r}")
+        parts.append(key if not has_value else f"{key} = {plain(value)!r}")
     where = ": ".join(parts)
     return ClshadeError(f"{where}: {message}" if where else message)
+
+
+def plain(value: Any) -> Any:
+    """NumPy scalars and arrays (also inside lists and tuples) as Python numbers and lists,
+    so messages read `[0.0, 1.0]`, not `[np.float64(0.0), ...]`."""
+    if isinstance(value, (list, tuple)):
+        return [plain(v) for v in value]
+    if hasattr(value, "tolist") and not isinstance(value, (str, bytes)):
+        return value.tolist()
+    return value

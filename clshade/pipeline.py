@@ -1,7 +1,10 @@
 """The deferred pipeline, stage by stage, with a wall-clock time per stage:
-scene → geometry → rasterizer → G-buffer → kernel variant → image."""
+scene → geometry → rasterizer → G-buffer → kernel variant → image. `render` keeps the
+whole frame (its G-buffer is shared by several models: compare, bench); `render_streamed`
+(the CLI's render) works in bands of rows so that only the output image is full-frame."""
 from __future__ import annotations
 
+import os
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -9,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from clshade.errors import ClshadeError
 from clshade.render.gbuffer import GBuffer, build_gbuffer
 from clshade.render.meshes import Geometry, build_geometry
 from clshade.models import Model
@@ -97,3 +101,110 @@ def render(scene: Scene | str | Path, model: Model, *, width: int | None = None,
     with timings.stage("read back"):
         image = shader.read()
     return Render(image, frame, model, features, shader, timings)
+
+
+# ---------------------------------------------------------------- large frames: bands of rows
+
+#: Pixels per band of a streamed render: the working set of one band (fragments,
+#: G-buffer, device buffers and their temporaries) is bounded by this whatever the
+#: frame size; only the output image is full-frame (3 B/px 8-bit RGB for PNG/JPEG,
+#: 16 B/px float RGBA for EXR).
+BAND_PIXELS = 1 << 19
+#: The allowance for everything that does not scale with the frame — interpreter, NumPy,
+#: PoCL, geometry, one band's working set — when deciding whether a frame fits.
+#: benchmarks/memory_bench.py measures the real peaks (benchmarks/results/memory.md).
+STREAM_BASE_BYTES = 320 << 20
+
+
+def band_rows(width: int, height: int, band_pixels: int = BAND_PIXELS) -> int:
+    """Rows per band: about `band_pixels` pixels, at least one row."""
+    return max(1, min(height, band_pixels // max(width, 1)))
+
+
+@dataclass
+class StreamResult:
+    """What a streamed render leaves besides the bands it handed over."""
+    camera: Camera
+    geometry: Geometry
+    features: Features
+    shader: Shader              # the last band's (its variant and runtime describe every band)
+    shadows: ShadowMaps | None
+    covered: int
+    nonfinite: int
+    bands: int
+    timings: Timings
+
+
+def render_streamed(scene: Scene, model: Model, on_band, *, width: int | None = None, height: int | None = None,
+                    device: str | None = None, runtime: Runtime | None = None, half_gbuffer: bool = False,
+                    fast_math: bool = False, general: bool = False, band_pixels: int = BAND_PIXELS,
+                    timings: Timings | None = None, progress=None) -> StreamResult:
+    """Render a frame band by band (rows [r0, r0 + rows)): geometry and shadow maps once,
+    then per band rasterize → G-buffer → shade → `on_band(r0, image)` with the band's
+    (rows, W, 4) float32 radiance + coverage. Each band's camera is Camera.band, so the
+    pixels are those of the whole frame. `progress(done, total)` after each band."""
+    timings = timings if timings is not None else Timings()
+    camera = scene.camera.with_size(width, height)
+    with timings.stage("geometry"):
+        geometry = build_geometry(scene)
+    shadows = None
+    if scene.shadow_lights:
+        with timings.stage("shadow maps"):
+            shadows = build_shadow_maps(scene, geometry)
+    with timings.stage("opencl setup"):
+        rt = runtime or get_runtime(device)
+        features = scene_features(scene, half_gbuffer and not general, fast_math, geometry, general)
+    rows = band_rows(camera.width, camera.height, band_pixels)
+    starts = list(range(0, camera.height, rows))
+    covered = nonfinite = 0
+    shader = None
+    for done, r0 in enumerate(starts, 1):
+        cam = camera.band(r0, min(rows, camera.height - r0)) if len(starts) > 1 else camera
+        with timings.stage("rasterize"):
+            fragments = rasterize(geometry.vertices, geometry.faces, cam.view_matrix(), cam.projection_matrix(),
+                                  cam.width, cam.height, cull_backfaces=geometry.cull)
+        with timings.stage("g-buffer"):
+            gbuffer = build_gbuffer(scene, geometry, fragments, cam)
+        del fragments
+        covered += int(gbuffer.coverage.sum())
+        nonfinite += gbuffer.nonfinite_pixels
+        with timings.stage("kernel build"):
+            shader = Shader(rt, gbuffer, scene, cam, shadows)
+            dispatch = shader.prepare(model, features)
+        with timings.stage("shade"):
+            shader.enqueue(dispatch).wait()
+        with timings.stage("read back"):
+            image = shader.read()
+        del gbuffer
+        with timings.stage("output"):
+            on_band(r0, image)
+        if progress is not None:
+            progress(done, len(starts))
+    return StreamResult(camera, geometry, features, shader, shadows, covered, nonfinite, len(starts), timings)
+
+
+def available_memory() -> int | None:
+    """Bytes the system can give without swapping (MemAvailable, Linux); None when unknown."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def check_frame_memory(width: int, height: int, output_bytes_per_pixel: int, available: int | None = None) -> int:
+    """Refuse, before anything is allocated, a streamed frame whose output image plus the
+    fixed working set cannot fit in the memory available now. Returns the estimate."""
+    need = width * height * output_bytes_per_pixel + STREAM_BASE_BYTES
+    available = available_memory() if available is None else available
+    if available is not None and need > available:
+        raise ClshadeError(f"a {width}x{height} frame needs about {need / 2**30:.1f} GiB of memory "
+                           f"({output_bytes_per_pixel} B/pixel of output + {STREAM_BASE_BYTES >> 20} MiB), "
+                           f"{available / 2**30:.1f} GiB available; render it smaller")
+    return need

@@ -11,6 +11,12 @@ __kernel void copy(const uint npix, const uint plane,
 #if HAS_METALLIC
     , __global const float* metallic
 #endif
+#if HAS_EMISSIVE
+    , __global const float* emissive
+#endif
+#if HAS_OCCLUSION
+    , __global const float* occlusion
+#endif
 #if HAS_MATERIAL
     , __global const uchar* material
 #endif
@@ -30,6 +36,12 @@ __kernel void copy(const uint npix, const uint plane,
 #endif
 #if HAS_METALLIC
     w += VLOAD(i, metallic);
+#endif
+#if HAS_EMISSIVE
+    acc = v3add(acc, load3f(i, emissive, plane));
+#endif
+#if HAS_OCCLUSION
+    w += VLOAD(i, occlusion);
 #endif
 #if HAS_MATERIAL
     w += convert_real(VLOAD_UCHAR(i, material));

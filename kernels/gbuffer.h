@@ -30,6 +30,11 @@ INLINE vec3 load3(size_t i, __global const GB3* p, uint plane) {
     return v3(LOAD_PLANE(i, p), LOAD_PLANE(i, p + plane), LOAD_PLANE(i, p + 2 * plane));
 }
 
+/* A 3-channel float plane triple that is never stored as half (emission). */
+INLINE vec3 load3f(size_t i, __global const float* p, uint plane) {
+    return v3(VLOAD(i, p), VLOAD(i, p + plane), VLOAD(i, p + 2 * plane));
+}
+
 /* None of the work-item's pixels is covered (depth ≤ 0 in every lane): the
  * shading kernel then reads only depth and writes the background, and the copy
  * kernel does the same so that the bandwidth floor moves the same bytes. */

@@ -12,6 +12,9 @@
  *   HAS_MATERIAL                   per-pixel material id + material table
  *   MAT_M0..MAT_M3                 the material constants when HAS_MATERIAL is 0
  *   HAS_AMBIENT                    constant ambient radiance
+ *   HAS_EMISSIVE                   per-pixel emitted radiance, added unlit
+ *   HAS_OCCLUSION                  per-pixel ambient occlusion multiplying the ambient term
+ *                                  (both compile-time in the general kernel too)
  *   HALF_GBUFFER                   normal and base colour stored as half floats
  *   HAS_SHADOWS, SHADOW_PCF        shadow-map lookup (shadow.h), PCF kernel width
  *   SIMD                           pixels per work-item (1, 4 or 8)
@@ -31,6 +34,8 @@
  *   base      3 planes of float: linear base colour (or half)
  *   roughness float   perceptual roughness
  *   metallic  float
+ *   emissive  3 planes of float: emitted radiance (HAS_EMISSIVE)
+ *   occlusion float   ambient occlusion in [0, 1] (HAS_OCCLUSION)
  *   material  uchar   index into the material table (MATERIAL_STRIDE float4)
  * Lights (__constant float4, directional first, then point, then spot):
  *   directional: (direction of travel, 0), (irradiance RGB, 0)
@@ -52,6 +57,12 @@
 #endif
 #ifndef HAS_SHADOWS
 #define HAS_SHADOWS 0
+#endif
+#ifndef HAS_EMISSIVE
+#define HAS_EMISSIVE 0
+#endif
+#ifndef HAS_OCCLUSION
+#define HAS_OCCLUSION 0
 #endif
 #if GENERAL
 /* The general kernel reads every channel; its switches are runtime arguments. */
@@ -128,6 +139,12 @@ __kernel void shade(
 #if HAS_METALLIC
     , __global const float* metallic
 #endif
+#if HAS_EMISSIVE
+    , __global const float* emissive
+#endif
+#if HAS_OCCLUSION
+    , __global const float* occlusion
+#endif
 #if HAS_MATERIAL
     , __global const uchar* material, __constant float4* materials
 #endif
@@ -196,6 +213,11 @@ __kernel void shade(
 #endif
 
     vec3 L = v3s((real)(0.0f));
+#if HAS_OCCLUSION
+#define AMBIENT(A) v3scale(ambient_term(v3c((A).xyz), s), saturate(VLOAD(i, occlusion)))
+#else
+#define AMBIENT(A) ambient_term(v3c((A).xyz), s)
+#endif
 #if GENERAL || NUM_POINT + NUM_SPOT > 0 || HAS_SHADOWS
     vec3 P = v3add(v3c(cam_pos.xyz), v3scale(ray, z));
 #endif
@@ -222,7 +244,7 @@ __kernel void shade(
         L = v3add(L, shade_light(n, v, l, E, s));
     }
     if (has_ambient)
-        L = v3add(L, ambient_term(v3c(ambient.xyz), s));
+        L = v3add(L, AMBIENT(ambient));
 #else
 #if HAS_SHADOWS
 /* Only where some lane faces the light: shade_light() adds nothing otherwise. */
@@ -261,8 +283,11 @@ __kernel void shade(
     }
 #endif
 #if HAS_AMBIENT
-    L = v3add(L, ambient_term(v3c(ambient.xyz), s));
+    L = v3add(L, AMBIENT(ambient));
 #endif
+#endif
+#if HAS_EMISSIVE
+    L = v3add(L, v3max(load3f(i, emissive, plane), 0.0f));
 #endif
 #ifndef RAW_RADIANCE
     L = v3min(L, MAX_RADIANCE);   /* fmin: also turns a NaN into MAX_RADIANCE */

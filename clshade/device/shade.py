@@ -31,10 +31,13 @@ def scene_features(scene: Scene, half_gbuffer: bool = False, fast_math: bool = F
     these effects as its runtime switches."""
     count = {k: sum(1 for l in scene.lights if l.kind == k) for k in LIGHT_ORDER}
     shadows = bool(scene.shadow_lights)
+    ambient = any(a > 0 for a in scene.ambient)
     return Features(num_dir=count["directional"], num_point=count["point"], num_spot=count["spot"],
-                    ambient=any(a > 0 for a in scene.ambient), shadows=shadows,
+                    ambient=ambient, shadows=shadows,
                     shadow_pcf=scene.shadow_pcf if shadows else 1,
                     textures=bool(geometry is not None and geometry.has_textures),
+                    emissive=bool(geometry is not None and geometry.has_emission),
+                    occlusion=bool(ambient and geometry is not None and geometry.has_occlusion),
                     half_gbuffer=half_gbuffer, fast_math=fast_math, general=general)
 
 
@@ -76,11 +79,14 @@ def pack_lights_general(lights: tuple[Light, ...] | list[Light], slots: tuple[in
 
 
 def camera_args(camera: Camera) -> list[np.ndarray]:
-    """cam_pos, cam_fwd and the pre-scaled cam_right / cam_up of shade.cl."""
+    """cam_pos, cam_fwd and the pre-scaled cam_right / cam_up of shade.cl. For a band of a
+    taller frame (Camera.band) the kernel's band-relative sy maps to the frame's centre + half·sy,
+    folded into cam_fwd and cam_up."""
     fwd, right, up = camera.basis()
     t = math.tan(math.radians(camera.fov) / 2)
+    centre, half = camera.band_ndc()
     f4 = lambda v: np.array([*v, 0.0], np.float32)  # noqa: E731
-    return [f4(camera.position), f4(fwd), f4(right * t * camera.aspect), f4(up * t)]
+    return [f4(camera.position), f4(fwd + up * t * centre), f4(right * t * camera.aspect), f4(up * t * half)]
 
 
 @dataclass

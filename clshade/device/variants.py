@@ -48,6 +48,8 @@ class Features:
     shadows: bool = False          # shadow-map lookups (some light casts shadows)
     shadow_pcf: int = 1            # PCF kernel width (odd; 1 = one tap), compile-time
     textures: bool = False         # textures sampled into the G-buffer (host side; no kernel code)
+    emissive: bool = False         # emitted radiance channel, added unlit (compile-time, general kernel too)
+    occlusion: bool = False        # ambient occlusion channel on the ambient term (compile-time, general too)
     half_gbuffer: bool = False
     fast_math: bool = False
     general: bool = False          # the general kernel; the fields above are its runtime switches
@@ -65,6 +67,8 @@ class Features:
         out.append(f"ambient: {'on' if self.ambient else 'off'}")
         out.append(f"shadows: {f'on (shadow maps, PCF {self.shadow_pcf}x{self.shadow_pcf})' if self.shadows else 'off'}")
         out.append(f"textures: {'on (sampled into the G-buffer on the host, trilinear mipmaps)' if self.textures else 'off'}")
+        out.append(f"emission: {'on (emissive channel added unlit)' if self.emissive else 'off'}")
+        out.append(f"ambient occlusion: {'on (occlusion channel multiplies the ambient term)' if self.occlusion else 'off'}")
         out.append(f"G-buffer storage: {'half (normal, base colour)' if self.half_gbuffer else 'float32'}")
         out.append(f"math: {'fast-relaxed' if self.fast_math else 'precise'}")
         if self.raw_radiance:
@@ -110,14 +114,17 @@ class Variant:
         """Choose channels: roughness/metallic when the model reads them; the material id
         channel only when the materials differ in a constant the model reads (otherwise
         those constants are compiled in)."""
+        extra = (("emissive",) if features.emissive else ()) + (("occlusion",) if features.occlusion else ())
         if features.general:
-            return cls(model, features, ("depth", "normal", "base", "roughness", "metallic", "material"), None)
+            return cls(model, features, ("depth", "normal", "base", "roughness", "metallic", *extra, "material"),
+                       None)
         uses = model.uses
         channels = ["depth", "normal", "base"]
         if "roughness" in uses:
             channels.append("roughness")
         if "metallic" in uses:
             channels.append("metallic")
+        channels += extra         # before "material": the kernels' argument order (shade.cl, copy.cl)
         mask = used_table_columns(model)
         table = np.asarray(material_table, np.float32).reshape(-1, 4, 4)
         baked = None
@@ -135,9 +142,10 @@ class Variant:
 
     def defines(self) -> dict[str, str]:
         f, m = self.features, self.model
+        effects = {"HAS_EMISSIVE": str(int(f.emissive)), "HAS_OCCLUSION": str(int(f.occlusion))}
         raw = {"RAW_RADIANCE": "1"} if f.raw_radiance else {}
         if f.general:
-            return {"GENERAL": "1", "HAS_DIFFUSE": str(int(m.diffuse != NONE)),
+            return {"GENERAL": "1", **effects, "HAS_DIFFUSE": str(int(m.diffuse != NONE)),
                     "HAS_SPECULAR": str(int(m.specular != NONE)),
                     "SPECULAR_FRESNEL": str(int(m.uses_fresnel)),
                     "FRESNEL": FRESNEL_DEFINES[m.fresnel], "WORKFLOW": WORKFLOW_DEFINES[m.workflow], **raw}
@@ -148,6 +156,7 @@ class Variant:
             "HAS_ROUGHNESS": str(int("roughness" in self.channels)),
             "HAS_METALLIC": str(int("metallic" in self.channels)),
             "HAS_MATERIAL": str(int(self.has_material)),
+            **effects,
             "HAS_DIFFUSE": str(int(m.diffuse != NONE)),
             "HAS_SPECULAR": str(int(m.specular != NONE)),
             "SPECULAR_FRESNEL": str(int(m.uses_fresnel)),

@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from clshade.render.arrays import put_rows, take_rows
 from clshade.render.meshes import Geometry
 from clshade.render.raster import Fragments
 from clshade.render.scene import Camera, Scene
@@ -32,6 +33,9 @@ def material_row(params: dict[str, object]) -> np.ndarray:
 CHANNELS: dict[str, tuple[type, int]] = {
     "depth": (np.float32, 1), "normal": (np.float32, 3), "base": (np.float32, 3),
     "roughness": (np.float32, 1), "metallic": (np.float32, 1), "material": (np.uint8, 1),
+    # Present only when the scene has them (Features.emissive / Features.occlusion):
+    "emissive": (np.float32, 3),     # emitted radiance, added unlit
+    "occlusion": (np.float32, 1),    # ambient occlusion in [0, 1], multiplies the ambient term
 }
 
 
@@ -123,8 +127,9 @@ def uv_derivatives(geometry: Geometry, tri: np.ndarray, pixels: np.ndarray, came
 
 
 def _apply_texture_set(t: TextureSet, uv: np.ndarray, dx: np.ndarray, dy: np.ndarray, normal: np.ndarray,
-                       tangent: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Base colour, roughness, metallic and shading normal of K pixels from one texture set."""
+                       tangent: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Base colour, roughness, metallic, shading normal, emission and ambient occlusion
+    of K pixels from one texture set (glTF: value = factor × texture)."""
     uv, dx, dy = uv * t.uv_scale, dx * t.uv_scale, dy * t.uv_scale
     k = len(uv)
     base = np.broadcast_to(np.asarray(t.base_factor, np.float32), (k, 3)).copy()
@@ -136,6 +141,12 @@ def _apply_texture_set(t: TextureSet, uv: np.ndarray, dx: np.ndarray, dy: np.nda
         mr = t.metallic_roughness.sample(uv, t.metallic_roughness.lod(dx, dy))
         rough *= mr[:, 1]
         metal *= mr[:, 2]
+    emissive = np.broadcast_to(np.asarray(t.emissive_factor, np.float32), (k, 3)).copy()
+    if t.emissive is not None and t.has_emission:
+        emissive *= t.emissive.sample(uv, t.emissive.lod(dx, dy))
+    occlusion = np.ones(k, np.float32)
+    if t.occlusion is not None:
+        occlusion = 1.0 + t.occlusion_strength * (t.occlusion.sample(uv, t.occlusion.lod(dx, dy))[:, 0] - 1.0)
     if t.normal is not None:
         m = t.normal.sample(uv, t.normal.lod(dx, dy)) * 2.0 - 1.0
         m[:, :2] *= t.normal_scale
@@ -148,13 +159,13 @@ def _apply_texture_set(t: TextureSet, uv: np.ndarray, dx: np.ndarray, dy: np.nda
         length = np.linalg.norm(mapped, axis=1, keepdims=True)
         good &= length[:, 0] > 0
         normal = np.where(good[:, None], mapped / np.where(length > 0, length, 1.0), normal)
-    return base, rough, metal, normal.astype(np.float32)
+    return base, rough, metal, normal.astype(np.float32), emissive, occlusion
 
 
 def _texture_pixels(geometry: Geometry, tri: np.ndarray, pixels: np.ndarray, bary: np.ndarray, camera: Camera,
                     width: int, height: int, normal: np.ndarray, base: np.ndarray, rough: np.ndarray,
-                    metal: np.ndarray) -> None:
-    """Overwrite the channels of textured pixels in place."""
+                    metal: np.ndarray, emissive: np.ndarray | None, occlusion: np.ndarray | None) -> None:
+    """Overwrite the channels of textured pixels in place (emissive / occlusion when present)."""
     tex = geometry.face_texture[tri]
     sel = np.flatnonzero(tex >= 0)
     if not len(sel):
@@ -167,9 +178,13 @@ def _texture_pixels(geometry: Geometry, tri: np.ndarray, pixels: np.ndarray, bar
     for index in np.unique(tex[sel]):
         part = tex[sel] == index
         rows = pixels[sel][part]
-        b, r, m, n = _apply_texture_set(geometry.texture_sets[index], uv[part], dx[part], dy[part],
-                                        normal[rows].astype(np.float64), tangent[part])
+        b, r, m, n, e, o = _apply_texture_set(geometry.texture_sets[index], uv[part], dx[part], dy[part],
+                                              normal[rows].astype(np.float64), tangent[part])
         base[rows], rough[rows], metal[rows], normal[rows] = b, r, m, n
+        if emissive is not None:
+            emissive[rows] = e
+        if occlusion is not None:
+            occlusion[rows] = o
 
 
 def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments, camera: Camera | None = None) -> GBuffer:
@@ -179,47 +194,64 @@ def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments, camera
     h, w = fragments.tri_id.shape
     n = h * w
     cov = fragments.coverage.reshape(-1)
-    tri = fragments.tri_id.reshape(-1)[cov]
-    bary = fragments.bary.reshape(-1, 3)[cov].astype(np.float32)
+    pix = np.flatnonzero(cov)                               # covered pixels (integer gathers/scatters)
+    tri = fragments.tri_id.reshape(-1)[pix]
+    bary = take_rows(fragments.bary.reshape(-1, 3), pix)
 
     mats = list(scene.materials.values())
     base_of = np.array([m.base_color for m in mats], np.float32).reshape(-1, 3)
     rough_of = np.array([m.roughness for m in mats], np.float32)
     metal_of = np.array([m.metallic for m in mats], np.float32)
 
-    depth = np.zeros(n, np.float32)
-    depth[cov] = fragments.depth.reshape(-1)[cov]
+    depth = np.array(fragments.depth.reshape(-1), np.float32)   # 0 where empty (Fragments)
     normal = np.zeros((n, 3), np.float32)
     base = np.zeros((n, 3), np.float32)
     rough = np.zeros(n, np.float32)
     metal = np.zeros(n, np.float32)
     matid = np.zeros(n, np.uint8)
+    emissive = np.zeros((n, 3), np.float32) if geometry.has_emission else None
+    occlusion = np.zeros(n, np.float32) if geometry.has_occlusion else None
     if len(tri):
-        corners = geometry.faces[tri]                       # (K, 3) vertex ids
-        nrm = np.einsum("kc,kcd->kd", bary, geometry.normals[corners])
-        length = np.linalg.norm(nrm, axis=1, keepdims=True)
-        # NaN stays NaN (counted below as non-finite); only a zero length becomes 0.
-        normal[cov] = np.where(np.isfinite(length), np.divide(nrm, length, out=np.zeros_like(nrm),
-                                                              where=length > 0), np.nan)
+        corners = take_rows(geometry.faces, tri)            # (K, 3) vertex ids
+        nrm = sum(bary[:, c, None] * take_rows(geometry.normals, corners[:, c]) for c in range(3))
+        len2 = np.einsum("kd,kd->k", nrm, nrm)
+        # 1/|n| where |n| > 0; 0 elsewhere, so a zero normal stays 0 and a NaN/Inf one
+        # becomes NaN (NaN·0, Inf·0), counted below as non-finite.
+        with np.errstate(invalid="ignore", over="ignore"):
+            inv = np.divide(1.0, np.sqrt(len2, where=len2 > 0, out=np.ones_like(len2)), where=len2 > 0,
+                            out=np.zeros_like(len2))
+            put_rows(normal, pix, nrm * inv[:, None])
         mid = geometry.face_material[tri]
-        base[cov] = base_of[mid]
-        rough[cov] = rough_of[mid]
-        metal[cov] = metal_of[mid]
-        matid[cov] = mid.astype(np.uint8)
+        put_rows(base, pix, take_rows(base_of, mid))
+        rough[pix] = rough_of[mid]
+        metal[pix] = metal_of[mid]
+        matid[pix] = mid
+        if emissive is not None:
+            emissive[pix] = np.array([m.emissive for m in mats], np.float32).reshape(-1, 3)[mid]
+        if occlusion is not None:
+            occlusion[pix] = 1.0
         if geometry.face_texture is not None:
             camera = (camera or scene.camera).with_size(w, h)
-            _texture_pixels(geometry, tri, np.flatnonzero(cov), bary, camera, w, h, normal, base, rough, metal)
+            _texture_pixels(geometry, tri, pix, bary, camera, w, h, normal, base, rough, metal, emissive, occlusion)
 
     # Replace non-finite inputs (from NaN vertices, bad normals in a mesh file):
     # the pixel shades as empty/neutral and is counted; no other pixel is touched.
-    bad = ~(np.isfinite(depth) & np.isfinite(normal).all(1) & np.isfinite(base).all(1))
-    nonfinite = int(np.count_nonzero(bad & cov))
+    finite = np.isfinite(depth[pix]) & np.isfinite(normal[pix]).all(1) & np.isfinite(base[pix]).all(1)
+    bad = pix[~finite]
+    nonfinite = len(bad)
     if nonfinite:
         depth[bad] = 0.0
         normal[bad] = 0.0
         base[bad] = 0.0
-        cov = cov & ~bad
+        if emissive is not None:
+            emissive[bad] = 0.0
+        cov = cov.copy()
+        cov[bad] = False
 
     channels = {"depth": depth, "normal": normal.reshape(-1), "base": base.reshape(-1),
                 "roughness": rough, "metallic": metal, "material": matid}
+    if emissive is not None:
+        channels["emissive"] = emissive.reshape(-1)
+    if occlusion is not None:
+        channels["occlusion"] = occlusion
     return GBuffer(w, h, channels, material_table(scene), cov.reshape(h, w), nonfinite)

@@ -82,19 +82,37 @@ def check_output_path(path: Path, protected: list[Path] | tuple[Path, ...] = ())
     return path
 
 
+def _file_mode(path: Path) -> int:
+    """The mode a new file gets from open(): 0666 less the umask; an overwritten file keeps its own."""
+    try:
+        return path.stat().st_mode & 0o7777
+    except FileNotFoundError:
+        umask = os.umask(0)
+        os.umask(umask)
+        return 0o666 & ~umask
+
+
 def write_image(path: str | Path, image: np.ndarray, method: str = "aces", exposure: float = 0.0,
                 protected: list[Path] | tuple[Path, ...] = ()) -> Path:
     """Write atomically: a temporary file in the same folder, then a rename, so a
     failed or interrupted write never leaves a truncated image."""
+    path = check_output_path(Path(path), protected)
+    if path.suffix.lower() in LINEAR_SUFFIXES:
+        return write_encoded(path, image.astype(np.float32, copy=False), protected)
+    return write_encoded(path, to_display(image, method, exposure), protected)
+
+
+def write_encoded(path: str | Path, pixels: np.ndarray, protected: list[Path] | tuple[Path, ...] = ()) -> Path:
+    """Write pixels already in the file's encoding — float32 linear RGBA for .exr, uint8 sRGB
+    RGB for .png/.jpg (to_display) — atomically (a temporary file, then a rename)."""
     import OpenImageIO as oiio
     path = check_output_path(Path(path), protected)
     linear = path.suffix.lower() in LINEAR_SUFFIXES
-    if linear:
-        pixels = np.ascontiguousarray(image.astype(np.float32))
-        fmt = "float"
-    else:
-        pixels = np.ascontiguousarray(to_display(image, method, exposure))
-        fmt = "uint8"
+    expected = np.float32 if linear else np.uint8
+    if pixels.dtype != expected:
+        raise ClshadeError(f"{path}: internal error: {pixels.dtype} pixels for a {path.suffix} file")
+    pixels = np.ascontiguousarray(pixels)
+    fmt = "float" if linear else "uint8"
     height, width, channels = pixels.shape
     fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.resolve().parent)
     os.close(fd)
@@ -113,6 +131,7 @@ def write_image(path: str | Path, image: np.ndarray, method: str = "aces", expos
         out.close()
         if not ok:
             raise ClshadeError(f"{path}: writing failed ({error})")
+        os.chmod(tmp, _file_mode(path))     # mkstemp creates 0600
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):

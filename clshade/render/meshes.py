@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from clshade.errors import ClshadeError, located
+from clshade.render import primitives
 from clshade.render.scene import Material, Scene, SceneObject
 from clshade.render.textures import TextureSet, load_texture_file, primitive_uvs, texture_from_image, vertex_tangents
 
@@ -27,6 +28,7 @@ class Geometry:
     tangents: np.ndarray | None = None       # (V, 4) float32 world tangent + handedness
     face_texture: np.ndarray | None = None   # (F,) int32 index into texture_sets, −1 = untextured
     texture_sets: tuple[TextureSet, ...] = ()
+    emission: bool = False                   # some material or glTF texture set emits (emissive > 0)
 
     @property
     def triangle_count(self) -> int:
@@ -37,6 +39,16 @@ class Geometry:
         """True when a texture image is mapped (factor-only glTF materials do not count)."""
         return any(t.has_images for t in self.texture_sets)
 
+    @property
+    def has_emission(self) -> bool:
+        """True when some face emits light (a material's or glTF set's emissive factor > 0)."""
+        return self.emission
+
+    @property
+    def has_occlusion(self) -> bool:
+        """True when some face has an ambient occlusion texture."""
+        return any(t.occlusion is not None for t in self.texture_sets)
+
 
 # Faces meeting at a vertex at more than this angle keep separate normals, so
 # box edges and cylinder caps shade flat while curved sides stay smooth.
@@ -44,13 +56,19 @@ SHARP_EDGE_DEGREES = 30.0
 
 
 def split_sharp_edges(vertices: np.ndarray, faces: np.ndarray, degrees: float = SHARP_EDGE_DEGREES):
-    """Per-corner normals: each corner averages (area-weighted) the normals of the
-    faces around its vertex that lie within `degrees` of its own face. Returns
-    unshared vertices (3 per face), faces and normals. Vectorised over corner pairs."""
+    """Per-corner normals: each corner averages the normals of the faces around its
+    vertex that lie within `degrees` of its own face, weighted by each face's angle at
+    the vertex (so a cube corner gets the diagonal however its faces are triangulated).
+    Returns unshared vertices (3 per face), faces and normals. Vectorised over corner pairs."""
     tri = vertices[faces]
-    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])      # length = 2·area
+    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     length = np.linalg.norm(cross, axis=1, keepdims=True)
     unit = np.divide(cross, length, out=np.zeros_like(cross), where=length > 0)
+    e1 = np.roll(tri, -1, axis=1) - tri                                   # corner → next corner
+    e2 = np.roll(tri, -2, axis=1) - tri                                   # corner → previous corner
+    l12 = np.linalg.norm(e1, axis=2) * np.linalg.norm(e2, axis=2)
+    cosine = np.divide(np.einsum("fcd,fcd->fc", e1, e2), l12, out=np.ones_like(l12), where=l12 > 0)
+    angle = np.arccos(np.clip(cosine, -1.0, 1.0)).reshape(-1)             # (3F,) corner angles
     vid = faces.reshape(-1)
     fid = np.repeat(np.arange(len(faces)), 3)
     order = np.argsort(vid, kind="stable")
@@ -66,54 +84,112 @@ def split_sharp_edges(vertices: np.ndarray, faces: np.ndarray, degrees: float = 
     b = order[first + within]
     keep = np.einsum("ij,ij->i", unit[fid[a]], unit[fid[b]]) >= np.cos(np.radians(degrees))
     normals = np.zeros((len(vid), 3))
-    np.add.at(normals, a[keep], cross[fid[b[keep]]])
+    np.add.at(normals, a[keep], unit[fid[b[keep]]] * angle[b[keep], None])
     n = np.linalg.norm(normals, axis=1, keepdims=True)
     normals = np.divide(normals, n, out=np.repeat(unit, 3, axis=0), where=n > 0)
     return vertices[vid], np.arange(len(vid)).reshape(-1, 3), normals
 
 
 def _primitive(obj: SceneObject):
-    import trimesh
+    """Vertices, faces and normals of a procedural primitive (clshade/render/primitives.py):
+    the sphere has exact normals unless the object asks for flat shading or its own crease
+    angle; other primitives are split at the object's crease angle (see crease_degrees)."""
     p = obj.params
     kind = obj.primitive
     if kind == "sphere":
-        mesh = trimesh.creation.icosphere(subdivisions=p["subdivisions"], radius=p["radius"])
-        return mesh.vertices, mesh.faces, mesh.vertices / np.linalg.norm(mesh.vertices, axis=1, keepdims=True)
-    if kind == "plane":
+        v, f = primitives.icosphere(p["subdivisions"], p["radius"])
+        if obj.smooth is None and obj.crease_angle is None:
+            return v, f, v / np.linalg.norm(v, axis=1, keepdims=True)
+    elif kind == "plane":
         s = p["size"] / 2
         v = np.array([[-s, 0, -s], [s, 0, -s], [s, 0, s], [-s, 0, s]], float)
         f = np.array([[0, 2, 1], [0, 3, 2]])
         return v, f, np.tile([0.0, 1.0, 0.0], (4, 1))
-    if kind == "box":
-        mesh = trimesh.creation.box(extents=p["size"])
-    elif kind == "cylinder":
-        mesh = trimesh.creation.cylinder(radius=p["radius"], height=p["height"], sections=p["sections"])
-    elif kind == "cone":
-        mesh = trimesh.creation.cone(radius=p["radius"], height=p["height"], sections=p["sections"])
-    elif kind == "capsule":
-        mesh = trimesh.creation.capsule(radius=p["radius"], height=p["height"], count=[p["sections"], p["sections"]])
+    elif kind == "box":
+        v, f = primitives.box(p["size"])
+    elif kind in ("cylinder", "cone", "capsule"):
+        v, f = getattr(primitives, kind)(p["radius"], p["height"], p["sections"])
     elif kind == "torus":
-        mesh = trimesh.creation.torus(major_radius=p["major_radius"], minor_radius=p["minor_radius"],
-                                      major_sections=p["sections"], minor_sections=max(p["sections"] // 2, 3))
+        v, f = primitives.torus(p["major_radius"], p["minor_radius"], p["sections"], max(p["sections"] // 2, 3))
     else:  # pragma: no cover - validated in scene.py
         raise ClshadeError(f"unknown primitive {kind!r}")
-    return split_sharp_edges(np.asarray(mesh.vertices, float), np.asarray(mesh.faces, np.int64))
+    return split_sharp_edges(v, f, crease_degrees(obj))
 
 
-def load_mesh(path: Path, scene_file: Path | None = None, key: str = "mesh", with_uv: bool = False):
-    """Vertices, faces and vertex normals of a mesh file (all geometry of a multi-mesh file, flattened);
-    with `with_uv`, also its (V, 2) UVs or None when the file has none."""
-    loaded = _load_trimesh(path, scene_file, key)
-    import trimesh
-    if isinstance(loaded, trimesh.Scene):
-        loaded = loaded.to_mesh() if hasattr(loaded, "to_mesh") else loaded.dump(concatenate=True)
-    if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
+def crease_degrees(obj: SceneObject) -> float:
+    """The object's crease angle: `smooth = false` → 0 (flat: every face its own normal),
+    `smooth = true` → 180 (no crease), else `crease_angle` or SHARP_EDGE_DEGREES."""
+    if obj.smooth is not None:
+        return 180.0 if obj.smooth else 0.0
+    return SHARP_EDGE_DEGREES if obj.crease_angle is None else obj.crease_angle
+
+
+@dataclass(frozen=True)
+class MeshPart:
+    """One geometry instance of a mesh file, in the file's world frame (node transform applied)."""
+    vertices: np.ndarray              # (V, 3) float64
+    faces: np.ndarray                 # (F, 3) int64
+    normals: np.ndarray | None        # (V, 3) the file's own vertex normals, None when it has none
+    uvs: np.ndarray | None            # (V, 2) or None
+    material: object = None           # the trimesh material (glTF: PBRMaterial)
+    name: str = ""
+
+
+def _file_normals(mesh) -> np.ndarray | None:
+    """Vertex normals the file stored (OBJ vn, PLY nx/ny/nz, glTF NORMAL), or None.
+    trimesh puts loaded normals in its cache and computes them on first access
+    otherwise, so a cached entry right after loading means the file had them."""
+    cache = getattr(getattr(mesh, "_cache", None), "cache", {})
+    normals = cache.get("vertex_normals")
+    if normals is None or len(normals) != len(mesh.vertices):
+        return None
+    return np.asarray(normals, float)
+
+
+def load_parts(path: Path, scene_file: Path | None = None, key: str = "mesh") -> list[MeshPart]:
+    """Every geometry instance of a mesh file (any supported format) as MeshParts, node
+    transforms applied (normals by the inverse transpose, winding flipped by mirrors)."""
+    loaded = _load_trimesh(path, scene_file, key, force="scene")
+    parts = []
+    for node in loaded.graph.nodes_geometry:
+        transform, gname = loaded.graph[node]
+        g = loaded.geometry[gname]
+        if len(getattr(g, "faces", ())) == 0:
+            continue
+        m = np.asarray(transform, float)
+        v = np.asarray(g.vertices, float) @ m[:3, :3].T + m[:3, 3]
+        n = _file_normals(g)
+        if n is not None:
+            n = n @ np.linalg.inv(m[:3, :3])
+        f = np.asarray(g.faces, np.int64)
+        if np.linalg.det(m[:3, :3]) < 0:
+            f = f[:, ::-1]
+        uv = getattr(g.visual, "uv", None)
+        uv = None if uv is None or len(uv) != len(v) else np.asarray(uv, float)
+        parts.append(MeshPart(v, f, n, uv, getattr(g.visual, "material", None), str(gname)))
+    if not parts:
         raise located("mesh has no triangles", scene_file, key, str(path), has_value=True)
-    out = np.asarray(loaded.vertices, float), np.asarray(loaded.faces, np.int64), np.asarray(loaded.vertex_normals, float)
-    if not with_uv:
-        return out
-    uv = getattr(loaded.visual, "uv", None)
-    return (*out, None if uv is None or len(uv) != len(out[0]) else np.asarray(uv, np.float64))
+    return parts
+
+
+def weld(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Merge vertices at exactly the same position: (unique positions, faces into them).
+    Files that repeat a vertex per face (STL, OBJ with per-corner UVs) then share edges."""
+    unique, inverse = np.unique(vertices, axis=0, return_inverse=True)
+    return unique, inverse.reshape(-1)[faces]
+
+
+def shading_normals(part: MeshPart, obj: SceneObject | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(source vertex per output vertex, faces, normals) of a loaded mesh part. The file's
+    own normals are kept unless the object sets `smooth` or `crease_angle`; otherwise
+    vertices are welded by position and normals split at the crease angle (as primitives)."""
+    explicit = obj is not None and (obj.smooth is not None or obj.crease_angle is not None)
+    if part.normals is not None and not explicit:
+        return np.arange(len(part.vertices)), part.faces, part.normals
+    degrees = SHARP_EDGE_DEGREES if obj is None else crease_degrees(obj)
+    unique, welded = weld(part.vertices, part.faces)
+    _, faces, normals = split_sharp_edges(unique, welded, degrees)
+    return part.faces.reshape(-1), faces, normals
 
 
 def _load_trimesh(path: Path, scene_file: Path | None, key: str, force: str | None = None):
@@ -127,10 +203,12 @@ def _load_trimesh(path: Path, scene_file: Path | None, key: str, force: str | No
         raise located(f"cannot load mesh ({type(exc).__name__}: {exc})", scene_file, key, str(path), has_value=True) from exc
 
 
-def _gltf_texture_set(material, name: str) -> TextureSet:
-    """A trimesh PBRMaterial → TextureSet. Caveats of trimesh's loader: it stores
-    baseColorFactor quantised to uint8 (so factors are exact to 1/255 only) and
-    drops normalTexture.scale (taken as 1)."""
+def _gltf_texture_set(material, name: str, with_images: bool = True) -> TextureSet:
+    """A trimesh PBRMaterial → TextureSet: the factors always (glTF defaults when absent),
+    the textures only `with_images` (a primitive without TEXCOORD_0 cannot sample them).
+    Caveats of trimesh's loader: it stores baseColorFactor quantised to uint8 (so factors
+    are exact to 1/255 only), drops normalTexture.scale and occlusionTexture.strength
+    (taken as 1) and KHR_texture_transform (not applied)."""
     if material is not None and not hasattr(material, "baseColorTexture") and hasattr(material, "to_pbr"):
         material = material.to_pbr()
     if material is None:
@@ -139,40 +217,18 @@ def _gltf_texture_set(material, name: str) -> TextureSet:
     base = (1.0, 1.0, 1.0) if factor is None else tuple(float(c) / 255.0 for c in np.asarray(factor)[:3])
     rough = getattr(material, "roughnessFactor", None)
     metal = getattr(material, "metallicFactor", None)
+    emissive = getattr(material, "emissiveFactor", None)
     textures = {}
-    for attr, srgb in (("baseColorTexture", True), ("metallicRoughnessTexture", False), ("normalTexture", False)):
-        image = getattr(material, attr, None)
+    for attr, srgb in (("baseColorTexture", True), ("metallicRoughnessTexture", False), ("normalTexture", False),
+                       ("emissiveTexture", True), ("occlusionTexture", False)):
+        image = getattr(material, attr, None) if with_images else None
         textures[attr] = None if image is None else texture_from_image(image, srgb, f"{name}.{attr}")
     return TextureSet(base_factor=base, roughness_factor=1.0 if rough is None else float(rough),
                       metallic_factor=1.0 if metal is None else float(metal),
                       base_color=textures["baseColorTexture"], metallic_roughness=textures["metallicRoughnessTexture"],
-                      normal=textures["normalTexture"], name=name)
-
-
-def load_gltf_parts(path: Path, scene_file: Path | None = None, key: str = "mesh"):
-    """A glTF file as parts (vertices, faces, normals, uvs or None, TextureSet), one per
-    mesh primitive instance, in the file's world frame (node transforms applied)."""
-    loaded = _load_trimesh(path, scene_file, key, force="scene")
-    parts, sets = [], {}
-    for node in loaded.graph.nodes_geometry:
-        transform, gname = loaded.graph[node]
-        g = loaded.geometry[gname]
-        if len(g.faces) == 0:
-            continue
-        m = np.asarray(transform, float)
-        v = np.asarray(g.vertices, float) @ m[:3, :3].T + m[:3, 3]
-        n = np.asarray(g.vertex_normals, float) @ np.linalg.inv(m[:3, :3])
-        f = np.asarray(g.faces, np.int64)
-        if np.linalg.det(m[:3, :3]) < 0:
-            f = f[:, ::-1]
-        material = getattr(g.visual, "material", None)
-        if id(material) not in sets:
-            sets[id(material)] = _gltf_texture_set(material, f"{path.name}:{getattr(material, 'name', None) or gname}")
-        uv = getattr(g.visual, "uv", None)
-        parts.append((v, f, n, None if uv is None or len(uv) != len(v) else np.asarray(uv, float), sets[id(material)]))
-    if not parts:
-        raise located("mesh has no triangles", scene_file, key, str(path), has_value=True)
-    return parts
+                      normal=textures["normalTexture"], name=name,
+                      emissive_factor=(0.0, 0.0, 0.0) if emissive is None else tuple(float(c) for c in emissive[:3]),
+                      emissive=textures["emissiveTexture"], occlusion=textures["occlusionTexture"])
 
 
 def _material_texture_set(material: Material, scene_file: Path | None, where: str) -> TextureSet:
@@ -184,7 +240,7 @@ def _material_texture_set(material: Material, scene_file: Path | None, where: st
                       metallic_factor=material.metallic, base_color=load("base_color_texture", True),
                       metallic_roughness=load("metallic_roughness_texture", False),
                       normal=load("normal_texture", False), normal_scale=material.normal_scale,
-                      uv_scale=material.uv_scale, name=material.name)
+                      uv_scale=material.uv_scale, name=material.name, emissive_factor=tuple(material.emissive))
 
 
 def build_geometry(scene: Scene) -> Geometry:
@@ -197,31 +253,39 @@ def build_geometry(scene: Scene) -> Geometry:
     sets: list[TextureSet] = []
     set_index: dict[int, int] = {}                 # id(TextureSet) → index in sets
     material_sets: dict[str, TextureSet] = {}      # scene material → its loaded textures
+    gltf_sets: dict[tuple[int, bool], TextureSet] = {}   # (id(glTF material), has UVs) → its TextureSet
     offset = 0
     for index, obj in enumerate(scene.objects):
         material = scene.materials[obj.material]
         key = f"objects[{index}].mesh"
-        if obj.mesh_material:
-            parts = load_gltf_parts(obj.mesh, scene.path, key)
-        else:
+        if obj.primitive:
+            v, f, n = _primitive(obj)
             uv = None
-            if obj.primitive:
-                v, f, n = _primitive(obj)
-                if material.textures:
-                    v, f, corner, uv = primitive_uvs(obj.primitive, v, f, obj.params.get("size", 1.0))
-                    n = np.asarray(n, float)[corner]
-            else:
-                v, f, n, uv = load_mesh(obj.mesh, scene.path, key, with_uv=True)
-                if material.textures and uv is None:
-                    raise located("mesh has no texture coordinates, but its material has textures",
-                                  scene.path, key, str(obj.mesh), has_value=True)
-            tset = None
             if material.textures:
-                if obj.material not in material_sets:
-                    where = f"objects[{index}].material" if "#" in obj.material else f"materials.{obj.material}"
-                    material_sets[obj.material] = _material_texture_set(material, scene.path, where)
-                tset = material_sets[obj.material]
-            parts = [(v, f, n, uv, tset)]
+                v, f, corner, uv = primitive_uvs(obj.primitive, v, f, obj.params.get("size", 1.0))
+                n = np.asarray(n, float)[corner]
+            parts = [(v, f, n, uv, None)]
+        else:
+            parts = []
+            for part in load_parts(obj.mesh, scene.path, key):
+                source, f, n = shading_normals(part, obj)
+                uv = None if part.uvs is None else part.uvs[source]
+                tset = None
+                if obj.mesh_material:
+                    cache_key = (id(part.material), uv is not None)
+                    if cache_key not in gltf_sets:
+                        label = f"{obj.mesh.name}:{getattr(part.material, 'name', None) or part.name}"
+                        gltf_sets[cache_key] = _gltf_texture_set(part.material, label, with_images=uv is not None)
+                    tset = gltf_sets[cache_key]
+                parts.append((part.vertices[source], f, n, uv, tset))
+        if material.textures and not obj.mesh_material:
+            if any(uv is None for *_, uv, _ in parts):
+                raise located("mesh has no texture coordinates, but its material has textures",
+                              scene.path, key, str(obj.mesh), has_value=True)
+            if obj.material not in material_sets:
+                where = f"objects[{index}].material" if "#" in obj.material else f"materials.{obj.material}"
+                material_sets[obj.material] = _material_texture_set(material, scene.path, where)
+            parts = [(v, f, n, uv, material_sets[obj.material]) for v, f, n, uv, _ in parts]
         m = obj.matrix()
         for v, f, n, uv, tset in parts:
             v = np.asarray(v, float) @ m[:3, :3].T + m[:3, 3]
@@ -242,13 +306,15 @@ def build_geometry(scene: Scene) -> Geometry:
             fobj.append(np.full(len(f), index, np.int32))
             cull.append(np.full(len(f), not material.double_sided))
             uvs.append(uv if uv is not None else np.zeros((len(v), 2)))
-            ftex.append(np.full(len(f), set_index[id(tset)] if tset is not None and uv is not None else -1, np.int32))
+            ftex.append(np.full(len(f), set_index[id(tset)] if tset is not None else -1, np.int32))
             offset += len(v)
+    emission = (any(any(c > 0 for c in scene.materials[o.material].emissive) for o in scene.objects)
+                or any(t.has_emission for t in sets))
     if not verts:
         return Geometry(np.zeros((0, 3)), np.zeros((0, 3), np.float32), np.zeros((0, 3), np.int64),
                         np.zeros(0, np.int32), np.zeros(0, np.int32), np.zeros(0, bool))
     geometry = Geometry(np.concatenate(verts), np.concatenate(norms).astype(np.float32), np.concatenate(faces),
-                        np.concatenate(fmat), np.concatenate(fobj), np.concatenate(cull))
+                        np.concatenate(fmat), np.concatenate(fobj), np.concatenate(cull), emission=emission)
     if not textured:
         return geometry
     from dataclasses import replace

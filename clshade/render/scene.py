@@ -22,6 +22,7 @@ TONEMAPS = ("none", "reinhard", "aces")
 PRIMITIVES = ("sphere", "box", "cylinder", "cone", "plane", "torus", "capsule")
 MAX_MATERIALS = 256          # the material id channel is one byte
 MAX_RESOLUTION = 16384
+EXPOSURE_RANGE = (-64.0, 64.0)   # stops; 2^±64 keeps radiance × 2^exposure finite in float32 display math
 # Shadow maps: 1024² resolves a 10 m ground plane to 1 cm texels and costs
 # about 0.3 s to rasterise on the host; PCF 3 (3×3 taps) softens the texel stairs.
 DEFAULT_SHADOW_MAP_SIZE = 1024
@@ -43,10 +44,31 @@ class Camera:
     height: int
     near: float = 0.05
     far: float = 1000.0
+    # A band of rows of a taller frame: (first row, full frame height); None = the whole frame.
+    # The projection maps the band's rows onto NDC [-1, 1] (see band()).
+    crop: tuple[int, int] | None = None
 
     @property
     def aspect(self) -> float:
-        return self.width / self.height
+        return self.width / (self.crop[1] if self.crop else self.height)
+
+    @property
+    def full_height(self) -> int:
+        return self.crop[1] if self.crop else self.height
+
+    def band(self, first_row: int, rows: int) -> "Camera":
+        """The camera of rows [first_row, first_row + rows) of this frame: same view, a
+        projection whose NDC y range is that band (pixel centres unchanged, row 0 = first_row)."""
+        base = self.crop[0] if self.crop else 0
+        return replace(self, height=rows, crop=(base + first_row, self.full_height))
+
+    def band_ndc(self) -> tuple[float, float]:
+        """(centre, half extent) of the band's NDC y range in the full frame ((0, 1) uncropped)."""
+        if not self.crop:
+            return 0.0, 1.0
+        first, full = self.crop
+        top, bottom = 1.0 - 2.0 * first / full, 1.0 - 2.0 * (first + self.height) / full
+        return (top + bottom) / 2.0, (top - bottom) / 2.0
 
     def basis(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Unit forward, right and up vectors (right-handed, +Y up by default): the
@@ -59,11 +81,19 @@ class Camera:
         return look_at(self.position, self.target, self.up)
 
     def projection_matrix(self) -> np.ndarray:
-        """OpenGL perspective projection (clip space, NDC z in [−1, 1])."""
-        return perspective(self.fov, self.aspect, self.near, self.far)
+        """OpenGL perspective projection (clip space, NDC z in [−1, 1]); for a band, followed
+        by the map of the band's NDC y range onto [−1, 1] (y' = (y − centre·w) / half)."""
+        m = perspective(self.fov, self.aspect, self.near, self.far)
+        if self.crop:
+            centre, half = self.band_ndc()
+            crop = np.eye(4)
+            crop[1, 1], crop[1, 3] = 1.0 / half, -centre / half
+            m = crop @ m
+        return m
 
     def with_size(self, width: int | None, height: int | None) -> "Camera":
-        from dataclasses import replace
+        if self.crop and (width or self.width, height or self.height) != (self.width, self.height):
+            raise ValueError("a band camera cannot be resized")
         return replace(self, width=width or self.width, height=height or self.height)
 
 
@@ -93,6 +123,7 @@ class Material:
     eta: tuple[float, float, float] = GOLD_ETA
     k: tuple[float, float, float] = GOLD_K
     double_sided: bool = False
+    emissive: tuple[float, float, float] = (0.0, 0.0, 0.0)   # emitted radiance, linear RGB (added unlit)
     # Texture files (resolved paths), glTF metallic-roughness semantics: the
     # texture multiplies the factor (base_color, roughness, metallic) above.
     base_color_texture: Path | None = None          # sRGB RGB(A)
@@ -139,6 +170,8 @@ class SceneObject:
     rotate: tuple[float, float, float] = (0.0, 0.0, 0.0)   # degrees about X, then Y, then Z
     scale: tuple[float, float, float] = (1.0, 1.0, 1.0)
     mesh_material: bool = False   # use the mesh file's glTF PBR materials (factors, textures)
+    crease_angle: float | None = None   # degrees; None → the default (meshes.SHARP_EDGE_DEGREES)
+    smooth: bool | None = None          # True: one normal per position, False: flat faces, None: crease_angle
 
     def matrix(self) -> np.ndarray:
         """Object → world: translate · Rz · Ry · Rx · scale."""
@@ -308,6 +341,7 @@ def _material(file: Path | str, table: Any, name: str, where: str) -> Material:
         eta=r.vector("eta", GOLD_ETA, 0.0, 100.0),
         k=r.vector("k", GOLD_K, 0.0, 100.0),
         double_sided=r.boolean("double_sided", False),
+        emissive=r.vector("emissive", (0.0, 0.0, 0.0), 0.0, 1e6, allow_scalar=True),
         **{key: _texture_path(file, r, key) for key in TEXTURE_KEYS},
         normal_scale=r.number("normal_scale", 1.0, 0.0, 100.0),
         uv_scale=r.number("uv_scale", 1.0, 1e-6, 1e6),
@@ -394,7 +428,14 @@ def _object(file: Path, table: Any, where: str, materials: dict[str, Material]) 
         rotate=r.vector("rotate", (0.0, 0.0, 0.0), -360.0, 360.0),
         scale=r.vector("scale", (1.0, 1.0, 1.0), 1e-9, 1e9, allow_scalar=True),
         mesh_material=r.boolean("mesh_material", False),
+        crease_angle=r.number("crease_angle", None, 0.0, 180.0),
+        smooth=r.raw("smooth", None),
     )
+    if obj.smooth is not None:
+        r.boolean("smooth", False)   # type check
+        if obj.crease_angle is not None:
+            raise located("set either smooth or crease_angle, not both", file, f"{where}.crease_angle",
+                          obj.crease_angle, has_value=True)
     if obj.mesh_material and mesh_path is not None and mesh_path.suffix.lower() not in (".gltf", ".glb"):
         raise located("needs a glTF mesh (.gltf or .glb)", file, f"{where}.mesh_material", True, has_value=True)
     if obj.mesh_material and primitive:
@@ -438,7 +479,7 @@ def parse_scene(text: str, file: Path | str = "<scene>") -> Scene:
     rnd = _Reader(file, top.raw("render", {}), "render")
     background = rnd.vector("background", (0.0, 0.0, 0.0), 0.0, 1e6)
     ambient = rnd.vector("ambient", (0.0, 0.0, 0.0), 0.0, 1e6, allow_scalar=True)
-    exposure = rnd.number("exposure", 0.0, -64.0, 64.0)
+    exposure = rnd.number("exposure", 0.0, *EXPOSURE_RANGE)
     tonemap = rnd.string("tonemap", "aces", TONEMAPS)
     model = rnd.string("model", "ggx_correlated")
     shadows = rnd.boolean("shadows", False)

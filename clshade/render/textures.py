@@ -135,9 +135,12 @@ def load_texture_file(path: Path, srgb: bool, scene_file: Path | str | None, key
 
 
 def texture_from_image(image, srgb: bool, name: str = "") -> Texture:
-    """A PIL image (as trimesh loads glTF textures) → Texture."""
-    rgb = _to_rgb(np.asarray(image.convert("RGB") if image.mode not in ("RGB", "L") else image, np.float32) / 255.0)
-    return Texture.from_pixels(srgb_decode(rgb) if srgb else rgb, name)
+    """A PIL image (as trimesh loads glTF textures) → Texture. 8-bit values decode through a
+    256-entry table of the same codec (srgb_decode of k/255): equal values, no per-pixel pow."""
+    codes = _to_rgb(np.asarray(image.convert("RGB") if image.mode not in ("RGB", "L") else image, np.uint8))
+    levels = np.arange(256, dtype=np.float32) / np.float32(255.0)
+    table = srgb_decode(levels) if srgb else levels
+    return Texture.from_pixels(table[codes], name)
 
 
 @dataclass(frozen=True)
@@ -153,15 +156,31 @@ class TextureSet:
     normal_scale: float = 1.0
     uv_scale: float = 1.0
     name: str = ""
+    # Emission (glTF emissiveFactor × emissiveTexture, sRGB) and ambient occlusion
+    # (glTF occlusionTexture, linear R channel: 1 + strength · (R − 1), ambient only).
+    emissive_factor: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    emissive: Texture | None = None
+    occlusion: Texture | None = None
+    occlusion_strength: float = 1.0
+
+    @property
+    def images(self) -> tuple[tuple[str, Texture | None], ...]:
+        return (("base colour", self.base_color), ("metallic-roughness", self.metallic_roughness),
+                ("normal", self.normal), ("emissive", self.emissive), ("occlusion", self.occlusion))
 
     @property
     def has_images(self) -> bool:
-        return any(t is not None for t in (self.base_color, self.metallic_roughness, self.normal))
+        return any(t is not None for _, t in self.images)
+
+    @property
+    def has_emission(self) -> bool:
+        """True when the set emits light (a non-zero emissive factor; the texture multiplies it)."""
+        return any(c > 0 for c in self.emissive_factor)
 
     def describe(self) -> str:
-        parts = [f"{label} {t.name} {t.size[0]}x{t.size[1]}" for label, t in
-                 (("base colour", self.base_color), ("metallic-roughness", self.metallic_roughness),
-                  ("normal", self.normal)) if t is not None]
+        parts = [f"{label} {t.name} {t.size[0]}x{t.size[1]}" for label, t in self.images if t is not None]
+        if self.has_emission:
+            parts.append("emissive factor " + ", ".join(f"{c:g}" for c in self.emissive_factor))
         return f"{self.name}: {', '.join(parts) or 'factors only'}"
 
 

@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field
-from functools import lru_cache
 
 import numpy as np
 
@@ -268,9 +267,9 @@ def lobe_model(lobe: str, preset_model: Model) -> Model:
 
 
 def evaluate_presets(sweep: Sweep = Sweep(), device: str | None = None,
-                     models: list[Model] | None = None) -> list[Verdict]:
+                     models: list[Model] | None = None, progress=None) -> list[Verdict]:
     """Measure every preset (or `models`): each lobe at its most reflective setting,
-    and the composition as it renders."""
+    and the composition as it renders. `progress(done, total)` after each preset."""
     rt = get_runtime(device)
     cache: dict[str, Measurement] = {}
 
@@ -281,7 +280,8 @@ def evaluate_presets(sweep: Sweep = Sweep(), device: str | None = None,
         return cache[model.id]
 
     out = []
-    for model in models or presets():
+    todo = list(models or presets())
+    for model in todo:
         parts = {lobe.id: lobe_measurement(lobe.id, model) for lobe in model.lobes}
         if model.diffuse != NONE and model.specular != NONE:
             composed = measure(model, _settings(model, sweep, lobe_only=False), sweep, rt)
@@ -297,13 +297,20 @@ def evaluate_presets(sweep: Sweep = Sweep(), device: str | None = None,
             quadrature_error=max(m.max_quadrature_error for m in everything),
             composed_albedo=composed.max_albedo, composed_albedo_at=composed.argmax_albedo,
             lobes={k: (m.max_albedo, m.argmax_albedo) for k, m in parts.items()}))
+        if progress is not None:
+            progress(len(out), len(todo))
     return out
 
 
-@lru_cache(maxsize=4)
-def physically_based(device: str | None = None) -> dict[str, bool]:
+def physically_based(device: str | None = None, progress=None) -> dict[str, bool]:
     """Preset id → the measured verdict, from the reduced sweep QUICK (cached in-process)."""
-    return {v.preset: v.physically_based for v in evaluate_presets(QUICK, device)}
+    if device not in _PHYSICALLY_BASED:
+        _PHYSICALLY_BASED[device] = {v.preset: v.physically_based
+                                     for v in evaluate_presets(QUICK, device, progress=progress)}
+    return _PHYSICALLY_BASED[device]
+
+
+_PHYSICALLY_BASED: dict[str | None, dict[str, bool]] = {}
 
 
 def albedo(model: Model, setting: Setting, view_cos: float = 1.0, order: int = 2 * ORDER,

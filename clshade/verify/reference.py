@@ -911,7 +911,8 @@ def radiance(
     """The radiance the shading pass should write, (H, W, 3), in ``dtype``.
 
     Covered pixels: ``sum over lights of f(n, l, v) * max(n.l, 0) * E * visibility``
-    plus :func:`ambient`; f is :func:`brdf` of ``model`` (either workflow, any
+    plus :func:`ambient` (times the G-buffer's ambient occlusion when it has one) plus
+    the emitted radiance (when the G-buffer has an emissive channel); f is :func:`brdf` of ``model`` (either workflow, any
     Fresnel) with the pixel's G-buffer inputs (textures are already sampled into
     them) and material-table row; lights as in :func:`light_rays`.  Empty pixels:
     the scene's background.  ``visibility`` is ``(num_lights, H, W)`` in [0, 1]
@@ -947,7 +948,12 @@ def radiance(
             with np.errstate(**_ERR):
                 L[lit] += f * (E[lit] * nl[lit][:, None])
         if any(a > 0 for a in scene.ambient):
-            L = L + ambient(model, px, scene.ambient)
+            reflected = ambient(model, px, scene.ambient)
+            if "occlusion" in gbuffer.channels:      # glTF occlusion: the ambient term only
+                reflected = reflected * np.clip(_f(gbuffer.channels["occlusion"][px.index]), 0.0, 1.0)[:, None]
+            L = L + reflected
+        if "emissive" in gbuffer.channels:           # emitted radiance, added unlit
+            L = L + np.maximum(_f(gbuffer.channels["emissive"].reshape(-1, 3)[px.index]), 0.0)
         out = np.empty((h * w, 3), dtype)
         out[:] = np.asarray(scene.background, dtype)
         out[px.index] = L

@@ -34,6 +34,8 @@ n = v by design; for n·v ≤ 0 the kernel floors n·v at MIN_N_DOT_V by design
 from __future__ import annotations
 
 import math
+import os
+import platform
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -343,6 +345,7 @@ class Report:
     continuity: list[dict[str, Any]]
     device: str
     seconds: float
+    created: str = ""              # local time of the run, ISO 8601
 
     @property
     def builds(self) -> list[str]:
@@ -387,7 +390,9 @@ class Report:
                                       max_radiance_clamp=MAX_RADIANCE,
                                       clamped_build_nonfinite=sum(s.clamped_nonfinite for s in self.shading),
                                       pixels=sum(s.pixels for s in self.shading)),
-                    device=self.device, seconds=self.seconds, grid=dict(
+                    device=self.device, seconds=self.seconds, created=self.created,
+                    machine=dict(machine=platform.machine(), processor=platform.processor() or platform.machine(),
+                                 cpu_count=os.cpu_count(), os=platform.platform()), grid=dict(
                         roughness=ROUGHNESS_GRID, roughness_reading="each value as r and as α = r²",
                         shininess=SHININESS_GRID, cosines=COSINE_GRID, ior=IOR_GRID,
                         light_intensities=LIGHT_INTENSITIES, normals=list(NORMAL_SCALES),
@@ -398,18 +403,26 @@ class Report:
 
 
 def run(models: list[Model] | None = None, device: str | None = None, runtime: Runtime | None = None,
-        fast_math: tuple[bool, ...] = (False, True), shading: bool = True, extras: bool = True) -> Report:
-    """Run the whole grid (both builds), the shading pass, the clamp biases and the continuity checks."""
+        fast_math: tuple[bool, ...] = (False, True), shading: bool = True, extras: bool = True,
+        progress=None) -> Report:
+    """Run the whole grid (both builds), the shading pass, the clamp biases and the continuity checks;
+    `progress(done, total)` after each model × build (and after the extras)."""
     start = time.perf_counter()
     rt = runtime or get_runtime(device)
     grid = geometry_grid()
     models = models if models is not None else grid_models()
     results, shades, cache = [], [], {}
+    total = len(models) * len(fast_math) + (1 if extras else 0)
     for model in models:
         for fm in fast_math:
             results.append(run_model(model, grid, rt, fm, cache))
             if shading:
                 shades.append(run_shade(model, rt, fm))
+            if progress is not None:
+                progress(len(results), total)
     clamps = clamp_bias(rt) if extras else []
     cont = continuity(rt) if extras else []
-    return Report(results, shades, clamps, cont, rt.info.description, time.perf_counter() - start)
+    if progress is not None and extras:
+        progress(total, total)
+    return Report(results, shades, clamps, cont, rt.info.description, time.perf_counter() - start,
+                  time.strftime("%Y-%m-%dT%H:%M:%S%z"))

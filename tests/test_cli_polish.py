@@ -1,0 +1,216 @@
+"""The command line's rough edges (issue 14, point 8): every flag validated before work,
+quiet broken pipes, file modes that follow the umask, sweep layout and labels, plain
+numbers in messages, the README images' provenance."""
+from __future__ import annotations
+
+import os
+import stat
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from clshade import models
+from clshade.cli import main
+from clshade.errors import ClshadeError
+from clshade.render.image import read_image, write_image
+from clshade.render.scene import parse_scene
+
+from conftest import ROOT, SCENES
+
+RED_BALL = str(SCENES / "red_ball.toml")
+
+
+def _error(capsys, argv: list[str]) -> str:
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("clshade: error: ")
+    return err
+
+
+@pytest.mark.parametrize("value", ["nan", "inf", "-inf", "1e6", "65"])
+def test_exposure_flag_validated_like_the_scene_key(capsys, tmp_path, value):
+    err = _error(capsys, ["render", RED_BALL, f"--exposure={value}", "-o", str(tmp_path / "x.png")])
+    assert "--exposure" in err and "[-64, 64]" in err
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_empty_model_refused(capsys, tmp_path):
+    assert "no model given" in _error(capsys, ["render", RED_BALL, "-m", "", "-o", str(tmp_path / "x.png")])
+    assert "no model given" in _error(capsys, ["sweep", "-m", "", "-o", str(tmp_path / "x.png")])
+
+
+@pytest.mark.parametrize("argv", [["sweep", "--size", "0"], ["sweep", "--size", "-3"],
+                                  ["compare", RED_BALL, "--tile", "0"], ["compare", RED_BALL, "--width", "0"]])
+def test_sizes_refused(capsys, tmp_path, argv):
+    assert "must be within [1, " in _error(capsys, [*argv, "-o", str(tmp_path / "x.png")])
+
+
+def test_scene_without_lights_warns(capsys, tmp_path):
+    scene = tmp_path / "dark.toml"
+    scene.write_text('[camera]\nposition = [0, 0, 3]\nwidth = 8\nheight = 8\n'
+                     '[[objects]]\nprimitive = "sphere"\nmaterial = { base_color = [0.5, 0.5, 0.5] }\n')
+    assert main(["render", str(scene), "-o", str(tmp_path / "d.png")]) == 0
+    err = capsys.readouterr().err
+    assert "warning: dark.toml has no [[lights]], no ambient and no emission" in err
+    scene.write_text(scene.read_text().replace("[camera]", "[render]\nambient = 0.5\n[camera]"))
+    assert main(["render", str(scene), "-o", str(tmp_path / "d.png")]) == 0
+    assert "surfaces get only the ambient term" in capsys.readouterr().err
+
+
+def test_error_values_are_plain_numbers():
+    text = '[camera]\nposition = [0.0, 0.0, 3.0]\ntarget = [0.0, 0.0, 3.0]\n'
+    with pytest.raises(ClshadeError) as info:
+        parse_scene(text)
+    assert "camera.target = [0.0, 0.0, 3.0]" in str(info.value)
+    assert "np." not in str(info.value)
+
+
+def test_broken_pipe_in_process(monkeypatch, capsys):
+    class Closed:
+        def write(self, text):
+            raise BrokenPipeError(32, "Broken pipe")
+
+        def flush(self):
+            raise BrokenPipeError(32, "Broken pipe")
+
+    monkeypatch.setattr(sys, "stdout", Closed())
+    assert main(["devices"]) == 141
+    assert capsys.readouterr().err == ""
+
+
+def test_broken_pipe_real_pipe():
+    """`clshade devices | <reader that already left>`: no traceback, no 'Exception ignored'."""
+    proc = subprocess.Popen([sys.executable, "-m", "clshade", "devices"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, cwd=ROOT)
+    proc.stdout.close()                      # the reader leaves before the first line
+    err = proc.stderr.read().decode()
+    proc.wait(timeout=120)
+    assert err == ""
+    assert proc.returncode == 141
+
+
+@pytest.mark.parametrize("umask, mode", [(0o022, 0o644), (0o027, 0o640), (0o002, 0o664)])
+def test_written_images_follow_the_umask(tmp_path, umask, mode):
+    image = np.zeros((2, 2, 4), np.float32)
+    old = os.umask(umask)
+    try:
+        for name in ("a.png", "a.exr"):
+            write_image(tmp_path / name, image)
+            assert stat.S_IMODE((tmp_path / name).stat().st_mode) == mode
+    finally:
+        os.umask(old)
+
+
+def test_overwritten_image_keeps_its_mode(tmp_path):
+    path = tmp_path / "a.png"
+    path.write_bytes(b"")
+    path.chmod(0o644)
+    old = os.umask(0o077)
+    try:
+        write_image(path, np.zeros((2, 2, 4), np.float32))
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE(path.stat().st_mode) == 0o644
+
+
+def test_sweep_one_row_per_model_and_labels(runtime):
+    from clshade.compare import GAP, LABEL_HEIGHT, TITLE_HEIGHT, sweep_labels, sweep_sheet, model_title
+    roughness = (0.05, 0.15, 0.3, 0.5, 0.7, 0.9)
+    pair = [models.resolve("phong"), models.resolve("ggx_correlated@dielectric")]
+    sheet = sweep_sheet(RED_BALL, pair, roughness, size=8, runtime=runtime)
+    assert sheet.shape[1] == GAP + len(roughness) * (8 + GAP)                       # 6 columns, no wrap
+    assert sheet.shape[0] == GAP + len(pair) * (TITLE_HEIGHT + 8 + LABEL_HEIGHT + GAP)   # one row each
+    assert sweep_labels(models.resolve("phong"), 0.5, 30.0) == ("r = 0.5", "n = 30")
+    assert sweep_labels(models.resolve("lambert"), 0.5, 30.0) == ("r = 0.5", "")
+    assert sweep_labels(models.resolve("ggx_correlated"), 0.5, 30.0) == ("r = 0.5", "")
+    assert model_title(models.resolve("ggx_correlated@conductor")) == "GGX height-correlated, Conductor Fresnel"
+    assert model_title(models.resolve("lambert")) == "Lambert"
+
+
+def test_readme_images_come_from_make_images():
+    """Each README image's caption quotes the command docs/make_images.py runs for it."""
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("make_images", ROOT / "docs" / "make_images.py")
+    make_images = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(make_images)
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    for name in ("robot.png", "robot_sheet.png"):
+        assert f"docs/images/{name}" in readme
+        assert "clshade " + " ".join(make_images.COMMANDS[name]) + " -o" in readme, name
+
+
+def test_readme_robot_image_matches_its_command(tmp_path):
+    """docs/images/robot.png is what `clshade render scenes/robot.toml` renders now (mean
+    difference ≤ 1/255; PoCL builds differ in the last bits only)."""
+    out = tmp_path / "robot.png"
+    cwd = os.getcwd()
+    os.chdir(ROOT)
+    try:
+        assert main(["render", "scenes/robot.toml", "-o", str(out)]) == 0
+    finally:
+        os.chdir(cwd)
+    now, doc = read_image(out), read_image(ROOT / "docs" / "images" / "robot.png")
+    assert now.shape == doc.shape
+    assert np.abs(now - doc).mean() <= 1 / 255, "run python docs/make_images.py"
+
+
+def test_progress_only_on_a_terminal(monkeypatch):
+    import io
+    from clshade.cli import progress_bar
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    log = io.StringIO()
+    monkeypatch.setattr(sys, "stderr", log)
+    with progress_bar("work", "step") as progress:
+        assert progress is None                 # not a terminal: no bar, no callback
+    assert log.getvalue() == ""
+    term = Terminal()
+    monkeypatch.setattr(sys, "stderr", term)
+    with progress_bar("work", "step") as progress:
+        progress(1, 3)
+        progress(3, 3)
+    assert "work:" in term.getvalue() and "/3 " in term.getvalue()   # drawn (then cleared: leave=False)
+
+
+def test_long_commands_report_progress(runtime):
+    """The loops behind sweep, compare, check stability and models call progress(done, total)."""
+    from clshade.compare import sweep_sheet
+    from clshade.verify import stability
+    calls = []
+    sweep_sheet(RED_BALL, [models.resolve("lambert")], (0.2, 0.8), size=4, runtime=runtime,
+                progress=lambda d, t: calls.append((d, t)))
+    assert calls == [(1, 2), (2, 2)]
+    calls.clear()
+    stability.run([models.resolve("lambert")], runtime=runtime, fast_math=(False,), shading=False, extras=False,
+                  progress=lambda d, t: calls.append((d, t)))
+    assert calls == [(1, 1)]
+
+
+@pytest.mark.parametrize("flag, value, message", [
+    ("--json", "nodir/b.json", "does not exist"), ("--csv", "nodir/b.csv", "does not exist"),
+    ("--plot", "b.txt", "unsupported format .txt"), ("--plot", "nodir/b.png", "does not exist"),
+    ("--json", ".", "is a folder"),
+])
+def test_bench_outputs_checked_before_the_run(monkeypatch, capsys, tmp_path, flag, value, message):
+    import clshade.bench.run as bench_run
+
+    def never(*a, **k):
+        raise AssertionError("the benchmark ran before its outputs were checked")
+
+    monkeypatch.setattr(bench_run, "run_bench", never)
+    monkeypatch.chdir(tmp_path)
+    err = _error(capsys, ["bench", RED_BALL, "--frames", "1", flag, value])
+    assert flag in err and message in err
+
+
+def test_bench_plot_needs_matplotlib_before_the_run(monkeypatch, capsys, tmp_path):
+    import clshade.bench.run as bench_run
+    monkeypatch.setattr(bench_run, "run_bench", lambda *a, **k: (_ for _ in ()).throw(AssertionError("ran")))
+    monkeypatch.setitem(sys.modules, "matplotlib", None)          # import matplotlib → ImportError
+    err = _error(capsys, ["bench", RED_BALL, "--frames", "1", "--plot", str(tmp_path / "b.png")])
+    assert "needs matplotlib" in err and "clshade[bench]" in err
