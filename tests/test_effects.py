@@ -333,3 +333,12 @@ def test_no_self_shadowing_at_grazing_light(direction):
     assert on.features.shadows
     assert (on.image[..., 3] > 0).sum() > 1000
     np.testing.assert_array_equal(on.image, off.image)
+
+
+def test_texture_v_axis_points_up():
+    """UV origin at the bottom left, V up (OpenGL; row 0 of the image is the top): v = 7/8 samples the top row."""
+    from clshade.render.textures import Texture
+    column = np.array([[1.0], [0.6], [0.3], [0.0]], np.float32)[:, None, :].repeat(3, axis=2)   # (4, 1, 3)
+    tex = Texture.from_pixels(np.repeat(column, 2, axis=1))
+    got = tex.sample(np.array([[0.5, 0.875], [0.5, 0.125]]), np.zeros(2))[:, 0]
+    np.testing.assert_allclose(got, [1.0, 0.0], atol=1e-6)
