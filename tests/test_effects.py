@@ -293,14 +293,15 @@ def test_gltf_material_factors_map_to_the_texture_set(tmp_path):
     import trimesh
     from trimesh.visual import TextureVisuals
     from trimesh.visual.material import PBRMaterial
-    from clshade.render.meshes import load_gltf_parts
+    from clshade.render.meshes import _gltf_texture_set, load_parts
     box = trimesh.creation.box()
     box.visual = TextureVisuals(uv=np.zeros((len(box.vertices), 2)),
                                 material=PBRMaterial(baseColorFactor=[255, 51, 102, 255], roughnessFactor=0.25,
                                                      metallicFactor=0.75))
     path = tmp_path / "box.glb"
     box.export(path)
-    (*_, textures), = load_gltf_parts(path)
+    part, = load_parts(path)
+    textures = _gltf_texture_set(part.material, "box")
     assert textures.base_factor == pytest.approx((1.0, 0.2, 0.4))
     assert (textures.roughness_factor, textures.metallic_factor) == pytest.approx((0.25, 0.75))
 
@@ -316,7 +317,7 @@ def test_metallic_roughness_texture_channels_and_factors():
     zero = np.zeros((k, 2))
     normal = np.tile([0.0, 0.0, 1.0], (k, 1))
     tangent = np.tile([1.0, 0.0, 0.0, 1.0], (k, 1))
-    base, rough, metal, n = _apply_texture_set(t, uv, zero, zero, normal, tangent)
+    base, rough, metal = _apply_texture_set(t, uv, zero, zero, normal, tangent)[:3]
     np.testing.assert_allclose(rough, 0.5 * 0.2, rtol=1e-6)
     np.testing.assert_allclose(metal, 0.4 * 0.9, rtol=1e-6)
     np.testing.assert_allclose(base, 1.0)

@@ -47,6 +47,8 @@ def test_material_defaults_match_the_documentation():
         got = getattr(material, key)
         if isinstance(value, tuple):
             assert tuple(got) == pytest.approx(value), key
+        elif isinstance(got, tuple):            # "RGB or number": a number means every channel
+            assert got == pytest.approx((value,) * len(got)), key
         else:
             assert got == pytest.approx(value), key
     assert material.constants()["kd"] == pytest.approx(1.0 - documented["ks"])      # "1 − ks"
