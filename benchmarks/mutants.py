@@ -153,9 +153,9 @@ CATALOGUE: list[Mutant] = [
     # ---- SIMD lane / tail and storage (kernels/simd.h, gbuffer.h)
     M("simd_iota", "kernels/simd.h", "#define LANE_IOTA ((uint8)(0u, 1u, 2u, 3u, 4u, 5u, 6u, 7u))",
       "#define LANE_IOTA ((uint8)(0u, 1u, 2u, 3u, 4u, 5u, 7u, 6u))", "SIMD-8: lanes 6 and 7 swapped"),
-    M("store_lane", "kernels/gbuffer.h", "vstore8((float8)(c.x.s6, c.y.s6, c.z.s6, a.s6, c.x.s7, c.y.s7, c.z.s7, a.s7), 3, o);",
-      "vstore8((float8)(c.x.s6, c.y.s6, c.z.s6, a.s6, c.x.s6, c.y.s7, c.z.s7, a.s7), 3, o);",
-      "SIMD-8 store: lane 7 red written from lane 6"),
+    M("store_lane", "kernels/gbuffer.h", "VSTORE8(((float8)(x.s6, y.s6, z.s6, a.s6, x.s7, y.s7, z.s7, a.s7)), 3, o);",
+      "VSTORE8(((float8)(x.s6, y.s6, z.s6, a.s6, x.s6, y.s7, z.s7, a.s7)), 3, o);",
+      "SIMD-8/16 store: lane 7 red written from lane 6"),
     M("half_plane", "kernels/gbuffer.h", "#define LOAD_PLANE(i, p) VLOAD_HALF((i), (p))",
       "#define LOAD_PLANE(i, p) VLOAD_HALF((i), (p)) * 0.999f", "half-float G-buffer: loads scaled"),
     M("tail_pad", "clshade/device/shade.py", "planes[:, :self.gb.pixels] = data.T", "planes[:, :self.gb.pixels - 1] = data.T[:, :-1]",

@@ -18,6 +18,8 @@ import sys
 from pathlib import Path
 from typing import Any, Callable
 
+from clshade.report import LOW01_MIN_FRAMES, low01_fps
+
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"
 REPORT_JSON = ROOT / "benchmarks" / "report" / "report.json"
@@ -25,7 +27,6 @@ BENCH_JSON = RESULTS / "bench_1080p.json"
 MUTANTS_JSON = RESULTS / "mutants.json"
 FLOOR_BIAS_JSON = RESULTS / "floor_bias.json"
 GROUPS = ("diffuse", "empirical", "microfacet")
-LOW01_MIN_FRAMES = 1000   # a 0.1 % low needs at least 1000 frames (one frame in a thousand)
 
 
 def load(path: Path) -> dict[str, Any]:
@@ -37,7 +38,7 @@ def _e(x: float | None, spec: str = ".2e") -> str:
 
 
 def _low01(row: dict[str, Any]) -> str:
-    return f"{row['low01_fps']:.0f}" if row["frames"] >= LOW01_MIN_FRAMES else "–"
+    return _e(low01_fps(row), ".0f")
 
 
 # ------------------------------------------------------------------ README regions

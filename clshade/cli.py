@@ -52,8 +52,16 @@ def _add_model_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--fast-math", action="store_true", help="build with -cl-fast-relaxed-math")
 
 
+class _Parser(argparse.ArgumentParser):
+    """Usage errors in one line, like every other error (`clshade render: error: ...`), exit status 2;
+    subcommand parsers inherit the class."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message}; see `{self.prog} --help`\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="clshade", description="OpenCL deferred shading: compare lighting models "
+    parser = _Parser(prog="clshade", description="OpenCL deferred shading: compare lighting models "
                                      "as images, measure their cost and their accuracy.")
     parser.add_argument("--version", action="version", version=f"clshade {__version__}")
     parser.add_argument("--debug", action="store_true", help="show tracebacks")
@@ -128,7 +136,7 @@ def _add_compare(sub: argparse._SubParsersAction) -> None:
 
 
 def _add_bench(sub: argparse._SubParsersAction) -> None:
-    from clshade.bench.run import NUMPY_FRAMES
+    from clshade.bench import NUMPY_FRAMES
     p = sub.add_parser("bench", help="frame-time statistics, accuracy and bandwidth floor per model",
                        description="Rasterise SCENE once, dispatch each model's kernel N times and report FPS "
                                    "with 1 % and 0.1 % lows, the copy-kernel floor, the NumPy float32 "
@@ -149,6 +157,8 @@ def _add_bench(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--plot", metavar="OUT.png", help="bar chart of FPS and lows (ladder plot beside it)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     p.add_argument("--device", metavar="D", help="OpenCL device (see `clshade devices`)")
+    p.add_argument("--peers", metavar="P,Q", help="also time peers (numba, drjit; pip install 'clshade[peers]') on "
+                   "the same G-buffer with every PoCL runtime and the STREAM anchor, in interleaved rounds")
     p.set_defaults(func=cmd_bench)
 
 
@@ -406,6 +416,11 @@ def cmd_bench(args: argparse.Namespace) -> int:
                         height=args.height, lights=args.lights, ladder=args.ladder, numpy_frames=args.numpy_frames,
                         device=args.device, progress=None if args.no_progress else progress)
     print(bench_text(doc))
+    if args.peers:
+        from clshade.bench import perf
+        doc["peers"] = perf.bench_peers(args)
+        print()
+        print(perf.markdown(doc["peers"]))
     if args.json:
         Path(args.json).write_text(json.dumps(doc, indent=2, ensure_ascii=False), encoding="utf-8")
     if args.csv:

@@ -17,7 +17,7 @@
  *                                  (both compile-time in the general kernel too)
  *   HALF_GBUFFER                   normal and base colour stored as half floats
  *   HAS_SHADOWS, SHADOW_PCF        shadow-map lookup (shadow.h), PCF kernel width
- *   SIMD                           pixels per work-item (1, 4 or 8)
+ *   SIMD                           pixels per work-item (1, 4, 8 or 16)
  *   RAW_RADIANCE                   no MAX_RADIANCE clamp: the radiance as summed,
  *                                  NaN/Inf included (`clshade check stability`
  *                                  counts them before any clamp)
@@ -27,7 +27,7 @@
  *                                  variant must match (tests/test_specialisation.py)
  *
  * Channel layout (struct of arrays, one entry per pixel, row 0 at the top;
- * `plane` = npix padded to a multiple of 8 = runtime.SIMD_PAD ≥ SIMD, see
+ * `plane` = npix padded to a multiple of 16 = runtime.SIMD_PAD ≥ SIMD, see
  * gbuffer.h):
  *   depth     float   view-space depth along the camera axis, ≤ 0 = empty
  *   normal    3 planes of float: world-space shading normal (or half)

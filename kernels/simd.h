@@ -13,7 +13,7 @@
  * Every term function is written once in `real`, `vec3` (a struct of three
  * reals: a direction or an RGB colour) and `mask` (a lane-wise comparison
  * result), so the same source builds for SIMD = 1 (the evaluation kernels:
- * eval.cl, terms.cl) and SIMD = 4 or 8 (shade.cl, copy.cl on CPUs). Lane-wise
+ * eval.cl, terms.cl) and SIMD = 4, 8 or 16 (shade.cl, copy.cl on CPUs). Lane-wise
  * choices are `c ? a : b` on reals (OpenCL's vector select), never branches;
  * the only branches are per work-item, on ANY/ALL of a mask (skip the sky, a
  * light below every lane's horizon, a material shared by every lane).
@@ -76,9 +76,24 @@ typedef uint8 uindex;
 #define VLOAD(i, p) vload8((i), (p))
 #define VLOAD_HALF(i, p) vload_half8((i), (p))
 #define VLOAD_UCHAR(i, p) convert_uint8(vload8((i), (p)))
+#elif SIMD == 16
+typedef float16 real;
+typedef int16 mask;
+typedef uint16 uindex;
+#define as_real as_float16
+#define as_mask as_int16
+#define convert_real convert_float16
+#define convert_uindex convert_uint16
+#define convert_mask_rte convert_int16_rte
+#define convert_mask_sat convert_int16_sat
+#define LANE_IOTA ((uint16)(0u, 1u, 2u, 3u, 4u, 5u, 6u, 7u, 8u, 9u, 10u, 11u, 12u, 13u, 14u, 15u))
+#define VLOAD(i, p) vload16((i), (p))
+#define VLOAD_HALF(i, p) vload_half16((i), (p))
+#define VLOAD_UCHAR(i, p) convert_uint16(vload16((i), (p)))
 #else
-#error "SIMD must be 1, 4 or 8"
+#error "SIMD must be 1, 4, 8 or 16"
 #endif
+
 
 /* Whether any / every lane of a mask is set. OpenCL's any()/all() test the
  * sign bit, which a scalar comparison (1, not −1) does not set. */
@@ -88,6 +103,131 @@ typedef uint8 uindex;
 #else
 #define ANY(m) any(m)
 #define ALL(m) all(m)
+#endif
+
+/* ---- inline math (x86) ------------------------------------------------------
+ * Why: pip's PoCL 3.0 (pocl-binary-distribution, LLVM 14) links the AVX-512
+ * build of its builtin library (kernel-x86_64-…-avx512.bc, picked from the
+ * CPU's feature flags) but compiles our kernels for LLVM 14's name of this CPU,
+ * znver3, which has no AVX-512 (POCL_DEBUG=all: "-target-cpu znver3"). LLVM
+ * inlines a function only into a caller with a superset of its target
+ * features, so every builtin — fmax, sqrt, vload8, vstore8, convert_float8 … —
+ * stays an out-of-line call, and float16 arguments cannot even be passed
+ * ("LLVM ERROR: Cannot select … fsqrt" in _cl_rsqrtDv16_f). Debian's PoCL 3.1
+ * (LLVM 15) compiles for skylake-avx512 and inlines them. Where that mismatch
+ * exists — the host CPU has AVX-512 (the host passes CLSHADE_HOST_AVX512F) and
+ * the kernel is compiled without it — the hot builtins are written here as
+ * plain operators and clang/x86 builtins, which are code in the kernel itself;
+ * same results (sqrt is IEEE sqrt; fmax/fmin keep OpenCL's NaN rule). Elsewhere
+ * the library's own builtins inline, and were measured faster (PoCL 3.1,
+ * benchmarks/results/perf_1080p.md). Host switches for A/B:
+ * CLSHADE_LIBRARY_MATH=1 (never inline), CLSHADE_INLINE_MATH=1 (always). */
+#if defined(__x86_64__) && defined(__AVX__) && !defined(CLSHADE_LIBRARY_MATH) && \
+    (defined(CLSHADE_INLINE_MATH_FORCE) || (defined(CLSHADE_HOST_AVX512F) && !defined(__AVX512F__)))
+#define CLSHADE_INLINE_MATH 1
+#define OVL __attribute__((overloadable, always_inline)) inline
+
+/* Unaligned vector views of float / uchar memory (vloadN needs only element
+ * alignment; SIMD 16 rows sit at multiples of 8 floats). */
+typedef float float4u __attribute__((ext_vector_type(4), aligned(4)));
+typedef float float8u __attribute__((ext_vector_type(8), aligned(4)));
+typedef float float16u __attribute__((ext_vector_type(16), aligned(4)));
+typedef uchar uchar4u __attribute__((ext_vector_type(4), aligned(1)));
+typedef uchar uchar8u __attribute__((ext_vector_type(8), aligned(1)));
+typedef uchar uchar16u __attribute__((ext_vector_type(16), aligned(1)));
+
+/* fmax/fmin: the other operand when one is NaN (OpenCL 6.15.2). */
+#define CLSHADE_MINMAX(T) \
+    OVL T clshade_fmax(T a, T b) { return (a > b || b != b) ? a : b; } \
+    OVL T clshade_fmin(T a, T b) { return (a < b || b != b) ? a : b; }
+#define CLSHADE_MINMAX_S(T) \
+    CLSHADE_MINMAX(T) \
+    OVL T clshade_fmax(T a, float b) { return clshade_fmax(a, (T)(b)); } \
+    OVL T clshade_fmin(T a, float b) { return clshade_fmin(a, (T)(b)); } \
+    OVL T clshade_clamp(T x, float lo, float hi) { return clshade_fmin(clshade_fmax(x, lo), hi); } \
+    OVL T clshade_clamp(T x, T lo, T hi) { return clshade_fmin(clshade_fmax(x, lo), hi); }
+CLSHADE_MINMAX(float)
+CLSHADE_MINMAX(double)
+CLSHADE_MINMAX_S(float2)
+CLSHADE_MINMAX_S(float3)
+CLSHADE_MINMAX_S(float4)
+CLSHADE_MINMAX_S(float8)
+#if SIMD == 16     /* float16 arguments only where built (without AVX-512 they warn: ABI) */
+CLSHADE_MINMAX_S(float16)
+#endif
+OVL float clshade_clamp(float x, float lo, float hi) { return clshade_fmin(clshade_fmax(x, lo), hi); }
+
+OVL float clshade_sqrt(float x) { return __builtin_sqrtf(x); }
+OVL double clshade_sqrt(double x) { return __builtin_sqrt(x); }
+OVL float4 clshade_sqrt(float4 x) { return __builtin_ia32_sqrtps(x); }
+OVL float8 clshade_sqrt(float8 x) { return __builtin_ia32_sqrtps256(x); }
+#if SIMD == 16
+OVL float16 clshade_sqrt(float16 x) {
+    return (float16)(__builtin_ia32_sqrtps256(x.lo), __builtin_ia32_sqrtps256(x.hi));
+}
+#endif
+#define CLSHADE_RSQRT(T) OVL T clshade_rsqrt(T x) { return 1.0f / clshade_sqrt(x); }
+CLSHADE_RSQRT(float)
+CLSHADE_RSQRT(float4)
+CLSHADE_RSQRT(float8)
+#if SIMD == 16
+CLSHADE_RSQRT(float16)
+#endif
+OVL double clshade_rsqrt(double x) { return 1.0 / clshade_sqrt(x); }
+
+/* PoCL's headers define some builtins as macros (renames) already. */
+#undef fmax
+#undef fmin
+#undef sqrt
+#undef rsqrt
+#define fmax(a, b) clshade_fmax((a), (b))
+#define fmin(a, b) clshade_fmin((a), (b))
+#define sqrt(x) clshade_sqrt(x)
+#define rsqrt(x) clshade_rsqrt(x)
+
+#if SIMD == 1
+#undef convert_real
+#define convert_real(x) ((float)(x))
+#elif SIMD == 4 || SIMD == 8 || SIMD == 16
+#undef clamp
+#define clamp(x, lo, hi) clshade_clamp((x), (lo), (hi))
+#undef convert_real
+#define convert_real(x) __builtin_convertvector((x), real)
+#undef convert_mask_rte
+#if SIMD == 4
+#define convert_mask_rte(x) __builtin_ia32_cvtps2dq(x)
+#elif SIMD == 8
+#define convert_mask_rte(x) __builtin_ia32_cvtps2dq256(x)
+#else
+#define convert_mask_rte(x) ((int16)(__builtin_ia32_cvtps2dq256((x).lo), __builtin_ia32_cvtps2dq256((x).hi)))
+#endif
+#undef VLOAD
+#undef VLOAD_UCHAR
+#define VLOAD(i, p) (*(__global const CLSHADE_CAT3(float, SIMD, u)*)((p) + SIMD * (size_t)(i)))
+#define VLOAD_UCHAR(i, p) __builtin_convertvector( \
+    *(__global const CLSHADE_CAT3(uchar, SIMD, u)*)((p) + SIMD * (size_t)(i)), uindex)
+#define CLSHADE_CAT3_(a, b, c) a##b##c
+#define CLSHADE_CAT3(a, b, c) CLSHADE_CAT3_(a, b, c)
+/* any()/all() of a lane mask from the sign bits (movmskps), as OpenCL's do. */
+#undef ANY
+#undef ALL
+#if SIMD == 4
+#define MASK_BITS(m) __builtin_ia32_movmskps(as_float4(m))
+#define MASK_FULL 0xf
+#elif SIMD == 8
+#define MASK_BITS(m) __builtin_ia32_movmskps256(as_float8(m))
+#define MASK_FULL 0xff
+#else
+#define MASK_BITS(m) (__builtin_ia32_movmskps256(as_float8((m).lo)) | (__builtin_ia32_movmskps256(as_float8((m).hi)) << 8))
+#define MASK_FULL 0xffff
+#endif
+#define ANY(m) (MASK_BITS(m) != 0)
+#define ALL(m) (MASK_BITS(m) == MASK_FULL)
+#endif
+/* vstore8(v, k, p): gbuffer.h's interleaved float4 rows. */
+#define VSTORE8(v, k, p) (*(__global float8u*)((p) + 8 * (size_t)(k)) = (v))
+#else
+#define VSTORE8(v, k, p) vstore8((v), (k), (p))
 #endif
 
 /* One lane of a real, for the per-pixel work that stays scalar (material

@@ -289,3 +289,29 @@ def test_interrupted_write_leaves_nothing(tmp_path, monkeypatch):
         with pytest.raises(KeyboardInterrupt):
             write_image(tmp_path / name, np.ones((4, 5, 4), np.float32))
         assert os.listdir(tmp_path) == []
+
+
+def test_unknown_model_in_the_scene_names_file_and_key(tmp_path, capsys):
+    scene = SCENE.replace('background = [0.1, 0.2, 0.3]', 'background = [0.1, 0.2, 0.3]\nmodel = "ggx_corelated"')
+    render_error(tmp_path, capsys, scene, "render.model = 'ggx_corelated'", "unknown model")
+
+
+def test_missing_scene_points_to_the_bundled_one(tmp_path, capsys, monkeypatch):
+    """Outside the checkout `clshade render scenes/robot.toml` names where the installed scenes are."""
+    from clshade.resources import scenes_dir
+    monkeypatch.chdir(tmp_path)
+    code, _, err = run_cli(capsys, ["render", "scenes/robot.toml"])
+    assert_clean_error(code, err, "scenes/robot.toml: scene file not found", str(scenes_dir() / "robot.toml"))
+    code, _, err = run_cli(capsys, ["render", "nowhere.toml"])
+    assert_clean_error(code, err, "nowhere.toml: scene file not found")
+    assert "bundled" not in err
+
+
+@pytest.mark.parametrize("argv", [["render", "x.toml", "--tonemap", "filmic"], ["render", "x.toml", "--width", "abc"],
+                                  ["check", "nonsense"], ["frobnicate"], ["render"]])
+def test_usage_errors_are_one_line(capsys, argv):
+    with pytest.raises(SystemExit) as exc:
+        cli.main(argv)
+    err = capsys.readouterr().err
+    assert exc.value.code == 2
+    assert len(err.strip().splitlines()) == 1 and ": error: " in err and "--help" in err, err

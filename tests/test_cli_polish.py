@@ -214,3 +214,52 @@ def test_bench_plot_needs_matplotlib_before_the_run(monkeypatch, capsys, tmp_pat
     monkeypatch.setitem(sys.modules, "matplotlib", None)          # import matplotlib → ImportError
     err = _error(capsys, ["bench", RED_BALL, "--frames", "1", "--plot", str(tmp_path / "b.png")])
     assert "needs matplotlib" in err and "clshade[bench]" in err
+
+
+def _unwritable_folder() -> str:
+    """A folder no one can create files in, also as root (os.access says yes to root everywhere)."""
+    for folder in ("/proc", "/sys"):
+        if os.path.isdir(folder):
+            return folder
+    pytest.skip("no /proc or /sys folder on this system")
+
+
+@pytest.mark.parametrize("command", [["render", RED_BALL], ["bench", RED_BALL, "--frames", "1", "--json"]])
+def test_unwritable_output_refused_in_one_line(capsys, command):
+    """An output in a folder that cannot be written is refused before the work, not a traceback after it."""
+    out = os.path.join(_unwritable_folder(), "clshade_out." + ("json" if command[-1] == "--json" else "png"))
+    argv = command + [out] if command[-1] == "--json" else command + ["-o", out]
+    assert "not writable" in _error(capsys, argv)
+
+
+@pytest.mark.parametrize("command", ["render", "compare", "sweep"])
+def test_image_output_that_is_a_folder_refused(capsys, tmp_path, command):
+    folder = tmp_path / "out.png"
+    folder.mkdir()
+    argv = [command, RED_BALL, "-o", str(folder)] + (["-m", "lambert"] if command != "render" else [])
+    assert "is a folder" in _error(capsys, argv)
+
+
+def test_low01_only_from_1000_frames(tmp_path):
+    """Below 1000 frames the 0.1 % low is the slowest frame again: the table prints –, the plot has no bar."""
+    pytest.importorskip("matplotlib")
+    from clshade.report import LOW01_MIN_FRAMES, bench_table, plot_fps
+    row = dict(label="m", mean_ms=1.0, avg_fps=1000.0, low1_fps=500.0, low01_fps=123.4, median_ms=1.0, p99_ms=2.0,
+               host_overhead_ms=0.1, mpixel_per_s=1.0, bytes_per_pixel=48, mean_bytes_per_pixel=40.0,
+               lambert_ratio=1.0, copy_ratio=1.0, numpy_ms=1.0, numpy_ratio=1.0, max_rel_error=0.0,
+               mean_rel_error=0.0)
+    assert "123.4" not in bench_table([dict(row, frames=LOW01_MIN_FRAMES - 1)])
+    assert "123.4" in bench_table([dict(row, frames=LOW01_MIN_FRAMES)])
+    import matplotlib.pyplot as plt
+    bars = []
+    real_bar = plt.Axes.bar
+    def counting_bar(self, *a, **k):
+        bars.append(k.get("label"))
+        return real_bar(self, *a, **k)
+    import unittest.mock
+    with unittest.mock.patch.object(plt.Axes, "bar", counting_bar):
+        plot_fps([dict(row, frames=60)], tmp_path / "a.png", "t")
+        assert bars == ["average", "1 % low"]
+        bars.clear()
+        plot_fps([dict(row, frames=1000)], tmp_path / "b.png", "t")
+        assert bars == ["average", "1 % low", "0.1 % low"]

@@ -178,7 +178,7 @@ def test_variant_key_includes_effects_and_options(shader, frame):
 @pytest.mark.parametrize("model,variant", [("ggx_correlated", "specialised"), ("phong", "specialised"),
                                            ("ggx_correlated", "half G-buffer"), ("phong", "general")])
 def test_simd_width_never_changes_results(runtime, monkeypatch, model, variant):
-    """1, 4 or 8 pixels per work-item (kernels/simd.h) shade every pixel alike: a
+    """1, 4, 8 or 16 pixels per work-item (kernels/simd.h) shade every pixel alike: a
     37×23 image (851 pixels: rows and the image end mid-vector) with shadows,
     three light kinds, ambient and a per-pixel material table; also the half-float
     planar G-buffer loads and the general kernel."""
@@ -190,17 +190,66 @@ def test_simd_width_never_changes_results(runtime, monkeypatch, model, variant):
         features = replace(features, general=True)
     m = models.resolve(model)
     images = {}
-    for simd in ("1", "4", "8"):
+    widths = ("1", "4", "8", "16") if runtime.native_simd >= 16 else ("1", "4", "8")
+    for simd in widths:
         monkeypatch.setenv("CLSHADE_SIMD", simd)
         shader = Shader(runtime, frame.gbuffer, frame.scene, frame.camera, frame.shadows)
         assert shader.prepare(m, features).global_size * int(simd) >= 851
         images[simd] = shader.render(m, features)
     assert images["1"].shape == (23, 37, 4) and (images["1"][..., 3] > 0).any() and (images["1"][..., 3] == 0).any()
-    _close(images["8"], images["1"])
-    _close(images["4"], images["1"])
+    for simd in widths[1:]:
+        _close(images[simd], images["1"])
+
+
+def test_simd_16_runs_where_the_device_has_avx512(runtime):
+    """The width the device prefers is the default; 16 lanes only where the compiler targets AVX-512."""
+    if runtime.native_simd < 16:
+        pytest.skip(f"{runtime.info.description}: compiler target without AVX-512 (SIMD 16 not built)")
+    assert runtime.simd == 16
 
 
 def test_simd_width_is_validated(runtime, monkeypatch):
     monkeypatch.setenv("CLSHADE_SIMD", "3")
     with pytest.raises(Exception, match="CLSHADE_SIMD='3'"):
         runtime.simd
+
+
+@pytest.mark.parametrize("model", ["ggx_correlated", "phong", "cook_torrance@conductor"])
+def test_inline_math_matches_library_math(runtime, model):
+    """kernels/simd.h's inline fmax/fmin/sqrt/rsqrt/clamp/loads/stores/conversions give the
+    image the OpenCL library's builtins give, shadows and three light kinds included."""
+    from clshade.device.runtime import INLINE_MATH, LIBRARY_MATH, Runtime
+    frame = prepare_frame(parse_scene(SCENE))
+    features = scene_features(frame.scene, geometry=frame.geometry)
+    m = models.resolve(model)
+    images = [Shader(Runtime(runtime.info.spec, options=(opt,)), frame.gbuffer, frame.scene, frame.camera,
+                     frame.shadows).render(m, features) for opt in (INLINE_MATH, LIBRARY_MATH)]
+    _close(images[0], images[1])
+
+
+def test_inline_math_only_where_the_builtin_library_cannot_inline(runtime):
+    """The runtime tells simd.h whether the host has AVX-512: inline builtins exactly
+    where the host has it and the kernel's compiler target does not (pip's PoCL 3.0
+    on this EPYC), the library's builtins elsewhere (PoCL 3.1 compiles for AVX-512)."""
+    import pyopencl as cl
+    from clshade.device.runtime import host_has_avx512f
+    source = """__kernel void probe(__global int* out) {
+    #if defined(__AVX512F__)
+        out[0] = 1;
+    #else
+        out[0] = 0;
+    #endif
+    #if defined(__x86_64__) && defined(__AVX__)
+        out[1] = 1;
+    #else
+        out[1] = 0;
+    #endif
+    }"""
+    kernel = runtime.kernel(source, "probe")
+    out = np.zeros(2, np.int32)
+    buf = runtime.empty(out.nbytes)
+    kernel.set_args(buf)
+    cl.enqueue_nd_range_kernel(runtime.queue, kernel, (1,), (1,)).wait()
+    cl.enqueue_copy(runtime.queue, out, buf)
+    target_avx512, x86_avx = (bool(x) for x in out)
+    assert runtime.inline_math == (x86_avx and host_has_avx512f() and not target_avx512)

@@ -38,13 +38,13 @@ from clshade.render.gbuffer import GBuffer
 from clshade.render.scene import Light, Scene, load_scene
 from clshade.resources import constant
 from clshade.verify import reference
+from clshade.bench import NUMPY_FRAMES       # the default of --numpy-frames (defined light, for the CLI parser)
 
 SCHEMA = "clshade-bench/1"
 OUTPUT_BYTES = 16            # one float4 written per pixel
 # Relative error = |L − L_ref| / max(|L_ref|, REL_ERROR_FLOOR · peak(L_ref)): the floor keeps
 # near-black pixels (where a 1e-9 absolute difference is "100 %") from dominating.
 REL_ERROR_FLOOR = 1e-3
-NUMPY_FRAMES = 9             # NumPy frames per model (median), spread over the timed rounds
 MODEL_KEYS = ("model", "name", "mean_ms", "avg_fps", "low1_fps", "low01_fps", "median_ms", "p99_ms",
               "host_overhead_ms", "mpixel_per_s", "bytes_per_pixel", "mean_bytes_per_pixel", "lambert_ratio", "copy_ratio",
               "copy_mean_ms", "wall_median_ms", "numpy_ms", "numpy_ratio", "numpy_frames", "max_rel_error",

@@ -14,8 +14,10 @@ from __future__ import annotations
 import hashlib
 import os
 import re
+import tempfile
 from dataclasses import dataclass
 from functools import lru_cache
+from pathlib import Path
 
 import numpy as np
 
@@ -107,9 +109,48 @@ def select_device(spec: str | None = None):
     raise ClshadeError(f"device {spec!r} matches no OpenCL device (have: {known})")
 
 
+ENV_NO_BINARY_CACHE = "CLSHADE_NO_BINARY_CACHE"
+ENV_CACHE_DIR = "CLSHADE_CACHE_DIR"
+
+
+def binary_cache_dir() -> Path | None:
+    """The folder of cached program binaries: $CLSHADE_CACHE_DIR, else
+    $XDG_CACHE_HOME/clshade/programs (~/.cache/clshade/programs); None when
+    CLSHADE_NO_BINARY_CACHE=1. A warm build from source still costs the driver
+    ~30 ms of CPU (PoCL hashes and links it again); from the binary ~5 ms."""
+    if os.environ.get(ENV_NO_BINARY_CACHE, "").strip() not in ("", "0"):
+        return None
+    folder = os.environ.get(ENV_CACHE_DIR, "").strip()
+    if folder:
+        return Path(folder)
+    base = os.environ.get("XDG_CACHE_HOME", "").strip() or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "clshade" / "programs"
+
+
 # Lanes per work-item the kernels support (kernels/simd.h); buffers are padded to the largest.
-SIMD_WIDTHS = ("1", "4", "8")
-SIMD_PAD = 8
+SIMD_WIDTHS = ("1", "4", "8", "16")
+SIMD_PAD = 16
+ENV_SIMD = "CLSHADE_SIMD"
+# kernels/simd.h writes the hot builtins inline where PoCL's AVX-512 builtin library meets a
+# compiler target without AVX-512 (see there). A/B switches: CLSHADE_LIBRARY_MATH=1 never,
+# CLSHADE_INLINE_MATH=1 always.
+ENV_LIBRARY_MATH = "CLSHADE_LIBRARY_MATH"
+ENV_INLINE_MATH = "CLSHADE_INLINE_MATH"
+LIBRARY_MATH = "-DCLSHADE_LIBRARY_MATH"
+INLINE_MATH = "-DCLSHADE_INLINE_MATH_FORCE"
+
+
+def host_has_avx512f() -> bool:
+    """Whether the host CPU reports AVX-512F (/proc/cpuinfo; False where unreadable)."""
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as fh:
+            return any(line.startswith("flags") and " avx512f" in line for line in fh)
+    except OSError:
+        return False
+
+
+def _flag(name: str) -> bool:
+    return os.environ.get(name, "").strip() not in ("", "0")
 
 
 def padded(count: int) -> int:
@@ -120,7 +161,8 @@ def padded(count: int) -> int:
 class Runtime:
     """One OpenCL context and in-order profiling queue on the chosen device."""
 
-    def __init__(self, device: str | None = None) -> None:
+    def __init__(self, device: str | None = None, options: tuple[str, ...] = ()) -> None:
+        """`options`: build options added to every program (e.g. LIBRARY_MATH, INLINE_MATH)."""
         cl = _cl()
         self.cl = cl
         self.info, self.device = select_device(device)
@@ -128,13 +170,20 @@ class Runtime:
         self.queue = cl.CommandQueue(self.context, properties=cl.command_queue_properties.PROFILING_ENABLE)
         self._programs: dict[str, object] = {}
         self._kernels: dict[tuple[str, str], object] = {}
+        self.options = (tuple(options) + (("-DCLSHADE_HOST_AVX512F",) if host_has_avx512f() else ())
+                        + ((LIBRARY_MATH,) if _flag(ENV_LIBRARY_MATH) else ())
+                        + ((INLINE_MATH,) if _flag(ENV_INLINE_MATH) else ()))
 
     def kernel(self, source: str, name: str, options: tuple[str, ...] = (), label: str = "") -> object:
-        """Build (once) and return kernel `name` from `source` with build `options`."""
+        """Build (once) and return kernel `name` from `source` with build `options`
+        (and the runtime's own options)."""
+        options = tuple(options) + self.options
         key = hashlib.sha1(("\0".join(options) + "\0" + source).encode()).hexdigest()
         if (key, name) in self._kernels:
             return self._kernels[(key, name)]
         program = self._programs.get(key)
+        if program is None:
+            program = self._cached_program(source, options)
         if program is None:
             program = self.cl.Program(self.context, source)
             try:
@@ -144,10 +193,53 @@ class Runtime:
                 log = str(exc).strip()
                 raise ClshadeError(f"kernel build failed for {label or name} (files: {files}; "
                                    f"options: {' '.join(options) or 'none'}) on {self.info.description}:\n{log}") from exc
-            self._programs[key] = program
+            self._store_program(source, options, program)
+        self._programs[key] = program
         kernel = self.cl.Kernel(program, name)
         self._kernels[(key, name)] = kernel
         return kernel
+
+    def _binary_path(self, source: str, options: tuple[str, ...]) -> Path | None:
+        """Where the program binary of (device, driver, source, options) is cached; None when
+        caching is off (CLSHADE_NO_BINARY_CACHE=1) or there is no cache folder."""
+        folder = binary_cache_dir()
+        if folder is None:
+            return None
+        device = self.device
+        ident = "\0".join((self.info.platform, self.info.platform_version, self.info.device,
+                            device.version, device.driver_version, self.cl.VERSION_TEXT,
+                            *options, source))
+        return folder / (hashlib.sha256(ident.encode()).hexdigest() + ".bin")
+
+    def _cached_program(self, source: str, options: tuple[str, ...]):
+        """The program built from its cached binary, or None (no entry, unreadable, or the
+        driver refuses it: the caller then builds from source and stores a new entry)."""
+        path = self._binary_path(source, options)
+        if path is None or not path.is_file():
+            return None
+        try:
+            program = self.cl.Program(self.context, [self.device], [path.read_bytes()])
+            return program.build(options=list(options))
+        except (OSError, self.cl.Error):
+            return None
+
+    def _store_program(self, source: str, options: tuple[str, ...], program) -> None:
+        """Cache the built program's binary (atomically: a temporary file, then a rename);
+        a failure to write leaves the cache as it was."""
+        path = self._binary_path(source, options)
+        if path is None:
+            return
+        try:
+            binary = program.get_info(self.cl.program_info.BINARIES)[0]
+            if not binary:
+                return
+            path.parent.mkdir(parents=True, exist_ok=True)
+            fd, tmp = tempfile.mkstemp(prefix=".", suffix=".bin", dir=path.parent)
+            with os.fdopen(fd, "wb") as f:
+                f.write(binary)
+            os.replace(tmp, path)
+        except (OSError, self.cl.Error):
+            pass
 
     def to_device(self, array: np.ndarray):
         """Upload a contiguous array into a read-only device buffer."""
@@ -160,15 +252,48 @@ class Runtime:
 
     @property
     def simd(self) -> int:
-        """Pixels per work-item of the shading kernels (kernels/simd.h): 8 (float8,
-        one AVX2 register) on CPU devices, where PoCL does not vectorise across
-        work-items for us; 1 on GPUs, whose hardware does. CLSHADE_SIMD overrides."""
-        text = os.environ.get("CLSHADE_SIMD", "").strip()
+        """Pixels per work-item of the shading kernels (kernels/simd.h). On CPU
+        devices, where PoCL does not vectorise across work-items for us, the
+        device's native float vector width (CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT:
+        16 with AVX-512, 8 with AVX2, 4 with SSE), capped at 8 when the runtime's
+        compiler target has no AVX-512 (see `native_simd`); 1 on GPUs, whose
+        hardware vectorises. CLSHADE_SIMD overrides."""
+        text = os.environ.get(ENV_SIMD, "").strip()
         if text:
             if text not in SIMD_WIDTHS:
-                raise ClshadeError(f"CLSHADE_SIMD={text!r}: expected one of {', '.join(SIMD_WIDTHS)}")
+                raise ClshadeError(f"{ENV_SIMD}={text!r}: expected one of {', '.join(SIMD_WIDTHS)}")
+            if int(text) == 16 and "cpu" in self.info.kind and self.native_simd < 16:
+                raise ClshadeError(f"{ENV_SIMD}={text!r}: device {self.info.description} compiles without "
+                                   f"AVX-512 (use 1, 4 or 8)")
             return int(text)
-        return 8 if "cpu" in self.info.kind else 1
+        return self.native_simd if "cpu" in self.info.kind else 1
+
+    @property
+    def native_simd(self) -> int:
+        """The widest supported SIMD ≤ the device's native float vector width.
+        pip's PoCL 3.0 reports 16 (the CPU has AVX-512) but compiles for znver3
+        (AVX2, no AVX-512: kernels/simd.h), where a float16 is two registers and it
+        fails to build float16 builtin calls (clCreateKernel: INVALID_KERNEL_NAME,
+        2026-11-23); its device name then lacks "avx512"."""
+        width = int(getattr(self.device, "native_vector_width_float", 8) or 8)
+        if width >= 16 and "PoCL" in self.info.platform_version and "avx512" not in self.info.device:
+            width = 8
+        return max(int(w) for w in SIMD_WIDTHS if int(w) <= max(width, 1))
+
+    @property
+    def inline_math(self) -> bool:
+        """Whether kernels built here use kernels/simd.h's inline builtins (the header
+        decides from the compiler target and CLSHADE_HOST_AVX512F; probed on the device)."""
+        from clshade.resources import kernels_dir
+        source = ((kernels_dir() / "simd.h").read_text(encoding="utf-8") + "\n__kernel void probe(__global int* out) {\n"
+                  "#ifdef CLSHADE_INLINE_MATH\n out[0] = 1;\n#else\n out[0] = 0;\n#endif\n}\n")
+        kernel = self.kernel(source, "probe", label="simd.h probe")
+        out = np.zeros(1, np.int32)
+        buf = self.empty(out.nbytes)
+        kernel.set_args(buf)
+        self.cl.enqueue_nd_range_kernel(self.queue, kernel, (1,), (1,)).wait()
+        self.cl.enqueue_copy(self.queue, out, buf)
+        return bool(out[0])
 
     @property
     def local_size(self) -> int:

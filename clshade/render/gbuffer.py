@@ -213,7 +213,14 @@ def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments, camera
     occlusion = np.zeros(n, np.float32) if geometry.has_occlusion else None
     if len(tri):
         corners = take_rows(geometry.faces, tri)            # (K, 3) vertex ids
-        nrm = sum(bary[:, c, None] * take_rows(geometry.normals, corners[:, c]) for c in range(3))
+        # ((0 + b0 n0) + b1 n1) + b2 n2 as sum() adds them, in place (fewer temporaries).
+        nrm = take_rows(geometry.normals, corners[:, 0])
+        nrm *= bary[:, 0, None]
+        nrm += 0.0                                          # 0 + x: -0.0 becomes +0.0, as in sum()
+        for c in (1, 2):
+            term = take_rows(geometry.normals, corners[:, c])
+            term *= bary[:, c, None]
+            nrm += term
         len2 = np.einsum("kd,kd->k", nrm, nrm)
         # 1/|n| where |n| > 0; 0 elsewhere, so a zero normal stays 0 and a NaN/Inf one
         # becomes NaN (NaN·0, Inf·0), counted below as non-finite.
@@ -236,7 +243,8 @@ def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments, camera
 
     # Replace non-finite inputs (from NaN vertices, bad normals in a mesh file):
     # the pixel shades as empty/neutral and is counted; no other pixel is touched.
-    finite = np.isfinite(depth[pix]) & np.isfinite(normal[pix]).all(1) & np.isfinite(base[pix]).all(1)
+    finite = (np.isfinite(depth[pix]) & np.isfinite(take_rows(normal, pix)).all(1)
+              & np.isfinite(take_rows(base, pix)).all(1))
     bad = pix[~finite]
     nonfinite = len(bad)
     if nonfinite:

@@ -3,6 +3,7 @@ per-face material ids, ready for the rasterizer."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -83,8 +84,11 @@ def split_sharp_edges(vertices: np.ndarray, faces: np.ndarray, degrees: float = 
     within = np.arange(len(a)) - np.repeat(np.cumsum(pair_counts) - pair_counts, pair_counts)
     b = order[first + within]
     keep = np.einsum("ij,ij->i", unit[fid[a]], unit[fid[b]]) >= np.cos(np.radians(degrees))
-    normals = np.zeros((len(vid), 3))
-    np.add.at(normals, a[keep], unit[fid[b[keep]]] * angle[b[keep], None])
+    # Sum per corner with one weighted bincount per axis: the same additions in the same
+    # order as np.add.at(normals, a[keep], ...), several times faster.
+    ak, bk = a[keep], b[keep]
+    weighted = unit[fid[bk]] * angle[bk, None]
+    normals = np.stack([np.bincount(ak, weighted[:, d], minlength=len(vid)) for d in range(3)], axis=1)
     n = np.linalg.norm(normals, axis=1, keepdims=True)
     normals = np.divide(normals, n, out=np.repeat(unit, 3, axis=0), where=n > 0)
     return vertices[vid], np.arange(len(vid)).reshape(-1, 3), normals
@@ -93,7 +97,28 @@ def split_sharp_edges(vertices: np.ndarray, faces: np.ndarray, degrees: float = 
 def _primitive(obj: SceneObject):
     """Vertices, faces and normals of a procedural primitive (clshade/render/primitives.py):
     the sphere has exact normals unless the object asks for flat shading or its own crease
-    angle; other primitives are split at the object's crease angle (see crease_degrees)."""
+    angle; other primitives are split at the object's crease angle (see crease_degrees).
+    Objects with the same primitive, parameters and normal options share one tessellation
+    (read-only arrays: a scene's repeated parts — two arms, two eyes — are built once)."""
+    key = (obj.primitive, tuple(sorted(obj.params.items())), obj.smooth, obj.crease_angle)
+    try:
+        hash(key)
+    except TypeError:               # an unhashable parameter value: build it uncached
+        return _tessellate(obj)
+    return _tessellated(key)
+
+
+@lru_cache(maxsize=256)
+def _tessellated(key: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    kind, params, smooth, crease_angle = key
+    arrays = _tessellate(SceneObject(name="", material="", primitive=kind, params=dict(params), smooth=smooth,
+                                     crease_angle=crease_angle))
+    for a in arrays:
+        a.flags.writeable = False
+    return arrays
+
+
+def _tessellate(obj: SceneObject):
     p = obj.params
     kind = obj.primitive
     if kind == "sphere":

@@ -16,6 +16,8 @@ from typing import Any
 import numpy as np
 
 from clshade.errors import ClshadeError, located
+from clshade.models import resolve
+from clshade.resources import scenes_dir
 from clshade.render.transforms import look_at, perspective
 
 TONEMAPS = ("none", "reinhard", "aces")
@@ -482,6 +484,10 @@ def parse_scene(text: str, file: Path | str = "<scene>") -> Scene:
     exposure = rnd.number("exposure", 0.0, *EXPOSURE_RANGE)
     tonemap = rnd.string("tonemap", "aces", TONEMAPS)
     model = rnd.string("model", "ggx_correlated")
+    try:
+        resolve(model)
+    except ClshadeError as exc:       # "model 'x': why" → "file: render.model = 'x': why"
+        raise rnd.error("model", str(exc).removeprefix(f"model {model!r}: ")) from exc
     shadows = rnd.boolean("shadows", False)
     shadow_map_size = rnd.integer("shadow_map_size", DEFAULT_SHADOW_MAP_SIZE, *SHADOW_MAP_SIZES)
     shadow_pcf = rnd.integer("shadow_pcf", DEFAULT_SHADOW_PCF, SHADOW_PCF_SIZES[0], SHADOW_PCF_SIZES[-1])
@@ -520,7 +526,9 @@ def load_scene(path: str | Path) -> Scene:
     try:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError as exc:
-        raise ClshadeError(f"{path}: scene file not found") from exc
+        bundled = scenes_dir() / path.name
+        hint = f" (the bundled scene of that name is {bundled})" if bundled.is_file() else ""
+        raise ClshadeError(f"{path}: scene file not found{hint}") from exc
     except (OSError, UnicodeDecodeError) as exc:
         raise ClshadeError(f"{path}: cannot read scene file ({exc})") from exc
     return parse_scene(text, path.resolve())

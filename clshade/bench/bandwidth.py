@@ -1,0 +1,90 @@
+"""The machine's streaming memory bandwidth, STREAM-style (McCalpin): the anchor
+every shading pass is compared with, measured without OpenCL.
+
+Copy (c = a) and triad (a = b + s·c) over arrays far larger than the caches, on
+every core. Bytes counted as STREAM counts them: copy 2 × 4 B per element (one
+read, one write), triad 3 × 4 B (write-allocate traffic not counted). The
+fastest available method is used: Numba's parallel loops when Numba is
+installed (`pip install 'clshade[peers]'`), else NumPy on one thread per core
+over contiguous slices (NumPy releases the GIL inside copyto/add/multiply; its
+triad takes two passes, so its rate is a lower bound). Rates are the best of
+`repeats` (STREAM's convention) with the median beside it.
+"""
+from __future__ import annotations
+
+import os
+import time
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+
+STREAM_MIB = 256            # per array: ≫ the last-level cache (32 MiB on this EPYC)
+TRIAD_SCALAR = np.float32(3.0)
+
+
+def _numba_kernels():
+    try:
+        import numba
+    except ImportError:
+        return None
+
+    @numba.njit(parallel=True, fastmath=True, cache=False)
+    def copy(a, c):
+        for i in numba.prange(a.size):
+            c[i] = a[i]
+
+    @numba.njit(parallel=True, fastmath=True, cache=False)
+    def triad(a, b, c, s):
+        for i in numba.prange(a.size):
+            a[i] = b[i] + s * c[i]
+
+    return copy, triad, f"numba {numba.__version__} prange, {numba.get_num_threads()} threads"
+
+
+def _numpy_kernels(threads: int):
+    pool = ThreadPoolExecutor(threads)
+
+    def _split(n: int) -> list[slice]:
+        step = (n + threads - 1) // threads
+        return [slice(k, min(k + step, n)) for k in range(0, n, step)]
+
+    def copy(a, c):
+        list(pool.map(lambda s: np.copyto(c[s], a[s]), _split(a.size)))
+
+    def triad(a, b, c, s):
+        def part(sl):
+            np.multiply(c[sl], s, out=a[sl])
+            np.add(a[sl], b[sl], out=a[sl])
+        list(pool.map(part, _split(a.size)))
+
+    return copy, triad, f"numpy {np.__version__}, {threads} threads"
+
+
+def stream(repeats: int = 10, mib: int = STREAM_MIB, method: str = "auto") -> dict[str, object]:
+    """Copy and triad bandwidth in GB/s (10⁹ B/s): best and median of `repeats`."""
+    n = mib * 2 ** 20 // 4
+    a = np.full(n, 1.0, np.float32)
+    b = np.full(n, 2.0, np.float32)
+    c = np.full(n, 0.5, np.float32)
+    threads = os.cpu_count() or 1
+    kernels = _numba_kernels() if method in ("auto", "numba") else None
+    if kernels is None:
+        kernels = _numpy_kernels(threads)
+    copy, triad, how = kernels
+    copy(a, c)
+    triad(a, b, c, TRIAD_SCALAR)         # compile / warm the pages
+    times: dict[str, list[float]] = {"copy": [], "triad": []}
+    for _ in range(repeats):             # interleaved, like the shading rounds
+        t0 = time.perf_counter()
+        copy(a, c)
+        times["copy"].append(time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        triad(a, b, c, TRIAD_SCALAR)
+        times["triad"].append(time.perf_counter() - t0)
+    moved = {"copy": 2 * 4 * n, "triad": 3 * 4 * n}
+    out: dict[str, object] = dict(method=how, array_mib=mib, repeats=repeats, threads=threads)
+    for k, ts in times.items():
+        out[f"{k}_best_gbs"] = moved[k] / min(ts) / 1e9
+        out[f"{k}_median_gbs"] = moved[k] / float(np.median(ts)) / 1e9
+    out["anchor_gbs"] = max(out["copy_best_gbs"], out["triad_best_gbs"])
+    return out

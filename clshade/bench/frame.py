@@ -1,0 +1,74 @@
+"""Whole frames: what a user waits for per frame, stage by stage, with the camera
+moving between frames (nothing of the previous frame's raster or G-buffer is
+reused).
+
+Per frame: rasterize (clshade.render.raster) → G-buffer (clshade.render.gbuffer)
+→ upload the channels the variant reads → shade (one dispatch) → read back the
+image. Geometry, shadow maps (they depend on the lights, not the camera) and
+the kernel build are made once before the timed frames, as an interactive
+viewer would. The camera orbits the target about the vertical axis by
+`step_degrees` a frame. The FPS tables of `clshade bench` time the shading
+dispatch alone; this is the figure beside them.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+
+import numpy as np
+
+from clshade.device.runtime import Runtime
+from clshade.device.shade import Shader, scene_features
+from clshade.models import Model
+from clshade.render.gbuffer import build_gbuffer
+from clshade.render.meshes import build_geometry
+from clshade.render.raster import rasterize
+from clshade.render.scene import Camera, Scene
+from clshade.render.shadows import build_shadow_maps
+
+STAGES = ("rasterize", "g-buffer", "upload", "shade", "read back")
+
+
+def orbit(camera: Camera, degrees: float) -> Camera:
+    """`camera` turned about the vertical axis through its target by `degrees`."""
+    a = math.radians(degrees)
+    rot = np.array([[math.cos(a), 0.0, math.sin(a)], [0.0, 1.0, 0.0], [-math.sin(a), 0.0, math.cos(a)]])
+    pos = camera.target + rot @ (np.asarray(camera.position, float) - camera.target)
+    return dataclasses.replace(camera, position=pos)
+
+
+def whole_frames(scene: Scene, model: Model, runtime: Runtime, width: int, height: int,
+                 frames: int = 10, step_degrees: float = 2.0) -> dict[str, object]:
+    """Per-stage seconds of `frames` whole frames (after one untimed frame);
+    returns medians per stage, the median whole frame and every frame's stages."""
+    geometry = build_geometry(scene)
+    shadows = build_shadow_maps(scene, geometry) if scene.shadow_lights else None
+    features = scene_features(scene, geometry=geometry)
+    base = scene.camera.with_size(width, height)
+    per_frame: list[dict[str, float]] = []
+    for k in range(frames + 1):
+        camera = orbit(base, step_degrees * k)
+        t: dict[str, float] = {}
+        t0 = time.perf_counter()
+        fragments = rasterize(geometry.vertices, geometry.faces, camera.view_matrix(), camera.projection_matrix(),
+                              camera.width, camera.height, cull_backfaces=geometry.cull)
+        t1 = time.perf_counter()
+        gbuffer = build_gbuffer(scene, geometry, fragments, camera)
+        t2 = time.perf_counter()
+        shader = Shader(runtime, gbuffer, scene, camera, shadows)
+        dispatch = shader.prepare(model, features)        # built once: later frames hit the cache
+        runtime.queue.finish()
+        t3 = time.perf_counter()
+        shader.enqueue(dispatch).wait()
+        t4 = time.perf_counter()
+        shader.read()
+        t5 = time.perf_counter()
+        t = dict(zip(STAGES, (t1 - t0, t2 - t1, t3 - t2, t4 - t3, t5 - t4)))
+        t["frame"] = t5 - t0
+        if k > 0:
+            per_frame.append(t)
+    med = {s: float(np.median([f[s] for f in per_frame])) for s in (*STAGES, "frame")}
+    return dict(scene=str(scene.path) if scene.path else None, model=model.id, width=width, height=height,
+                frames=frames, step_degrees=step_degrees, triangles=int(len(geometry.faces)),
+                median_s=med, frames_s=per_frame)

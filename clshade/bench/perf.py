@@ -1,0 +1,337 @@
+"""Issue 15's performance run: every PoCL runtime on the machine as its own
+column, the kernels as clshade builds them, with the OpenCL library's builtins
+everywhere (the state before issue 15) and with simd.h's inline ones, the copy
+kernel, the Numba peer, the STREAM anchor and whole frames — one JSON, one
+Markdown rendered from it.
+
+    python -m clshade.bench.perf --out benchmarks/results/perf_1080p [--rounds 200]
+
+Timing: medians over interleaved rounds (each round dispatches every runtime ×
+build × model, its copy kernels and every peer, the order turned by one each
+round), so machine noise hits all alike; ratios are within one run.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import re
+import time
+from pathlib import Path
+
+import numpy as np
+
+from clshade import __version__
+from clshade.bench import bandwidth, frame as whole, peers as peer_mod
+from clshade.device.runtime import INLINE_MATH, LIBRARY_MATH, Runtime, list_devices
+from clshade.device.shade import Shader, scene_features
+from clshade.models import resolve
+from clshade.pipeline import prepare_frame
+from clshade.render.scene import load_scene
+
+MODELS = ("lambert", "ggx_correlated", "phong")
+SCHEMA = "clshade-perf/1"
+LAMBERT_BOUND = 1.3          # issue 15: Lambert within 1.3× of its bytes at the STREAM rate
+COPY_BOUND = 1.5             # every model ≤ 1.5× the copy kernel
+
+
+def _versions() -> dict[str, str]:
+    out = {"python": platform.python_version(), "numpy": np.__version__, "clshade": __version__}
+    for name in ("pyopencl", "numba", "drjit", "llvmlite"):
+        try:
+            out[name] = __import__(name).__version__
+        except Exception as exc:  # noqa: BLE001 - a missing optional package is data here
+            out[name] = f"not available ({type(exc).__name__})"
+    return out
+
+
+def pocl_devices() -> list[str]:
+    """One spec per PoCL CPU platform version (`P:D`)."""
+    seen, out = set(), []
+    for info, _ in list_devices():
+        if "cpu" in info.kind and "PoCL" in info.platform_version and info.platform_version not in seen:
+            seen.add(info.platform_version)
+            out.append(info.spec)
+    return out
+
+
+def compare(scene_path: str, models: list, width: int | None, height: int | None, rounds: int, warmup: int,
+            peer_names: tuple[str, ...], devices: list[str] | None = None, library: bool = True) -> dict:
+    """Every runtime in `devices` (default: every PoCL CPU runtime) × build (inline math,
+    and with `library` the OpenCL library's builtins) × model, their copy kernels and
+    the peers, in the same interleaved rounds; peers verified against the first runtime."""
+    frame = prepare_frame(load_scene(scene_path), width, height)
+    gb, scene, camera = frame.gbuffer, frame.scene, frame.camera
+    feats = scene_features(scene)
+    builds = ((("default", ()), ("library", (LIBRARY_MATH,)), ("inline", (INLINE_MATH,))) if library
+              else (("default", ()),))
+    configs = []
+    for spec in devices or pocl_devices():
+        for build, opts in builds:
+            rt = Runtime(spec, options=opts)
+            try:
+                sh = Shader(rt, gb, scene, camera)
+                ds = {m.id: sh.prepare(m, feats) for m in models}
+                # Each model's own copy kernel: the channels its variant reads, the same output.
+                ds.update({f"copy:{m.id}": sh.prepare(m, feats, entry="copy") for m in models})
+                images = {m.id: sh.render(m, feats) for m in models}
+            except Exception as exc:  # noqa: BLE001 - a build the runtime cannot do is a result
+                configs.append(dict(device=rt.info.description, build=build, error=str(exc).splitlines()[0]))
+                continue
+            configs.append(dict(device=rt.info.description, device_name=rt.info.device,
+                                platform_version=rt.info.platform_version, build=build, simd=rt.simd,
+                                inline_math=rt.inline_math,
+                                shader=sh, dispatches=ds, images=images, ms={k: [] for k in ds}))
+    ok = [c for c in configs if "error" not in c]
+    ref_images = ok[0]["images"]
+    covered = np.flatnonzero(gb.channels["depth"] > 0)
+    peer_rows, peers = [], []
+    for name in peer_names:
+        for m in models:
+            try:
+                p = peer_mod.PEERS[name](m, gb, scene, camera)
+            except (RuntimeError, KeyError) as exc:
+                peer_rows.append(dict(peer=name, model=m.id, skipped=str(exc)))
+                continue
+            image = p.run()
+            good = peer_mod.well_conditioned(m, gb, covered)
+            diff = peer_mod.verify(image, ref_images[m.id], covered)
+            diff_good = peer_mod.verify(image, ref_images[m.id], covered[good])
+            row = dict(peer=name, version=p.version, model=m.id, max_rel_diff=diff,
+                       well_conditioned_pixels=int(good.sum()), ill_conditioned_pixels=int((~good).sum()),
+                       max_rel_diff_well_conditioned=diff_good,
+                       verified=diff_good <= peer_mod.VERIFY_RTOL, ms=[])
+            peer_rows.append(row)
+            peers.append((p, row))
+    stream_before = bandwidth.stream()
+    def dispatch(c: dict, k: str, d) -> float:
+        ev = c["shader"].enqueue(d)
+        ev.wait()
+        return (ev.profile.end - ev.profile.start) * 1e-6
+
+    items = [(c["ms"][k], lambda c=c, k=k, d=d: dispatch(c, k, d)) for c in ok for k, d in c["dispatches"].items()]
+    items += [(row["ms"], lambda p=p: peer_mod.time_once(p)) for p, row in peers]
+    for r in range(warmup + rounds):
+        # The order turns by one item a round: whatever runs right after a peer (whose
+        # worker threads may still spin) is a different item each round.
+        for out, timed in items[r % len(items):] + items[:r % len(items)]:
+            t = timed()
+            if r >= warmup:
+                out.append(t)
+    stream_after = bandwidth.stream()
+    anchor = max(stream_before["anchor_gbs"], stream_after["anchor_gbs"])
+    bpp = {m.id: gb.mean_bytes_per_pixel(ok[0]["shader"].variant(m, feats).channels, False, ok[0]["simd"], 16)
+           for m in models}
+    runtimes = []
+    for c in configs:
+        if "error" in c:
+            runtimes.append(c)
+            continue
+        rows = []
+        for m in models:
+            ms = float(np.median(c["ms"][m.id]))
+            copy_ms = float(np.median(c["ms"][f"copy:{m.id}"]))
+            moved = bpp[m.id] * gb.pixels
+            rows.append(dict(model=m.id, name=m.label, median_ms=ms, copy_ms=copy_ms, copy_ratio=ms / copy_ms,
+                             bytes=moved, gbs=moved / ms / 1e6, copy_gbs=moved / copy_ms / 1e6,
+                             stream_ratio=ms / (moved / anchor / 1e6), copy_stream_ratio=copy_ms / (moved / anchor / 1e6),
+                             max_rel_diff_vs_first=peer_mod.verify(c["images"][m.id], ref_images[m.id], covered)))
+        runtimes.append(dict(device=c["device"], device_name=c["device_name"], platform_version=c["platform_version"],
+                             build=c["build"], simd=c["simd"], inline_math=c["inline_math"], models=rows))
+    for row in peer_rows:
+        if "ms" in row:
+            row["median_ms"] = float(np.median(row.pop("ms")))
+    return dict(schema=SCHEMA, created=time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+                machine=dict(processor=_cpu_name(), cpu_count=__import__("os").cpu_count(), os=platform.platform()),
+                versions=_versions(), libllvm_drjit=peer_mod.drjit_libllvm(), scene=scene_path,
+                width=frame.camera.width, height=frame.camera.height, pixels=gb.pixels,
+                covered_pixels=int(len(covered)), rounds=rounds, warmup=warmup,
+                stream=dict(before=stream_before, after=stream_after, anchor_gbs=anchor),
+                runtimes=runtimes, peers=peer_rows)
+
+
+def run(scene_path: str, width: int, height: int, rounds: int, warmup: int, frame_scene: str,
+        frame_frames: int, peer_names: tuple[str, ...]) -> dict:
+    """Issue 15's document: `compare` on MODELS, whole frames, the targets."""
+    doc = compare(scene_path, [resolve(m) for m in MODELS], width, height, rounds, warmup, peer_names)
+    default = Runtime(pocl_devices()[0])
+    frames = whole.whole_frames(load_scene(frame_scene), resolve("ggx_correlated"), default, 1920, 1080, frame_frames)
+    frames.pop("frames_s")
+    frames["device"] = default.info.description
+    doc["whole_frame"] = frames
+    doc["targets"] = targets(doc)
+    return doc
+
+
+def _cpu_name() -> str:
+    try:
+        for line in open("/proc/cpuinfo", encoding="utf-8"):
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def bench_peers(args) -> dict:
+    """`clshade bench --peers`: the comparison document (the CLI prints its Markdown)."""
+    from clshade.models import resolve_many
+    doc = compare(args.scene, resolve_many(args.models), args.width, args.height, min(args.frames, 200),
+                  args.warmup, tuple(p for p in args.peers.split(",") if p), library=False)
+    doc["targets"] = targets(doc)
+    doc["command"] = "clshade bench " + " ".join(__import__("sys").argv[2:])
+    return doc
+
+
+def targets(doc: dict) -> list[dict]:
+    """Issue 15's targets, met or missed, per runtime (default build), each miss with
+    the evidence for its cause, computed from the same run."""
+    out = []
+    peer_ms = {(p["peer"], p["model"]): p.get("median_ms") for p in doc["peers"] if p.get("verified")}
+    anchor = doc["stream"]["anchor_gbs"]
+    for rt in doc["runtimes"]:
+        if "error" in rt or rt["build"] != "default":
+            continue
+        rows = {r["model"]: r for r in rt["models"]}
+        lam = rows.get("lambert")
+        for r in rt["models"]:
+            why = ""
+            if r["copy_ratio"] > COPY_BOUND and lam:
+                why = (f"arithmetic, not bytes: its copy kernel moves the same {r['bytes'] / doc['pixels']:.1f} B/px "
+                       f"in {r['copy_ms']:.2f} ms; the model takes {r['median_ms'] / lam['median_ms']:.2f}× Lambert's time")
+            out.append(dict(runtime=rt["device"], target=f"{r['name']} ≤ {COPY_BOUND}× copy",
+                            value=r["copy_ratio"], met=r["copy_ratio"] <= COPY_BOUND, cause=why))
+            for (peer, model), ms in peer_ms.items():
+                if model == r["model"]:
+                    out.append(dict(runtime=rt["device"], target=f"{r['name']} faster than {peer} (× peer time)",
+                                    value=r["median_ms"] / ms, met=r["median_ms"] < ms, cause=""))
+            if r["model"] == "lambert":
+                why = (f"the copy kernel itself runs at {r['copy_stream_ratio']:.2f}× the STREAM bound (PoCL's memory "
+                       f"path), Lambert at {r['copy_ratio']:.2f}× copy" if r["stream_ratio"] > LAMBERT_BOUND else "")
+                out.append(dict(runtime=rt["device"], target=f"Lambert ≤ {LAMBERT_BOUND}× its bytes at the STREAM rate",
+                                value=r["stream_ratio"], met=r["stream_ratio"] <= LAMBERT_BOUND, cause=why))
+    wf = doc.get("whole_frame")
+    if wf:
+        m = wf["median_s"]
+        why = (f"rasterize {m['rasterize'] / m['frame']:.0%} + G-buffer {m['g-buffer'] / m['frame']:.0%} of the frame "
+               f"(NumPy, clshade/render/raster.py, gbuffer.py); shading {m['shade'] / m['frame']:.0%}"
+               if m["frame"] > 0.1 else "")
+        out.append(dict(runtime=wf["device"], target="robot 1920×1080 whole frame ≤ 100 ms (ms)",
+                        value=m["frame"] * 1e3, met=m["frame"] <= 0.1, cause=why))
+    return out
+
+
+def short(device: str) -> str:
+    """'pthread-… [OpenCL 3.0 PoCL 3.1+debian …, LLVM 15.0.6, …]' → 'pthread-… (PoCL 3.1+debian, LLVM 15.0.6)'."""
+    name = device.split(" [")[0]
+    pocl = re.search(r"PoCL (\S+)", device)
+    llvm = re.search(r"LLVM (\S+?),", device)
+    return f"{name} (PoCL {pocl.group(1) if pocl else '?'}, LLVM {llvm.group(1) if llvm else '?'})"
+
+
+def _noise_lines(doc: dict) -> list[str]:
+    """Builds of one runtime that compiled the same code (same inline_math): their time
+    ratios per kernel are this run's noise band."""
+    out = []
+    by_device: dict[str, list[dict]] = {}
+    for rt in doc["runtimes"]:
+        if "error" not in rt and "inline_math" in rt:
+            by_device.setdefault(rt["device"], []).append(rt)
+    for device, rts in by_device.items():
+        for i, a in enumerate(rts):
+            for b in rts[i + 1:]:
+                if a["inline_math"] == b["inline_math"]:
+                    ratios = [ra[k] / rb[k] for ra, rb in zip(a["models"], b["models"]) for k in ("median_ms", "copy_ms")]
+                    out.append(f"Noise: on {short(device)} the `{a['build']}` and `{b['build']}` builds are the same "
+                               f"code; their kernel times differ by {min(ratios):.2f}–{max(ratios):.2f}× in this run.")
+    return [""] + out if out else []
+
+
+def markdown(doc: dict) -> str:
+    """The results file, rendered from the JSON document only."""
+    s = doc["stream"]
+    L = [f"# Performance on the runtimes users get (issue 15)", "",
+         f"Generated {doc['created']} by `{doc.get('command', '')}` "
+         f"on {doc['machine']['processor']} ({doc['machine']['cpu_count']} cores, {doc['machine']['os']}); "
+         f"{doc['scene']} {doc['width']}×{doc['height']}, {doc['rounds']} interleaved rounds, medians. "
+         f"Versions: " + ", ".join(f"{k} {v}" for k, v in doc["versions"].items()) + ".", "",
+         "Times are of the shading dispatch alone (OpenCL profiling); the whole-frame figure is below. "
+         "Builds: `default` = what clshade builds (kernels/simd.h's inline builtins only where PoCL's AVX-512 "
+         "builtin library meets a compiler target without AVX-512), `library` = the OpenCL library's "
+         "builtins everywhere (the kernels before issue 15; CLSHADE_LIBRARY_MATH=1), `inline` = inline "
+         "builtins everywhere (CLSHADE_INLINE_MATH=1). Targets are judged on `default`.", "",
+         f"**STREAM anchor** ({s['before']['method']}, {s['before']['array_mib']} MiB arrays, best of "
+         f"{s['before']['repeats']}): copy {s['before']['copy_best_gbs']:.1f} / {s['after']['copy_best_gbs']:.1f} GB/s, "
+         f"triad {s['before']['triad_best_gbs']:.1f} / {s['after']['triad_best_gbs']:.1f} GB/s (before / after the "
+         f"rounds); anchor {s['anchor_gbs']:.1f} GB/s.", "",
+         "| runtime | build | SIMD | model | ms | copy ms | × copy | GB/s | copy GB/s | × STREAM bound | copy × STREAM "
+         "bound | max rel diff vs first column |", "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for rt in doc["runtimes"]:
+        if "error" in rt:
+            L.append(f"| {short(rt['device'])} | {rt['build']} | — | build failed: {rt['error']} | | | | | | | | |")
+            continue
+        for r in rt["models"]:
+            L.append(f"| {short(rt['device'])} | {rt['build']} | {rt['simd']} | {r['name']} | {r['median_ms']:.2f} | "
+                     f"{r['copy_ms']:.2f} | {r['copy_ratio']:.2f} | {r['gbs']:.1f} | {r['copy_gbs']:.1f} | "
+                     f"{r['stream_ratio']:.2f} | {r['copy_stream_ratio']:.2f} | {r['max_rel_diff_vs_first']:.1e} |")
+    L += _noise_lines(doc)
+    L += ["", "## Peers (same G-buffer, same rounds; verified against clshade on covered pixels, ≤ 1e-4 relative)", "",
+          "| peer | model | ms | max rel diff (all covered) | max rel diff (well-conditioned) | verified | note |",
+          "|---|---|---|---|---|---|---|"]
+    for p in doc["peers"]:
+        if "skipped" in p:
+            L.append(f"| {p['peer']} | {p['model']} | — | — | — | — | skipped: {p['skipped']} |")
+        else:
+            note = (f"{p['ill_conditioned_pixels']} pixels with exponent n > "
+                    f"{peer_mod.WELL_CONDITIONED_EXPONENT:.0f} (float32 (r·v)ⁿ differs by ~4·n·2⁻²³ between "
+                    f"correct implementations) checked in the first column only" if p["ill_conditioned_pixels"] else "")
+            L.append(f"| {p['peer']} {p['version']} | {p['model']} | {p['median_ms']:.2f} | {p['max_rel_diff']:.1e} | "
+                     f"{p['max_rel_diff_well_conditioned']:.1e} | {'yes' if p['verified'] else 'NO'} | {note} |")
+    wf = doc.get("whole_frame")
+    m = wf["median_s"] if wf else None
+    L += [] if not wf else ["", f"## Whole frames: {wf['scene']} {wf['width']}×{wf['height']}, {wf['model']}, {wf['triangles']} "
+          f"triangles, camera orbiting {wf['step_degrees']}° a frame, {wf['frames']} frames, {short(wf['device'])}", "",
+          "| stage | median ms | share |", "|---|---|---|"]
+    for k in whole.STAGES if wf else ():
+        L.append(f"| {k} | {m[k] * 1e3:.1f} | {m[k] / m['frame']:.0%} |")
+    if wf:
+        L.append(f"| **whole frame** | **{m['frame'] * 1e3:.1f}** | 100% |")
+    L += ["", "## Targets (default build)", "", "| runtime | target | measured | met | cause of the miss (same run) |",
+          "|---|---|---|---|---|"]
+    for t in doc["targets"]:
+        L.append(f"| {short(t['runtime'])} | {t['target']} | {t['value']:.2f} | {'met' if t['met'] else 'MISSED'} | "
+                 f"{t.get('cause', '')} |")
+    return "\n".join(L) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scene", default="scenes/sphere_grid.toml")
+    ap.add_argument("--width", type=int, default=1920)
+    ap.add_argument("--height", type=int, default=1080)
+    ap.add_argument("--rounds", type=int, default=200)
+    ap.add_argument("--warmup", type=int, default=10)
+    ap.add_argument("--frame-scene", default="scenes/robot.toml")
+    ap.add_argument("--frame-frames", type=int, default=10)
+    ap.add_argument("--peers", default="numba,drjit")
+    ap.add_argument("--out", default="benchmarks/results/perf_1080p", help="path stem: writes .json and .md")
+    ap.add_argument("--render-only", action="store_true", help="re-render OUT.md (and the targets) from OUT.json")
+    a = ap.parse_args(argv)
+    out = Path(a.out)
+    if a.render_only:
+        doc = json.loads(out.with_suffix(".json").read_text(encoding="utf-8"))
+        doc["targets"] = targets(doc)
+        out.with_suffix(".json").write_text(json.dumps(doc, indent=2, ensure_ascii=False), encoding="utf-8")
+        out.with_suffix(".md").write_text(markdown(doc), encoding="utf-8")
+        return 0
+    doc = run(a.scene, a.width, a.height, a.rounds, a.warmup, a.frame_scene, a.frame_frames,
+              tuple(p for p in a.peers.split(",") if p))
+    doc["command"] = "python -m clshade.bench.perf " + " ".join(argv if argv is not None else __import__("sys").argv[1:])
+    out.with_suffix(".json").write_text(json.dumps(doc, indent=2, ensure_ascii=False), encoding="utf-8")
+    out.with_suffix(".md").write_text(markdown(doc), encoding="utf-8")
+    print(markdown(doc))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

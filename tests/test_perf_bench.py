@@ -1,0 +1,84 @@
+"""The performance bench's measuring parts (issue 15): STREAM accounting, the
+orbiting camera of whole frames, and the peers' output against clshade's."""
+from __future__ import annotations
+
+import importlib.util
+
+import numpy as np
+import pytest
+
+from clshade.bench import bandwidth, frame as whole, peers
+from clshade.device.shade import Shader, scene_features
+from clshade.models import resolve
+from clshade.pipeline import prepare_frame
+from clshade.render.scene import load_scene
+from clshade.resources import scenes_dir
+
+SCENES = scenes_dir()
+
+
+def test_stream_counts_bytes_as_stream_does(monkeypatch):
+    """Copy moves 2 × 4 B per element, triad 3 × 4 B: with every timing 1 s, the
+    rates are exactly those bytes (a wrong byte count or unit fails)."""
+    ticks = iter(np.arange(0.0, 1000.0, 1.0))
+    monkeypatch.setattr(bandwidth.time, "perf_counter", lambda: float(next(ticks)))
+    out = bandwidth.stream(repeats=2, mib=1, method="numpy")
+    n = 2 ** 20 // 4
+    assert out["copy_best_gbs"] == pytest.approx(8 * n / 1e9)
+    assert out["triad_best_gbs"] == pytest.approx(12 * n / 1e9)
+    assert out["anchor_gbs"] == max(out["copy_best_gbs"], out["triad_best_gbs"])
+
+
+def test_stream_kernels_compute_copy_and_triad():
+    copy, triad, _ = bandwidth._numpy_kernels(2)
+    a, b, c = np.arange(10, dtype=np.float32), np.full(10, 2.0, np.float32), np.zeros(10, np.float32)
+    copy(a, c)
+    np.testing.assert_array_equal(c, a)
+    triad(a, b, c, np.float32(3.0))
+    np.testing.assert_array_equal(a, 2.0 + 3.0 * np.arange(10, dtype=np.float32))
+
+
+def test_orbit_keeps_the_distance_and_moves_the_camera():
+    cam = load_scene(SCENES / "sphere_grid.toml").camera
+    moved = whole.orbit(cam, 10.0)
+    d0 = np.linalg.norm(cam.position - cam.target)
+    assert np.linalg.norm(moved.position - moved.target) == pytest.approx(d0)
+    assert np.linalg.norm(moved.position - cam.position) == pytest.approx(2 * d0 * np.sin(np.radians(5.0)), rel=1e-6)
+
+
+def test_whole_frames_time_every_stage(runtime):
+    scene = load_scene(SCENES / "sphere_grid.toml")
+    out = whole.whole_frames(scene, resolve("lambert"), runtime, 64, 36, frames=2)
+    med = out["median_s"]
+    assert set(whole.STAGES) <= set(med) and all(med[s] > 0 for s in whole.STAGES)
+    assert med["frame"] >= max(med[s] for s in whole.STAGES)
+    assert len(out["frames_s"]) == 2
+
+
+@pytest.mark.parametrize("name", ["numba", "drjit"])
+@pytest.mark.parametrize("model", ["lambert", "ggx_correlated", "phong"])
+def test_peer_equals_clshade(runtime, name, model):
+    """Each peer shades sphere_grid (10 materials, roughness 0 → 1, ambient) like the
+    kernel: ≤ 1e-4 relative on covered, well-conditioned pixels."""
+    module = {"numba": "numba", "drjit": "drjit"}[name]
+    if importlib.util.find_spec(module) is None:
+        pytest.skip(f"{module} not installed (pip install 'clshade[peers]')")
+    frame = prepare_frame(load_scene(SCENES / "sphere_grid.toml"), 160, 72)
+    m = resolve(model)
+    try:
+        peer = peers.PEERS[name](m, frame.gbuffer, frame.scene, frame.camera)
+    except RuntimeError as exc:
+        pytest.skip(str(exc))
+    image = Shader(runtime, frame.gbuffer, frame.scene, frame.camera).render(m, scene_features(frame.scene))
+    covered = np.flatnonzero(frame.gbuffer.channels["depth"] > 0)
+    good = peers.well_conditioned(m, frame.gbuffer, covered)
+    assert good.sum() > 0.5 * len(covered)
+    assert peers.verify(peer.run(), image, covered[good]) <= peers.VERIFY_RTOL
+    empty = np.flatnonzero(frame.gbuffer.channels["depth"] <= 0)
+    np.testing.assert_allclose(peer.run().reshape(-1, 4)[empty], image.reshape(-1, 4)[empty], rtol=1e-6)
+
+
+def test_peer_refuses_models_it_does_not_implement():
+    frame = prepare_frame(load_scene(SCENES / "sphere_grid.toml"), 16, 8)
+    with pytest.raises(RuntimeError, match="implements"):
+        peers._check_supported(resolve("cook_torrance"), frame.scene, "Numba")
