@@ -83,8 +83,8 @@ CATALOGUE: list[Mutant] = [
       "Oren–Nayar: A denominator 0.33 → 0.033"),
     M("phong_clamp", "kernels/brdf.h", "return pow_runtime(saturate(rv), n);", "return pow_runtime(fabs(rv), n);",
       "Phong: |r·v| instead of max(r·v, 0)"),
-    M("log2_poly", "kernels/brdf.h", "real c01 = 3.3333331174e-1f - 2.4999993993e-1f * f;",
-      "real c01 = 3.3333331174e-1f - 2.4999e-1f * f;", "log2_lanes: one polynomial coefficient rounded"),
+    M("log2_poly", "kernels/brdf.h", "real c45 = 1.4249322787e-1f - 1.2420140846e-1f * f;",
+      "real c45 = 1.4249322787e-1f + 1.2420140846e-1f * f;", "log2_lanes: a polynomial coefficient's sign"),
     M("exp_reduction", "kernels/brdf.h", "real r = (c - kf * 0.693359375f) + kf * 2.12194440e-4f;",
       "real r = (c - kf * 0.693359375f);", "exp_lanes: Cody–Waite low part dropped"),
     # ---- model lobes (kernels/models)
@@ -116,8 +116,11 @@ CATALOGUE: list[Mutant] = [
       "f = v3add(f, specular_lobe(g, s));", "k_s weight ignored"),
     M("irradiance_floor", "kernels/compose.h", "vec3 e = v3scale(E, fmax(g.nl_raw, 0.0f));",
       "vec3 e = v3scale(E, g.nl);", "irradiance uses the floored n·l (the bug of issue 13)"),
-    M("horizon_select", "kernels/compose.h", "return v3select(g.nl_raw > 0.0f, lo, v3s((real)(0.0f)));",
-      "return lo;", "light below the horizon not dropped"),
+    M("horizon_select", "kernels/compose.h",
+      "    vec3 e = v3scale(E, fmax(g.nl_raw, 0.0f));\n    vec3 lo = v3mul(brdf(g, s), e);\n"
+      "    return v3select(g.nl_raw > 0.0f, lo, v3s((real)(0.0f)));",
+      "    vec3 e = v3scale(E, fabs(g.nl_raw));\n    vec3 lo = v3mul(brdf(g, s), e);\n    return lo;",
+      "light below the horizon lights the surface (|n·l|, no horizon select)"),
     M("ambient_ka", "kernels/compose.h", "return v3mul(v3scale(A, s.ka), r);", "return v3mul(A, r);",
       "ambient ignores k_a"),
     M("ambient_spec", "kernels/compose.h", "r = v3add(r, v3scale(s.f0, s.ks));", "r = v3add(r, v3scale(s.f0, 0.8f * s.ks));",
@@ -231,6 +234,16 @@ def snapshot(dest: Path) -> None:
         shutil.copytree(ROOT, dest, ignore=COPY_IGNORE)
 
 
+def test_order(root: Path, mutant: Mutant) -> list[str]:
+    """Test files that name the mutated module first (they are the likeliest to fail, and -x stops there),
+    then the rest in the usual order: the same suite, a shorter run for a killed mutant."""
+    files = sorted((root / "tests").glob("test_*.py"))
+    module = mutant.file.removesuffix(".py").replace("/", ".")       # clshade.render.image
+    first = [] if mutant.file.startswith("kernels/") else \
+        [f for f in files if module in f.read_text(encoding="utf-8")]
+    return [str(f.relative_to(root)) for f in first + [f for f in files if f not in first]]
+
+
 def run_one(mutant: Mutant, python: str, base: Path) -> dict:
     """Copy the snapshot `base`, apply the mutant, run the suite there fail-fast."""
     start = time.perf_counter()
@@ -247,7 +260,8 @@ def run_one(mutant: Mutant, python: str, base: Path) -> dict:
             raise SystemExit(f"mutant {mutant.name}: the copy's kernels are not the ones used ({kernels!r} "
                              f"{where.stderr.strip()})")
         try:
-            proc = subprocess.run([python, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider", "tests"],
+            proc = subprocess.run([python, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider",
+                                   *test_order(copy, mutant)],
                                   cwd=copy, env=env, capture_output=True, text=True, timeout=TEST_TIMEOUT_S)
             rc, tail = proc.returncode, proc.stdout.strip().splitlines()
         except subprocess.TimeoutExpired:
@@ -275,27 +289,44 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{len(CATALOGUE)} mutants, every snippet found once")
         return 0
     chosen = [m for m in CATALOGUE if not args.only or m.name in args.only.split(",")]
+    out = Path(args.json)
+    previous = json.loads(out.read_text(encoding="utf-8")) if out.exists() and args.only else None
     start = time.perf_counter()
     results: list[dict] = []
     with ThreadPoolExecutor(max_workers=max(1, min(args.jobs, 2))) as pool:
         for res in pool.map(lambda m: run_one(m, sys.executable, base), chosen):
+            res["commit"] = commit
             results.append(res)
             print(f"{res['status']:8s} {res['name']:24s} {res['seconds']:6.1f} s  {res['killed_by']}", flush=True)
-    out = Path(args.json)
-    previous = json.loads(out.read_text(encoding="utf-8")) if out.exists() and args.only else None
-    if previous:   # a partial run updates those rows of the committed file
-        by_name = {r["name"]: r for r in previous["mutants"]}
-        by_name.update({r["name"]: r for r in results})
-        results = [by_name[m.name] for m in CATALOGUE if m.name in by_name]
-    doc = dict(schema=1, created=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-               machine=f"{platform.node()} {platform.machine()}", command="python benchmarks/mutants.py",
-               commit=commit,
-               seconds=round(time.perf_counter() - start, 1), total=len(results),
-               killed=sum(r["status"] == "killed" for r in results),
-               survived=sum(r["status"] == "survived" for r in results), mutants=results)
-    out.write_text(json.dumps(doc, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
+            write_results(out, results, chosen, previous, commit, time.perf_counter() - start)
+    doc = write_results(out, results, chosen, previous, commit, time.perf_counter() - start)
     print(f"{doc['killed']}/{doc['total']} killed; wrote {out}")
     return 0
+
+
+def write_results(out: Path, results: list[dict], chosen: list[Mutant], previous: dict | None, commit: str | None,
+                  seconds: float) -> dict:
+    """Write the results so far (after every mutant: a stopped run leaves what it measured); mutants of the
+    run not measured yet are listed as 'not run'. A partial --only run updates its rows of the previous file."""
+    done = {r["name"] for r in results}
+    rows = results + [dict(name=m.name, file=m.file, description=m.description, status="not run", returncode=None,
+                           killed_by="", seconds=0.0, summary="", commit=None) for m in chosen if m.name not in done]
+    if previous:   # each row keeps its commit
+        by_name = {r["name"]: {"commit": previous.get("commit"), **r} for r in previous["mutants"]}
+        by_name.update({r["name"]: r for r in rows if r["status"] != "not run" or r["name"] not in by_name})
+        rows = [by_name[m.name] for m in CATALOGUE if m.name in by_name]
+    else:
+        order = {m.name: i for i, m in enumerate(CATALOGUE)}
+        rows.sort(key=lambda r: order[r["name"]])
+    doc = dict(schema=1, created=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+               machine=f"{platform.node()} {platform.machine()}", command="python benchmarks/mutants.py",
+               commit=commit, commits=sorted({r.get("commit") or "" for r in rows if r.get("commit")}),
+               seconds=round(seconds, 1), total=len(rows),
+               killed=sum(r["status"] == "killed" for r in rows),
+               survived=sum(r["status"] == "survived" for r in rows),
+               not_run=sum(r["status"] == "not run" for r in rows), mutants=rows)
+    out.write_text(json.dumps(doc, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
+    return doc
 
 
 if __name__ == "__main__":

@@ -396,14 +396,18 @@ def render_raster(data: dict[str, Any]) -> str:
 def render_mutants(doc: dict[str, Any]) -> str:
     out = ["# Mutation testing", "",
            f"Rendered by `python benchmarks/publish.py` from benchmarks/results/mutants.json (measured "
-           f"{doc['created']} on {doc['machine']} by `{doc['command']}`, {doc['seconds']:.0f} s): "
-           f"**{doc['killed']} of {doc['total']} mutants killed**, {doc['survived']} survived. Each mutant is one "
+           f"{doc['created']} (last update) on {doc['machine']} by `{doc['command']}`; the mutants' suites ran "
+           f"{sum(m['seconds'] for m in doc['mutants']):.0f} s in all, 2 at a time, on the shared machine): "
+           f"**{doc['killed']} of {doc['total']} mutants killed**, {doc['survived']} survived"
+           f"{', ' + str(doc['not_run']) + ' not run (the run was stopped)' if doc.get('not_run') else ''}. Each mutant is one "
            "small semantic bug (catalogue in benchmarks/mutants.py) applied to a copy of the repository; the test "
            "suite runs there fail-fast; killed = a test failed.", "",
-           "| mutant | file | bug | status | first failing test |", "|---|---|---|---|---|"]
+           "| mutant | file | bug | status | first failing test | commit |", "|---|---|---|---|---|---|"]
     for m in doc["mutants"]:
-        status = "killed" if m["status"] == "killed" else "**survived**"
-        out.append(f"| {m['name']} | {m['file']} | {m['description']} | {status} | {m['killed_by'] or '–'} |")
+        status = {"killed": "killed", "survived": "**survived**"}.get(m["status"], m["status"])
+        commit = (m.get("commit") or doc.get("commit") or "")[:10]
+        out.append(f"| {m['name']} | {m['file']} | {_cell(m['description'])} | {status} | {m['killed_by'] or '–'} | "
+                   f"{commit} |")
     return "\n".join(out) + "\n"
 
 

@@ -285,3 +285,61 @@ def test_shadow_keys_are_validated(tmp_path):
     assert not parse_scene(point.replace("[[lights]]", "[[lights]]\nshadows = false")).lights[0].shadows
     with pytest.raises(ClshadeError, match=r"objects\[0\]\.mesh_material = True: applies to mesh files only"):
         parse_scene(base.replace('primitive = "plane"', 'primitive = "plane"\nmesh_material = true', 1))
+
+
+def test_gltf_material_factors_map_to_the_texture_set(tmp_path):
+    """glTF pbrMetallicRoughness factors (written by trimesh, no third-party assets needed): baseColorFactor
+    (stored as uint8 by trimesh) → base factor in [0, 1], roughnessFactor and metallicFactor kept apart."""
+    import trimesh
+    from trimesh.visual import TextureVisuals
+    from trimesh.visual.material import PBRMaterial
+    from clshade.render.meshes import _gltf_texture_set, load_parts
+    box = trimesh.creation.box()
+    box.visual = TextureVisuals(uv=np.zeros((len(box.vertices), 2)),
+                                material=PBRMaterial(baseColorFactor=[255, 51, 102, 255], roughnessFactor=0.25,
+                                                     metallicFactor=0.75))
+    path = tmp_path / "box.glb"
+    box.export(path)
+    part, = load_parts(path)
+    textures = _gltf_texture_set(part.material, "box")
+    assert textures.base_factor == pytest.approx((1.0, 0.2, 0.4))
+    assert (textures.roughness_factor, textures.metallic_factor) == pytest.approx((0.25, 0.75))
+
+
+def test_metallic_roughness_texture_channels_and_factors():
+    """glTF layout: G = roughness (× roughnessFactor), B = metallic (× metallicFactor), R ignored."""
+    from clshade.render.gbuffer import _apply_texture_set
+    from clshade.render.textures import Texture, TextureSet
+    mr = Texture.from_pixels(np.tile(np.array([0.7, 0.2, 0.9], np.float32), (4, 4, 1)), "mr")
+    t = TextureSet(roughness_factor=0.5, metallic_factor=0.4, metallic_roughness=mr)
+    k = 3
+    uv = np.full((k, 2), 0.5)
+    zero = np.zeros((k, 2))
+    normal = np.tile([0.0, 0.0, 1.0], (k, 1))
+    tangent = np.tile([1.0, 0.0, 0.0, 1.0], (k, 1))
+    base, rough, metal = _apply_texture_set(t, uv, zero, zero, normal, tangent)[:3]
+    np.testing.assert_allclose(rough, 0.5 * 0.2, rtol=1e-6)
+    np.testing.assert_allclose(metal, 0.4 * 0.9, rtol=1e-6)
+    np.testing.assert_allclose(base, 1.0)
+
+
+@pytest.mark.parametrize("direction", ["[1.0, -0.1, 0.0]"])
+def test_no_self_shadowing_at_grazing_light(direction):
+    """shadow.h's promise: the normal offset keeps lit planes free of acne at every angle, grazing included —
+    a plane with nothing above it renders identically with shadows on and off."""
+    plane_only = SHADOW_SCENE[:SHADOW_SCENE.rindex("[[objects]]")]
+    extra = f"direction = {direction}\nirradiance = 2.0"
+    on = render(parse_scene(plane_only.format(shadows="true", kind="directional", extra=extra)), LAMBERT)
+    off = render(parse_scene(plane_only.format(shadows="false", kind="directional", extra=extra)), LAMBERT)
+    assert on.features.shadows
+    assert (on.image[..., 3] > 0).sum() > 1000
+    np.testing.assert_array_equal(on.image, off.image)
+
+
+def test_texture_v_axis_points_up():
+    """UV origin at the bottom left, V up (OpenGL; row 0 of the image is the top): v = 7/8 samples the top row."""
+    from clshade.render.textures import Texture
+    column = np.array([[1.0], [0.6], [0.3], [0.0]], np.float32)[:, None, :].repeat(3, axis=2)   # (4, 1, 3)
+    tex = Texture.from_pixels(np.repeat(column, 2, axis=1))
+    got = tex.sample(np.array([[0.5, 0.875], [0.5, 0.125]]), np.zeros(2))[:, 0]
+    np.testing.assert_allclose(got, [1.0, 0.0], atol=1e-6)
