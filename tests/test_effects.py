@@ -2,6 +2,7 @@
 materials), shadow maps (directional and spot, bias, PCF) and their scene keys."""
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -343,3 +344,24 @@ def test_texture_v_axis_points_up():
     tex = Texture.from_pixels(np.repeat(column, 2, axis=1))
     got = tex.sample(np.array([[0.5, 0.875], [0.5, 0.125]]), np.zeros(2))[:, 0]
     np.testing.assert_allclose(got, [1.0, 0.0], atol=1e-6)
+
+
+@pytest.mark.parametrize("direction", ["[0.3, -1.0, 0.2]", "[1.0, -0.5, 0.3]"])
+def test_no_self_shadowing_on_the_lit_side_of_a_sphere(direction):
+    """shadow.h's normal offset: a convex receiver cannot shadow its own lit side, and the plane
+    below cannot reach it, so every sphere pixel facing the light (n·l ≥ 0.2) renders identically
+    with shadows on and off. Without the normal offset the curved surface self-shadows (acne)
+    where its slope to the light exceeds the constant depth bias."""
+    base = SHADOW_SCENE[:SHADOW_SCENE.rindex("[[objects]]")] + (
+        '[[objects]]\nprimitive = "sphere"\nradius = 1.0\ntranslate = [0.0, 1.0, 0.0]\nmaterial = "m"\n')
+    extra = f"direction = {direction}\nirradiance = 2.0"
+    on = render(parse_scene(base.format(shadows="true", kind="directional", extra=extra)), LAMBERT)
+    off = render(parse_scene(base.format(shadows="false", kind="directional", extra=extra)), LAMBERT)
+    n = on.frame.gbuffer.channel("normal").reshape(-1, 3)
+    l = -np.array(json.loads(direction), float)
+    l /= np.linalg.norm(l)
+    covered = on.frame.gbuffer.channel("depth").reshape(-1) > 0
+    sphere_lit = covered & (np.abs(n[:, 1]) < 0.999) & (n @ l >= 0.2)
+    assert sphere_lit.sum() > 100
+    a, b = on.image.reshape(-1, 4)[sphere_lit], off.image.reshape(-1, 4)[sphere_lit]
+    np.testing.assert_array_equal(a, b)
