@@ -198,7 +198,7 @@ def main() -> int:
     doc["claims"] = dict(group_mean_ms=mean, group_spread=spread, fresnel_ns=cost, schlick_error=schlick,
                          smith_albedo=albedo, smith_peak=peaks, oren_nayar_sigma0_max_abs_diff=on_diff)
     doc["plausibility"] = [v.as_dict() for v in verdicts]
-    doc["noise"] = dict(model=NOISE_MODEL, mean_ms=[next(r["mean_ms"] for r in rows if r["model"] == NOISE_MODEL)]
+    doc["noise"] = dict(model=NOISE_MODEL, mean_ms=[next(r["mean_ms"] for r in rows if r["model"] == resolve(NOISE_MODEL).id)]
                         + [r["mean_ms"] for r in noise_rows])
     doc["seconds"] = round(time.perf_counter() - start, 1)
     (IMAGES / "report.json").write_text(json.dumps(doc, indent=2, ensure_ascii=False, default=float), encoding="utf-8")

@@ -27,6 +27,7 @@ from clshade.device.shade import camera_args
 from clshade.models import NONE, Model
 from clshade.render.gbuffer import GBuffer
 from clshade.render.scene import Camera, Scene
+from clshade.resources import constant
 
 VERIFY_RTOL = 1e-4           # peer vs clshade, relative to the pixel's largest channel (covered pixels)
 
@@ -42,14 +43,11 @@ class Peer:
 
 LAMBERT, GGX, PHONG = 0, 1, 2
 PEER_MODELS = {"lambert": LAMBERT, "lambert+ggx_correlated": GGX, "lambert+phong": PHONG}
-# kernels/brdf.h, surface.h, shade.cl constants (the peers follow the kernels' conventions).
-MIN_N_DOT_L = MIN_N_DOT_V = 1e-4
-MIN_ALPHA = 1e-4
-MIN_HALF_LEN2 = 1e-30
-MIN_UNIT_LEN2 = 1e-20
-MIN_POW_BASE = 1e-30
-F0_DIELECTRIC = 0.04
-MAX_RADIANCE = 3.0e38
+# kernels/brdf.h, surface.h, shade.cl constants, read from the headers (the peers follow the kernels'
+# conventions: floors inside the lobes only, the irradiance with the true cosine E·max(n·l, 0)).
+MIN_N_DOT_L, MIN_N_DOT_V, MIN_ALPHA = constant("MIN_N_DOT_L"), constant("MIN_N_DOT_V"), constant("MIN_ALPHA")
+MIN_HALF_LEN2, MIN_UNIT_LEN2 = constant("MIN_HALF_LEN2"), constant("MIN_UNIT_LEN2")
+MIN_POW_BASE, F0_DIELECTRIC, MAX_RADIANCE = constant("MIN_POW_BASE"), constant("F0_DIELECTRIC"), constant("MAX_RADIANCE")
 
 
 def _numba_kernel(model: int):
@@ -119,7 +117,7 @@ def _numba_kernel(model: int):
                     if nl_raw <= f32(0.0):
                         continue
                     nl = max(nl_raw, f32(MIN_N_DOT_L))
-                    er, eg, eb = lights[k, 4] * nl, lights[k, 5] * nl, lights[k, 6] * nl
+                    er, eg, eb = lights[k, 4] * nl_raw, lights[k, 5] * nl_raw, lights[k, 6] * nl_raw
                     if model == LAMBERT:
                         fr, fg, fb = dr * inv_pi, dg * inv_pi, db * inv_pi
                     elif model == GGX:
@@ -145,7 +143,7 @@ def _numba_kernel(model: int):
                     else:
                         lv = lx * vx + ly * vy + lz * vz
                         rv = f32(2.0) * nl_raw * nv_raw - lv
-                        spec = ks * np.exp2(shin * np.log2(max(max(rv, f32(0.0)), f32(MIN_POW_BASE))))
+                        spec = ks * np.exp2(shin * np.log2(max(min(max(rv, f32(0.0)), f32(1.0)), f32(MIN_POW_BASE))))
                         fr, fg, fb = kd * dr * inv_pi + spec, kd * dg * inv_pi + spec, kd * db * inv_pi + spec
                     Lr += fr * er
                     Lg += fg * eg
@@ -303,7 +301,7 @@ def drjit_peer(model: Model, gb: GBuffer, scene: Scene, camera: Camera) -> Peer:
             l = [-light[c] for c in range(3)]
             nl_raw = dot(nn, l)
             nl = dr.maximum(nl_raw, MIN_N_DOT_L)
-            E = [light[4 + c] * nl for c in range(3)]
+            E = [light[4 + c] * dr.maximum(nl_raw, 0.0) for c in range(3)]
             if which == LAMBERT:
                 fr = [x * inv_pi for x in dc]
             elif which == GGX:
@@ -324,7 +322,7 @@ def drjit_peer(model: Model, gb: GBuffer, scene: Scene, camera: Camera) -> Peer:
                       + schlick(vh, f0c, f90) * DV for f0c, dcc in zip(f0, dc)]
             else:
                 rv = 2.0 * nl_raw * nv_raw - dot(l, v)
-                spec = ks * dr.exp2(shin * dr.log2(dr.maximum(rv, MIN_POW_BASE)))
+                spec = ks * dr.exp2(shin * dr.log2(dr.maximum(dr.minimum(rv, 1.0), MIN_POW_BASE)))
                 fr = [kd * dcc * inv_pi + spec for dcc in dc]
             lit = nl_raw > 0.0
             L = [Lc + dr.select(lit, fc * Ec, 0.0) for Lc, fc, Ec in zip(L, fr, E)]
