@@ -26,6 +26,7 @@ REPORT_JSON = ROOT / "benchmarks" / "report" / "report.json"
 BENCH_JSON = RESULTS / "bench_1080p.json"
 MUTANTS_JSON = RESULTS / "mutants.json"
 FLOOR_BIAS_JSON = RESULTS / "floor_bias.json"
+STABILITY_JSON = RESULTS / "stability.json"
 GROUPS = ("diffuse", "empirical", "microfacet")
 
 
@@ -426,6 +427,35 @@ def floor_bias_table(doc: dict[str, Any]) -> str:
     return "\n".join(out)
 
 
+def stability_tables(doc: dict[str, Any]) -> str:
+    """docs/stability.md's results region from `clshade check stability --json` (stability.json)."""
+    raw = doc["raw_radiance"]
+    builds = ", ".join(f"{b}: {n:,}" for b, n in doc["distinct_inputs"].items())
+    out = [f"Device `{doc['device']}`; {doc['cases']:,} evaluations and shaded pixels over the builds "
+           f"({', '.join(doc['builds'])}); distinct inputs per build: {builds}.", "",
+           "| count (raw radiance, before the MAX_RADIANCE clamp) | value |", "|---|---|",
+           f"| NaN | {raw['nan']} |", f"| Inf | {raw['inf']} |", f"| negative | {raw['negative']} |",
+           f"| pixels reaching MAX_RADIANCE ({raw['max_radiance_clamp']:g}) | {raw['saturated_pixels']} |",
+           f"| largest finite raw radiance | {raw['max_radiance']:.3g} |",
+           f"| NaN/Inf in the shipped (clamped) build | {raw['clamped_build_nonfinite']} |",
+           f"| BRDF evaluations: NaN/Inf, negative | {doc['nonfinite']}, {doc['negative']} |", "",
+           "Largest deviation from the float64 reference, |f32 − f64| / max(|f64|, 0.001): BRDF evaluations "
+           "(all inputs; cosines ≥ 1e-4 and no floor active) and shaded pixels against the frame oracle:", "",
+           "| model | build | evaluations | distinct | max dev (all) | max dev (no floor) | shaded pixels | "
+           "max dev (shaded) |", "|---|---|---|---|---|---|---|---|"]
+    shaded = {(s["model"], s["fast_math"]): s for s in doc["shading"]}
+    for m in doc["models"]:
+        s = shaded.get((m["model"], m["fast_math"]), {})
+        out.append(f"| {m['model']} | {'fast' if m['fast_math'] else 'precise'} | {m['cases']:,} | "
+                   f"{m['distinct_inputs']:,} | {_e(m['max_deviation'])} | {_e(m.get('max_deviation_unclamped'))} | "
+                   f"{s.get('pixels', '–')} | {_e(s.get('max_deviation'))} |")
+    out += ["", "Continuity:", ""] + [f"- {c['model']}, {_cell(c['check'])}: largest relative step "
+                                       f"{c['max_relative_step']:.3g} ({_cell(c['where'])})" for c in doc["continuity"]]
+    out += ["", f"*From benchmarks/results/stability.json (measured {doc['created']} by "
+                f"`clshade check stability --json`, {doc['seconds']:.0f} s).*"]
+    return "\n".join(out)
+
+
 # ------------------------------------------------------------------ regions and files
 
 
@@ -458,6 +488,10 @@ def renderings() -> dict[Path, Callable[[str], str]]:
         for doc in (ROOT / "docs" / "stability.md", ROOT / "docs" / "models.md"):
             out[doc] = (lambda d: lambda text: replace_region(text, "floor-bias", floor_bias_table(load(FLOOR_BIAS_JSON)),
                                                               d))(doc)
+    if STABILITY_JSON.exists():   # a second region of docs/stability.md: compose with the floor table
+        stab = ROOT / "docs" / "stability.md"
+        first = out.get(stab, lambda text: text)
+        out[stab] = lambda text: replace_region(first(text), "stability", stability_tables(load(STABILITY_JSON)), stab)
     return out
 
 
