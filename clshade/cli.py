@@ -183,7 +183,7 @@ def _add_bench(sub: argparse._SubParsersAction) -> None:
 
 
 def _add_aa(sub: argparse._SubParsersAction) -> None:
-    from clshade.bench.aa import CHECK_SAMPLES, DEFAULT_MODELS, TEMPORAL_FRAMES, TRUTH_SAMPLES
+    from clshade.bench import CHECK_SAMPLES, DEFAULT_MODELS, TEMPORAL_FRAMES, TRUTH_SAMPLES
     p = sub.add_parser("aa", help="anti-aliasing ladder: supersampling and specular AA vs the float64 pixel integral",
                        description="Render SCENE at each anti-aliasing rung (1 sample, 2x2, 4x4, specular AA, "
                                    "specular AA + 2x2, MSAA-style 4x4 coverage), time it, and measure its error "

@@ -40,6 +40,7 @@ from pathlib import Path
 import numpy as np
 
 from clshade import __version__
+from clshade.bench import CHECK_SAMPLES, DEFAULT_MODELS, TEMPORAL_FRAMES, TRUTH_SAMPLES
 from clshade.bench.run import REL_ERROR_FLOOR, machine_info, mark_pareto
 from clshade.compare import layout, scene_display
 from clshade.device.resolve import CoverageBlend
@@ -67,13 +68,9 @@ class Rung:
 RUNGS = (Rung("1 sample", 1, False), Rung("2×2", 2, False), Rung("4×4", 4, False),
          Rung("specular AA", 1, True), Rung("specular AA + 2×2", 2, True),
          Rung("MSAA-style 4×4 coverage", 4, False, msaa=True))
-TRUTH_SAMPLES = 16          # ground truth: 16×16 ordered-grid samples per pixel, float64
-CHECK_SAMPLES = 24          # denser truth, to show the 16×16 one has converged
 HIGHLIGHT_RATIO = 2.0       # highlight pixel: true radiance ≥ 2 × the diffuse lobe's alone
-TEMPORAL_FRAMES = 16
 TEMPORAL_STEP = (0.3, 0.15)  # pixels per frame (x right, y down): 4.8 px in all
 WINDOW_MARGIN_PX = 3        # a sphere's cell reaches this far beyond its projected radius
-DEFAULT_MODELS = "ggx_correlated,blinn_phong_normalized"
 CROP_PX = 20                # crop sheet: crop size in pixels, zoomed ZOOM× nearest-neighbour
 ZOOM = 10
 
