@@ -19,9 +19,7 @@ threads: what a shared machine inflates least) and of wall time.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import importlib.util
-import math
 import statistics
 import subprocess
 import sys
@@ -54,12 +52,6 @@ def load_base(ref: str, folder: Path) -> dict[str, object]:
         spec.loader.exec_module(module)
         out[name] = module
     return out
-
-
-def orbit(camera, degrees: float):
-    a = math.radians(degrees)
-    rot = np.array([[math.cos(a), 0.0, math.sin(a)], [0.0, 1.0, 0.0], [-math.sin(a), 0.0, math.cos(a)]])
-    return dataclasses.replace(camera, position=camera.target + rot @ (np.asarray(camera.position) - camera.target))
 
 
 def timed(fn):
@@ -123,6 +115,7 @@ def measure(base_ref: str, rounds: int) -> dict:
     import clshade.render.image as image
     import clshade.render.meshes as meshes
     import clshade.render.raster as raster
+    from clshade.bench.frame import orbit
     from clshade.device.runtime import get_runtime
     from clshade.device.shade import Shader, scene_features
     from clshade.models import resolve

@@ -470,11 +470,14 @@ def renderings() -> dict[Path, Callable[[str], str]]:
     """Each published file → a function from its current text to its rendered text."""
     out: dict[Path, Callable[[str], str]] = {}
     readme = ROOT / "README.md"
-    out[readme] = lambda text: replace_region(text, "bench-table", readme_bench_table(load(BENCH_JSON)), readme)
     out[RESULTS / "bench_1080p.md"] = lambda text: render_bench(load(BENCH_JSON))
-    out[readme] = lambda text: replace_region(replace_region(text, "bench-table", readme_bench_table(load(BENCH_JSON)),
-                                                             readme), "bench-targets",
-                                              "\n".join(target_rows(load(BENCH_JSON))), readme)
+
+    def render_readme(text: str) -> str:
+        bench = load(BENCH_JSON)
+        text = replace_region(text, "bench-table", readme_bench_table(bench), readme)
+        return replace_region(text, "bench-targets", "\n".join(target_rows(bench)), readme)
+
+    out[readme] = render_readme
     if (RESULTS / "accuracy.json").exists():
         out[ROOT / "docs" / "accuracy.md"] = lambda text: render_accuracy(load(RESULTS / "accuracy.json"))
     for name, render in (("effects", render_effects), ("raster", render_raster)):

@@ -40,7 +40,7 @@ from pathlib import Path
 import numpy as np
 
 from clshade import __version__
-from clshade.bench import CHECK_SAMPLES, DEFAULT_MODELS, TEMPORAL_FRAMES, TRUTH_SAMPLES
+from clshade.bench import CHECK_SAMPLES, TEMPORAL_FRAMES, TRUTH_SAMPLES
 from clshade.bench.run import REL_ERROR_FLOOR, machine_info, mark_pareto
 from clshade.compare import layout, scene_display
 from clshade.device.resolve import CoverageBlend

@@ -24,7 +24,7 @@ from typing import Callable
 import numpy as np
 
 from clshade.device.shade import camera_args
-from clshade.models import NONE, Model
+from clshade.models import Model
 from clshade.render.gbuffer import GBuffer
 from clshade.render.scene import Camera, Scene
 from clshade.resources import constant
