@@ -252,6 +252,7 @@ def plot_aa(doc: dict, path: Path) -> None:
                     ax.scatter([r["mean_ms"]], [e], s=160, facecolors="none", edgecolors=sc.get_facecolor()[0])
         ax.set_xscale("log")
         ax.set_yscale("log")
+        ax.xaxis.set_minor_formatter(plt.NullFormatter())   # minor log labels overlap over one decade
         ax.set_xlabel("mean device frame time (ms)")
         ax.set_ylabel(f"mean relative error, {name}")
     axes[0].legend(fontsize=7)
