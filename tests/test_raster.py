@@ -200,6 +200,29 @@ def test_triangles_crossing_near_plane_are_clipped():
     assert_matches_ray_caster(frag, vertices, faces, view, proj)
 
 
+def test_clipped_barycentrics_interpolate_to_the_pixel_centre():
+    """Near-plane clipped faces: the barycentrics (w.r.t. the ORIGINAL face, through the
+    clipped triangles' folded coefficients) interpolate a camera-space point whose depth is
+    the reported one and which projects back to the pixel centre."""
+    view = np.eye(4)
+    proj = perspective(60.0, W / H)
+    vertices = np.array([
+        [-0.02, -0.02, 0.5], [0.5, -0.3, -2.0], [-0.3, 0.5, -2.0],     # one vertex behind: 2 triangles
+        [-0.3, 0.0, 0.5], [-0.2, -0.1, 0.4], [-1.5, 0.2, -3.0],        # two vertices behind: 1 triangle
+    ])
+    faces = np.array([[0, 1, 2], [3, 4, 5]])
+    frag = render(vertices, faces, view, proj, cull_backfaces=False)
+    cov = frag.coverage
+    b = frag.bary[cov].astype(np.float64)
+    np.testing.assert_allclose(b.sum(axis=1), 1.0, atol=1e-6)
+    p = np.einsum("nk,nkj->nj", b, vertices[faces[frag.tri_id[cov]]])
+    np.testing.assert_allclose(-p[:, 2], frag.depth[cov], rtol=1e-5)
+    clip = np.c_[p, np.ones(len(p))] @ proj.T
+    i, j = np.nonzero(cov)
+    np.testing.assert_allclose(clip[:, 0] / clip[:, 3], (j + 0.5) / W * 2 - 1, atol=1e-5)
+    np.testing.assert_allclose(clip[:, 1] / clip[:, 3], 1 - (i + 0.5) / H * 2, atol=1e-5)
+
+
 def test_floor_crossing_near_plane_is_watertight():
     """A tessellated floor crossing the near plane: no pixel covered twice, no hole."""
     view = np.eye(4)

@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from clshade.errors import ClshadeError
+from clshade.render.arrays import PIXEL_PAD
 
 ENV_DEVICE = "CLSHADE_DEVICE"
 INSTALL_HINT = ("install an OpenCL CPU runtime without root: "
@@ -127,9 +128,10 @@ def binary_cache_dir() -> Path | None:
     return Path(base) / "clshade" / "programs"
 
 
-# Lanes per work-item the kernels support (kernels/simd.h); buffers are padded to the largest.
+# Lanes per work-item the kernels support (kernels/simd.h); buffers are padded to the largest
+# (clshade.render.arrays.PIXEL_PAD, shared with the G-buffer's planes).
 SIMD_WIDTHS = ("1", "4", "8", "16")
-SIMD_PAD = 16
+SIMD_PAD = PIXEL_PAD
 ENV_SIMD = "CLSHADE_SIMD"
 # kernels/simd.h writes the hot builtins inline where PoCL's AVX-512 builtin library meets a
 # compiler target without AVX-512 (see there). A/B switches: CLSHADE_LIBRARY_MATH=1 never,
@@ -151,11 +153,6 @@ def host_has_avx512f() -> bool:
 
 def _flag(name: str) -> bool:
     return os.environ.get(name, "").strip() not in ("", "0")
-
-
-def padded(count: int) -> int:
-    """`count` rounded up to a multiple of SIMD_PAD (device buffers of per-pixel data)."""
-    return (count + SIMD_PAD - 1) // SIMD_PAD * SIMD_PAD
 
 
 class Runtime:

@@ -12,11 +12,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from clshade.render.gbuffer import CHANNELS, GBuffer
+from clshade.render.gbuffer import GBuffer
 from clshade.render.meshes import Geometry
 from clshade.models import Model
 from clshade.device.resolve import Resolver
-from clshade.device.runtime import Runtime, padded
+from clshade.device.runtime import Runtime
+from clshade.render.arrays import padded
 from clshade.render.scene import Camera, Light, Scene
 from clshade.render.shadows import ShadowMaps
 from clshade.device.variants import Features, Variant
@@ -141,15 +142,14 @@ class Shader:
             self.resolver = Resolver(runtime, gbuffer.width // n, gbuffer.height // n, n, self.out)
 
     def buffer(self, name: str, half: bool = False):
-        """The device copy of one G-buffer channel (uploaded once), zero-padded to a
-        multiple of the kernels' SIMD width (padding pixels have depth 0: empty).
-        Three-component channels go planar (x plane, y plane, z plane; gbuffer.h)."""
+        """The device copy of one G-buffer channel (uploaded once): its planes (x plane,
+        y plane, z plane for three components; gbuffer.h), zero-padded to a multiple of
+        the kernels' widest SIMD width (padding pixels have depth 0: empty)."""
         key = (name, half and name in ("normal", "base"))
         if key not in self._buffers:
-            comps = CHANNELS[name][1]
-            data = self.gb.channel(name, half=key[1]).reshape(self.gb.pixels, comps)
-            planes = np.zeros((comps, padded(self.gb.pixels)), data.dtype)
-            planes[:, :self.gb.pixels] = data.T
+            planes = self.gb.plane(name)
+            if key[1]:
+                planes = planes.astype(np.float16)
             self._buffers[key] = self.rt.to_device(planes.reshape(-1))
         return self._buffers[key]
 

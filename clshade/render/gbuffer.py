@@ -7,11 +7,12 @@ finite values, and a bad pixel cannot affect any other.
 """
 from __future__ import annotations
 
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from clshade.render.arrays import put_rows, take_rows
+from clshade.render.arrays import padded, run_chunked
 from clshade.render.meshes import Geometry
 from clshade.render.raster import Fragments
 from clshade.render.scene import Camera, Scene
@@ -39,19 +40,61 @@ CHANNELS: dict[str, tuple[type, int]] = {
 }
 
 
+class PlaneChannels(Mapping):
+    """Read-only name → (H·W·components,) interleaved channel view of planar channels
+    ((components, padded pixels) arrays), each made on first access and kept."""
+
+    def __init__(self, planes: dict[str, np.ndarray], pixels: int) -> None:
+        self._planes, self._pixels = planes, pixels
+        self._made: dict[str, np.ndarray] = {}
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        if name not in self._made:
+            plane = self._planes[name][:, :self._pixels]
+            self._made[name] = plane[0].copy() if len(plane) == 1 else np.ascontiguousarray(plane.T).reshape(-1)
+        return self._made[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._planes)
+
+    def __len__(self) -> int:
+        return len(self._planes)
+
+
 @dataclass
 class GBuffer:
     width: int
     height: int
-    channels: dict[str, np.ndarray]          # name → (H·W·components,) array
+    channels: Mapping[str, np.ndarray]       # name → (H·W·components,) interleaved array
     materials: np.ndarray                    # (M, 4, 4) float32 material table
     coverage: np.ndarray                     # (H, W) bool
     nonfinite_pixels: int = 0                # pixels whose inputs were not finite (replaced)
     stats: dict[str, float] = field(default_factory=dict)
+    # name → (components, padded pixels) planes, the device layout (gbuffer.h); made from
+    # `channels` on demand (not an init field: dataclasses.replace() never copies stale planes).
+    _planes: dict[str, np.ndarray] = field(default_factory=dict, init=False, repr=False, compare=False)
+
+    @classmethod
+    def from_planes(cls, width: int, height: int, planes: dict[str, np.ndarray], materials: np.ndarray,
+                    coverage: np.ndarray, nonfinite_pixels: int = 0) -> GBuffer:
+        """A G-buffer whose channels are given as planes (what build_gbuffer writes)."""
+        gbuffer = cls(width, height, PlaneChannels(planes, width * height), materials, coverage, nonfinite_pixels)
+        gbuffer._planes.update(planes)
+        return gbuffer
 
     @property
     def pixels(self) -> int:
         return self.width * self.height
+
+    def plane(self, name: str) -> np.ndarray:
+        """Channel `name` as (components, padded pixels) planes, zero padding (gbuffer.h)."""
+        if name not in self._planes:
+            comps = CHANNELS[name][1]
+            data = np.asarray(self.channels[name]).reshape(self.pixels, comps)
+            planes = np.zeros((comps, padded(self.pixels)), data.dtype)
+            planes[:, :self.pixels] = data.T
+            self._planes[name] = planes
+        return self._planes[name]
 
     def bytes_per_pixel(self, names: tuple[str, ...] | list[str], half: bool = False) -> int:
         """Bytes a pass reads per pixel for these channels (3-component channels as half when `half`)."""
@@ -163,13 +206,13 @@ def _apply_texture_set(t: TextureSet, uv: np.ndarray, dx: np.ndarray, dy: np.nda
 
 
 def _texture_pixels(geometry: Geometry, tri: np.ndarray, pixels: np.ndarray, bary: np.ndarray, camera: Camera,
-                    width: int, height: int, normal: np.ndarray, base: np.ndarray, rough: np.ndarray,
-                    metal: np.ndarray, emissive: np.ndarray | None, occlusion: np.ndarray | None) -> None:
-    """Overwrite the channels of textured pixels in place (emissive / occlusion when present)."""
+                    width: int, height: int, planes: dict[str, np.ndarray]) -> np.ndarray:
+    """Overwrite the channel planes of textured pixels in place (emissive / occlusion when
+    present); returns the positions in `pixels` that were textured."""
     tex = geometry.face_texture[tri]
     sel = np.flatnonzero(tex >= 0)
     if not len(sel):
-        return
+        return sel
     t_tri, t_bary = tri[sel], bary[sel].astype(np.float64)
     corners = geometry.faces[t_tri]
     uv = np.einsum("kc,kcd->kd", t_bary, geometry.uvs[corners].astype(np.float64))
@@ -179,87 +222,111 @@ def _texture_pixels(geometry: Geometry, tri: np.ndarray, pixels: np.ndarray, bar
         part = tex[sel] == index
         rows = pixels[sel][part]
         b, r, m, n, e, o = _apply_texture_set(geometry.texture_sets[index], uv[part], dx[part], dy[part],
-                                              normal[rows].astype(np.float64), tangent[part])
-        base[rows], rough[rows], metal[rows], normal[rows] = b, r, m, n
-        if emissive is not None:
-            emissive[rows] = e
-        if occlusion is not None:
-            occlusion[rows] = o
+                                              planes["normal"][:, rows].T.astype(np.float64), tangent[part])
+        planes["base"][:, rows], planes["normal"][:, rows] = b.T, n.T
+        planes["roughness"][0, rows], planes["metallic"][0, rows] = r, m
+        if "emissive" in planes:
+            planes["emissive"][:, rows] = e.T
+        if "occlusion" in planes:
+            planes["occlusion"][0, rows] = o
+    return sel
+
+
+def _face_planes(geometry: Geometry, mats: list) -> dict[str, np.ndarray]:
+    """Per-face lookup tables, one contiguous (F,) plane each: the corners' normal components
+    (``n{corner}{axis}``) and the face material's values. Gathering one plane by triangle id
+    is several times faster than gathering interleaved rows (F is small next to the pixels)."""
+    planes: dict[str, np.ndarray] = {}
+    corner_normals = geometry.normals[geometry.faces]                 # (F, 3 corners, 3 axes)
+    for c in range(3):
+        for d in range(3):
+            planes[f"n{c}{d}"] = np.ascontiguousarray(corner_normals[:, c, d])
+    mid = geometry.face_material
+    base_of = np.array([m.base_color for m in mats], np.float32).reshape(-1, 3)
+    for d in range(3):
+        planes[f"base{d}"] = np.ascontiguousarray(base_of[mid, d])
+    planes["roughness"] = np.array([m.roughness for m in mats], np.float32)[mid]
+    planes["metallic"] = np.array([m.metallic for m in mats], np.float32)[mid]
+    planes["material"] = mid.astype(np.uint8)
+    if geometry.has_emission:
+        emissive_of = np.array([m.emissive for m in mats], np.float32).reshape(-1, 3)
+        for d in range(3):
+            planes[f"emissive{d}"] = np.ascontiguousarray(emissive_of[mid, d])
+    return planes
 
 
 def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments, camera: Camera | None = None) -> GBuffer:
     """Interpolate normals and look up material values for every covered pixel; where a
     face has a texture set, sample its textures (trilinear, see textures.py). `camera`
-    (default: the scene's, at the fragments' size) gives the UV screen derivatives."""
+    (default: the scene's, at the fragments' size) gives the UV screen derivatives.
+    Channels are written as planes (the device layout); the untextured work runs in
+    chunks of covered pixels on the worker threads (clshade.render.arrays.run_chunked),
+    each chunk writing only its own pixels."""
     h, w = fragments.tri_id.shape
     n = h * w
-    cov = fragments.coverage.reshape(-1)
-    pix = np.flatnonzero(cov)                               # covered pixels (integer gathers/scatters)
-    tri = fragments.tri_id.reshape(-1)[pix]
-    bary = take_rows(fragments.bary.reshape(-1, 3), pix)
-
+    tri_id = fragments.tri_id.reshape(-1)
+    pix = np.flatnonzero(tri_id >= 0)                      # covered pixels (integer gathers/scatters)
     mats = list(scene.materials.values())
-    base_of = np.array([m.base_color for m in mats], np.float32).reshape(-1, 3)
-    rough_of = np.array([m.roughness for m in mats], np.float32)
-    metal_of = np.array([m.metallic for m in mats], np.float32)
 
-    depth = np.array(fragments.depth.reshape(-1), np.float32)   # 0 where empty (Fragments)
-    normal = np.zeros((n, 3), np.float32)
-    base = np.zeros((n, 3), np.float32)
-    rough = np.zeros(n, np.float32)
-    metal = np.zeros(n, np.float32)
-    matid = np.zeros(n, np.uint8)
-    emissive = np.zeros((n, 3), np.float32) if geometry.has_emission else None
-    occlusion = np.zeros(n, np.float32) if geometry.has_occlusion else None
-    if len(tri):
-        corners = take_rows(geometry.faces, tri)            # (K, 3) vertex ids
-        # ((0 + b0 n0) + b1 n1) + b2 n2 as sum() adds them, in place (fewer temporaries).
-        nrm = take_rows(geometry.normals, corners[:, 0])
-        nrm *= bary[:, 0, None]
-        nrm += 0.0                                          # 0 + x: -0.0 becomes +0.0, as in sum()
-        for c in (1, 2):
-            term = take_rows(geometry.normals, corners[:, c])
-            term *= bary[:, c, None]
-            nrm += term
-        len2 = np.einsum("kd,kd->k", nrm, nrm)
-        # 1/|n| where |n| > 0; 0 elsewhere, so a zero normal stays 0 and a NaN/Inf one
-        # becomes NaN (NaN·0, Inf·0), counted below as non-finite.
-        with np.errstate(invalid="ignore", over="ignore"):
-            inv = np.divide(1.0, np.sqrt(len2, where=len2 > 0, out=np.ones_like(len2)), where=len2 > 0,
-                            out=np.zeros_like(len2))
-            put_rows(normal, pix, nrm * inv[:, None])
-        mid = geometry.face_material[tri]
-        put_rows(base, pix, take_rows(base_of, mid))
-        rough[pix] = rough_of[mid]
-        metal[pix] = metal_of[mid]
-        matid[pix] = mid
-        if emissive is not None:
-            emissive[pix] = np.array([m.emissive for m in mats], np.float32).reshape(-1, 3)[mid]
-        if occlusion is not None:
-            occlusion[pix] = 1.0
+    names = [name for name in CHANNELS if (name != "emissive" or geometry.has_emission)
+             and (name != "occlusion" or geometry.has_occlusion)]
+    planes = {name: np.zeros((CHANNELS[name][1], padded(n)), CHANNELS[name][0]) for name in names}
+    planes["depth"][0, :n] = fragments.depth.reshape(-1)   # 0 where empty (Fragments)
+    depth = planes["depth"][0]
+    finite = np.ones(len(pix), bool)
+    if len(pix):
+        face = _face_planes(geometry, mats)
+        bary_planes = [fragments.bary_planes[c].reshape(-1) for c in range(3)]
+
+        def shade_inputs(part: slice) -> None:
+            p = pix[part]
+            tri = np.take(tri_id, p)
+            b = [np.take(plane, p) for plane in bary_planes]
+            nrm = []
+            for d in range(3):
+                # ((0 + b0 n0) + b1 n1) + b2 n2: 0 + x turns -0.0 into +0.0.
+                acc = np.take(face[f"n0{d}"], tri) * b[0]
+                acc += 0.0
+                acc += np.take(face[f"n1{d}"], tri) * b[1]
+                acc += np.take(face[f"n2{d}"], tri) * b[2]
+                nrm.append(acc)
+            len2 = nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]
+            # 1/|n| where |n| > 0; 0 elsewhere, so a zero normal stays 0 and a NaN/Inf one
+            # becomes NaN (NaN·0, Inf·0), counted below as non-finite.
+            with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+                inv = np.where(len2 > 0, 1.0 / np.sqrt(len2), np.float32(0.0)).astype(np.float32, copy=False)
+            ok = np.isfinite(np.take(depth, p))
+            for d in range(3):
+                nd = nrm[d] * inv
+                ok &= np.isfinite(nd)
+                planes["normal"][d][p] = nd
+                planes["base"][d][p] = np.take(face[f"base{d}"], tri)
+                if "emissive" in planes:
+                    planes["emissive"][d][p] = np.take(face[f"emissive{d}"], tri)
+            finite[part] = ok
+            for name in ("roughness", "metallic", "material"):
+                planes[name][0][p] = np.take(face[name], tri)
+            if "occlusion" in planes:
+                planes["occlusion"][0][p] = 1.0
+
+        run_chunked(len(pix), shade_inputs)
         if geometry.face_texture is not None:
             camera = (camera or scene.camera).with_size(w, h)
-            _texture_pixels(geometry, tri, pix, bary, camera, w, h, normal, base, rough, metal, emissive, occlusion)
+            tri = np.take(tri_id, pix)
+            bary = np.stack([np.take(plane, pix) for plane in bary_planes], axis=1)
+            textured = _texture_pixels(geometry, tri, pix, bary, camera, w, h, planes)
+            if len(textured):   # textures replaced normal and base there: check them again
+                rows = pix[textured]
+                finite[textured] = (np.isfinite(depth[rows]) & np.isfinite(planes["normal"][:, rows]).all(0)
+                                    & np.isfinite(planes["base"][:, rows]).all(0))
 
     # Replace non-finite inputs (from NaN vertices, bad normals in a mesh file):
     # the pixel shades as empty/neutral and is counted; no other pixel is touched.
-    finite = (np.isfinite(depth[pix]) & np.isfinite(take_rows(normal, pix)).all(1)
-              & np.isfinite(take_rows(base, pix)).all(1))
+    cov = tri_id >= 0
     bad = pix[~finite]
-    nonfinite = len(bad)
-    if nonfinite:
-        depth[bad] = 0.0
-        normal[bad] = 0.0
-        base[bad] = 0.0
-        if emissive is not None:
-            emissive[bad] = 0.0
-        cov = cov.copy()
+    if len(bad):
+        for name in ("depth", "normal", "base", "emissive"):
+            if name in planes:
+                planes[name][:, bad] = 0.0
         cov[bad] = False
-
-    channels = {"depth": depth, "normal": normal.reshape(-1), "base": base.reshape(-1),
-                "roughness": rough, "metallic": metal, "material": matid}
-    if emissive is not None:
-        channels["emissive"] = emissive.reshape(-1)
-    if occlusion is not None:
-        channels["occlusion"] = occlusion
-    return GBuffer(w, h, channels, material_table(scene), cov.reshape(h, w), nonfinite)
+    return GBuffer.from_planes(w, h, planes, material_table(scene), cov.reshape(h, w), len(bad))

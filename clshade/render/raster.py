@@ -39,6 +39,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from clshade.render.arrays import run_chunked, run_tasks, workers_for
+
 __all__ = ["Fragments", "rasterize"]
 
 # --------------------------------------------------------------------------
@@ -94,8 +96,6 @@ MAX_TILES: int = 1 << 18
 #: Winning fragments whose barycentrics are computed at a time (cache sized).
 WINNER_CHUNK: int = 1 << 16
 
-_BARY_RECORD = np.dtype((np.void, 12))  # one pixel's 3 float32 barycentrics
-_CLIP_RECORD = np.dtype((np.void, 72))  # one clipped triangle's 3x3 float64 barycentrics
 _EMPTY_KEY = np.iinfo(np.int64).max
 _KEY_BITS = 62  # packed keys stay below 2**62: non-negative, no overflow
 
@@ -109,13 +109,20 @@ class Fragments:
             triangle covers the pixel centre.
         depth: ``(H, W)`` float32 view-space depth ``-z_view`` (> 0) of the
             visible surface, 0 where empty.
-        bary: ``(H, W, 3)`` float32 perspective-correct barycentrics w.r.t.
-            the original face's 3 vertices (sum 1), 0 where empty.
+        bary_planes: ``(3, H, W)`` float32 perspective-correct barycentrics
+            w.r.t. the original face's 3 vertices (sum 1), 0 where empty; one
+            plane per vertex (struct of arrays: NumPy gathers and scatters of
+            one plane are several times faster than of interleaved triples).
     """
 
     tri_id: NDArray[np.int32]
     depth: NDArray[np.float32]
-    bary: NDArray[np.float32]
+    bary_planes: NDArray[np.float32]
+
+    @property
+    def bary(self) -> NDArray[np.float32]:
+        """``(H, W, 3)`` view of :attr:`bary_planes` (not contiguous)."""
+        return np.moveaxis(self.bary_planes, 0, -1)
 
     @property
     def coverage(self) -> NDArray[np.bool_]:
@@ -132,7 +139,7 @@ def _empty_fragments(height: int, width: int) -> Fragments:
     return Fragments(
         tri_id=np.full((height, width), -1, dtype=np.int32),
         depth=np.zeros((height, width), dtype=np.float32),
-        bary=np.zeros((height, width, 3), dtype=np.float32),
+        bary_planes=np.zeros((3, height, width), dtype=np.float32),
     )
 
 
@@ -221,8 +228,8 @@ def rasterize(
         for k in range(4):
             vfinite &= np.isfinite(clip_t[k])
         w_is_depth = bool(np.array_equal(proj_m[3], [0.0, 0.0, -1.0, 0.0]))
-        state = _Resolve(width, height, int(max_fragments), w_is_depth)
         n_batches = -(-n_faces // FACE_BATCH)
+        state = _Resolve(width, height, int(max_fragments), w_is_depth, several_batches=n_batches > 1)
         bounds = np.linspace(0, n_faces, n_batches + 1).round().astype(int)  # balanced batches
         for f0, f1 in zip(bounds[:-1].tolist(), bounds[1:].tolist()):
             _raster_batch(state, clip_t, vdepth, vfinite, tris, cull, f0, f1, out)
@@ -237,20 +244,30 @@ def rasterize(
 class _Resolve:
     """Depth-resolve state shared by all face batches."""
 
-    def __init__(self, width: int, height: int, max_fragments: int, w_is_depth: bool) -> None:
+    def __init__(self, width: int, height: int, max_fragments: int, w_is_depth: bool,
+                 several_batches: bool) -> None:
         self.width = width
         self.height = height
         self.w_is_depth = w_is_depth
         self.chunk_cells = min(max_fragments, GRID_CHUNK_CELLS)
         n_pix = width * height
-        # Quantised depth of the current winner of each pixel (across batches).
-        self.best_q = np.full(n_pix, _EMPTY_KEY, dtype=np.int64)
-        # Packed (depth, triangle) keys of the batch being rasterized; reset
-        # to empty (only where touched) after each batch.
-        self.keys = np.full(n_pix, _EMPTY_KEY, dtype=np.int64)
+        # Quantised depth of the current winner of each pixel (across batches;
+        # not needed when there is one batch).
+        self.best_q = np.full(n_pix, _EMPTY_KEY, dtype=np.int64) if several_batches else None
+        # Packed (depth, triangle) keys of the batch being rasterized, one
+        # array per worker thread (each resolves its share of the candidate
+        # grids with np.minimum.at; the arrays are merged by a minimum); reset
+        # to empty (only the touched rows) after each batch.
+        self.keys = [np.full(n_pix, _EMPTY_KEY, dtype=np.int64)]
         # Bits of a packed key holding the triangle index: near-plane
         # clipping at most doubles a batch's FACE_BATCH faces.
         self.tri_bits = max(1, (2 * FACE_BATCH - 1).bit_length())
+
+    def key_arrays(self, count: int) -> list[NDArray[np.int64]]:
+        """`count` key arrays (the first is the merge target), allocated on first use."""
+        while len(self.keys) < count:
+            self.keys.append(np.full(self.width * self.height, _EMPTY_KEY, dtype=np.int64))
+        return self.keys[:count]
 
 
 @dataclass
@@ -264,11 +281,9 @@ class _Tris:
     face: NDArray[np.int64]  # (T,) original face index
     face0: int  # first face of the batch
     face_depth: NDArray[np.float64]  # (3, n_batch) view depth of the batch's face vertices
-    persp_a: NDArray[np.float64]  # (3, T) E_i / w_i coefficients: perspective-correct
-    persp_b: NDArray[np.float64]  #   barycentric weights, affine in (X, Y), up to a
-    persp_c: NDArray[np.float64]  #   common factor (normalised per pixel)
-    clip_slot: NDArray[np.int64]  # (T,) row in ``clip_bary`` or -1 (unclipped)
-    clip_bary: NDArray[np.float64]  # (K, 3, 3) [k, vertex, j]: original barycentrics
+    persp_a: NDArray[np.float64]  # (3, T) perspective-correct barycentric weights of the
+    persp_b: NDArray[np.float64]  #   ORIGINAL face's vertices, affine in (X, Y) up to a
+    persp_c: NDArray[np.float64]  #   common factor (normalised per pixel): a X + (b Y + c)
     edge_a: NDArray[np.float64]  # (3, T) edge i: E_i = A X + (B Y + C), >= 0 inside
     edge_b: NDArray[np.float64]
     edge_c: NDArray[np.float64]
@@ -462,12 +477,6 @@ def _setup(
         face, slot, area2, za, zb, zc = face[keep], slot[keep], area2[keep], za[keep], zb[keep], zc[keep]
         w, sx, sy = (_cols(a, keep) for a in (w, sx, sy))
         c0, c1, r0, r1 = c0[keep], c1[keep], r0[keep], r1[keep]
-    # Compact the clipped-vertex table to the surviving clipped triangles.
-    clipped = slot >= 0
-    if clipped.any():
-        clip_bary = clip_bary[slot[clipped]]
-        slot[clipped] = np.arange(int(clipped.sum()))
-
     # Edge i is opposite vertex i, from vertex a = i+1 to b = i+2 (mod 3):
     # E_i = A X + (B Y + C), A = Ya - Yb, B = Xb - Xa, C = Xa Yb - Xb Ya.
     # The reversed edge (b, a) of a neighbour gives exactly -A, -B, -C, hence
@@ -485,9 +494,19 @@ def _setup(
     owns = (ea > 0.0) | ((ea == 0.0) & (eb > 0.0))
     thr = np.where(owns, 0.0, TIE_EPS)
 
+    # Perspective-correct weights: screen-space barycentrics (edge functions)
+    # divided by clip w, up to a common factor.  A clipped triangle's weights
+    # of its own vertices v map to the original face's vertices j through
+    # clip_bary[k, v, j]; that map is linear, so it is folded into the affine
+    # coefficients here, once per triangle instead of once per pixel.
+    persp = np.stack([ea / w, eb / w, ec / w])  # (coefficient, vertex, T)
+    clipped = np.flatnonzero(slot >= 0)
+    if len(clipped):
+        persp[:, :, clipped] = np.einsum("cvm,mvj->cjm", persp[:, :, clipped], clip_bary[slot[clipped]])
+
     return _Tris(
         face=face, face0=f0, face_depth=np.take(vdepth, fv),
-        persp_a=ea / w, persp_b=eb / w, persp_c=ec / w, clip_slot=slot, clip_bary=clip_bary,
+        persp_a=persp[0], persp_b=persp[1], persp_c=persp[2],
         edge_a=ea, edge_b=eb, edge_c=ec, edge_thr=thr, area2=np.abs(area2),
         z_a=za, z_b=zb, z_c=zc,
         col0=c0.astype(np.int64), col1=c1.astype(np.int64),
@@ -561,102 +580,132 @@ def _raster_batch(
     # across batches): tri_bits covers the largest possible batch.
     tri_bits = state.tri_bits
     z_scale = float((1 << (_KEY_BITS - tri_bits)) - 1) * 0.5
-    keys = state.keys
 
     # Triangle groups of at most ~MAX_TILES tiles bound the tile arrays'
     # memory even when many triangles are large.
     n_tiles = (((t.col1 - t.col0) >> _TILE_LOG2) + 1) * (((t.row1 - t.row0) >> _TILE_LOG2) + 1)
     cum = np.cumsum(n_tiles)
+    used = 1
     t0 = 0
     while t0 < len(cum):
         base = int(cum[t0 - 1]) if t0 else 0
         t1 = max(t0 + 1, int(np.searchsorted(cum, base + MAX_TILES, side="right")))
-        _raster_tiles(state, t, _make_tiles(t, t0, t1), tri_bits, z_scale)
+        used = max(used, _raster_tiles(state, t, _make_tiles(t, t0, t1), tri_bits, z_scale))
         t0 = t1
 
-    # Merge with previous batches: strictly nearer wins (ties: earlier batch).
     # Only the rows this batch can have touched are scanned.
     lo = int(t.row0.min()) * width
     hi = (int(t.row1.max()) + 1) * width
+    keys, *others = state.key_arrays(used)
+    for other in others:  # merge the workers' arrays: the smaller key wins, as in one array
+        np.minimum(keys[lo:hi], other[lo:hi], out=keys[lo:hi])
+        other[lo:hi] = _EMPTY_KEY
     hit = np.flatnonzero(keys[lo:hi] != _EMPTY_KEY)
     hit += lo
     if len(hit) == 0:
         return
     k = keys[hit]
     keys[hit] = _EMPTY_KEY
-    kq = k >> tri_bits
-    better = kq < state.best_q[hit]
-    if not better.all():
-        hit, k, kq = hit[better], k[better], kq[better]
-    state.best_q[hit] = kq
+    if state.best_q is not None:
+        # Merge with previous batches: strictly nearer wins (ties: earlier batch).
+        kq = k >> tri_bits
+        better = kq < state.best_q[hit]
+        if not better.all():
+            hit, k, kq = hit[better], k[better], kq[better]
+        state.best_q[hit] = kq
     tri = k & ((1 << tri_bits) - 1)
-    for s in range(0, len(hit), WINNER_CHUNK):  # small chunks stay in cache
-        _write_winners(t, out, hit[s: s + WINNER_CHUNK], tri[s: s + WINNER_CHUNK], width, state.w_is_depth)
+    run_chunked(len(hit), lambda part: _write_winners(t, out, hit[part], tri[part], width, state.w_is_depth),
+                max_chunk=WINNER_CHUNK)
 
 
 def _raster_tiles(
     state: _Resolve, t: _Tris, tiles: tuple[NDArray[np.int64], ...], tri_bits: int, z_scale: float
-) -> None:
-    """Test the pixel centres of ``tiles`` against their triangles; resolve into ``state.keys``."""
+) -> int:
+    """Test the pixel centres of ``tiles`` against their triangles; resolve into the key arrays.
+
+    The tiles are grouped by size class into chunks of candidate pixels; the
+    chunks are shared out to the worker threads (largest first, each to the
+    least loaded worker), each resolving into its own key array.  Returns how
+    many key arrays were written (the caller merges them).
+    """
     tile_tri, tx0, ty0, tbw, tbh = tiles
-    width, keys = state.width, state.keys
     n_cls = _TILE_LOG2 + 1
     cls = _CEIL_LOG2[tbh] * n_cls + _CEIL_LOG2[tbw]
     order = np.argsort(cls, kind="stable")
     counts = np.bincount(cls, minlength=n_cls * n_cls)
     starts = np.concatenate([[0], np.cumsum(counts)])
-    lo_z, hi_z = -1.0 - NDC_DEPTH_EPS, 1.0 + NDC_DEPTH_EPS
-
+    work: list[tuple[int, int, NDArray[np.int64]]] = []  # (log2 grid width, log2 grid height, tiles)
     for c in np.flatnonzero(counts):
         lsy, lsx = divmod(int(c), n_cls)
-        gx, gy = 1 << lsx, 1 << lsy
-        per_chunk = max(1, state.chunk_cells // (gx * gy))
+        per_chunk = max(1, state.chunk_cells >> (lsx + lsy))
         sel_all = order[starts[c]: starts[c + 1]]
-        cols = np.arange(gx)[:, None]
-        rows = np.arange(gy)[:, None]
-        for s in range(0, len(sel_all), per_chunk):
-            sel = sel_all[s: s + per_chunk]
-            n = len(sel)
-            ti = tile_tri[sel]
-            # Grids are laid out (row, column, tile): the innermost axis runs
-            # over the n tiles, so every broadcast loop is long and contiguous.
-            xabs = tx0[sel] + cols  # (gx, n) pixel column
-            yabs = ty0[sel] + rows  # (gy, n) pixel row
-            xc = xabs + 0.5
-            yc = yabs + 0.5
-            if gx > 1:  # columns beyond the box: NaN fails every edge test
-                xc[cols >= tbw[sel]] = np.nan
-            if gy > 1:
-                yc[rows >= tbh[sel]] = np.nan
-            inside = np.empty((gy, gx, n), dtype=bool)
-            tmp_e = np.empty((gy, gx, n), dtype=np.float64)
-            tmp_m = np.empty((gy, gx, n), dtype=bool)
-            for i in range(3):
-                ax = t.edge_a[i][ti] * xc  # (gx, n)
-                byc = t.edge_b[i][ti] * yc + t.edge_c[i][ti]  # (gy, n)
-                np.add(ax[None, :, :], byc[:, None, :], out=tmp_e)
-                thr = t.edge_thr[i][ti]
-                if i == 0:
-                    np.greater_equal(tmp_e, thr, out=inside)
-                else:
-                    np.greater_equal(tmp_e, thr, out=tmp_m)
-                    inside &= tmp_m
-            idx = np.flatnonzero(inside)
-            if len(idx) == 0:
-                continue
-            rc, tl = np.divmod(idx, n)  # rc = row * gx + column; tl = tile in chunk
-            ri = (rc >> lsx) * n + tl  # flat index into (gy, n)
-            ci = (rc & (gx - 1)) * n + tl  # flat index into (gx, n)
-            zx = t.z_a[ti] * xc
-            zy = t.z_b[ti] * yc + t.z_c[ti]
-            z = zx.ravel()[ci] + zy.ravel()[ri]
-            good = (z >= lo_z) & (z <= hi_z)  # between the near and far planes
-            if not good.all():
-                ri, ci, tl, z = ri[good], ci[good], tl[good], z[good]
-            pix = (yabs * width).ravel()[ri] + xabs.ravel()[ci]
-            np.clip(z, -1.0, 1.0, out=z)
-            q = ((z + 1.0) * z_scale).astype(np.int64)
-            np.minimum.at(keys, pix, (q << tri_bits) | ti[tl])
+        work += [(lsx, lsy, sel_all[s: s + per_chunk]) for s in range(0, len(sel_all), per_chunk)]
+    cells = [len(sel) << (lsx + lsy) for lsx, lsy, sel in work]
+    workers = min(workers_for(sum(cells)), len(work))
+    shares: list[list[int]] = [[] for _ in range(workers)]
+    load = [0] * workers
+    for i in sorted(range(len(work)), key=cells.__getitem__, reverse=True):
+        w = load.index(min(load))
+        shares[w].append(i)
+        load[w] += cells[i]
+    keys = state.key_arrays(workers)
+    run_tasks([lambda share=share, k=k: [_test_grid(state, t, tiles, *work[i], k, tri_bits, z_scale) for i in share]
+               for share, k in zip(shares, keys)], workers)
+    return workers
+
+
+def _test_grid(
+    state: _Resolve, t: _Tris, tiles: tuple[NDArray[np.int64], ...], lsx: int, lsy: int,
+    sel: NDArray[np.int64], keys: NDArray[np.int64], tri_bits: int, z_scale: float
+) -> None:
+    """Test tiles ``sel`` (all of one size class, grids of 2**lsx x 2**lsy) and resolve into `keys`."""
+    tile_tri, tx0, ty0, tbw, tbh = tiles
+    width = state.width
+    lo_z, hi_z = -1.0 - NDC_DEPTH_EPS, 1.0 + NDC_DEPTH_EPS
+    gx, gy = 1 << lsx, 1 << lsy
+    cols = np.arange(gx)[:, None]
+    rows = np.arange(gy)[:, None]
+    n = len(sel)
+    ti = tile_tri[sel]
+    # Grids are laid out (row, column, tile): the innermost axis runs
+    # over the n tiles, so every broadcast loop is long and contiguous.
+    xabs = tx0[sel] + cols  # (gx, n) pixel column
+    yabs = ty0[sel] + rows  # (gy, n) pixel row
+    xc = xabs + 0.5
+    yc = yabs + 0.5
+    if gx > 1:  # columns beyond the box: NaN fails every edge test
+        xc[cols >= tbw[sel]] = np.nan
+    if gy > 1:
+        yc[rows >= tbh[sel]] = np.nan
+    inside = np.empty((gy, gx, n), dtype=bool)
+    tmp_e = np.empty((gy, gx, n), dtype=np.float64)
+    tmp_m = np.empty((gy, gx, n), dtype=bool)
+    for i in range(3):
+        ax = t.edge_a[i][ti] * xc  # (gx, n)
+        byc = t.edge_b[i][ti] * yc + t.edge_c[i][ti]  # (gy, n)
+        np.add(ax[None, :, :], byc[:, None, :], out=tmp_e)
+        thr = t.edge_thr[i][ti]
+        if i == 0:
+            np.greater_equal(tmp_e, thr, out=inside)
+        else:
+            np.greater_equal(tmp_e, thr, out=tmp_m)
+            inside &= tmp_m
+    idx = np.flatnonzero(inside)
+    if len(idx) == 0:
+        return
+    rc, tl = np.divmod(idx, n)  # rc = row * gx + column; tl = tile in chunk
+    ri = (rc >> lsx) * n + tl  # flat index into (gy, n)
+    ci = (rc & (gx - 1)) * n + tl  # flat index into (gx, n)
+    zx = t.z_a[ti] * xc
+    zy = t.z_b[ti] * yc + t.z_c[ti]
+    z = zx.ravel()[ci] + zy.ravel()[ri]
+    good = (z >= lo_z) & (z <= hi_z)  # between the near and far planes
+    if not good.all():
+        ri, ci, tl, z = ri[good], ci[good], tl[good], z[good]
+    pix = (yabs * width).ravel()[ri] + xabs.ravel()[ci]
+    np.clip(z, -1.0, 1.0, out=z)
+    q = ((z + 1.0) * z_scale).astype(np.int64)
+    np.minimum.at(keys, pix, (q << tri_bits) | ti[tl])
 
 
 def _write_winners(
@@ -675,12 +724,10 @@ def _write_winners(
     py, px = np.divmod(pix, width)
     px = px + 0.5
     py = py + 0.5
-    # Screen-space barycentrics (edge functions) divided by clip w are the
-    # perspective-correct weights up to a common factor.
     b = np.empty((3, len(pix)))
-    for i in range(3):
-        e = t.persp_a[i][tri] * px + (t.persp_b[i][tri] * py + t.persp_c[i][tri])
-        np.maximum(e, 0.0, out=b[i])
+    for j in range(3):
+        e = np.take(t.persp_a[j], tri) * px + (np.take(t.persp_b[j], tri) * py + np.take(t.persp_c[j], tri))
+        np.maximum(e, 0.0, out=b[j])
     s = b[0] + b[1] + b[2]
     # s <= 0 or non-finite: only reachable by round-off/overflow on
     # near-degenerate slivers or absurd coordinates; fall back to the centroid.
@@ -691,19 +738,9 @@ def _write_winners(
     if w_is_depth:
         # w_clip = -z_view: the perspective-correct depth 1 / sum(lambda_i / w_i)
         # is sum(E_i) / sum(E_i / w_i), and sum(E_i) is twice the triangle area.
-        depth = t.area2[tri] / s
+        depth = np.take(t.area2, tri) / s
     b /= s
-    slot = t.clip_slot[tri]
-    clipped = np.flatnonzero(slot >= 0)
-    if len(clipped):  # map clipped-vertex weights to the original face
-        bc = b[:, clipped]
-        # Gather whole 3x3 records (a fancy index over (K, 3, 3) copies 9 values per call);
-        # cb[:, 3 v + j] = clip_bary[k, v, j].
-        table = np.ascontiguousarray(t.clip_bary).reshape(-1, 9).view(_CLIP_RECORD)[:, 0]
-        cb = table[slot[clipped]].view(np.float64).reshape(-1, 9)
-        for j in range(3):  # explicit sums: the same values as einsum("vn,nvj->jn"), several times faster
-            b[j, clipped] = bc[0] * cb[:, j] + bc[1] * cb[:, 3 + j] + bc[2] * cb[:, 6 + j]
-    face = t.face[tri]
+    face = np.take(t.face, tri)
     if not w_is_depth or bad.any():  # general projection: interpolate -z_view
         sel = slice(None) if not w_is_depth else np.flatnonzero(bad)
         local = face[sel] - t.face0
@@ -716,7 +753,5 @@ def _write_winners(
             depth = d
     out.tri_id.reshape(-1)[pix] = face
     out.depth.reshape(-1)[pix] = depth
-    # Scatter whole (3 x float32) records: much faster than a row scatter.
-    rec = np.empty((len(pix), 3), dtype=np.float32)
-    rec[:, 0], rec[:, 1], rec[:, 2] = b
-    out.bary.reshape(-1, 3).view(_BARY_RECORD)[pix, 0] = rec.view(_BARY_RECORD)[:, 0]
+    for j in range(3):
+        out.bary_planes[j].reshape(-1)[pix] = b[j]
