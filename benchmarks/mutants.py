@@ -160,8 +160,8 @@ CATALOGUE: list[Mutant] = [
       "#define LOAD_PLANE(i, p) VLOAD_HALF((i), (p)) * 0.999f", "half-float G-buffer: loads scaled"),
     M("tail_pad", "clshade/render/gbuffer.py", "planes[:, :self.pixels] = data.T", "planes[:, :self.pixels - 1] = data.T[:, :-1]",
       "channels to planes: drops the last pixel (tail)"),
-    M("gbuffer_tail", "clshade/render/gbuffer.py", 'planes["depth"][0, :n] = fragments.depth.reshape(-1)',
-      'planes["depth"][0, :n - 1] = fragments.depth.reshape(-1)[:-1]', "G-buffer planes: depth of the last pixel dropped"),
+    M("gbuffer_tail", "clshade/render/gbuffer.py", "            depth[p] = fragments.face_depth[part]\n",
+      "            depth[p[:-1]] = fragments.face_depth[part][:-1]\n", "G-buffer: depth of each chunk's last pixel dropped"),
     # ---- Python stages
     M("raster_top_left", "clshade/render/raster.py", "owns = (ea > 0.0) | ((ea == 0.0) & (eb > 0.0))",
       "owns = (ea >= 0.0)", "raster: top-left rule broken (ties owned twice)"),

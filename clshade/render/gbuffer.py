@@ -262,26 +262,24 @@ def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments, camera
     Channels are written as planes (the device layout); the untextured work runs in
     chunks of covered pixels on the worker threads (clshade.render.arrays.run_chunked),
     each chunk writing only its own pixels."""
-    h, w = fragments.tri_id.shape
+    h, w = fragments.shape
     n = h * w
-    tri_id = fragments.tri_id.reshape(-1)
-    pix = np.flatnonzero(tri_id >= 0)                      # covered pixels (integer gathers/scatters)
+    pix = fragments.pixels                                 # covered pixels (integer gathers/scatters)
     mats = list(scene.materials.values())
 
     names = [name for name in CHANNELS if (name != "emissive" or geometry.has_emission)
              and (name != "occlusion" or geometry.has_occlusion)]
     planes = {name: np.zeros((CHANNELS[name][1], padded(n)), CHANNELS[name][0]) for name in names}
-    planes["depth"][0, :n] = fragments.depth.reshape(-1)   # 0 where empty (Fragments)
-    depth = planes["depth"][0]
+    depth = planes["depth"][0]                             # 0 where empty
     finite = np.ones(len(pix), bool)
     if len(pix):
         face = _face_planes(geometry, mats)
-        bary_planes = [fragments.bary_planes[c].reshape(-1) for c in range(3)]
 
         def shade_inputs(part: slice) -> None:
             p = pix[part]
-            tri = np.take(tri_id, p)
-            b = [np.take(plane, p) for plane in bary_planes]
+            tri = fragments.face[part]
+            b = fragments.face_bary[:, part]
+            depth[p] = fragments.face_depth[part]
             nrm = []
             for d in range(3):
                 # ((0 + b0 n0) + b1 n1) + b2 n2: 0 + x turns -0.0 into +0.0.
@@ -295,7 +293,7 @@ def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments, camera
             # becomes NaN (NaN·0, Inf·0), counted below as non-finite.
             with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
                 inv = np.where(len2 > 0, 1.0 / np.sqrt(len2), np.float32(0.0)).astype(np.float32, copy=False)
-            ok = np.isfinite(np.take(depth, p))
+            ok = np.isfinite(fragments.face_depth[part])
             for d in range(3):
                 nd = nrm[d] * inv
                 ok &= np.isfinite(nd)
@@ -312,9 +310,7 @@ def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments, camera
         run_chunked(len(pix), shade_inputs)
         if geometry.face_texture is not None:
             camera = (camera or scene.camera).with_size(w, h)
-            tri = np.take(tri_id, pix)
-            bary = np.stack([np.take(plane, pix) for plane in bary_planes], axis=1)
-            textured = _texture_pixels(geometry, tri, pix, bary, camera, w, h, planes)
+            textured = _texture_pixels(geometry, fragments.face, pix, fragments.face_bary.T, camera, w, h, planes)
             if len(textured):   # textures replaced normal and base there: check them again
                 rows = pix[textured]
                 finite[textured] = (np.isfinite(depth[rows]) & np.isfinite(planes["normal"][:, rows]).all(0)
@@ -322,7 +318,8 @@ def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments, camera
 
     # Replace non-finite inputs (from NaN vertices, bad normals in a mesh file):
     # the pixel shades as empty/neutral and is counted; no other pixel is touched.
-    cov = tri_id >= 0
+    cov = np.zeros(n, bool)
+    cov[pix] = True
     bad = pix[~finite]
     if len(bad):
         for name in ("depth", "normal", "base", "emissive"):

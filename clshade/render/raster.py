@@ -35,6 +35,7 @@ Front faces are counter-clockwise in NDC.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -100,24 +101,53 @@ _EMPTY_KEY = np.iinfo(np.int64).max
 _KEY_BITS = 62  # packed keys stay below 2**62: non-negative, no overflow
 
 
-@dataclass(frozen=True)
 class Fragments:
-    """Per-pixel result of :func:`rasterize`.
+    """Per-pixel result of :func:`rasterize`, held as its list of covered pixels
+    (what the G-buffer works on) with full-frame arrays made from it on first use.
 
     Attributes:
-        tri_id: ``(H, W)`` int32, index of the visible input face, -1 where no
-            triangle covers the pixel centre.
-        depth: ``(H, W)`` float32 view-space depth ``-z_view`` (> 0) of the
-            visible surface, 0 where empty.
-        bary_planes: ``(3, H, W)`` float32 perspective-correct barycentrics
-            w.r.t. the original face's 3 vertices (sum 1), 0 where empty; one
-            plane per vertex (struct of arrays: NumPy gathers and scatters of
-            one plane are several times faster than of interleaved triples).
+        pixels: ``(K,)`` int64 flat indices (row-major) of the covered pixels, ascending.
+        face: ``(K,)`` int32 index of the visible input face of each.
+        face_depth: ``(K,)`` float32 view-space depth ``-z_view`` (> 0) of each.
+        face_bary: ``(3, K)`` float32 perspective-correct barycentrics w.r.t. the
+            original face's 3 vertices (sum 1), one row per vertex.
+        tri_id: ``(H, W)`` int32 face per pixel, -1 where no triangle covers the
+            pixel centre (made on first use, as are the two below).
+        depth: ``(H, W)`` float32 depth, 0 where empty.
+        bary_planes: ``(3, H, W)`` float32 barycentrics, 0 where empty.
     """
 
-    tri_id: NDArray[np.int32]
-    depth: NDArray[np.float32]
-    bary_planes: NDArray[np.float32]
+    def __init__(self, height: int, width: int, pixels: NDArray[np.int64], face: NDArray[np.int32],
+                 face_depth: NDArray[np.float32], face_bary: NDArray[np.float32]) -> None:
+        self.shape = (int(height), int(width))
+        self.pixels, self.face, self.face_depth, self.face_bary = pixels, face, face_depth, face_bary
+
+    @classmethod
+    def from_frame(cls, tri_id: NDArray[np.int32], depth: NDArray[np.float32],
+                   bary_planes: NDArray[np.float32]) -> Fragments:
+        """From full-frame arrays (tri_id -1 where empty)."""
+        pixels = np.flatnonzero(tri_id.reshape(-1) >= 0)
+        frags = cls(*tri_id.shape, pixels, np.take(tri_id, pixels), np.take(depth, pixels),
+                    np.stack([np.take(plane, pixels) for plane in bary_planes]))
+        frags.__dict__.update(tri_id=tri_id, depth=depth, bary_planes=bary_planes)
+        return frags
+
+    def _frame(self, fill: float, values: NDArray, dtype: type) -> NDArray:
+        out = np.full(self.shape[0] * self.shape[1], fill, dtype)
+        out[self.pixels] = values
+        return out.reshape(self.shape)
+
+    @cached_property
+    def tri_id(self) -> NDArray[np.int32]:
+        return self._frame(-1, self.face, np.int32)
+
+    @cached_property
+    def depth(self) -> NDArray[np.float32]:
+        return self._frame(0.0, self.face_depth, np.float32)
+
+    @cached_property
+    def bary_planes(self) -> NDArray[np.float32]:
+        return np.stack([self._frame(0.0, b, np.float32) for b in self.face_bary])
 
     @property
     def bary(self) -> NDArray[np.float32]:
@@ -129,18 +159,10 @@ class Fragments:
         """``(H, W)`` bool, True where a triangle covers the pixel."""
         return self.tri_id >= 0
 
-    @property
-    def shape(self) -> tuple[int, int]:
-        """``(H, W)``."""
-        return (int(self.tri_id.shape[0]), int(self.tri_id.shape[1]))
 
-
-def _empty_fragments(height: int, width: int) -> Fragments:
-    return Fragments(
-        tri_id=np.full((height, width), -1, dtype=np.int32),
-        depth=np.zeros((height, width), dtype=np.float32),
-        bary_planes=np.zeros((3, height, width), dtype=np.float32),
-    )
+def _no_fragments(height: int, width: int) -> Fragments:
+    return Fragments(height, width, np.zeros(0, np.int64), np.zeros(0, np.int32), np.zeros(0, np.float32),
+                     np.zeros((3, 0), np.float32))
 
 
 # --------------------------------------------------------------------------
@@ -212,9 +234,8 @@ def rasterize(
         if cull.shape != (n_faces,):
             raise ValueError(f"cull_backfaces array must have shape ({n_faces},), got {cull.shape}")
 
-    out = _empty_fragments(height, width)
     if n_faces == 0:
-        return out
+        return _no_fragments(height, width)
 
     with np.errstate(all="ignore"):  # non-finite input is dropped, never warned about
         mvp = proj_m @ view_m
@@ -231,9 +252,15 @@ def rasterize(
         n_batches = -(-n_faces // FACE_BATCH)
         state = _Resolve(width, height, int(max_fragments), w_is_depth, several_batches=n_batches > 1)
         bounds = np.linspace(0, n_faces, n_batches + 1).round().astype(int)  # balanced batches
+        if n_batches == 1:  # the batch's winners are the result
+            return _raster_batch(state, clip_t, vdepth, vfinite, tris, cull, 0, n_faces, None) \
+                or _no_fragments(height, width)
+        # Later batches overwrite nearer pixels: winners go to full-frame arrays.
+        frame = (np.full((height, width), -1, np.int32), np.zeros((height, width), np.float32),
+                 np.zeros((3, height, width), np.float32))
         for f0, f1 in zip(bounds[:-1].tolist(), bounds[1:].tolist()):
-            _raster_batch(state, clip_t, vdepth, vfinite, tris, cull, f0, f1, out)
-    return out
+            _raster_batch(state, clip_t, vdepth, vfinite, tris, cull, f0, f1, frame)
+    return Fragments.from_frame(*frame)
 
 
 # --------------------------------------------------------------------------
@@ -517,15 +544,17 @@ def _setup(
 def _make_tiles(t: _Tris, t0: int, t1: int) -> tuple[NDArray[np.int64], ...]:
     """Split the pixel boxes of triangles ``t0:t1`` into tiles of at most TILE x TILE.
 
-    Returns ``(tri, x0, y0, bw, bh)`` per tile.  Tiles of large triangles
-    lying entirely outside one of their edges are culled.
+    Returns ``(tri, x0, y0, bw, bh, interior)`` per tile.  Tiles of large
+    triangles lying entirely outside one of their edges are culled; full
+    TILE x TILE tiles whose every pixel centre is inside all three edges (by
+    more than the margin) are flagged ``interior``: they need no edge tests.
     """
     col0, row0 = t.col0[t0:t1], t.row0[t0:t1]
     bw = t.col1[t0:t1] - col0 + 1
     bh = t.row1[t0:t1] - row0 + 1
     big = (bw > TILE) | (bh > TILE)
     if not big.any():
-        return np.arange(t0, t1), col0, row0, bw, bh
+        return np.arange(t0, t1), col0, row0, bw, bh, np.zeros(t1 - t0, bool)
     small = np.flatnonzero(~big)
     bi = np.flatnonzero(big)
     ntx = (bw[bi] + TILE - 1) >> _TILE_LOG2
@@ -543,14 +572,18 @@ def _make_tiles(t: _Tris, t0: int, t1: int) -> tuple[NDArray[np.int64], ...]:
     xs = (bx0 + 0.5, bx0 + (bbw - 0.5))
     ys = (by0 + 0.5, by0 + (bbh - 0.5))
     keep = np.ones(len(ti), dtype=bool)
+    interior = (bbw == TILE) & (bbh == TILE)
     for i in range(3):
         a, b, c = t.edge_a[i][ti], t.edge_b[i][ti], t.edge_c[i][ti]
-        e_max = np.maximum(np.maximum(a * xs[0] + (b * ys[0] + c), a * xs[1] + (b * ys[0] + c)),
-                           np.maximum(a * xs[0] + (b * ys[1] + c), a * xs[1] + (b * ys[1] + c)))
-        keep &= e_max >= -TILE_CULL_MARGIN_PX * (np.abs(a) + np.abs(b))
+        corners = (a * xs[0] + (b * ys[0] + c), a * xs[1] + (b * ys[0] + c),
+                   a * xs[0] + (b * ys[1] + c), a * xs[1] + (b * ys[1] + c))
+        margin = TILE_CULL_MARGIN_PX * (np.abs(a) + np.abs(b))
+        # An affine function's extremes over the box are at its corners.
+        keep &= np.maximum(np.maximum(corners[0], corners[1]), np.maximum(corners[2], corners[3])) >= -margin
+        interior &= np.minimum(np.minimum(corners[0], corners[1]), np.minimum(corners[2], corners[3])) >= margin
     return (np.concatenate([small + t0, ti[keep]]), np.concatenate([col0[small], bx0[keep]]),
             np.concatenate([row0[small], by0[keep]]), np.concatenate([bw[small], bbw[keep]]),
-            np.concatenate([bh[small], bbh[keep]]))
+            np.concatenate([bh[small], bbh[keep]]), np.concatenate([np.zeros(len(small), bool), interior[keep]]))
 
 
 _CEIL_LOG2 = np.zeros(TILE + 1, dtype=np.int64)
@@ -568,13 +601,14 @@ def _raster_batch(
     cull: NDArray[np.bool_],
     f0: int,
     f1: int,
-    out: Fragments,
-) -> None:
-    """Rasterize faces ``f0:f1`` and merge their winners into ``out``."""
+    frame: tuple[NDArray[np.int32], NDArray[np.float32], NDArray[np.float32]] | None,
+) -> Fragments | None:
+    """Rasterize faces ``f0:f1``: their winners as Fragments (``frame`` None, the only
+    batch) or merged into the full-frame arrays ``frame`` = (tri_id, depth, bary planes)."""
     width = state.width
     t = _setup(clip_t, vfinite, vdepth, tris, cull, f0, f1, width, state.height)
     if t is None:
-        return
+        return None
     # Key = (quantised NDC depth << tri_bits) | triangle: min key = nearest.
     # The quantisation is the same for every batch (depths are compared
     # across batches): tri_bits covers the largest possible batch.
@@ -603,7 +637,7 @@ def _raster_batch(
     hit = np.flatnonzero(keys[lo:hi] != _EMPTY_KEY)
     hit += lo
     if len(hit) == 0:
-        return
+        return None
     k = keys[hit]
     keys[hit] = _EMPTY_KEY
     if state.best_q is not None:
@@ -614,8 +648,20 @@ def _raster_batch(
             hit, k, kq = hit[better], k[better], kq[better]
         state.best_q[hit] = kq
     tri = k & ((1 << tri_bits) - 1)
-    run_chunked(len(hit), lambda part: _write_winners(t, out, hit[part], tri[part], width, state.w_is_depth),
-                max_chunk=WINNER_CHUNK)
+    face = np.empty(len(hit), np.int32)
+    depth = np.empty(len(hit), np.float32)
+    bary = np.empty((3, len(hit)), np.float32)
+
+    def winners(part: slice) -> None:
+        face[part], depth[part], bary[:, part] = _winners(t, hit[part], tri[part], width, state.w_is_depth)
+        if frame is not None:
+            frame[0].reshape(-1)[hit[part]] = face[part]
+            frame[1].reshape(-1)[hit[part]] = depth[part]
+            for j in range(3):
+                frame[2][j].reshape(-1)[hit[part]] = bary[j, part]
+
+    run_chunked(len(hit), winners, max_chunk=WINNER_CHUNK)
+    return Fragments(state.height, width, hit, face, depth, bary) if frame is None else None
 
 
 def _raster_tiles(
@@ -628,19 +674,21 @@ def _raster_tiles(
     least loaded worker), each resolving into its own key array.  Returns how
     many key arrays were written (the caller merges them).
     """
-    tile_tri, tx0, ty0, tbw, tbh = tiles
+    tile_tri, tx0, ty0, tbw, tbh, interior = tiles
     n_cls = _TILE_LOG2 + 1
-    cls = _CEIL_LOG2[tbh] * n_cls + _CEIL_LOG2[tbw]
+    # Size classes (grid height, width); interior tiles (all TILE x TILE) get the class after them.
+    cls = np.where(interior, n_cls * n_cls, _CEIL_LOG2[tbh] * n_cls + _CEIL_LOG2[tbw])
     order = np.argsort(cls, kind="stable")
-    counts = np.bincount(cls, minlength=n_cls * n_cls)
+    counts = np.bincount(cls, minlength=n_cls * n_cls + 1)
     starts = np.concatenate([[0], np.cumsum(counts)])
-    work: list[tuple[int, int, NDArray[np.int64]]] = []  # (log2 grid width, log2 grid height, tiles)
+    work: list[tuple[int, int, NDArray[np.int64], bool]] = []  # (log2 grid width, height, tiles, interior)
     for c in np.flatnonzero(counts):
-        lsy, lsx = divmod(int(c), n_cls)
+        lsy, lsx = divmod(int(c), n_cls) if c < n_cls * n_cls else (_TILE_LOG2, _TILE_LOG2)
         per_chunk = max(1, state.chunk_cells >> (lsx + lsy))
         sel_all = order[starts[c]: starts[c + 1]]
-        work += [(lsx, lsy, sel_all[s: s + per_chunk]) for s in range(0, len(sel_all), per_chunk)]
-    cells = [len(sel) << (lsx + lsy) for lsx, lsy, sel in work]
+        work += [(lsx, lsy, sel_all[s: s + per_chunk], c == n_cls * n_cls)
+                 for s in range(0, len(sel_all), per_chunk)]
+    cells = [len(sel) << (lsx + lsy) for lsx, lsy, sel, _ in work]
     workers = min(workers_for(sum(cells)), len(work))
     shares: list[list[int]] = [[] for _ in range(workers)]
     load = [0] * workers
@@ -656,10 +704,11 @@ def _raster_tiles(
 
 def _test_grid(
     state: _Resolve, t: _Tris, tiles: tuple[NDArray[np.int64], ...], lsx: int, lsy: int,
-    sel: NDArray[np.int64], keys: NDArray[np.int64], tri_bits: int, z_scale: float
+    sel: NDArray[np.int64], interior: bool, keys: NDArray[np.int64], tri_bits: int, z_scale: float
 ) -> None:
-    """Test tiles ``sel`` (all of one size class, grids of 2**lsx x 2**lsy) and resolve into `keys`."""
-    tile_tri, tx0, ty0, tbw, tbh = tiles
+    """Test tiles ``sel`` (all of one size class, grids of 2**lsx x 2**lsy) and resolve into `keys`;
+    ``interior`` tiles (full grids inside their triangle) skip the edge tests."""
+    tile_tri, tx0, ty0, tbw, tbh, _ = tiles
     width = state.width
     lo_z, hi_z = -1.0 - NDC_DEPTH_EPS, 1.0 + NDC_DEPTH_EPS
     gx, gy = 1 << lsx, 1 << lsy
@@ -673,6 +722,17 @@ def _test_grid(
     yabs = ty0[sel] + rows  # (gy, n) pixel row
     xc = xabs + 0.5
     yc = yabs + 0.5
+    if interior:
+        z = (t.z_a[ti] * xc)[None, :, :] + (t.z_b[ti] * yc + t.z_c[ti])[:, None, :]  # (gy, gx, n)
+        pix = (yabs * width)[:, None, :] + xabs[None, :, :]
+        key_tri = np.broadcast_to(ti, z.shape)
+        good = (z >= lo_z) & (z <= hi_z)
+        if not good.all():
+            z, pix, key_tri = z[good], pix[good], key_tri[good]
+        np.clip(z, -1.0, 1.0, out=z)
+        q = ((z + 1.0) * z_scale).astype(np.int64)
+        np.minimum.at(keys, pix.ravel(), ((q << tri_bits) | key_tri).ravel())
+        return
     if gx > 1:  # columns beyond the box: NaN fails every edge test
         xc[cols >= tbw[sel]] = np.nan
     if gy > 1:
@@ -708,15 +768,14 @@ def _test_grid(
     np.minimum.at(keys, pix, (q << tri_bits) | ti[tl])
 
 
-def _write_winners(
+def _winners(
     t: _Tris,
-    out: Fragments,
     pix: NDArray[np.int64],
     tri: NDArray[np.int64],
     width: int,
     w_is_depth: bool,
-) -> None:
-    """Perspective-correct barycentrics and depth of the winning fragments.
+) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
+    """Face, depth and perspective-correct barycentrics ``(3, K)`` of the winning fragments.
 
     ``w_is_depth``: the projection's last row is ``(0, 0, -1, 0)`` (any
     perspective matrix), so clip ``w`` is the view depth.
@@ -751,7 +810,4 @@ def _write_winners(
             depth[sel] = d
         else:
             depth = d
-    out.tri_id.reshape(-1)[pix] = face
-    out.depth.reshape(-1)[pix] = depth
-    for j in range(3):
-        out.bary_planes[j].reshape(-1)[pix] = b[j]
+    return face, depth, b
