@@ -175,6 +175,8 @@ CATALOGUE: list[Mutant] = [
       "np.maximum(keys[lo:hi], other[lo:hi], out=keys[lo:hi])", "raster: worker key arrays merged by maximum (farthest wins)"),
     M("gbuffer_finite", "clshade/render/gbuffer.py", "            finite[part] = ok\n", "            finite[part] = True\n",
       "G-buffer: non-finite pixels not replaced"),
+    M("plane_align", "clshade/render/arrays.py", "PLANE_ALIGN: int = 128", "PLANE_ALIGN: int = 64",
+      "G-buffer planes not aligned for the device: copied at every launch instead of shared"),
     M("srgb_decode", "clshade/render/image.py", "((c + 0.055) / 1.055) ** 2.4", "((c + 0.055) / 1.055) ** 2.2",
       "texture sRGB decode: exponent 2.2"),
     M("uv_orientation", "clshade/render/textures.py", "y = (1.0 - uv[:, 1]) * h - 0.5", "y = uv[:, 1] * h - 0.5",

@@ -244,6 +244,25 @@ class Runtime:
         array = np.ascontiguousarray(array)
         return self.cl.Buffer(self.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=array)
 
+    def share(self, array: np.ndarray):
+        """A read-only device buffer of a contiguous array that the caller keeps unchanged
+        while the buffer lives. On a CPU device with the array aligned as the device needs
+        (CL_DEVICE_MEM_BASE_ADDR_ALIGN; clshade.render.arrays.aligned_zeros) the buffer is the
+        array itself (CL_MEM_USE_HOST_PTR: no copy; unaligned, PoCL would copy it at every
+        launch); otherwise it is a copy, as to_device."""
+        array = np.ascontiguousarray(array)
+        if "cpu" in self.info.kind and array.ctypes.data % self.base_align == 0:
+            mf = self.cl.mem_flags
+            return self.cl.Buffer(self.context, mf.READ_ONLY | mf.USE_HOST_PTR, hostbuf=array)
+        return self.to_device(array)
+
+    @property
+    def base_align(self) -> int:
+        """The device's buffer base alignment in bytes."""
+        if not hasattr(self, "_base_align"):
+            self._base_align = max(1, int(self.device.get_info(self.cl.device_info.MEM_BASE_ADDR_ALIGN)) // 8)
+        return self._base_align
+
     def empty(self, nbytes: int):
         return self.cl.Buffer(self.context, self.cl.mem_flags.READ_WRITE, size=max(int(nbytes), 1))
 

@@ -149,8 +149,9 @@ class Shader:
         if key not in self._buffers:
             planes = self.gb.plane(name)
             if key[1]:
-                planes = planes.astype(np.float16)
-            self._buffers[key] = self.rt.to_device(planes.reshape(-1))
+                self._buffers[key] = self.rt.to_device(planes.astype(np.float16).reshape(-1))
+            else:   # the G-buffer's own planes (aligned, never changed once built): shared, not copied
+                self._buffers[key] = self.rt.share(planes.reshape(-1))
         return self._buffers[key]
 
     def variant(self, model: Model, features: Features) -> Variant:

@@ -31,6 +31,19 @@ _pool: ThreadPoolExecutor | None = None
 _pool_lock = threading.Lock()
 
 
+#: Alignment of per-pixel planes in bytes: OpenCL CPU devices can use host memory in
+#: place when a buffer is aligned to CL_DEVICE_MEM_BASE_ADDR_ALIGN (1024 bits on PoCL).
+PLANE_ALIGN: int = 128
+
+
+def aligned_zeros(shape: tuple[int, ...], dtype: type, align: int = PLANE_ALIGN) -> np.ndarray:
+    """np.zeros(shape, dtype) whose data starts at a multiple of `align` bytes."""
+    nbytes = int(np.prod(shape)) * np.dtype(dtype).itemsize
+    raw = np.zeros(nbytes + align, np.uint8)
+    start = (-raw.ctypes.data) % align
+    return raw[start:start + nbytes].view(dtype).reshape(shape)
+
+
 def padded(count: int) -> int:
     """`count` rounded up to a multiple of PIXEL_PAD."""
     return (count + PIXEL_PAD - 1) // PIXEL_PAD * PIXEL_PAD

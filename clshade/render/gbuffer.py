@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from clshade.render.arrays import padded, run_chunked
+from clshade.render.arrays import aligned_zeros, padded, run_chunked
 from clshade.render.meshes import Geometry
 from clshade.render.raster import Fragments
 from clshade.render.scene import Camera, Scene
@@ -91,7 +91,7 @@ class GBuffer:
         if name not in self._planes:
             comps = CHANNELS[name][1]
             data = np.asarray(self.channels[name]).reshape(self.pixels, comps)
-            planes = np.zeros((comps, padded(self.pixels)), data.dtype)
+            planes = aligned_zeros((comps, padded(self.pixels)), data.dtype)
             planes[:, :self.pixels] = data.T
             self._planes[name] = planes
         return self._planes[name]
@@ -269,7 +269,7 @@ def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments, camera
 
     names = [name for name in CHANNELS if (name != "emissive" or geometry.has_emission)
              and (name != "occlusion" or geometry.has_occlusion)]
-    planes = {name: np.zeros((CHANNELS[name][1], padded(n)), CHANNELS[name][0]) for name in names}
+    planes = {name: aligned_zeros((CHANNELS[name][1], padded(n)), CHANNELS[name][0]) for name in names}
     depth = planes["depth"][0]                             # 0 where empty
     finite = np.ones(len(pix), bool)
     if len(pix):

@@ -1,4 +1,5 @@
-"""The per-pixel stages on worker threads give bit-identical results to one thread.
+"""The whole-frame path: the per-pixel stages on worker threads give bit-identical
+results to one thread, and the G-buffer's planes reach a CPU device without a copy.
 
 The rasterizer shares its candidate grids out to the workers, each resolving into its
 own key array (merged by a minimum), and writes the winners in chunks; the G-buffer
@@ -58,3 +59,27 @@ def test_chunks_cover_the_range_once():
         covered = np.concatenate([np.arange(n)[p] for p in pieces]) if pieces else np.zeros(0, int)
         np.testing.assert_array_equal(covered, np.arange(n))
         assert len(pieces) <= max(1, parts)
+
+
+def test_gbuffer_planes_are_shared_with_a_cpu_device(runtime):
+    """On a CPU device the shading kernel reads the G-buffer's own (aligned) planes: the device
+    buffer's host pointer is the plane's memory, and the render still equals a copied upload."""
+    from clshade.device.shade import Shader, scene_features
+    from clshade.models import resolve
+
+    if "cpu" not in runtime.info.kind:
+        pytest.skip(f"zero-copy sharing is for CPU devices; this one is {runtime.info.kind}")
+    scene = load_scene(SCENES / "robot.toml")
+    geometry = build_geometry(scene)
+    _, gbuffer = frame(scene, geometry, 64, 48)
+    shader = Shader(runtime, gbuffer, scene, scene.camera.with_size(64, 48))
+    buffer = shader.buffer("normal")
+    assert all(gbuffer.plane(name).ctypes.data % runtime.base_align == 0 for name in gbuffer.channels)
+    plane = gbuffer.plane("normal")
+    assert buffer.get_host_array(plane.size, plane.dtype).ctypes.data == plane.ctypes.data
+    model, features = resolve("ggx_correlated"), scene_features(scene, geometry=geometry)
+    shared = shader.render(model, features)
+    copied = Shader(runtime, gbuffer, scene, scene.camera.with_size(64, 48))
+    copied._buffers = {key: runtime.to_device(gbuffer.plane(key[0]).reshape(-1))
+                       for key in ((c, False) for c in gbuffer.channels)}
+    np.testing.assert_array_equal(shared, copied.render(model, features))
