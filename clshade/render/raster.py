@@ -34,6 +34,7 @@ Front faces are counter-clockwise in NDC.
 """
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -77,7 +78,7 @@ TILE_CULL_MARGIN_PX: float = 1e-6
 
 #: Largest bounding-box side processed as one dense grid; larger boxes are
 #: split into TILE x TILE tiles.  Must be a power of two.
-TILE: int = 64
+TILE: int = 32
 _TILE_LOG2: int = TILE.bit_length() - 1
 
 #: Maximum faces per batch: bounds the per-triangle working memory (a few
@@ -97,7 +98,14 @@ MAX_TILES: int = 1 << 18
 #: Winning fragments whose barycentrics are computed at a time (cache sized).
 WINNER_CHUNK: int = 1 << 16
 
+#: Key arrays of frames up to this many pixels are kept for the next call (they
+#: are left all-empty): the frames of a moving camera reuse them instead of
+#: allocating and filling 8 bytes a pixel per worker thread every frame.
+KEEP_KEYS_MAX_PIXELS: int = 1 << 22
+
 _EMPTY_KEY = np.iinfo(np.int64).max
+_spare_keys: list[NDArray[np.int64]] = []
+_spare_lock = threading.Lock()
 _KEY_BITS = 62  # packed keys stay below 2**62: non-negative, no overflow
 
 
@@ -253,14 +261,16 @@ def rasterize(
         state = _Resolve(width, height, int(max_fragments), w_is_depth, several_batches=n_batches > 1)
         bounds = np.linspace(0, n_faces, n_batches + 1).round().astype(int)  # balanced batches
         if n_batches == 1:  # the batch's winners are the result
-            return _raster_batch(state, clip_t, vdepth, vfinite, tris, cull, 0, n_faces, None) \
+            result = _raster_batch(state, clip_t, vdepth, vfinite, tris, cull, 0, n_faces, None) \
                 or _no_fragments(height, width)
-        # Later batches overwrite nearer pixels: winners go to full-frame arrays.
-        frame = (np.full((height, width), -1, np.int32), np.zeros((height, width), np.float32),
-                 np.zeros((3, height, width), np.float32))
-        for f0, f1 in zip(bounds[:-1].tolist(), bounds[1:].tolist()):
-            _raster_batch(state, clip_t, vdepth, vfinite, tris, cull, f0, f1, frame)
-    return Fragments.from_frame(*frame)
+        else:  # later batches overwrite nearer pixels: winners go to full-frame arrays
+            frame = (np.full((height, width), -1, np.int32), np.zeros((height, width), np.float32),
+                     np.zeros((3, height, width), np.float32))
+            for f0, f1 in zip(bounds[:-1].tolist(), bounds[1:].tolist()):
+                _raster_batch(state, clip_t, vdepth, vfinite, tris, cull, f0, f1, frame)
+            result = Fragments.from_frame(*frame)
+    state.release()  # not reached on an exception: arrays left mid-batch are dropped
+    return result
 
 
 # --------------------------------------------------------------------------
@@ -285,16 +295,28 @@ class _Resolve:
         # array per worker thread (each resolves its share of the candidate
         # grids with np.minimum.at; the arrays are merged by a minimum); reset
         # to empty (only the touched rows) after each batch.
-        self.keys = [np.full(n_pix, _EMPTY_KEY, dtype=np.int64)]
+        self.keys: list[NDArray[np.int64]] = []
+        self.key_arrays(1)
         # Bits of a packed key holding the triangle index: near-plane
         # clipping at most doubles a batch's FACE_BATCH faces.
         self.tri_bits = max(1, (2 * FACE_BATCH - 1).bit_length())
 
     def key_arrays(self, count: int) -> list[NDArray[np.int64]]:
-        """`count` key arrays (the first is the merge target), allocated on first use."""
+        """`count` key arrays (the first is the merge target): spare ones of an earlier call, else new."""
+        n_pix = self.width * self.height
         while len(self.keys) < count:
-            self.keys.append(np.full(self.width * self.height, _EMPTY_KEY, dtype=np.int64))
+            with _spare_lock:
+                spare = next((i for i, a in enumerate(_spare_keys) if a.size == n_pix), None)
+                keys = _spare_keys.pop(spare) if spare is not None else None
+            self.keys.append(keys if keys is not None else np.full(n_pix, _EMPTY_KEY, dtype=np.int64))
         return self.keys[:count]
+
+    def release(self) -> None:
+        """Keep the (all-empty again) key arrays for the next call when the frame is small enough."""
+        if self.width * self.height <= KEEP_KEYS_MAX_PIXELS:
+            with _spare_lock:
+                _spare_keys[:] = [a for a in _spare_keys if a.size == self.keys[0].size] + self.keys
+        self.keys = []
 
 
 @dataclass
