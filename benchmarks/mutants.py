@@ -181,6 +181,8 @@ CATALOGUE: list[Mutant] = [
       "raster: key array not reset after a batch (stale depths in the next call, which reuses it)"),
     M("worker_key_reset", "clshade/render/raster.py", "        other[lo:hi] = _EMPTY_KEY\n", "",
       "raster: a worker's key array not reset after the merge"),
+    M("label_slots", "clshade/report.py", "        for k in range(40):\n", "        for k in range(1):\n",
+      "plots: labels of clustered points never moved off each other"),
     M("srgb_decode", "clshade/render/image.py", "((c + 0.055) / 1.055) ** 2.4", "((c + 0.055) / 1.055) ** 2.2",
       "texture sRGB decode: exponent 2.2"),
     M("uv_orientation", "clshade/render/textures.py", "y = (1.0 - uv[:, 1]) * h - 0.5", "y = uv[:, 1] * h - 0.5",

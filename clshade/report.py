@@ -95,6 +95,34 @@ def plot_fps(rows: list[dict], path: Path, title: str) -> None:
     _finish(plt, fig, ax, path, title, legend_size=8)
 
 
+def _label_points(ax, points: list[tuple[float, float, str]], fontsize: float = 6) -> None:
+    """Annotate (x, y, label) points without overlapping labels: each label goes up-right of its
+    point unless its (measured) box overlaps one already placed, then to the first free slot
+    stacked below or above, with a leader line back to the point. Call after the axes' scales
+    and limits are set."""
+    from matplotlib.text import Text
+
+    fig = ax.figure
+    fig.canvas.draw()                                   # the final transforms (scales, limits)
+    renderer = fig.canvas.get_renderer()
+    placed = []
+    order = sorted(points, key=lambda p: -ax.transData.transform((p[0], p[1]))[1])
+    for x, y, label in order:
+        note = ax.annotate(label, (x, y), fontsize=fontsize, xytext=(3, 3), textcoords="offset points")
+        for k in range(40):
+            note.xyann = (3, 3.0 + (-1) ** k * ((k + 1) // 2) * (fontsize + 2))   # 3, -5, 11, -13, … points
+            note.update_positions(renderer)
+            box = Text.get_window_extent(note, renderer)                       # the text alone
+            if not any(box.overlaps(other) for other in placed):
+                break
+        if k:                                           # moved off its point: a leader line back to it
+            offset = note.xyann
+            note.remove()
+            ax.annotate(label, (x, y), fontsize=fontsize, xytext=offset, textcoords="offset points",
+                        arrowprops=dict(arrowstyle="-", lw=0.4, color="0.5", shrinkA=0, shrinkB=2))
+        placed.append(box)
+
+
 def plot_ladder(rows: list[dict], path: Path, title: str) -> None:
     """Time vs error (log error axis), Pareto front of each ladder marked with a ring."""
     plt = _pyplot()
@@ -104,10 +132,10 @@ def plot_ladder(rows: list[dict], path: Path, title: str) -> None:
         errs = [max(r["mean_rel_error"], 1e-9) for r in pts]
         sc = ax.scatter([r["mean_ms"] for r in pts], errs, label=group)
         for r, e in zip(pts, errs):
-            ax.annotate(r["label"], (r["mean_ms"], e), fontsize=6, xytext=(3, 3), textcoords="offset points")
             if r.get("pareto"):
                 ax.scatter([r["mean_ms"]], [e], s=160, facecolors="none", edgecolors=sc.get_facecolor()[0])
     ax.set_yscale("log")
+    _label_points(ax, [(r["mean_ms"], max(r["mean_rel_error"], 1e-9), r["label"]) for r in rows])
     ax.set_xlabel("mean frame time (ms)")
     ax.set_ylabel("mean relative error vs the ladder's exact model (float64)")
     _finish(plt, fig, ax, path, title, legend_size=7)
@@ -247,12 +275,12 @@ def plot_aa(doc: dict, path: Path) -> None:
             sc = ax.scatter([r["mean_ms"] for r in pts], errs, label=group)
             front = pareto([(r["mean_ms"], e) for r, e in zip(pts, errs)])
             for r, e, f in zip(pts, errs, front):
-                ax.annotate(r["label"], (r["mean_ms"], e), fontsize=6, xytext=(3, 3), textcoords="offset points")
                 if f:
                     ax.scatter([r["mean_ms"]], [e], s=160, facecolors="none", edgecolors=sc.get_facecolor()[0])
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.xaxis.set_minor_formatter(plt.NullFormatter())   # minor log labels overlap over one decade
+        _label_points(ax, [(r["mean_ms"], max(r[key], 1e-9), r["label"]) for r in rows if r[key] is not None])
         ax.set_xlabel("mean device frame time (ms)")
         ax.set_ylabel(f"mean relative error, {name}")
     axes[0].legend(fontsize=7)
