@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """Host-side stages of a frame, this checkout against a git ref (default `main`), A/B in one
-process: the ref's versions of clshade/render/{raster,gbuffer,meshes,image}.py are loaded
-beside the checkout's and timed in interleaved rounds on the same inputs; every pair's
+process: the ref's versions of clshade/render/{arrays,raster,gbuffer,meshes,image}.py are loaded
+beside the checkout's (importing each other) and timed in interleaved rounds on the same inputs; every pair's
 outputs are checked equal (bytes) before anything is timed.
 
 Usage::
@@ -33,17 +33,20 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
 from results_io import publish  # noqa: E402
 
-MODULES = ("raster", "gbuffer", "meshes", "image")
+MODULES = ("arrays", "raster", "gbuffer", "meshes", "image")   # in import order
 FRAME_TARGET_S = 0.100          # issue 15: whole robot frame at 1920×1080
 ORBIT_DEGREES = 2.0
 
 
 def load_base(ref: str, folder: Path) -> dict[str, object]:
-    """The ref's clshade/render/<name>.py as standalone modules (their imports resolve to this checkout)."""
+    """The ref's clshade/render/<name>.py as standalone modules importing each other (their other
+    imports resolve to this checkout)."""
     out = {}
     for name in MODULES:
         text = subprocess.run(["git", "show", f"{ref}:clshade/render/{name}.py"], cwd=ROOT, check=True,
                               capture_output=True, text=True).stdout
+        for other in out:
+            text = text.replace(f"from clshade.render.{other} import", f"from base_{other} import")
         path = folder / f"base_{name}.py"
         path.write_text(text, encoding="utf-8")
         spec = importlib.util.spec_from_file_location(f"base_{name}", path)
@@ -62,11 +65,12 @@ def timed(fn):
 
 def same(a, b) -> bool:
     if hasattr(a, "channels"):
-        return a.channels.keys() == b.channels.keys() and all(
+        return set(a.channels) == set(b.channels) and all(
             a.channels[k].tobytes() == b.channels[k].tobytes() for k in a.channels) and np.array_equal(
             a.coverage, b.coverage)
     if hasattr(a, "tri_id"):
-        return all(getattr(a, k).tobytes() == getattr(b, k).tobytes() for k in ("tri_id", "depth", "bary"))
+        return all(np.asarray(getattr(a, k)).tobytes() == np.asarray(getattr(b, k)).tobytes()
+                   for k in ("tri_id", "depth", "bary"))
     if hasattr(a, "faces"):
         return all(getattr(a, k).tobytes() == getattr(b, k).tobytes() for k in ("vertices", "normals", "faces"))
     return np.asarray(a).tobytes() == np.asarray(b).tobytes()
@@ -121,6 +125,8 @@ def measure(base_ref: str, rounds: int) -> dict:
     from clshade.models import resolve
     from clshade.render.scene import load_scene
 
+    from clshade.render.gbuffer import GBuffer
+
     new = {"raster": raster, "gbuffer": gbuffer, "meshes": meshes, "image": image}
     scene = load_scene(ROOT / "scenes" / "robot.toml")
     model = resolve(scene.model)
@@ -134,17 +140,18 @@ def measure(base_ref: str, rounds: int) -> dict:
             return m["raster"].rasterize(geometry.vertices, geometry.faces, cam.view_matrix(),
                                          cam.projection_matrix(), cam.width, cam.height, cull_backfaces=geometry.cull)
 
-        frags = {s: raster.rasterize(geometry.vertices, geometry.faces, c.view_matrix(), c.projection_matrix(),
-                                     c.width, c.height, cull_backfaces=geometry.cull) for s, c in cams.items()}
-        radiance = Shader(rt, gbuffer.build_gbuffer(scene, geometry, frags[(640, 640)], cams[(640, 640)]), scene,
-                          cams[(640, 640)]).render(model, scene_features(scene, geometry=geometry))
+        # Each side's G-buffer reads its own rasterizer's fragments (their layouts may differ).
+        frags = {label: {s: raster_of(m, c) for s, c in cams.items()} for label, m in (("base", old), ("new", new))}
+        radiance = Shader(rt, gbuffer.build_gbuffer(scene, geometry, frags["new"][(640, 640)], cams[(640, 640)]),
+                          scene, cams[(640, 640)]).render(model, scene_features(scene, geometry=geometry))
         pixels = image.to_display(radiance)
         png = Path(tmp) / "frame.png"
         items = {"geometry (robot)": lambda m: m["meshes"].build_geometry(scene)}
         for (w, h), cam in cams.items():
             items[f"rasterize {w}×{h}"] = lambda m, cam=cam: raster_of(m, cam)
-            items[f"g-buffer {w}×{h}"] = (lambda m, cam=cam, f=frags[(w, h)]:
-                                          m["gbuffer"].build_gbuffer(scene, geometry, f, cam))
+            items[f"g-buffer {w}×{h}"] = (lambda m, cam=cam, size=(w, h):
+                                          m["gbuffer"].build_gbuffer(scene, geometry,
+                                                                     frags["new" if m is new else "base"][size], cam))
         items["display transform 640×640"] = lambda m: m["image"].to_display(radiance)
         items["PNG encode 640×640"] = lambda m: (m["image"].write_encoded(png, pixels), png.stat().st_size)[1]
 
@@ -181,6 +188,8 @@ def measure(base_ref: str, rounds: int) -> dict:
                 f = raster_of(m, cam)
                 c1, w1 = time.process_time(), time.perf_counter()
                 gb = m["gbuffer"].build_gbuffer(scene, geometry, f, cam)
+                if not hasattr(gb, "plane"):    # a ref's G-buffer without planes: uploaded as the ref did
+                    gb = GBuffer(gb.width, gb.height, gb.channels, gb.materials, gb.coverage)
                 c2, w2 = time.process_time(), time.perf_counter()
                 shader = Shader(rt, gb, scene, cam)
                 dispatch = shader.prepare(model, features)

@@ -37,6 +37,7 @@ def test_threads_give_the_serial_result(monkeypatch, threads):
     monkeypatch.setattr(arrays, "PARALLEL_MIN_ITEMS", 1)
     monkeypatch.setattr(raster, "WINNER_CHUNK", 997)        # many winner chunks, odd-sized
     monkeypatch.setattr(raster, "GRID_CHUNK_CELLS", 4096)   # many candidate grids to share out
+    monkeypatch.setattr(raster, "SETUP_PARALLEL_MIN_FACES", 1)
     par_f, par_g = frame(scene, geometry, 200, 150)
     assert serial_f.coverage.sum() > 5000
     np.testing.assert_array_equal(par_f.tri_id, serial_f.tri_id)

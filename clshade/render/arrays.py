@@ -64,9 +64,10 @@ def worker_count() -> int:
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
 
 
-def workers_for(items: int) -> int:
-    """Worker threads worth using for `items` items of per-pixel work (1 below PARALLEL_MIN_ITEMS)."""
-    return worker_count() if items >= PARALLEL_MIN_ITEMS else 1
+def workers_for(items: int, min_items: int | None = None) -> int:
+    """Worker threads worth using for `items` items of work: 1 below `min_items` (default
+    PARALLEL_MIN_ITEMS, for per-pixel work)."""
+    return worker_count() if items >= (PARALLEL_MIN_ITEMS if min_items is None else min_items) else 1
 
 
 def _executor(workers: int) -> ThreadPoolExecutor:

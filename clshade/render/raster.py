@@ -35,13 +35,14 @@ Front faces are counter-clockwise in NDC.
 from __future__ import annotations
 
 import threading
+import dataclasses
 from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from clshade.render.arrays import run_chunked, run_tasks, workers_for
+from clshade.render.arrays import chunks, run_chunked, run_tasks, workers_for
 
 __all__ = ["Fragments", "rasterize"]
 
@@ -94,6 +95,10 @@ GRID_CHUNK_CELLS: int = 1 << 17
 
 #: Tiles generated at a time (bounds memory when many triangles are large).
 MAX_TILES: int = 1 << 18
+
+#: A batch's triangle setup is split over the worker threads from this many
+#: faces (its per-face work is ~100 times a per-pixel operation's).
+SETUP_PARALLEL_MIN_FACES: int = 4096
 
 #: Winning fragments whose barycentrics are computed at a time (cache sized).
 WINNER_CHUNK: int = 1 << 16
@@ -330,6 +335,7 @@ class _Tris:
     face: NDArray[np.int64]  # (T,) original face index
     face0: int  # first face of the batch
     face_depth: NDArray[np.float64]  # (3, n_batch) view depth of the batch's face vertices
+    n_unclipped: int  # the first n_unclipped triangles are whole faces, the rest near-plane clipped
     persp_a: NDArray[np.float64]  # (3, T) perspective-correct barycentric weights of the
     persp_b: NDArray[np.float64]  #   ORIGINAL face's vertices, affine in (X, Y) up to a
     persp_c: NDArray[np.float64]  #   common factor (normalised per pixel): a X + (b Y + c)
@@ -554,7 +560,7 @@ def _setup(
         persp[:, :, clipped] = np.einsum("cvm,mvj->cjm", persp[:, :, clipped], clip_bary[slot[clipped]])
 
     return _Tris(
-        face=face, face0=f0, face_depth=np.take(vdepth, fv),
+        face=face, face0=f0, face_depth=np.take(vdepth, fv), n_unclipped=int(np.count_nonzero(slot < 0)),
         persp_a=persp[0], persp_b=persp[1], persp_c=persp[2],
         edge_a=ea, edge_b=eb, edge_c=ec, edge_thr=thr, area2=np.abs(area2),
         z_a=za, z_b=zb, z_c=zc,
@@ -628,7 +634,7 @@ def _raster_batch(
     """Rasterize faces ``f0:f1``: their winners as Fragments (``frame`` None, the only
     batch) or merged into the full-frame arrays ``frame`` = (tri_id, depth, bary planes)."""
     width = state.width
-    t = _setup(clip_t, vfinite, vdepth, tris, cull, f0, f1, width, state.height)
+    t = _setup_parallel(clip_t, vfinite, vdepth, tris, cull, f0, f1, width, state.height)
     if t is None:
         return None
     # Key = (quantised NDC depth << tri_bits) | triangle: min key = nearest.
@@ -649,19 +655,9 @@ def _raster_batch(
         used = max(used, _raster_tiles(state, t, _make_tiles(t, t0, t1), tri_bits, z_scale))
         t0 = t1
 
-    # Only the rows this batch can have touched are scanned.
-    lo = int(t.row0.min()) * width
-    hi = (int(t.row1.max()) + 1) * width
-    keys, *others = state.key_arrays(used)
-    for other in others:  # merge the workers' arrays: the smaller key wins, as in one array
-        np.minimum(keys[lo:hi], other[lo:hi], out=keys[lo:hi])
-        other[lo:hi] = _EMPTY_KEY
-    hit = np.flatnonzero(keys[lo:hi] != _EMPTY_KEY)
-    hit += lo
+    hit, k = _resolved(state, used, int(t.row0.min()) * width, (int(t.row1.max()) + 1) * width)
     if len(hit) == 0:
         return None
-    k = keys[hit]
-    keys[hit] = _EMPTY_KEY
     if state.best_q is not None:
         # Merge with previous batches: strictly nearer wins (ties: earlier batch).
         kq = k >> tri_bits
@@ -669,13 +665,13 @@ def _raster_batch(
         if not better.all():
             hit, k, kq = hit[better], k[better], kq[better]
         state.best_q[hit] = kq
-    tri = k & ((1 << tri_bits) - 1)
+    tri_mask = (1 << tri_bits) - 1
     face = np.empty(len(hit), np.int32)
     depth = np.empty(len(hit), np.float32)
     bary = np.empty((3, len(hit)), np.float32)
 
     def winners(part: slice) -> None:
-        face[part], depth[part], bary[:, part] = _winners(t, hit[part], tri[part], width, state.w_is_depth)
+        face[part], depth[part], bary[:, part] = _winners(t, hit[part], k[part] & tri_mask, width, state.w_is_depth)
         if frame is not None:
             frame[0].reshape(-1)[hit[part]] = face[part]
             frame[1].reshape(-1)[hit[part]] = depth[part]
@@ -684,6 +680,73 @@ def _raster_batch(
 
     run_chunked(len(hit), winners, max_chunk=WINNER_CHUNK)
     return Fragments(state.height, width, hit, face, depth, bary) if frame is None else None
+
+
+def _resolved(state: _Resolve, used: int, lo: int, hi: int) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """The pixels in ``lo:hi`` that a batch covered (ascending) and their winning keys, the
+    `used` workers' key arrays merged (the smaller key wins, as in one array) and left empty
+    again. Runs in chunks of pixels on the worker threads: merge and count, then extract."""
+    keys, *others = state.key_arrays(used)
+    ranges = [slice(lo + p.start, lo + p.stop) for p in chunks(hi - lo, 2 * workers_for(hi - lo))]
+    masks: list[NDArray[np.bool_]] = [np.zeros(0, bool)] * len(ranges)
+
+    def merge(i: int) -> None:
+        r = ranges[i]
+        for other in others:
+            np.minimum(keys[r], other[r], out=keys[r])
+            other[r] = _EMPTY_KEY
+        masks[i] = keys[r] != _EMPTY_KEY
+
+    run_tasks([lambda i=i: merge(i) for i in range(len(ranges))])
+    counts = [int(np.count_nonzero(m)) for m in masks]
+    starts = np.concatenate([[0], np.cumsum(counts)]).tolist()
+    hit = np.empty(starts[-1], np.int64)
+    k = np.empty(starts[-1], np.int64)
+
+    def extract(i: int) -> None:
+        out = slice(starts[i], starts[i + 1])
+        hit[out] = np.flatnonzero(masks[i]) + ranges[i].start
+        k[out] = keys[hit[out]]
+        keys[hit[out]] = _EMPTY_KEY
+
+    run_tasks([lambda i=i: extract(i) for i in range(len(ranges))])
+    return hit, k
+
+
+def _setup_parallel(
+    clip_t: NDArray[np.float64],
+    vfinite: NDArray[np.bool_],
+    vdepth: NDArray[np.float64],
+    tris: NDArray[np.int64],
+    cull: NDArray[np.bool_],
+    f0: int,
+    f1: int,
+    width: int,
+    height: int,
+) -> _Tris | None:
+    """:func:`_setup` of faces ``f0:f1`` in parts on the worker threads, joined in the order one
+    call gives (whole faces by index, then the clipped triangles by face index), so that triangle
+    indices (the depth ties' order) do not depend on the number of threads."""
+    workers = workers_for(f1 - f0, SETUP_PARALLEL_MIN_FACES)
+    if workers == 1:
+        return _setup(clip_t, vfinite, vdepth, tris, cull, f0, f1, width, height)
+    parts: list[_Tris | None] = [None] * workers
+    spans = [slice(f0 + p.start, f0 + p.stop) for p in chunks(f1 - f0, workers)]
+
+    def setup(i: int) -> None:
+        parts[i] = _setup(clip_t, vfinite, vdepth, tris, cull, spans[i].start, spans[i].stop, width, height)
+
+    run_tasks([lambda i=i: setup(i) for i in range(len(spans))], workers)
+    done = [p for p in parts if p is not None]
+    if not done:
+        return None
+    offsets = np.cumsum([0] + [len(p.face) for p in done]).tolist()
+    order = np.concatenate([np.arange(o, o + p.n_unclipped) for o, p in zip(offsets, done)]
+                           + [np.arange(o + p.n_unclipped, o + len(p.face)) for o, p in zip(offsets, done)])
+    joined = {f.name: np.take(np.concatenate([getattr(p, f.name) for p in done], axis=-1), order, axis=-1)
+              for f in dataclasses.fields(_Tris) if f.name not in ("face0", "face_depth", "n_unclipped")}
+    return _Tris(face0=f0, face_depth=np.take(vdepth, np.ascontiguousarray(tris[f0:f1].T)),
+                 n_unclipped=sum(p.n_unclipped for p in done), **joined)
 
 
 def _raster_tiles(
