@@ -2,7 +2,7 @@
 moving between frames (nothing of the previous frame's raster or G-buffer is
 reused).
 
-Per frame: rasterize (clshade.render.raster) → G-buffer (clshade.render.gbuffer)
+Per frame (the host stages on clshade.render.arrays.worker_count() threads): rasterize (clshade.render.raster) → G-buffer (clshade.render.gbuffer)
 → upload the channels the variant reads → shade (one dispatch) → read back the
 image. Geometry, shadow maps (they depend on the lights, not the camera) and
 the kernel build are made once before the timed frames, as an interactive
@@ -21,6 +21,7 @@ import numpy as np
 from clshade.device.runtime import Runtime
 from clshade.device.shade import Shader, scene_features
 from clshade.models import Model
+from clshade.render.arrays import worker_count
 from clshade.render.gbuffer import build_gbuffer
 from clshade.render.meshes import build_geometry
 from clshade.render.raster import rasterize
@@ -71,4 +72,4 @@ def whole_frames(scene: Scene, model: Model, runtime: Runtime, width: int, heigh
     med = {s: float(np.median([f[s] for f in per_frame])) for s in (*STAGES, "frame")}
     return dict(scene=str(scene.path) if scene.path else None, model=model.id, width=width, height=height,
                 frames=frames, step_degrees=step_degrees, triangles=int(len(geometry.faces)),
-                median_s=med, frames_s=per_frame)
+                host_threads=worker_count(), median_s=med, frames_s=per_frame)
