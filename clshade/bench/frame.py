@@ -1,9 +1,10 @@
 """Whole frames: what a user waits for per frame, stage by stage, with the camera
 moving between frames (nothing of the previous frame's raster or G-buffer is
-reused).
+reused; the rasterizer keeps its empty scratch arrays between calls, as in any
+program that renders more than once).
 
-Per frame (the host stages on clshade.render.arrays.worker_count() threads): rasterize (clshade.render.raster) → G-buffer (clshade.render.gbuffer)
-→ upload the channels the variant reads → shade (one dispatch) → read back the
+Per frame, the host stages on clshade.render.arrays.worker_count() threads:
+rasterize (clshade.render.raster) → G-buffer (clshade.render.gbuffer) → upload the channels the variant reads → shade (one dispatch) → read back the
 image. Geometry, shadow maps (they depend on the lights, not the camera) and
 the kernel build are made once before the timed frames, as an interactive
 viewer would. The camera orbits the target about the vertical axis by
