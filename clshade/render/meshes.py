@@ -2,6 +2,9 @@
 per-face material ids, ready for the rasterizer."""
 from __future__ import annotations
 
+import hashlib
+import os
+import tempfile
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -110,12 +113,135 @@ def _primitive(obj: SceneObject):
 
 @lru_cache(maxsize=256)
 def _tessellated(key: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    kind, params, smooth, crease_angle = key
-    arrays = _tessellate(SceneObject(name="", material="", primitive=kind, params=dict(params), smooth=smooth,
-                                     crease_angle=crease_angle))
+    """The tessellation of `key` (see _primitive): from this process's memory, else from the
+    tessellation cache on disk, else built (and stored there)."""
+    path = _cache_path(key)
+    arrays = _load_tessellation(path) if path is not None else None
+    if arrays is None:
+        kind, params, smooth, crease_angle = key
+        arrays = _tessellate(SceneObject(name="", material="", primitive=kind, params=dict(params), smooth=smooth,
+                                         crease_angle=crease_angle))
+        if path is not None:
+            _store_tessellation(path, arrays)
     for a in arrays:
         a.flags.writeable = False
     return arrays
+
+
+# ---------------------------------------------------------------- tessellation cache on disk
+#
+# Tessellating a scene's primitives (and splitting their normals at the crease angle) is
+# ~10 ms of a warm 640×640 `clshade render scenes/robot.toml`; reading the stored arrays
+# back is ~1 ms. One file per (primitive, parameters, smooth, crease_angle), named by a
+# SHA-256 over that key, the source of the code that builds it (primitives.py, this file)
+# and NumPy's version, so that a change to any of them misses instead of reusing a stale
+# entry. Written atomically (a temporary file, then a rename): concurrent runs see a whole
+# entry or none. Entries that do not read back as a valid tessellation are rebuilt.
+
+ENV_NO_TESSELLATION_CACHE = "CLSHADE_NO_TESSELLATION_CACHE"
+#: Entries kept (the least recently used beyond this are deleted when one is stored): a
+#: sphere of 4 subdivisions is ~250 kB, so the folder stays within some tens of MB.
+TESSELLATION_CACHE_ENTRIES = 256
+_SUFFIX = ".tess"
+#: An entry: this 16-byte magic, the vertex and face counts (uint64), then the raw arrays
+#: vertices (V, 3) float64, faces (F, 3) int64, normals (V, 3) float64, all little-endian
+#: (every array starts 8-byte aligned).
+_MAGIC = b"clshade tess v1\n"
+_F8, _I8, _U8 = np.dtype("<f8"), np.dtype("<i8"), np.dtype("<u8")
+
+
+def tessellation_cache_dir() -> Path | None:
+    """$XDG_CACHE_HOME/clshade/tessellations (~/.cache/clshade/tessellations); None when
+    CLSHADE_NO_TESSELLATION_CACHE=1."""
+    if os.environ.get(ENV_NO_TESSELLATION_CACHE, "").strip() not in ("", "0"):
+        return None
+    base = os.environ.get("XDG_CACHE_HOME", "").strip() or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "clshade" / "tessellations"
+
+
+@lru_cache(maxsize=1)
+def _code_fingerprint() -> str | None:
+    """SHA-256 of the tessellating code (primitives.py, this file) and NumPy's version;
+    None (no caching) when the source cannot be read."""
+    digest = hashlib.sha256(np.__version__.encode())
+    try:
+        for source in (primitives.__file__, __file__):
+            digest.update(Path(source).read_bytes())
+    except OSError:
+        return None
+    return digest.hexdigest()
+
+
+def _cache_path(key: tuple) -> Path | None:
+    folder = tessellation_cache_dir()
+    code = _code_fingerprint()
+    if folder is None or code is None:
+        return None
+    return folder / (hashlib.sha256(f"{key!r}\0{code}".encode()).hexdigest() + _SUFFIX)
+
+
+def _load_tessellation(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """(vertices, faces, normals) from a cache entry, or None when it is missing or is not a
+    valid tessellation (other magic, truncated, face indices out of range)."""
+    try:
+        data = path.read_bytes()
+        os.utime(path)                      # recently used: pruned last
+    except OSError:
+        return None
+    header = len(_MAGIC) + 16
+    if len(data) < header or not data.startswith(_MAGIC):
+        return None
+    nv, nf = (int(x) for x in np.frombuffer(data, _U8, 2, len(_MAGIC)))
+    if len(data) != header + 8 * (6 * nv + 3 * nf):
+        return None
+    v = np.frombuffer(data, _F8, 3 * nv, header).reshape(nv, 3)
+    faces = np.frombuffer(data, _I8, 3 * nf, header + 24 * nv).reshape(nf, 3)
+    n = np.frombuffer(data, _F8, 3 * nv, header + 24 * (nv + nf)).reshape(nv, 3)
+    if nf and (faces.min() < 0 or faces.max() >= nv):
+        return None
+    return v, faces, n
+
+
+def _store_tessellation(path: Path, arrays: tuple[np.ndarray, np.ndarray, np.ndarray]) -> None:
+    """Write an entry atomically, then prune the folder to TESSELLATION_CACHE_ENTRIES; a
+    failure to write leaves the cache as it was (the render goes on without it)."""
+    tmp = None
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=".", suffix=_SUFFIX, dir=path.parent)
+        v, faces, n = arrays
+        with os.fdopen(fd, "wb") as f:
+            f.write(_MAGIC + np.array([len(v), len(faces)], _U8).tobytes())
+            for a, dtype in ((v, _F8), (faces, _I8), (n, _F8)):
+                f.write(np.ascontiguousarray(a, dtype).tobytes())
+        os.replace(tmp, path)
+        tmp = None
+        _prune(path.parent)
+    except OSError:
+        pass
+    finally:
+        if tmp is not None:
+            try:
+                os.unlink(tmp)
+            except OSError:
+                pass
+
+
+def _prune(folder: Path, keep: int | None = None) -> None:
+    """Delete the least recently used entries beyond `keep` (TESSELLATION_CACHE_ENTRIES)."""
+    keep = TESSELLATION_CACHE_ENTRIES if keep is None else keep
+    entries = []
+    for entry in os.scandir(folder):
+        if entry.name.endswith(_SUFFIX) and not entry.name.startswith("."):
+            try:
+                entries.append((entry.stat().st_mtime_ns, entry.path))
+            except OSError:
+                pass
+    for _, stale in sorted(entries)[:max(0, len(entries) - keep)]:
+        try:
+            os.unlink(stale)
+        except OSError:
+            pass
 
 
 def _tessellate(obj: SceneObject):
