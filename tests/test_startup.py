@@ -16,8 +16,10 @@ PROBE = """
 import gc, json, sys
 import clshade.cli as cli
 seen = {}
+kept = []
 def probe(args):
     seen.update(enabled=gc.isenabled(), frozen=gc.get_freeze_count(), young=len(gc.get_objects()))
+    kept.extend([] for _ in range(5000))     # objects the command allocates and keeps
     print("command output")
     return 3
 cli.cmd_devices = probe

@@ -125,6 +125,9 @@ def test_prune_keeps_the_most_recently_used(cache, monkeypatch):
         os.utime(path, ns=(i * 10**9, i * 10**9))                # a clear order of use
         paths.append(path)
     assert sorted(cache.glob("*.tess")) == sorted(paths[-3:])
+    _fresh(objs[2])                          # the oldest left is read: now the most recently used
+    _fresh(_obj("box", size=(2.0, 1.0, 1.0)))
+    assert paths[2].exists() and not paths[3].exists()
 
 
 def test_unwritable_cache_still_renders(tmp_path, monkeypatch):
