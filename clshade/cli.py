@@ -576,13 +576,36 @@ def run() -> int:
     - `gc.freeze()` once more when the command returns: interpreter shutdown then does not
       traverse every object in its final full collections (~35 ms). Shutdown is otherwise
       complete: atexit handlers run, streams are flushed, objects are released by reference
-      count; only objects in reference cycles are left to the operating system."""
+      count; only objects in reference cycles are left to the operating system.
+
+    And the allocator tuned (tune_allocator), NumPy's BLAS single-threaded
+    (load_numpy_single_threaded_blas)."""
     gc.disable()
     tune_allocator()
+    load_numpy_single_threaded_blas()
     try:
         return main(after_parse=_resume_gc)
     finally:
         gc.freeze()
+
+
+BLAS_THREADS = "OPENBLAS_NUM_THREADS"
+
+
+def load_numpy_single_threaded_blas() -> None:
+    """Import NumPy with its OpenBLAS limited to one thread, unless the user set
+    OPENBLAS_NUM_THREADS. OpenBLAS otherwise starts a worker thread per core that busy-waits
+    after start-up and after each call (~7 % of a warm `render`'s CPU samples, on the core
+    PoCL's threads need); clshade's BLAS calls are 3×3 transforms of vertex arrays. OpenBLAS
+    reads the variable once, when it loads: it is removed again, so child processes see the
+    environment the user gave."""
+    if "numpy" in sys.modules or BLAS_THREADS in os.environ:
+        return
+    os.environ[BLAS_THREADS] = "1"
+    try:
+        import numpy  # noqa: F401
+    finally:
+        del os.environ[BLAS_THREADS]
 
 
 #: glibc's mallopt(3) parameters (malloc.h).

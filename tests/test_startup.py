@@ -87,3 +87,34 @@ def test_tune_allocator_on_this_libc():
     code = "import clshade.cli as c; print(c.tune_allocator())"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert out.stdout.strip() == "True", out.stderr
+
+
+THREADS = """
+import json, os, sys
+import clshade.cli as cli
+seen = {}
+def probe(args):
+    seen.update(threads=len(os.listdir("/proc/self/task")), env=os.environ.get("OPENBLAS_NUM_THREADS"))
+    return 0
+cli.cmd_devices = probe
+sys.argv = ["clshade", "devices"]
+cli.run()
+print(json.dumps(seen))
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="counts threads in /proc/self/task")
+@pytest.mark.parametrize("user_setting", [None, "2"])
+def test_numpy_blas_is_single_threaded_unless_the_user_says(user_setting, monkeypatch):
+    """With NumPy loaded by run() the process has one thread when the command starts (no
+    OpenBLAS workers) and OPENBLAS_NUM_THREADS is not left in the environment; a value the
+    user set is kept and honoured."""
+    import os
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    if user_setting:
+        env["OPENBLAS_NUM_THREADS"] = user_setting
+    proc = subprocess.run([sys.executable, "-c", THREADS], capture_output=True, text=True, timeout=120, env=env)
+    assert proc.returncode == 0, proc.stderr
+    seen = json.loads(proc.stdout.splitlines()[-1])
+    assert seen["env"] == user_setting
+    assert seen["threads"] == (1 if user_setting is None else int(user_setting))
