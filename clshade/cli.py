@@ -580,13 +580,19 @@ def run() -> int:
 
     And the allocator tuned (tune_allocator), NumPy's BLAS single-threaded
     (load_numpy_single_threaded_blas)."""
-    gc.disable()
-    tune_allocator()
-    load_numpy_single_threaded_blas()
+    start_process()
     try:
         return main(after_parse=_resume_gc)
     finally:
         gc.freeze()
+
+
+def start_process() -> None:
+    """What `run` does before the command line is parsed (benchmarks/startup_bench.py times it
+    with the imports): collector paused, allocator tuned, NumPy loaded."""
+    gc.disable()
+    tune_allocator()
+    load_numpy_single_threaded_blas()
 
 
 BLAS_THREADS = "OPENBLAS_NUM_THREADS"
