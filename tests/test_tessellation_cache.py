@@ -141,3 +141,18 @@ def test_unwritable_cache_still_renders(tmp_path, monkeypatch):
         assert len(v) == len(n) and f.max() < len(v)
     finally:
         meshes._tessellated.cache_clear()
+
+
+def test_read_only_cache_is_read(cache, built, monkeypatch):
+    """An entry that can be read but not touched (a shared, read-only cache) is still used."""
+    obj = _obj("capsule", **CAPSULE)
+    reference = _fresh(obj)
+
+    def refuse(*args, **kwargs):
+        raise PermissionError("read-only file system")
+
+    monkeypatch.setattr(meshes.os, "utime", refuse)
+    built.clear()
+    loaded = _fresh(obj)
+    assert built == []
+    np.testing.assert_array_equal(loaded[2], reference[2])

@@ -185,9 +185,12 @@ def _load_tessellation(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray] 
     valid tessellation (other magic, truncated, face indices out of range)."""
     try:
         data = path.read_bytes()
-        os.utime(path)                      # recently used: pruned last
     except OSError:
         return None
+    try:
+        os.utime(path)                      # recently used: pruned last
+    except OSError:                         # a read-only cache is still read
+        pass
     header = len(_MAGIC) + 16
     if len(data) < header or not data.startswith(_MAGIC):
         return None
