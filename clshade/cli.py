@@ -568,13 +568,13 @@ def run() -> int:
     """The process entry point (the `clshade` script, `python -m clshade`): `main()` with
     the cyclic garbage collector tuned for a process that ends with its command.
 
-    - Paused while the modules are imported and the parser is built: that allocates some
-      30 000 long-lived objects (functions, classes, module dicts) and no garbage, and the
-      collector would traverse them in ~40 passes (~20 ms of a `render`).
+    - Paused while the modules are imported and the parser is built: that allocates tens of
+      thousands of long-lived objects (functions, classes, module dicts) and no garbage,
+      which the collector would otherwise traverse again and again.
     - Then `gc.freeze()`: the survivors go to the permanent generation, which later
       collections skip; collection is on again for the command itself.
     - `gc.freeze()` once more when the command returns: interpreter shutdown then does not
-      traverse every object in its final full collections (~35 ms). Shutdown is otherwise
+      traverse every object in its final full collections. Shutdown is otherwise
       complete: atexit handlers run, streams are flushed, objects are released by reference
       count; only objects in reference cycles are left to the operating system.
 
@@ -601,8 +601,8 @@ BLAS_THREADS = "OPENBLAS_NUM_THREADS"
 def load_numpy_single_threaded_blas() -> None:
     """Import NumPy with its OpenBLAS limited to one thread, unless the user set
     OPENBLAS_NUM_THREADS. OpenBLAS otherwise starts a worker thread per core that busy-waits
-    after start-up and after each call (~7 % of a warm `render`'s CPU samples, on the core
-    PoCL's threads need); clshade's BLAS calls are 3×3 transforms of vertex arrays. OpenBLAS
+    after start-up and after each call, on the core PoCL's threads need; clshade's BLAS
+    calls are 3×3 transforms of vertex arrays. OpenBLAS
     reads the variable once, when it loads: it is removed again, so child processes see the
     environment the user gave."""
     if "numpy" in sys.modules or BLAS_THREADS in os.environ:
@@ -619,8 +619,8 @@ M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3
 #: Blocks up to this size come from the heap, where freed blocks are reused, instead of
 #: fresh mmap(2)s that the kernel zero-fills page by page on first touch (32 MiB: glibc's
 #: largest allowed value). A render allocates and frees NumPy temporaries of a few MB all
-#: the time; with glibc's default (a threshold that adapts from 128 KiB) a warm 640×640
-#: `render` took ~45 000 page faults, ~29 000 with these settings.
+#: the time; with glibc's default (a threshold that adapts from 128 KiB, and the heap's top
+#: returned to the system) they were faulted in again and again.
 MMAP_THRESHOLD = 32 << 20
 #: Free memory at the top of the heap kept for reuse instead of being returned to the
 #: system (glibc's default is twice the adapted mmap threshold).
