@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import argparse
 import gc
-import json
 import math
 import os
 import sys
@@ -343,6 +342,7 @@ def _explain(model, result) -> None:
 
 
 def cmd_models(args: argparse.Namespace) -> int:
+    import json
     from clshade.models import GROUPS, lobes, presets
     from clshade.verify.plausibility import physically_based
     try:  # measured on the device with a reduced sweep (`clshade check plausibility` for the full one)
@@ -455,6 +455,7 @@ def _check_bench_outputs(args: argparse.Namespace) -> None:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
+    import json
     from clshade.bench.run import run_bench
     from clshade.models import resolve_many
     from clshade.report import bench_csv, bench_plots, bench_text
@@ -491,6 +492,7 @@ def _check_aa_outputs(prefix: Path) -> None:
 
 
 def cmd_aa(args: argparse.Namespace) -> int:
+    import json
     from clshade.bench.aa import run
     from clshade.compare import write_sheet
     from clshade.models import resolve_many
@@ -520,6 +522,7 @@ def cmd_aa(args: argparse.Namespace) -> int:
 
 
 def cmd_plausibility(args: argparse.Namespace) -> int:
+    import json
     from dataclasses import asdict
     from clshade.verify import plausibility as P
     sweep = P.QUICK if args.quick else P.Sweep()
@@ -536,6 +539,7 @@ def cmd_plausibility(args: argparse.Namespace) -> int:
 
 
 def cmd_stability(args: argparse.Namespace) -> int:
+    import json
     from clshade.models import FRESNELS, resolve_many
     from clshade.report import stability_text
     from clshade.verify import stability
