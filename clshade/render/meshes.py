@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import hashlib
 import os
-import tempfile
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
+from clshade.cachedir import read_entry, user_cache_dir, write_entry
 from clshade.errors import ClshadeError, located
 from clshade.render import primitives
 from clshade.render.scene import Material, Scene, SceneObject
@@ -135,8 +135,8 @@ def _tessellated(key: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 # per distinct primitive. One file per (primitive, parameters, smooth, crease_angle), named by a
 # SHA-256 over that key, the source of the code that builds it (primitives.py, this file)
 # and NumPy's version, so that a change to any of them misses instead of reusing a stale
-# entry. Written atomically (a temporary file, then a rename): concurrent runs see a whole
-# entry or none. Entries that do not read back as a valid tessellation are rebuilt.
+# entry. Written atomically (clshade/cachedir.py): concurrent runs see a whole entry or
+# none. Entries that do not read back as a valid tessellation are rebuilt.
 
 ENV_NO_TESSELLATION_CACHE = "CLSHADE_NO_TESSELLATION_CACHE"
 #: Entries kept (the least recently used beyond this are deleted when one is stored): a
@@ -156,8 +156,7 @@ def tessellation_cache_dir() -> Path | None:
     CLSHADE_NO_TESSELLATION_CACHE=1."""
     if os.environ.get(ENV_NO_TESSELLATION_CACHE, "").strip() not in ("", "0"):
         return None
-    base = os.environ.get("XDG_CACHE_HOME", "").strip() or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "clshade" / "tessellations"
+    return user_cache_dir("tessellations")
 
 
 @lru_cache(maxsize=1)
@@ -184,16 +183,9 @@ def _cache_path(key: tuple) -> Path | None:
 def _load_tessellation(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """(vertices, faces, normals) from a cache entry, or None when it is missing or is not a
     valid tessellation (other magic, truncated, face indices out of range)."""
-    try:
-        data = path.read_bytes()
-    except OSError:
-        return None
-    try:
-        os.utime(path)                      # recently used: pruned last
-    except OSError:                         # a read-only cache is still read
-        pass
+    data = read_entry(path)
     header = len(_MAGIC) + 16
-    if len(data) < header or not data.startswith(_MAGIC):
+    if data is None or len(data) < header or not data.startswith(_MAGIC):
         return None
     nv, nf = (int(x) for x in np.frombuffer(data, _U8, 2, len(_MAGIC)))
     if len(data) != header + 8 * (6 * nv + 3 * nf):
@@ -207,45 +199,12 @@ def _load_tessellation(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray] 
 
 
 def _store_tessellation(path: Path, arrays: tuple[np.ndarray, np.ndarray, np.ndarray]) -> None:
-    """Write an entry atomically, then prune the folder to TESSELLATION_CACHE_ENTRIES; a
-    failure to write leaves the cache as it was (the render goes on without it)."""
-    tmp = None
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=".", suffix=_SUFFIX, dir=path.parent)
-        v, faces, n = arrays
-        with os.fdopen(fd, "wb") as f:
-            f.write(_MAGIC + np.array([len(v), len(faces)], _U8).tobytes())
-            for a, dtype in ((v, _F8), (faces, _I8), (n, _F8)):
-                f.write(np.ascontiguousarray(a, dtype).tobytes())
-        os.replace(tmp, path)
-        tmp = None
-        _prune(path.parent)
-    except OSError:
-        pass
-    finally:
-        if tmp is not None:
-            try:
-                os.unlink(tmp)
-            except OSError:
-                pass
-
-
-def _prune(folder: Path, keep: int | None = None) -> None:
-    """Delete the least recently used entries beyond `keep` (TESSELLATION_CACHE_ENTRIES)."""
-    keep = TESSELLATION_CACHE_ENTRIES if keep is None else keep
-    entries = []
-    for entry in os.scandir(folder):
-        if entry.name.endswith(_SUFFIX) and not entry.name.startswith("."):
-            try:
-                entries.append((entry.stat().st_mtime_ns, entry.path))
-            except OSError:
-                pass
-    for _, stale in sorted(entries)[:max(0, len(entries) - keep)]:
-        try:
-            os.unlink(stale)
-        except OSError:
-            pass
+    """Write an entry (clshade/cachedir.py: atomic, the folder pruned to
+    TESSELLATION_CACHE_ENTRIES); a failure to write leaves the cache as it was."""
+    v, faces, n = arrays
+    data = b"".join([_MAGIC, np.array([len(v), len(faces)], _U8).tobytes(),
+                     *(np.ascontiguousarray(a, t).tobytes() for a, t in ((v, _F8), (faces, _I8), (n, _F8)))])
+    write_entry(path, data, TESSELLATION_CACHE_ENTRIES)
 
 
 def _tessellate(obj: SceneObject):
