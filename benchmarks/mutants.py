@@ -200,11 +200,11 @@ CATALOGUE: list[Mutant] = [
       'roughness=r.number("roughness", 0.4, 0.0, 1.0),', "scene default roughness 0.4"),
     M("scene_default_ks", "clshade/render/scene.py", 'ks=r.number("ks", 0.3, 0.0, 1.0),',
       'ks=r.number("ks", 0.25, 0.0, 1.0),', "scene default k_s 0.25"),
-    M("tonemap_exposure", "clshade/render/image.py", "* (2.0 ** exposure)", "* (2.0 ** (0.5 * exposure))",
+    M("tonemap_exposure", "clshade/render/image.py", "scale = 2.0 ** exposure\n", "scale = 2.0 ** (0.5 * exposure)\n",
       "exposure halved"),
-    M("tonemap_reinhard", "clshade/render/image.py", "y = x / (1.0 + x)", "y = x / (1.0 + 0.5 * x)",
+    M("tonemap_reinhard", "clshade/render/image.py", "x /= x + 1.0\n", "x /= 0.5 * x + 1.0\n",
       "Reinhard x/(1 + x/2)"),
-    M("srgb_encode", "clshade/render/image.py", "1.055 * np.power(c, 1 / 2.4) - 0.055", "1.055 * np.power(c, 1 / 2.2) - 0.055",
+    M("srgb_encode", "clshade/render/image.py", "np.power(c, 1 / 2.4, out=", "np.power(c, 1 / 2.2, out=",
       "sRGB encode exponent 1/2.2"),
 ]
 

@@ -7,11 +7,12 @@ Usage::
     python benchmarks/startup_bench.py [--repeats 9] [--out benchmarks/results/startup.json]
     python benchmarks/startup_bench.py --markdown-only
 
-"Warm": one untimed run first fills PoCL's kernel cache (~/.cache/pocl) and Python's
-bytecode caches (the child runs without PYTHONDONTWRITEBYTECODE, as an installed package
-has its .pyc files). Then, in interleaved rounds (machine noise hits all alike), three
-fresh processes: the interpreter alone (`python -c pass`), the CLI's imports
-(`import clshade.cli, clshade.pipeline` and the argument parser) and the whole render to
+"Warm": one untimed run first fills PoCL's kernel cache (~/.cache/pocl), clshade's
+program-binary and tessellation caches (~/.cache/clshade) and Python's bytecode caches
+(the child runs without PYTHONDONTWRITEBYTECODE, as an installed package has its .pyc
+files). Then, in interleaved rounds (machine noise hits all alike), three
+fresh processes: the interpreter alone (`python -c pass`), the CLI's start-up
+(`clshade.cli.start_process()`, `import clshade.pipeline` and the argument parser) and the whole render to
 a PNG; medians and minima over the rounds. The render's own `stages:` line gives the
 per-stage split (median per stage). The machine's load average is recorded: the cores
 are shared, so compare runs only with similar load.
@@ -64,7 +65,9 @@ def measure(repeats: int) -> dict:
         png = str(Path(tmp) / "robot.png")
         commands = {
             "interpreter": [py, "-c", "pass"],
-            "imports": [py, "-c", "import clshade.cli as c, clshade.pipeline; c.build_parser()"],
+            # the render process's start-up (clshade.cli.run): its process settings, then the parser
+            "imports": [py, "-c", "import clshade.cli as c; c.start_process(); import clshade.pipeline; "
+                                  "c.build_parser()"],
             "render": [py, "-m", "clshade", "render", "scenes/robot.toml", "-o", png],
         }
         for cmd in commands.values():      # warm-up: bytecode and kernel caches

@@ -1,6 +1,6 @@
 """`python -m clshade` runs the command line."""
 import sys
 
-from clshade.cli import main
+from clshade.cli import run
 
-sys.exit(main())
+sys.exit(run())

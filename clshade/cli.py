@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 import argparse
-import json
+import gc
 import math
 import os
 import sys
@@ -342,6 +342,7 @@ def _explain(model, result) -> None:
 
 
 def cmd_models(args: argparse.Namespace) -> int:
+    import json
     from clshade.models import GROUPS, lobes, presets
     from clshade.verify.plausibility import physically_based
     try:  # measured on the device with a reduced sweep (`clshade check plausibility` for the full one)
@@ -454,6 +455,7 @@ def _check_bench_outputs(args: argparse.Namespace) -> None:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
+    import json
     from clshade.bench.run import run_bench
     from clshade.models import resolve_many
     from clshade.report import bench_csv, bench_plots, bench_text
@@ -490,6 +492,7 @@ def _check_aa_outputs(prefix: Path) -> None:
 
 
 def cmd_aa(args: argparse.Namespace) -> int:
+    import json
     from clshade.bench.aa import run
     from clshade.compare import write_sheet
     from clshade.models import resolve_many
@@ -519,6 +522,7 @@ def cmd_aa(args: argparse.Namespace) -> int:
 
 
 def cmd_plausibility(args: argparse.Namespace) -> int:
+    import json
     from dataclasses import asdict
     from clshade.verify import plausibility as P
     sweep = P.QUICK if args.quick else P.Sweep()
@@ -535,6 +539,7 @@ def cmd_plausibility(args: argparse.Namespace) -> int:
 
 
 def cmd_stability(args: argparse.Namespace) -> int:
+    import json
     from clshade.models import FRESNELS, resolve_many
     from clshade.report import stability_text
     from clshade.verify import stability
@@ -563,16 +568,102 @@ def _quiet_broken_pipe() -> int:
     return 141   # 128 + SIGPIPE, as a shell reports a process killed by it
 
 
-def main(argv: list[str] | None = None) -> int:
+def run() -> int:
+    """The process entry point (the `clshade` script, `python -m clshade`): `main()` with
+    the cyclic garbage collector tuned for a process that ends with its command.
+
+    - Paused while the modules are imported and the parser is built: that allocates tens of
+      thousands of long-lived objects (functions, classes, module dicts) and no garbage,
+      which the collector would otherwise traverse again and again.
+    - Then `gc.freeze()`: the survivors go to the permanent generation, which later
+      collections skip; collection is on again for the command itself.
+    - `gc.freeze()` once more when the command returns: interpreter shutdown then does not
+      traverse every object in its final full collections. Shutdown is otherwise
+      complete: atexit handlers run, streams are flushed, objects are released by reference
+      count; only objects in reference cycles are left to the operating system.
+
+    And the allocator tuned (tune_allocator), NumPy's BLAS single-threaded
+    (load_numpy_single_threaded_blas)."""
+    start_process()
     try:
-        return _main(argv)
+        return main(after_parse=_resume_gc)
+    finally:
+        gc.freeze()
+
+
+def start_process() -> None:
+    """What `run` does before the command line is parsed (benchmarks/startup_bench.py times it
+    with the imports): collector paused, allocator tuned, NumPy loaded."""
+    gc.disable()
+    tune_allocator()
+    load_numpy_single_threaded_blas()
+
+
+BLAS_THREADS = "OPENBLAS_NUM_THREADS"
+
+
+def load_numpy_single_threaded_blas() -> None:
+    """Import NumPy with its OpenBLAS limited to one thread, unless the user set
+    OPENBLAS_NUM_THREADS. OpenBLAS otherwise starts a worker thread per core that busy-waits
+    after start-up and after each call, on the core PoCL's threads need; clshade's BLAS
+    calls are 3×3 transforms of vertex arrays. OpenBLAS
+    reads the variable once, when it loads: it is removed again, so child processes see the
+    environment the user gave."""
+    if "numpy" in sys.modules or BLAS_THREADS in os.environ:
+        return
+    os.environ[BLAS_THREADS] = "1"
+    try:
+        import numpy  # noqa: F401
+    finally:
+        del os.environ[BLAS_THREADS]
+
+
+#: glibc's mallopt(3) parameters (malloc.h).
+M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3
+#: Blocks up to this size come from the heap, where freed blocks are reused, instead of
+#: fresh mmap(2)s that the kernel zero-fills page by page on first touch (32 MiB: glibc's
+#: largest allowed value). A render allocates and frees NumPy temporaries of a few MB all
+#: the time; with glibc's default (a threshold that adapts from 128 KiB, and the heap's top
+#: returned to the system) they were faulted in again and again.
+MMAP_THRESHOLD = 32 << 20
+#: Free memory at the top of the heap kept for reuse instead of being returned to the
+#: system (glibc's default is twice the adapted mmap threshold).
+TRIM_THRESHOLD = 128 << 20
+
+
+def tune_allocator() -> bool:
+    """Set MMAP_THRESHOLD and TRIM_THRESHOLD with glibc's mallopt; False (nothing changed)
+    where the C library has no mallopt (musl, macOS) or refuses a value."""
+    import ctypes
+    try:
+        mallopt = ctypes.CDLL(None).mallopt
+    except (OSError, AttributeError):
+        return False
+    mallopt.argtypes, mallopt.restype = (ctypes.c_int, ctypes.c_int), ctypes.c_int
+    accepted = [mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD), mallopt(M_TRIM_THRESHOLD, TRIM_THRESHOLD)]
+    return all(accepted)
+
+
+def _resume_gc() -> None:
+    """Freeze what start-up allocated and collect again from here on."""
+    gc.freeze()
+    gc.enable()
+
+
+def main(argv: list[str] | None = None, after_parse=None) -> int:
+    """Run one command (argv: sys.argv[1:] by default); `after_parse()` is called once the
+    arguments are parsed, before the command runs. Returns the exit status."""
+    try:
+        return _main(argv, after_parse)
     except BrokenPipeError:
         return _quiet_broken_pipe()
 
 
-def _main(argv: list[str] | None) -> int:
+def _main(argv: list[str] | None, after_parse=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    if after_parse is not None:
+        after_parse()
     try:
         status = int(args.func(args) or 0)
         sys.stdout.flush()      # a closed pipe shows here, inside the handler, not at exit
@@ -588,4 +679,4 @@ def _main(argv: list[str] | None) -> int:
 
 
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+    sys.exit(run())

@@ -14,13 +14,13 @@ from __future__ import annotations
 import hashlib
 import os
 import re
-import tempfile
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
+from clshade.cachedir import read_entry, user_cache_dir, write_entry
 from clshade.errors import ClshadeError
 from clshade.render.arrays import PIXEL_PAD
 
@@ -122,10 +122,13 @@ def binary_cache_dir() -> Path | None:
     if os.environ.get(ENV_NO_BINARY_CACHE, "").strip() not in ("", "0"):
         return None
     folder = os.environ.get(ENV_CACHE_DIR, "").strip()
-    if folder:
-        return Path(folder)
-    base = os.environ.get("XDG_CACHE_HOME", "").strip() or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "clshade" / "programs"
+    return Path(folder) if folder else user_cache_dir("programs")
+
+
+#: Program binaries kept (the least recently used beyond this are deleted when one is
+#: stored; clshade/cachedir.py): every model × feature set × build option is an entry of
+#: some 50–150 kB, and the test suite alone builds hundreds of them.
+PROGRAM_CACHE_ENTRIES = 2048
 
 
 # Lanes per work-item the kernels support (kernels/simd.h); buffers are padded to the largest
@@ -212,31 +215,27 @@ class Runtime:
         """The program built from its cached binary, or None (no entry, unreadable, or the
         driver refuses it: the caller then builds from source and stores a new entry)."""
         path = self._binary_path(source, options)
-        if path is None or not path.is_file():
+        binary = read_entry(path) if path is not None else None
+        if not binary:
             return None
         try:
-            program = self.cl.Program(self.context, [self.device], [path.read_bytes()])
+            program = self.cl.Program(self.context, [self.device], [binary])
             return program.build(options=list(options))
-        except (OSError, self.cl.Error):
+        except self.cl.Error:
             return None
 
     def _store_program(self, source: str, options: tuple[str, ...], program) -> None:
-        """Cache the built program's binary (atomically: a temporary file, then a rename);
-        a failure to write leaves the cache as it was."""
+        """Cache the built program's binary (clshade/cachedir.py: atomic, the folder pruned to
+        PROGRAM_CACHE_ENTRIES); a failure to write leaves the cache as it was."""
         path = self._binary_path(source, options)
         if path is None:
             return
         try:
             binary = program.get_info(self.cl.program_info.BINARIES)[0]
-            if not binary:
-                return
-            path.parent.mkdir(parents=True, exist_ok=True)
-            fd, tmp = tempfile.mkstemp(prefix=".", suffix=".bin", dir=path.parent)
-            with os.fdopen(fd, "wb") as f:
-                f.write(binary)
-            os.replace(tmp, path)
-        except (OSError, self.cl.Error):
-            pass
+        except self.cl.Error:
+            return
+        if binary:
+            write_entry(path, bytes(binary), PROGRAM_CACHE_ENTRIES)
 
     def to_device(self, array: np.ndarray):
         """Upload a contiguous array into a read-only device buffer."""

@@ -31,28 +31,44 @@ PNG_FILTER_NONE = 0x08      # libpng's PNG_FILTER_NONE mask
 
 
 def tonemap(rgb: np.ndarray, method: str = "aces", exposure: float = 0.0) -> np.ndarray:
-    """Scene-linear RGB → display-linear RGB in [0, 1]."""
-    x = np.nan_to_num(np.asarray(rgb, np.float64), nan=0.0, posinf=np.finfo(np.float32).max) * (2.0 ** exposure)
-    x = np.maximum(x, 0.0)
-    if method == "none":
-        y = x
-    elif method == "reinhard":
-        y = x / (1.0 + x)
-    elif method == "aces":
-        x = 0.6 * x
-        with np.errstate(over="ignore", invalid="ignore"):
-            y = (x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)
-        y = np.where(np.isfinite(y), y, 2.51 / 2.43)
-    else:
+    """Scene-linear RGB → display-linear RGB in [0, 1], float64: NaN and negative radiance
+    count as 0, +∞ (and anything beyond float32's range) as float32's largest value.
+    Computed in place on one float64 copy of the input, each step with the values of the
+    textbook expression."""
+    if method not in ("none", "reinhard", "aces"):
         raise ClshadeError(f"unknown tone map {method!r}; choose none, reinhard or aces")
-    return np.clip(y, 0.0, 1.0)
+    scale = 2.0 ** exposure
+    x = np.array(rgb, np.float64)
+    x *= scale
+    np.fmax(x, 0.0, out=x)                          # NaN, −∞ and negatives → 0
+    np.minimum(x, float(np.finfo(np.float32).max) * scale, out=x)   # +∞ → float32's largest
+    if method == "reinhard":                        # x / (1 + x)
+        x /= x + 1.0
+    elif method == "aces":                          # x(2.51x + 0.03) / (x(2.43x + 0.59) + 0.14) at 0.6·x
+        x *= 0.6
+        with np.errstate(over="ignore", invalid="ignore"):
+            num = 2.51 * x
+            num += 0.03
+            num *= x
+            den = 2.43 * x
+            den += 0.59
+            den *= x
+            den += 0.14
+            num /= den
+        np.copyto(num, 2.51 / 2.43, where=~np.isfinite(num))
+        x = num
+    return np.clip(x, 0.0, 1.0, out=x)
 
 
 # The sRGB codec (IEC 61966-2-1): the one encode and the one decode of the package.
 def srgb_encode(linear: np.ndarray) -> np.ndarray:
     """The sRGB OETF on values in [0, 1] (clipped)."""
     c = np.clip(linear, 0.0, 1.0)
-    return np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1 / 2.4) - 0.055)
+    out = np.power(c, 1 / 2.4, out=np.empty_like(c))   # an array also for 0-d input (in-place steps)
+    out *= 1.055
+    out -= 0.055
+    np.multiply(c, 12.92, out=out, where=c <= 0.0031308)
+    return out
 
 
 def srgb_decode(encoded: np.ndarray) -> np.ndarray:
@@ -74,7 +90,9 @@ def to_display(image: np.ndarray, method: str = "aces", exposure: float = 0.0) -
     out = np.empty((height, width, 3), np.uint8)
     rows = max(1, DISPLAY_CHUNK_PIXELS // max(width, 1))
     for r in range(0, max(height, 1), rows):
-        out[r:r + rows] = np.round(display(image[r:r + rows], method, exposure) * 255.0).astype(np.uint8)
+        encoded = display(image[r:r + rows], method, exposure)
+        encoded *= 255.0
+        out[r:r + rows] = np.round(encoded, out=encoded)
     return out
 
 

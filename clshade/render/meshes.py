@@ -2,12 +2,15 @@
 per-face material ids, ready for the rasterizer."""
 from __future__ import annotations
 
+import hashlib
+import os
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
+from clshade.cachedir import read_entry, user_cache_dir, write_entry
 from clshade.errors import ClshadeError, located
 from clshade.render import primitives
 from clshade.render.scene import Material, Scene, SceneObject
@@ -110,12 +113,98 @@ def _primitive(obj: SceneObject):
 
 @lru_cache(maxsize=256)
 def _tessellated(key: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    kind, params, smooth, crease_angle = key
-    arrays = _tessellate(SceneObject(name="", material="", primitive=kind, params=dict(params), smooth=smooth,
-                                     crease_angle=crease_angle))
+    """The tessellation of `key` (see _primitive): from this process's memory, else from the
+    tessellation cache on disk, else built (and stored there)."""
+    path = _cache_path(key)
+    arrays = _load_tessellation(path) if path is not None else None
+    if arrays is None:
+        kind, params, smooth, crease_angle = key
+        arrays = _tessellate(SceneObject(name="", material="", primitive=kind, params=dict(params), smooth=smooth,
+                                         crease_angle=crease_angle))
+        if path is not None:
+            _store_tessellation(path, arrays)
     for a in arrays:
         a.flags.writeable = False
     return arrays
+
+
+# ---------------------------------------------------------------- tessellation cache on disk
+#
+# Tessellating a scene's primitives (and splitting their normals at the crease angle) costs
+# a fresh process many small NumPy calls; reading the stored arrays back is one file read
+# per distinct primitive. One file per (primitive, parameters, smooth, crease_angle), named by a
+# SHA-256 over that key, the source of the code that builds it (primitives.py, this file)
+# and NumPy's version, so that a change to any of them misses instead of reusing a stale
+# entry. Written atomically (clshade/cachedir.py): concurrent runs see a whole entry or
+# none. Entries that do not read back as a valid tessellation are rebuilt.
+
+ENV_NO_TESSELLATION_CACHE = "CLSHADE_NO_TESSELLATION_CACHE"
+#: Entries kept (the least recently used beyond this are deleted when one is stored): a
+#: sphere of 4 subdivisions (2562 vertices, 5120 faces) takes 246 kB, so the folder stays
+#: within some tens of MB.
+TESSELLATION_CACHE_ENTRIES = 256
+_SUFFIX = ".tess"
+#: An entry: this 16-byte magic, the vertex and face counts (uint64), then the raw arrays
+#: vertices (V, 3) float64, faces (F, 3) int64, normals (V, 3) float64, all little-endian
+#: (every array starts 8-byte aligned).
+_MAGIC = b"clshade tess v1\n"
+_F8, _I8, _U8 = np.dtype("<f8"), np.dtype("<i8"), np.dtype("<u8")
+
+
+def tessellation_cache_dir() -> Path | None:
+    """$XDG_CACHE_HOME/clshade/tessellations (~/.cache/clshade/tessellations); None when
+    CLSHADE_NO_TESSELLATION_CACHE=1."""
+    if os.environ.get(ENV_NO_TESSELLATION_CACHE, "").strip() not in ("", "0"):
+        return None
+    return user_cache_dir("tessellations")
+
+
+@lru_cache(maxsize=1)
+def _code_fingerprint() -> str | None:
+    """SHA-256 of the tessellating code (primitives.py, this file) and NumPy's version;
+    None (no caching) when the source cannot be read."""
+    digest = hashlib.sha256(np.__version__.encode())
+    try:
+        for source in (primitives.__file__, __file__):
+            digest.update(Path(source).read_bytes())
+    except OSError:
+        return None
+    return digest.hexdigest()
+
+
+def _cache_path(key: tuple) -> Path | None:
+    folder = tessellation_cache_dir()
+    code = _code_fingerprint()
+    if folder is None or code is None:
+        return None
+    return folder / (hashlib.sha256(f"{key!r}\0{code}".encode()).hexdigest() + _SUFFIX)
+
+
+def _load_tessellation(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """(vertices, faces, normals) from a cache entry, or None when it is missing or is not a
+    valid tessellation (other magic, truncated, face indices out of range)."""
+    data = read_entry(path)
+    header = len(_MAGIC) + 16
+    if data is None or len(data) < header or not data.startswith(_MAGIC):
+        return None
+    nv, nf = (int(x) for x in np.frombuffer(data, _U8, 2, len(_MAGIC)))
+    if len(data) != header + 8 * (6 * nv + 3 * nf):
+        return None
+    v = np.frombuffer(data, _F8, 3 * nv, header).reshape(nv, 3)
+    faces = np.frombuffer(data, _I8, 3 * nf, header + 24 * nv).reshape(nf, 3)
+    n = np.frombuffer(data, _F8, 3 * nv, header + 24 * (nv + nf)).reshape(nv, 3)
+    if nf and (faces.min() < 0 or faces.max() >= nv):
+        return None
+    return v, faces, n
+
+
+def _store_tessellation(path: Path, arrays: tuple[np.ndarray, np.ndarray, np.ndarray]) -> None:
+    """Write an entry (clshade/cachedir.py: atomic, the folder pruned to
+    TESSELLATION_CACHE_ENTRIES); a failure to write leaves the cache as it was."""
+    v, faces, n = arrays
+    data = b"".join([_MAGIC, np.array([len(v), len(faces)], _U8).tobytes(),
+                     *(np.ascontiguousarray(a, t).tobytes() for a, t in ((v, _F8), (faces, _I8), (n, _F8)))])
+    write_entry(path, data, TESSELLATION_CACHE_ENTRIES)
 
 
 def _tessellate(obj: SceneObject):

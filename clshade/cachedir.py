@@ -1,0 +1,76 @@
+"""clshade's caches on disk (program binaries, tessellations): where they live, atomic
+writes, and pruning to the most recently used entries.
+
+Every cache is a folder under $XDG_CACHE_HOME/clshade (~/.cache/clshade) holding one file
+per key; an entry is written to a temporary file in the same folder and renamed into place,
+so concurrent runs read a whole entry or none, and a reader marks an entry used by touching
+its modification time, which pruning orders by.
+"""
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+
+def user_cache_dir(name: str) -> Path:
+    """$XDG_CACHE_HOME/clshade/<name>, else ~/.cache/clshade/<name>."""
+    base = os.environ.get("XDG_CACHE_HOME", "").strip() or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "clshade" / name
+
+
+def read_entry(path: Path) -> bytes | None:
+    """The bytes of an entry, marked as used; None when it cannot be read. An entry that
+    can be read but not touched (a read-only cache) is still returned."""
+    try:
+        data = path.read_bytes()
+    except OSError:
+        return None
+    try:
+        os.utime(path)
+    except OSError:
+        pass
+    return data
+
+
+def write_entry(path: Path, data: bytes, keep: int) -> bool:
+    """Store an entry atomically, then prune its folder to the `keep` most recently used
+    entries with the same suffix. False (the cache as it was) when it cannot be written."""
+    tmp = None
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=".", suffix=path.suffix, dir=path.parent)
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+        os.replace(tmp, path)
+        tmp = None
+    except OSError:
+        return False
+    finally:
+        if tmp is not None:
+            try:
+                os.unlink(tmp)
+            except OSError:
+                pass
+    prune(path.parent, path.suffix, keep)
+    return True
+
+
+def prune(folder: Path, suffix: str, keep: int) -> None:
+    """Delete the least recently used entries (`*<suffix>`, not the hidden temporaries) beyond `keep`."""
+    entries = []
+    try:
+        with os.scandir(folder) as it:
+            for entry in it:
+                if entry.name.endswith(suffix) and not entry.name.startswith("."):
+                    try:
+                        entries.append((entry.stat().st_mtime_ns, entry.path))
+                    except OSError:
+                        pass
+    except OSError:
+        return
+    for _, stale in sorted(entries)[:max(0, len(entries) - keep)]:
+        try:
+            os.unlink(stale)
+        except OSError:
+            pass
