@@ -208,7 +208,19 @@ OVL double clshade_rsqrt(double x) { return 1.0 / clshade_sqrt(x); }
     *(__global const CLSHADE_CAT3(uchar, SIMD, u)*)((p) + SIMD * (size_t)(i)), uindex)
 #define CLSHADE_CAT3_(a, b, c) a##b##c
 #define CLSHADE_CAT3(a, b, c) CLSHADE_CAT3_(a, b, c)
-/* any()/all() of a lane mask from the sign bits (movmskps), as OpenCL's do. */
+#endif
+/* vstore8(v, k, p): gbuffer.h's interleaved float4 rows. */
+#define VSTORE8(v, k, p) (*(__global float8u*)((p) + 8 * (size_t)(k)) = (v))
+#else
+#define VSTORE8(v, k, p) vstore8((v), (k), (p))
+#endif
+
+/* any()/all() of a lane mask from the sign bits (movmskps), as OpenCL's do, on
+ * every x86 build with AVX, whatever the math: Debian's PoCL 3.1 inlines its
+ * library any(int16) as 8 pairwise ORs, each extracted to a scalar register and
+ * branched on (24 test/js per Phong work-item, objdump), where movmskps is one
+ * instruction per 8 lanes. */
+#if defined(__x86_64__) && defined(__AVX__) && SIMD > 1
 #undef ANY
 #undef ALL
 #if SIMD == 4
@@ -223,11 +235,6 @@ OVL double clshade_rsqrt(double x) { return 1.0 / clshade_sqrt(x); }
 #endif
 #define ANY(m) (MASK_BITS(m) != 0)
 #define ALL(m) (MASK_BITS(m) == MASK_FULL)
-#endif
-/* vstore8(v, k, p): gbuffer.h's interleaved float4 rows. */
-#define VSTORE8(v, k, p) (*(__global float8u*)((p) + 8 * (size_t)(k)) = (v))
-#else
-#define VSTORE8(v, k, p) vstore8((v), (k), (p))
 #endif
 
 /* One lane of a real, for the per-pixel work that stays scalar (material
