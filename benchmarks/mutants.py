@@ -179,6 +179,13 @@ CATALOGUE: list[Mutant] = [
       "#define LOAD_PLANE(i, p) VLOAD_HALF((i), (p)) * 0.999f", "half-float G-buffer: loads scaled"),
     M("tail_pad", "clshade/device/shade.py", "planes[:, :self.gb.pixels] = data.T", "planes[:, :self.gb.pixels - 1] = data.T[:, :-1]",
       "upload drops the last pixel (tail)"),
+    # ---- benchmark measurements (clshade/bench)
+    M("stream_triad_bytes", "clshade/bench/bandwidth.py", 'STREAM_BYTES = {"copy": 2 * 4, "triad": 3 * 4}',
+      'STREAM_BYTES = {"copy": 2 * 4, "triad": 2 * 4}', "STREAM triad counted as 2 × 4 B per element"),
+    M("opencl_triad", "clshade/bench/bandwidth.py", "a[i] = b[i] + s * c[i];   /* STREAM triad */",
+      "a[i] = b[i] + c[i];   /* STREAM triad */", "OpenCL STREAM triad without the scalar"),
+    M("cache_band_densest", "clshade/bench/perf.py", "best = starts[int(np.argmax(counts[starts + items] - counts[starts]))]",
+      "best = starts[int(np.argmin(counts[starts + items] - counts[starts]))]", "in-cache band: the least covered window"),
     # ---- Python stages
     M("raster_top_left", "clshade/render/raster.py", "owns = (ea > 0.0) | ((ea == 0.0) & (eb > 0.0))",
       "owns = (ea >= 0.0)", "raster: top-left rule broken (ties owned twice)"),

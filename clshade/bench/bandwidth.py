@@ -19,6 +19,9 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 STREAM_MIB = 256            # per array: ≫ the last-level cache (32 MiB on this EPYC)
+# Bytes per float32 element as STREAM counts them: copy reads one and writes one, triad reads two and
+# writes one (write-allocate traffic not counted).
+STREAM_BYTES = {"copy": 2 * 4, "triad": 3 * 4}
 TRIAD_SCALAR = np.float32(3.0)
 
 
@@ -81,10 +84,67 @@ def stream(repeats: int = 10, mib: int = STREAM_MIB, method: str = "auto") -> di
         t0 = time.perf_counter()
         triad(a, b, c, TRIAD_SCALAR)
         times["triad"].append(time.perf_counter() - t0)
-    moved = {"copy": 2 * 4 * n, "triad": 3 * 4 * n}
+    moved = {k: b * n for k, b in STREAM_BYTES.items()}
     out: dict[str, object] = dict(method=how, array_mib=mib, repeats=repeats, threads=threads)
     for k, ts in times.items():
         out[f"{k}_best_gbs"] = moved[k] / min(ts) / 1e9
         out[f"{k}_median_gbs"] = moved[k] / float(np.median(ts)) / 1e9
     out["anchor_gbs"] = max(out["copy_best_gbs"], out["triad_best_gbs"])
     return out
+
+
+# The same two STREAM loops as OpenCL kernels, 16 floats a work-item: what the OpenCL runtime itself
+# streams (its work-group scheduling and threads, no G-buffer layout), beside the anchor above.
+OPENCL_STREAM_SOURCE = """
+__kernel void copy(__global const float16* a, __global float16* c) {
+    size_t i = get_global_id(0);
+    c[i] = a[i];
+}
+__kernel void triad(__global float16* a, __global const float16* b, __global const float16* c, const float s) {
+    size_t i = get_global_id(0);
+    a[i] = b[i] + s * c[i];   /* STREAM triad */
+}
+"""
+
+
+def opencl_stream(runtime, repeats: int = 10, mib: int = STREAM_MIB) -> dict[str, object]:
+    """Copy and triad bandwidth of OpenCL kernels on `runtime`'s device (a clshade Runtime), counted
+    as STREAM counts (best and median of `repeats`, from the profiling events), in GB/s."""
+    cl = runtime.cl
+    n = mib * 2 ** 20 // 4
+    a = runtime.to_device(np.full(n, 1.0, np.float32))
+    b = runtime.to_device(np.full(n, 2.0, np.float32))
+    c = runtime.to_device(np.full(n, 0.5, np.float32))
+    copy = runtime.kernel(OPENCL_STREAM_SOURCE, "copy", label="STREAM copy")
+    triad = runtime.kernel(OPENCL_STREAM_SOURCE, "triad", label="STREAM triad")
+    items = runtime.global_size(n // 16)
+    if items != n // 16:
+        raise ValueError(f"{mib} MiB is not a multiple of the work-group size {runtime.local_size} × 16 floats")
+
+    def run(kernel, *args) -> float:
+        kernel.set_args(*args)
+        ev = cl.enqueue_nd_range_kernel(runtime.queue, kernel, (items,), (runtime.local_size,))
+        ev.wait()
+        return (ev.profile.end - ev.profile.start) * 1e-9
+
+    # c = b, then a = b + s·c: fixed values every repeat, checked below.
+    run(copy, b, c)
+    run(triad, a, b, c, TRIAD_SCALAR)
+    times: dict[str, list[float]] = {"copy": [], "triad": []}
+    for _ in range(repeats):
+        times["copy"].append(run(copy, b, c))
+        times["triad"].append(run(triad, a, b, c, TRIAD_SCALAR))
+    got_a, got_c = np.empty(n, np.float32), np.empty(n, np.float32)
+    cl.enqueue_copy(runtime.queue, got_a, a)
+    cl.enqueue_copy(runtime.queue, got_c, c)
+    if not (np.all(got_c == 2.0) and np.all(got_a == np.float32(2.0) + TRIAD_SCALAR * np.float32(2.0))):
+        raise RuntimeError(f"OpenCL STREAM kernels computed wrong values on {runtime.info.description}")
+    moved = {k: b * n for k, b in STREAM_BYTES.items()}
+    out: dict[str, object] = dict(method=f"OpenCL float16 kernels on {runtime.info.description}", array_mib=mib,
+                                  repeats=repeats)
+    for k, ts in times.items():
+        out[f"{k}_best_gbs"] = moved[k] / min(ts) / 1e9
+        out[f"{k}_median_gbs"] = moved[k] / float(np.median(ts)) / 1e9
+    out["best_gbs"] = max(out["copy_best_gbs"], out["triad_best_gbs"])
+    return out
+
