@@ -79,7 +79,7 @@ def test_miss_causes_come_from_the_measured_rows():
     text = perf.copy_miss_cause(row)
     assert "3.00 ms of arithmetic are 100% of its 3.00 ms over the copy kernel" in text and "75%" in text
     text = perf.stream_miss_cause(row, 28.0, 25.0)
-    assert "1.40× the STREAM bound (20.0 vs 28.0 GB/s)" in text and "reach 25.0 GB/s" in text
+    assert "1.40× the STREAM bound (20.0 vs 28.0 GB/s)" in text and "reaches 25.0 GB/s" in text and "at 80% of" in text
     assert "Lambert adds 3.00 ms (2.00× copy)" in text
 
 
