@@ -109,10 +109,32 @@ INLINE real exp_lanes(real x) {
     return x < -87.0f ? (real)(0.0f) : y * as_real((k + 127) << 23);
 }
 
+/* Smallest exponent exp2_lanes() returns 2ˣ for: below it 2ˣ < 2⁻¹²⁶ (FLT_MIN)
+ * would be subnormal, and exp2_lanes() returns 0 (absolute bias ≤ 1.2e-38). */
+#define MIN_EXP2_ARG -126.0f
+
+/* 2ˣ in straight-line lane-wise code, for x ≤ 127. pip's PoCL 3.0 calls its
+ * library's float8 exp2 out of line (the library is built for AVX-512, the
+ * kernels for znver3: simd.h), 3 calls per Phong work-item (objdump). x = k + r,
+ * k = rint(x) (exact), |r| ≤ ½; 2ʳ = 1 + r·P(r) with the minimax polynomial of
+ * Cephes exp2f (S. Moshier), scaled by 2ᵏ built in the exponent bits: ≤ 2 ulp,
+ * measured against float64 by tests/test_terms.py through Fs_Phong. */
+INLINE real exp2_lanes(real x) {
+    real c = clamp(x, MIN_EXP2_ARG, 127.0f);
+    mask k = convert_mask_rte(c);
+    real r = c - convert_real(k);
+    real z = r * r;
+    real p = (6.931472028550421e-1f + 2.402264791363012e-1f * r)
+           + (5.550332471162809e-2f + 9.618437357674640e-3f * r) * z
+           + (1.339887440266574e-3f + 1.535336188319500e-4f * r) * (z * z);
+    real y = r * p + 1.0f;
+    return x < MIN_EXP2_ARG ? (real)(0.0f) : y * as_real((k + 127) << 23);
+}
+
 /* xⁿ for a runtime exponent, without pow() (≈190 ns per call on PoCL):
  * exp2(n·log2 x). x ≥ 0, n ≥ 0; 0⁰ = 1. */
 INLINE real pow_runtime(real x, real n) {
-    return exp2(n * log2_lanes(fmax(x, MIN_POW_BASE)));
+    return exp2_lanes(n * log2_lanes(fmax(x, MIN_POW_BASE)));
 }
 
 /* ---- normal distribution functions D ------------------------------------ */

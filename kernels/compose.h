@@ -11,7 +11,7 @@
 #define CLSHADE_COMPOSE_H
 
 INLINE vec3 brdf(const Geometry g, const Surface s) {
-    vec3 f = v3s((real)(0.0f));
+    vec3 f = SUM_START;
 #if HAS_DIFFUSE
 #if HAS_SPECULAR && SPECULAR_FRESNEL && WORKFLOW == WORKFLOW_METALLIC
     /* Energy split of the metallic workflow: light the specular interface
@@ -57,7 +57,7 @@ INLINE vec3 shade_light(vec3 n, vec3 v, vec3 l, vec3 E, const Surface s) {
  * a crude hemispherical albedo of the specular lobe, so that metals (no diffuse
  * colour) are not black under ambient light. */
 INLINE vec3 ambient_term(vec3 A, const Surface s) {
-    vec3 r = v3s((real)(0.0f));
+    vec3 r = SUM_START;
 #if HAS_DIFFUSE
 #if HAS_SPECULAR && SPECULAR_FRESNEL && WORKFLOW == WORKFLOW_METALLIC
     r = v3add(r, v3mul(v3sub(v3s((real)(1.0f)), s.f0), s.diffuse_color));   /* k_d = 1 − F, F ≈ F0 */

@@ -218,7 +218,7 @@ __kernel void shade(
     s = specular_aa(s, normal_difference2(first, npix, width, depth, normal, plane, n));   /* specular_aa.h */
 #endif
 
-    vec3 L = v3s((real)(0.0f));
+    vec3 L = SUM_START;
 #if HAS_OCCLUSION
 #define AMBIENT(A) v3scale(ambient_term(v3c((A).xyz), s), saturate(VLOAD(i, occlusion)))
 #else

@@ -126,6 +126,12 @@ typedef uint16 uindex;
     (defined(CLSHADE_INLINE_MATH_FORCE) || (defined(CLSHADE_HOST_AVX512F) && !defined(__AVX512F__)))
 #define CLSHADE_INLINE_MATH 1
 #define OVL __attribute__((overloadable, always_inline)) inline
+#if SIMD == 16
+/* float16 arguments without AVX-512 "change the ABI" (clang -Wpsabi): every
+ * function here is inlined, so no call passes one; the warning would otherwise
+ * print on every build (tests/test_meshes.py wants an empty stderr). */
+#pragma clang diagnostic ignored "-Wpsabi"
+#endif
 
 /* Unaligned vector views of float / uchar memory (vloadN needs only element
  * alignment; SIMD 16 rows sit at multiples of 8 floats). */
@@ -175,15 +181,32 @@ CLSHADE_RSQRT(float16)
 #endif
 OVL double clshade_rsqrt(double x) { return 1.0 / clshade_sqrt(x); }
 
+/* |x| by the sign bit; floor by roundps (mode 9: towards −∞, no exception). */
+#define CLSHADE_FABS_FLOOR(T, I, ROUND) \
+    OVL T clshade_fabs(T x) { return CLSHADE_CAT2(as_, T)(CLSHADE_CAT2(as_, I)(x) & 0x7fffffff); } \
+    OVL T clshade_floor(T x) { return ROUND; }
+#define CLSHADE_CAT2_(a, b) a##b
+#define CLSHADE_CAT2(a, b) CLSHADE_CAT2_(a, b)
+CLSHADE_FABS_FLOOR(float, int, __builtin_floorf(x))
+CLSHADE_FABS_FLOOR(float4, int4, __builtin_ia32_roundps(x, 9))
+CLSHADE_FABS_FLOOR(float8, int8, __builtin_ia32_roundps256(x, 9))
+#if SIMD == 16
+CLSHADE_FABS_FLOOR(float16, int16, ((float16)(__builtin_ia32_roundps256(x.lo, 9), __builtin_ia32_roundps256(x.hi, 9))))
+#endif
+
 /* PoCL's headers define some builtins as macros (renames) already. */
 #undef fmax
 #undef fmin
 #undef sqrt
 #undef rsqrt
+#undef fabs
+#undef floor
 #define fmax(a, b) clshade_fmax((a), (b))
 #define fmin(a, b) clshade_fmin((a), (b))
 #define sqrt(x) clshade_sqrt(x)
 #define rsqrt(x) clshade_rsqrt(x)
+#define fabs(x) clshade_fabs(x)
+#define floor(x) clshade_floor(x)
 
 #if SIMD == 1
 #undef convert_real
@@ -193,6 +216,21 @@ OVL double clshade_rsqrt(double x) { return 1.0 / clshade_sqrt(x); }
 #define clamp(x, lo, hi) clshade_clamp((x), (lo), (hi))
 #undef convert_real
 #define convert_real(x) __builtin_convertvector((x), real)
+/* Saturating float → int: NaN → 0, out-of-range to the nearest int (OpenCL 6.4.3). */
+#undef convert_mask_sat
+#define convert_mask_sat(x) __builtin_convertvector( \
+    (x) != (x) ? (real)(0.0f) : clamp((x), -2147483648.0f, 2147483520.0f), mask)
+#if defined(__F16C__) && SIMD >= 8
+/* vload_halfN by vcvtph2ps (F16C), 8 halves at a time. */
+typedef short short8u __attribute__((ext_vector_type(8), aligned(2)));
+#define CLSHADE_HALF8(k, p) __builtin_ia32_vcvtph2ps256(*(__global const short8u*)((__global const half*)(p) + 8 * (size_t)(k)))
+#undef VLOAD_HALF
+#if SIMD == 8
+#define VLOAD_HALF(i, p) CLSHADE_HALF8((i), (p))
+#else
+#define VLOAD_HALF(i, p) ((float16)(CLSHADE_HALF8(2 * (i), (p)), CLSHADE_HALF8(2 * (i) + 1, (p))))
+#endif
+#endif
 #undef convert_mask_rte
 #if SIMD == 4
 #define convert_mask_rte(x) __builtin_ia32_cvtps2dq(x)
@@ -208,7 +246,19 @@ OVL double clshade_rsqrt(double x) { return 1.0 / clshade_sqrt(x); }
     *(__global const CLSHADE_CAT3(uchar, SIMD, u)*)((p) + SIMD * (size_t)(i)), uindex)
 #define CLSHADE_CAT3_(a, b, c) a##b##c
 #define CLSHADE_CAT3(a, b, c) CLSHADE_CAT3_(a, b, c)
-/* any()/all() of a lane mask from the sign bits (movmskps), as OpenCL's do. */
+#endif
+/* vstore8(v, k, p): gbuffer.h's interleaved float4 rows. */
+#define VSTORE8(v, k, p) (*(__global float8u*)((p) + 8 * (size_t)(k)) = (v))
+#else
+#define VSTORE8(v, k, p) vstore8((v), (k), (p))
+#endif
+
+/* any()/all() of a lane mask from the sign bits (movmskps), as OpenCL's do, on
+ * every x86 build with AVX, whatever the math: Debian's PoCL 3.1 inlines its
+ * library any(int16) as 8 pairwise ORs, each extracted to a scalar register and
+ * branched on (24 test/js per Phong work-item, objdump), where movmskps is one
+ * instruction per 8 lanes. */
+#if defined(__x86_64__) && defined(__AVX__) && SIMD > 1
 #undef ANY
 #undef ALL
 #if SIMD == 4
@@ -223,11 +273,6 @@ OVL double clshade_rsqrt(double x) { return 1.0 / clshade_sqrt(x); }
 #endif
 #define ANY(m) (MASK_BITS(m) != 0)
 #define ALL(m) (MASK_BITS(m) == MASK_FULL)
-#endif
-/* vstore8(v, k, p): gbuffer.h's interleaved float4 rows. */
-#define VSTORE8(v, k, p) (*(__global float8u*)((p) + 8 * (size_t)(k)) = (v))
-#else
-#define VSTORE8(v, k, p) vstore8((v), (k), (p))
 #endif
 
 /* One lane of a real, for the per-pixel work that stays scalar (material
@@ -245,6 +290,12 @@ INLINE real gather(__global const float* p, mask idx) {
         r.s[j] = p[k.s[j]];
     return r.v;
 }
+
+/* The start of a sum of vec3 terms. −0 is the identity of IEEE addition
+ * (x + (−0) = x for every x, −0 and NaN included), so the compiler drops the
+ * first addition; from +0 it must keep it (−0 + (+0) = +0) without fast math:
+ * 3 adds per sum, four sums per lit work-item (objdump, PoCL 3.0). */
+#define SUM_START v3s((real)(-0.0f))
 
 /* A direction or an RGB colour, one per lane. */
 typedef struct { real x, y, z; } vec3;

@@ -38,6 +38,51 @@ def test_stream_kernels_compute_copy_and_triad():
     np.testing.assert_array_equal(a, 2.0 + 3.0 * np.arange(10, dtype=np.float32))
 
 
+def test_opencl_stream_counts_stream_bytes_and_checks_its_values(runtime, monkeypatch):
+    """The OpenCL STREAM kernels run (and verify c = b, a = b + s·c); rates are the bytes STREAM
+    counts (copy 2 × 4 B, triad 3 × 4 B per element) over the best profiled kernel time."""
+    out = bandwidth.opencl_stream(runtime, repeats=2, mib=1)
+    assert out["copy_best_gbs"] > 0 and out["triad_best_gbs"] > 0
+    assert out["best_gbs"] == max(out["copy_best_gbs"], out["triad_best_gbs"])
+    real = runtime.cl.enqueue_nd_range_kernel
+
+    times = []
+
+    def timed(*a, **k):
+        ev = real(*a, **k)
+        ev.wait()
+        times.append((ev.profile.end - ev.profile.start) * 1e-9)
+        return type("E", (), {"wait": lambda self: None, "profile": ev.profile})()
+    monkeypatch.setattr(runtime.cl, "enqueue_nd_range_kernel", timed)
+    out = bandwidth.opencl_stream(runtime, repeats=2, mib=1)
+    n = 2 ** 20 // 4
+    copies, triads = times[2::2], times[3::2]
+    assert out["copy_best_gbs"] == pytest.approx(8 * n / min(copies) / 1e9)
+    assert out["triad_best_gbs"] == pytest.approx(12 * n / min(triads) / 1e9)
+
+
+def test_cache_band_is_the_most_covered_window():
+    from clshade.bench import perf
+    coverage = np.zeros(64 * 40, bool)
+    coverage[64 * 25 + 3:64 * 31] = True           # covered pixels 1603..1983
+    active = perf.active_items(coverage, 8)
+    assert len(active) == 320 and active.sum() == (1983 - 1600) // 8 + 1
+    assert perf.cache_band(active, 16, 64) == (192, 64)   # work-items 192..255 hold all 48 covered ones (200..247)
+    assert perf.cache_band(active, 16, 10_000) == (0, 320)
+
+
+def test_miss_causes_come_from_the_measured_rows():
+    """The cause text quotes the row's own numbers: in-cache arithmetic vs the excess over the copy kernel."""
+    from clshade.bench import perf
+    row = dict(median_ms=6.0, copy_ms=3.0, cache_frame_ms=4.5, copy_cache_frame_ms=1.5, cache_band_pixels=61440,
+               copy_stream_ratio=1.4, copy_gbs=20.0, copy_ratio=2.0, bytes=60e6)
+    text = perf.copy_miss_cause(row)
+    assert "3.00 ms of arithmetic are 100% of its 3.00 ms over the copy kernel" in text and "75%" in text
+    text = perf.stream_miss_cause(row, 28.0, 25.0)
+    assert "1.40× the STREAM bound (20.0 vs 28.0 GB/s)" in text and "reaches 25.0 GB/s" in text and "at 80% of" in text
+    assert "Lambert adds 3.00 ms (2.00× copy)" in text
+
+
 def test_orbit_keeps_the_distance_and_moves_the_camera():
     cam = load_scene(SCENES / "sphere_grid.toml").camera
     moved = whole.orbit(cam, 10.0)

@@ -55,3 +55,16 @@ def test_dielectric_from_the_dense_side_total_internal_reflection() -> None:
     assert np.all(f[c < critical - 1e-3] == 1.0)
     away = np.abs(c - critical) > 1e-3      # the critical angle itself: √ of a cancelling difference
     assert np.max(np.abs(f - g)[away] / np.maximum(g[away], A.FLOOR_REL)) <= A.TARGET
+
+
+def test_phong_power_below_flt_min_is_zero() -> None:
+    """(r·v)ⁿ below 2⁻¹²⁶ is exactly 0 (kernels/brdf.h exp2_lanes, MIN_EXP2_ARG), never a
+    clamped FLT_MIN or garbage exponent bits; just above it, the float64 value."""
+    rv = np.array([0.5, 0.5, 0.25, 1e-3, 0.0, 0.5, 0.5], np.float32)
+    n = np.array([127.0, 200.0, 1e4, 1e6, 3.0, 120.0, 125.5], np.float32)
+    x = np.zeros((len(rv), 4), np.float32)
+    x[:, 0], x[:, 1] = rv, n
+    f = A.eval_term("Fs_Phong", x, np.zeros_like(x), np.zeros_like(x))[:, 0]
+    assert np.all(f[:5] == 0.0)
+    want = np.float64(rv[5:]) ** np.float64(n[5:])
+    np.testing.assert_allclose(f[5:], want, rtol=1e-4)

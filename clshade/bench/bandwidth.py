@@ -19,6 +19,9 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 STREAM_MIB = 256            # per array: ≫ the last-level cache (32 MiB on this EPYC)
+# Bytes per float32 element as STREAM counts them: copy reads one and writes one, triad reads two and
+# writes one (write-allocate traffic not counted).
+STREAM_BYTES = {"copy": 2 * 4, "triad": 3 * 4}
 TRIAD_SCALAR = np.float32(3.0)
 
 
@@ -81,10 +84,98 @@ def stream(repeats: int = 10, mib: int = STREAM_MIB, method: str = "auto") -> di
         t0 = time.perf_counter()
         triad(a, b, c, TRIAD_SCALAR)
         times["triad"].append(time.perf_counter() - t0)
-    moved = {"copy": 2 * 4 * n, "triad": 3 * 4 * n}
+    moved = {k: b * n for k, b in STREAM_BYTES.items()}
     out: dict[str, object] = dict(method=how, array_mib=mib, repeats=repeats, threads=threads)
     for k, ts in times.items():
         out[f"{k}_best_gbs"] = moved[k] / min(ts) / 1e9
         out[f"{k}_median_gbs"] = moved[k] / float(np.median(ts)) / 1e9
     out["anchor_gbs"] = max(out["copy_best_gbs"], out["triad_best_gbs"])
     return out
+
+
+# The same two STREAM loops as OpenCL kernels, 16 floats a work-item: what the OpenCL runtime itself
+# streams (its work-group scheduling and threads, no G-buffer layout), beside the anchor above.
+OPENCL_STREAM_SOURCE = """
+__kernel void copy(__global const float16* a, __global float16* c) {
+    size_t i = get_global_id(0);
+    c[i] = a[i];
+}
+__kernel void triad(__global float16* a, __global const float16* b, __global const float16* c, const float s) {
+    size_t i = get_global_id(0);
+    a[i] = b[i] + s * c[i];   /* STREAM triad */
+}
+"""
+
+
+class OpenCLStream:
+    """The STREAM copy and triad as OpenCL kernels on a clshade Runtime's device, over three arrays of
+    `mib` MiB: c = b, then a = b + s·c (fixed values every repeat, so `check()` can verify them)."""
+
+    def __init__(self, runtime, mib: int = STREAM_MIB) -> None:
+        self.rt, self.n = runtime, mib * 2 ** 20 // 4
+        self.a, self.b, self.c = (runtime.to_device(np.full(self.n, v, np.float32)) for v in (1.0, 2.0, 0.5))
+        self._copy = runtime.kernel(OPENCL_STREAM_SOURCE, "copy", label="STREAM copy")
+        self._triad = runtime.kernel(OPENCL_STREAM_SOURCE, "triad", label="STREAM triad")
+        self.items = runtime.global_size(self.n // 16)
+        if self.items != self.n // 16:
+            raise ValueError(f"{mib} MiB is not a multiple of the work-group size {runtime.local_size} × 16 floats")
+
+    def _run(self, kernel, *args) -> float:
+        kernel.set_args(*args)
+        ev = self.rt.cl.enqueue_nd_range_kernel(self.rt.queue, kernel, (self.items,), (self.rt.local_size,))
+        ev.wait()
+        return (ev.profile.end - ev.profile.start) * 1e-9
+
+    def copy(self) -> float:
+        """One copy c = b; its kernel time in s."""
+        return self._run(self._copy, self.b, self.c)
+
+    def triad(self) -> float:
+        """One triad a = b + s·c; its kernel time in s."""
+        return self._run(self._triad, self.a, self.b, self.c, TRIAD_SCALAR)
+
+    def check(self) -> None:
+        got_a, got_c = np.empty(self.n, np.float32), np.empty(self.n, np.float32)
+        self.rt.cl.enqueue_copy(self.rt.queue, got_a, self.a)
+        self.rt.cl.enqueue_copy(self.rt.queue, got_c, self.c)
+        if not (np.all(got_c == 2.0) and np.all(got_a == np.float32(2.0) + TRIAD_SCALAR * np.float32(2.0))):
+            raise RuntimeError(f"OpenCL STREAM kernels computed wrong values on {self.rt.info.description}")
+
+
+def opencl_stream(runtime, repeats: int = 10, mib: int = STREAM_MIB) -> dict[str, object]:
+    """Copy and triad bandwidth of OpenCL kernels on `runtime`'s device (a clshade Runtime), counted
+    as STREAM counts (best and median of `repeats`, from the profiling events), in GB/s."""
+    st = OpenCLStream(runtime, mib)
+    st.copy()
+    st.triad()
+    times: dict[str, list[float]] = {"copy": [], "triad": []}
+    for _ in range(repeats):
+        times["copy"].append(st.copy())
+        times["triad"].append(st.triad())
+    st.check()
+    n = st.n
+    moved = {k: b * n for k, b in STREAM_BYTES.items()}
+    out: dict[str, object] = dict(method=f"OpenCL float16 kernels on {runtime.info.description}", array_mib=mib,
+                                  repeats=repeats)
+    for k, ts in times.items():
+        out[f"{k}_best_gbs"] = moved[k] / min(ts) / 1e9
+        out[f"{k}_median_gbs"] = moved[k] / float(np.median(ts)) / 1e9
+    out["best_gbs"] = max(out["copy_best_gbs"], out["triad_best_gbs"])
+    return out
+
+
+def numba_triad(mib: int):
+    """(one Numba STREAM triad over three `mib` MiB arrays → its time in s, method) or None without Numba."""
+    kernels = _numba_kernels()
+    if kernels is None:
+        return None
+    _, triad, how = kernels
+    n = mib * 2 ** 20 // 4
+    a, b, c = (np.full(n, v, np.float32) for v in (1.0, 2.0, 0.5))
+    triad(a, b, c, TRIAD_SCALAR)
+
+    def once() -> float:
+        t0 = time.perf_counter()
+        triad(a, b, c, TRIAD_SCALAR)
+        return time.perf_counter() - t0
+    return once, how

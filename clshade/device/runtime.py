@@ -287,11 +287,15 @@ class Runtime:
     def native_simd(self) -> int:
         """The widest supported SIMD ≤ the device's native float vector width.
         pip's PoCL 3.0 reports 16 (the CPU has AVX-512) but compiles for znver3
-        (AVX2, no AVX-512: kernels/simd.h), where a float16 is two registers and it
-        fails to build float16 builtin calls (clCreateKernel: INVALID_KERNEL_NAME,
-        2026-11-23); its device name then lacks "avx512"."""
+        (AVX2, no AVX-512: kernels/simd.h; its device name then lacks "avx512"),
+        where its library builtins cannot take float16 arguments (clCreateKernel:
+        INVALID_KERNEL_NAME, 2026-11-23). kernels/simd.h writes every builtin the
+        image kernels call inline there, so 16 lanes (two AVX2 registers each) build;
+        they ran GGX and Phong ~9 % faster than 8 (A/B in one process, 2026-11-23).
+        With the library's builtins forced (LIBRARY_MATH) such a device stays at 8."""
         width = int(getattr(self.device, "native_vector_width_float", 8) or 8)
-        if width >= 16 and "PoCL" in self.info.platform_version and "avx512" not in self.info.device:
+        if width >= 16 and "PoCL" in self.info.platform_version and "avx512" not in self.info.device and (
+                not host_has_avx512f() or LIBRARY_MATH in self.options):
             width = 8
         return max(int(w) for w in SIMD_WIDTHS if int(w) <= max(width, 1))
 
