@@ -200,6 +200,8 @@ CATALOGUE: list[Mutant] = [
       "raster: clipped triangles' barycentric map folded in transposed"),
     M("raster_key_merge", "clshade/render/raster.py", "np.minimum(keys[r], other[r], out=keys[r])",
       "np.maximum(keys[r], other[r], out=keys[r])", "raster: worker key arrays merged by maximum (farthest wins)"),
+    M("winner_row", "clshade/render/raster.py", "    py = np.floor(pf / width)\n", "    py = np.round(pf / width)\n",
+      "raster: winners' pixel row rounded instead of floored (right half of each row one row down)"),
     M("gbuffer_finite", "clshade/render/gbuffer.py", "            finite[part] = ok\n", "            finite[part] = True\n",
       "G-buffer: non-finite pixels not replaced"),
     M("plane_align", "clshade/render/arrays.py", "PLANE_ALIGN: int = 128", "PLANE_ALIGN: int = 64",

@@ -277,7 +277,8 @@ def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments, camera
 
         def shade_inputs(part: slice) -> None:
             p = pix[part]
-            tri = fragments.face[part]
+            # Gathers index with intp: np.take converts an int32 index array on every call.
+            tri = fragments.face[part].astype(np.intp)
             b = fragments.face_bary[:, part]
             depth[p] = fragments.face_depth[part]
             nrm = []

@@ -873,9 +873,13 @@ def _winners(
     ``w_is_depth``: the projection's last row is ``(0, 0, -1, 0)`` (any
     perspective matrix), so clip ``w`` is the view depth.
     """
-    py, px = np.divmod(pix, width)
-    px = px + 0.5
-    py = py + 0.5
+    # Row and column through float64 (pix < 2**53): the quotient is correctly rounded and
+    # stays below the next integer (px/width <= 1 - 1/width), so floor() is the exact row;
+    # twice as fast as an int64 divmod.
+    pf = pix.astype(np.float64)
+    py = np.floor(pf / width)
+    px = pf - py * width + 0.5
+    py += 0.5
     b = np.empty((3, len(pix)))
     for j in range(3):
         e = np.take(t.persp_a[j], tri) * px + (np.take(t.persp_b[j], tri) * py + np.take(t.persp_c[j], tri))
