@@ -187,6 +187,8 @@ CATALOGUE: list[Mutant] = [
       'STREAM_BYTES = {"copy": 2 * 4, "triad": 2 * 4}', "STREAM triad counted as 2 × 4 B per element"),
     M("opencl_triad", "clshade/bench/bandwidth.py", "a[i] = b[i] + s * c[i];   /* STREAM triad */",
       "a[i] = b[i] + c[i];   /* STREAM triad */", "OpenCL STREAM triad without the scalar"),
+    M("whole_frame_runtimes", "clshade/bench/perf.py", "    for wf in whole_frame_results(doc):\n",
+      "    for wf in whole_frame_results(doc)[:1]:\n", "perf: the whole-frame target judged on the first runtime only"),
     M("cache_band_densest", "clshade/bench/perf.py", "best = starts[int(np.argmax(counts[starts + items] - counts[starts]))]",
       "best = starts[int(np.argmin(counts[starts + items] - counts[starts]))]", "in-cache band: the least covered window"),
     # ---- Python stages

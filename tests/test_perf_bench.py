@@ -100,6 +100,23 @@ def test_whole_frames_time_every_stage(runtime):
     assert len(out["frames_s"]) == 2
 
 
+def test_whole_frames_interleave_runtimes_and_judge_each(runtime):
+    """One result per runtime (each naming its device, each with every frame), one whole-frame
+    target per runtime, and the Markdown table has a column pair per runtime."""
+    from clshade.bench import perf
+    scene = load_scene(SCENES / "sphere_grid.toml")
+    out = whole.whole_frames_on(scene, resolve("lambert"), [runtime, runtime], 64, 36, frames=2)
+    assert [len(r["frames_s"]) for r in out] == [2, 2]
+    assert all(r["device"] == runtime.info.description for r in out)
+    slow = dict(out[1], device="slow device", median_s=dict(out[1]["median_s"], frame=0.25))
+    doc = dict(runtimes=[], peers=[], stream=dict(anchor_gbs=1.0), whole_frames=[out[0], slow])
+    frame_targets = [t for t in perf.targets(doc) if "whole frame" in t["target"]]
+    assert [(t["runtime"], t["met"]) for t in frame_targets] == [(runtime.info.description, True), ("slow device", False)]
+    assert "250 ms" not in frame_targets[1]["cause"] and "G-buffer" in frame_targets[1]["cause"]
+    header = next(line for line in perf.whole_frame_markdown(doc["whole_frames"]) if line.startswith("| stage |"))
+    assert header.count("median ms") == 2 and "slow device" in header
+
+
 @pytest.mark.parametrize("name", ["numba", "drjit"])
 @pytest.mark.parametrize("model", ["lambert", "ggx_correlated", "phong"])
 def test_peer_equals_clshade(runtime, name, model):

@@ -16,6 +16,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -40,37 +41,60 @@ def orbit(camera: Camera, degrees: float) -> Camera:
     return dataclasses.replace(camera, position=pos)
 
 
+def _shown(path: Path | None) -> str | None:
+    """`path` relative to the working directory when it lies below it (results name no home folders)."""
+    if path is None:
+        return None
+    try:
+        return str(Path(path).resolve().relative_to(Path.cwd()))
+    except ValueError:
+        return str(path)
+
+
 def whole_frames(scene: Scene, model: Model, runtime: Runtime, width: int, height: int,
                  frames: int = 10, step_degrees: float = 2.0) -> dict[str, object]:
     """Per-stage seconds of `frames` whole frames (after one untimed frame);
     returns medians per stage, the median whole frame and every frame's stages."""
+    return whole_frames_on(scene, model, [runtime], width, height, frames, step_degrees)[0]
+
+
+def whole_frames_on(scene: Scene, model: Model, runtimes: list[Runtime], width: int, height: int,
+                    frames: int = 10, step_degrees: float = 2.0) -> list[dict[str, object]]:
+    """:func:`whole_frames` on each runtime, interleaved: every camera position is rendered on
+    each runtime in turn, so that a slow spell of a shared machine falls on all of them alike.
+    One result per runtime, in order, each naming its device."""
     geometry = build_geometry(scene)
     shadows = build_shadow_maps(scene, geometry) if scene.shadow_lights else None
     features = scene_features(scene, geometry=geometry)
     base = scene.camera.with_size(width, height)
-    per_frame: list[dict[str, float]] = []
+    per_frame: list[list[dict[str, float]]] = [[] for _ in runtimes]
     for k in range(frames + 1):
         camera = orbit(base, step_degrees * k)
-        t: dict[str, float] = {}
-        t0 = time.perf_counter()
-        fragments = rasterize(geometry.vertices, geometry.faces, camera.view_matrix(), camera.projection_matrix(),
-                              camera.width, camera.height, cull_backfaces=geometry.cull)
-        t1 = time.perf_counter()
-        gbuffer = build_gbuffer(scene, geometry, fragments, camera)
-        t2 = time.perf_counter()
-        shader = Shader(runtime, gbuffer, scene, camera, shadows)
-        dispatch = shader.prepare(model, features)        # built once: later frames hit the cache
-        runtime.queue.finish()
-        t3 = time.perf_counter()
-        shader.enqueue(dispatch).wait()
-        t4 = time.perf_counter()
-        shader.read()
-        t5 = time.perf_counter()
-        t = dict(zip(STAGES, (t1 - t0, t2 - t1, t3 - t2, t4 - t3, t5 - t4)))
-        t["frame"] = t5 - t0
-        if k > 0:
-            per_frame.append(t)
-    med = {s: float(np.median([f[s] for f in per_frame])) for s in (*STAGES, "frame")}
-    return dict(scene=str(scene.path) if scene.path else None, model=model.id, width=width, height=height,
-                frames=frames, step_degrees=step_degrees, triangles=int(len(geometry.faces)),
-                host_threads=worker_count(), median_s=med, frames_s=per_frame)
+        for runtime, timed in zip(runtimes, per_frame):
+            t0 = time.perf_counter()
+            fragments = rasterize(geometry.vertices, geometry.faces, camera.view_matrix(),
+                                  camera.projection_matrix(), camera.width, camera.height,
+                                  cull_backfaces=geometry.cull)
+            t1 = time.perf_counter()
+            gbuffer = build_gbuffer(scene, geometry, fragments, camera)
+            t2 = time.perf_counter()
+            shader = Shader(runtime, gbuffer, scene, camera, shadows)
+            dispatch = shader.prepare(model, features)        # built once: later frames hit the cache
+            runtime.queue.finish()
+            t3 = time.perf_counter()
+            shader.enqueue(dispatch).wait()
+            t4 = time.perf_counter()
+            shader.read()
+            t5 = time.perf_counter()
+            t = dict(zip(STAGES, (t1 - t0, t2 - t1, t3 - t2, t4 - t3, t5 - t4)))
+            t["frame"] = t5 - t0
+            if k > 0:
+                timed.append(t)
+    out = []
+    for runtime, timed in zip(runtimes, per_frame):
+        med = {s: float(np.median([f[s] for f in timed])) for s in (*STAGES, "frame")}
+        out.append(dict(scene=_shown(scene.path), model=model.id, width=width, height=height,
+                        frames=frames, step_degrees=step_degrees, triangles=int(len(geometry.faces)),
+                        host_threads=worker_count(), device=runtime.info.description, median_s=med,
+                        frames_s=timed))
+    return out
