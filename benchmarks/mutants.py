@@ -189,6 +189,8 @@ CATALOGUE: list[Mutant] = [
       "a[i] = b[i] + c[i];   /* STREAM triad */", "OpenCL STREAM triad without the scalar"),
     M("whole_frame_runtimes", "clshade/bench/perf.py", "    for wf in whole_frame_results(doc):\n",
       "    for wf in whole_frame_results(doc)[:1]:\n", "perf: the whole-frame target judged on the first runtime only"),
+    M("frame_blocks_merge", "clshade/bench/frame.py", '        timed = [f for r in per_runtime for f in r["frames_s"]]\n',
+      '        timed = list(per_runtime[0]["frames_s"])\n', "whole frames: only the first block's frames counted"),
     M("cache_band_densest", "clshade/bench/perf.py", "best = starts[int(np.argmax(counts[starts + items] - counts[starts]))]",
       "best = starts[int(np.argmin(counts[starts + items] - counts[starts]))]", "in-cache band: the least covered window"),
     # ---- Python stages

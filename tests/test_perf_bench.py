@@ -107,6 +107,11 @@ def test_whole_frames_interleave_runtimes_and_judge_each(runtime):
     scene = load_scene(SCENES / "sphere_grid.toml")
     out = whole.whole_frames_on(scene, resolve("lambert"), [runtime, runtime], 64, 36, frames=2)
     assert [len(r["frames_s"]) for r in out] == [2, 2]
+    merged = whole.merge_blocks([out, out])
+    assert [(r["frames"], r["blocks"]) for r in merged] == [(4, 2), (4, 2)]
+    assert merged[0]["median_s"] == out[0]["median_s"]           # the same frames twice: the same medians
+    late = [dict(r, frames_s=[dict(f, frame=1.0) for f in r["frames_s"]]) for r in out]
+    assert whole.merge_blocks([out, late])[0]["median_s"]["frame"] > out[0]["median_s"]["frame"]
     assert all(r["device"] == runtime.info.description for r in out)
     slow = dict(out[1], device="slow device", median_s=dict(out[1]["median_s"], frame=0.25))
     doc = dict(runtimes=[], peers=[], stream=dict(anchor_gbs=1.0), whole_frames=[out[0], slow])

@@ -90,11 +90,23 @@ def whole_frames_on(scene: Scene, model: Model, runtimes: list[Runtime], width: 
             t["frame"] = t5 - t0
             if k > 0:
                 timed.append(t)
+    return [dict(scene=_shown(scene.path), model=model.id, width=width, height=height,
+                 frames=frames, step_degrees=step_degrees, triangles=int(len(geometry.faces)),
+                 host_threads=worker_count(), device=runtime.info.description, median_s=_medians(timed),
+                 frames_s=timed) for runtime, timed in zip(runtimes, per_frame)]
+
+
+def _medians(timed: list[dict[str, float]]) -> dict[str, float]:
+    return {s: float(np.median([f[s] for f in timed])) for s in (*STAGES, "frame")}
+
+
+def merge_blocks(blocks: list[list[dict[str, object]]]) -> list[dict[str, object]]:
+    """Results of several :func:`whole_frames_on` calls on the same runtimes (blocks run at
+    different times of a benchmark, so that no one quiet or busy spell of a shared machine
+    decides the figure) as one result per runtime: every block's frames, medians over all."""
     out = []
-    for runtime, timed in zip(runtimes, per_frame):
-        med = {s: float(np.median([f[s] for f in timed])) for s in (*STAGES, "frame")}
-        out.append(dict(scene=_shown(scene.path), model=model.id, width=width, height=height,
-                        frames=frames, step_degrees=step_degrees, triangles=int(len(geometry.faces)),
-                        host_threads=worker_count(), device=runtime.info.description, median_s=med,
+    for per_runtime in zip(*blocks):
+        timed = [f for r in per_runtime for f in r["frames_s"]]
+        out.append(dict(per_runtime[0], frames=len(timed), blocks=len(per_runtime), median_s=_medians(timed),
                         frames_s=timed))
     return out

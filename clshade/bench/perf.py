@@ -264,10 +264,15 @@ def compare(scene_path: str, models: list, width: int | None, height: int | None
 def run(scene_path: str, width: int, height: int, rounds: int, warmup: int, frame_scene: str,
         frame_frames: int, peer_names: tuple[str, ...]) -> dict:
     """Issue 15's document: `compare` on MODELS, whole frames, the targets."""
-    doc = compare(scene_path, [resolve(m) for m in MODELS], width, height, rounds, warmup, peer_names)
     runtimes = [Runtime(spec) for spec in pocl_devices()]
-    frames = whole.whole_frames_on(load_scene(frame_scene), resolve("ggx_correlated"), runtimes, 1920, 1080,
-                                   frame_frames)
+
+    def frames_block() -> list[dict]:
+        return whole.whole_frames_on(load_scene(frame_scene), resolve("ggx_correlated"), runtimes, 1920, 1080,
+                                     -(-frame_frames // 2))
+
+    before = frames_block()      # half the whole frames before the kernel rounds, half after
+    doc = compare(scene_path, [resolve(m) for m in MODELS], width, height, rounds, warmup, peer_names)
+    frames = whole.merge_blocks([before, frames_block()])
     for f in frames:
         f.pop("frames_s")
     doc["whole_frames"] = frames
@@ -470,6 +475,7 @@ def whole_frame_markdown(wfs: list[dict]) -> list[str]:
     wf = wfs[0]
     L = ["", f"## Whole frames: {wf['scene']} {wf['width']}×{wf['height']}, {wf['model']}, {wf['triangles']} "
          f"triangles, camera orbiting {wf['step_degrees']}° a frame, {wf['frames']} frames"
+         + (f" in {wf['blocks']} blocks (before and after the kernel rounds)" if wf.get("blocks", 1) > 1 else "")
          + (", the runtimes interleaved frame by frame" if len(wfs) > 1 else "")
          + f", host stages on {wf.get('host_threads', '?')} threads", "",
          "| stage | " + " | ".join(f"{short(w['device'])} median ms | share" for w in wfs) + " |",
@@ -492,7 +498,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--rounds", type=int, default=200)
     ap.add_argument("--warmup", type=int, default=10)
     ap.add_argument("--frame-scene", default="scenes/robot.toml")
-    ap.add_argument("--frame-frames", type=int, default=10)
+    ap.add_argument("--frame-frames", type=int, default=30, help="whole frames per runtime (half before the rounds, half after)")
     ap.add_argument("--peers", default="numba,drjit")
     ap.add_argument("--out", default="benchmarks/results/perf_1080p", help="path stem: writes .json and .md")
     ap.add_argument("--render-only", action="store_true", help="re-render OUT.md (and the targets) from OUT.json")
