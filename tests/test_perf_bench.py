@@ -112,6 +112,7 @@ def test_whole_frames_interleave_runtimes_and_judge_each(runtime):
     assert merged[0]["median_s"] == out[0]["median_s"]           # the same frames twice: the same medians
     late = [dict(r, frames_s=[dict(f, frame=1.0) for f in r["frames_s"]]) for r in out]
     assert whole.merge_blocks([out, late])[0]["median_s"]["frame"] > out[0]["median_s"]["frame"]
+    assert merged[0]["block_frame_s"] == [out[0]["median_s"]["frame"]] * 2
     assert all(r["device"] == runtime.info.description for r in out)
     slow = dict(out[1], device="slow device", median_s=dict(out[1]["median_s"], frame=0.25))
     doc = dict(runtimes=[], peers=[], stream=dict(anchor_gbs=1.0), whole_frames=[out[0], slow])

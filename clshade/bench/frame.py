@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import time
 from pathlib import Path
 
@@ -90,10 +91,19 @@ def whole_frames_on(scene: Scene, model: Model, runtimes: list[Runtime], width: 
             t["frame"] = t5 - t0
             if k > 0:
                 timed.append(t)
+    load = _load_average()
     return [dict(scene=_shown(scene.path), model=model.id, width=width, height=height,
                  frames=frames, step_degrees=step_degrees, triangles=int(len(geometry.faces)),
                  host_threads=worker_count(), device=runtime.info.description, median_s=_medians(timed),
-                 frames_s=timed) for runtime, timed in zip(runtimes, per_frame)]
+                 load_average=load, frames_s=timed) for runtime, timed in zip(runtimes, per_frame)]
+
+
+def _load_average() -> float | None:
+    """The 1-minute load average after the frames (how busy the shared machine was), None where unknown."""
+    try:
+        return round(os.getloadavg()[0], 2)
+    except (OSError, AttributeError):
+        return None
 
 
 def _medians(timed: list[dict[str, float]]) -> dict[str, float]:
@@ -108,5 +118,6 @@ def merge_blocks(blocks: list[list[dict[str, object]]]) -> list[dict[str, object
     for per_runtime in zip(*blocks):
         timed = [f for r in per_runtime for f in r["frames_s"]]
         out.append(dict(per_runtime[0], frames=len(timed), blocks=len(per_runtime), median_s=_medians(timed),
-                        frames_s=timed))
+                        block_frame_s=[r["median_s"]["frame"] for r in per_runtime],
+                        load_average=[r.get("load_average") for r in per_runtime], frames_s=timed))
     return out
