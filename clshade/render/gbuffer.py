@@ -29,6 +29,10 @@ def material_row(params: dict[str, object]) -> np.ndarray:
     return row
 
 
+#: Covered pixels interpolated at a time: bounds the per-chunk temporaries (~100 bytes
+#: a pixel) whatever the frame size, and keeps them in the cores' caches.
+GBUFFER_CHUNK: int = 1 << 17
+
 # The channels the rasterizer pass can write, with their element type and
 # components per pixel (struct of arrays, row-major, row 0 at the top).
 CHANNELS: dict[str, tuple[type, int]] = {
@@ -308,7 +312,7 @@ def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments, camera
             if "occlusion" in planes:
                 planes["occlusion"][0][p] = 1.0
 
-        run_chunked(len(pix), shade_inputs)
+        run_chunked(len(pix), shade_inputs, max_chunk=GBUFFER_CHUNK)
         if geometry.face_texture is not None:
             camera = (camera or scene.camera).with_size(w, h)
             textured = _texture_pixels(geometry, fragments.face, pix, fragments.face_bary.T, camera, w, h, planes)
