@@ -53,8 +53,10 @@
  * exp(−tan²θ/m²) < exp(−1e6). Flooring avoids 0/0 from cos⁴θ underflow. */
 #define MIN_N_DOT_H_BECKMANN 1.0e-3f
 
-/* Base of exp2(n·log2(x)) powers: keeps log2 finite so that 0⁰ = 1 and
- * 0ⁿ ≈ 0 (1e-30ⁿ underflows to 0 for n ≥ 2; for n < 2 the bias is ≤ 1e-15). */
+/* Base of exp2(n·log2(x)) powers: keeps log2 finite (x = 0 would give
+ * 0·(−∞) = NaN for n = 0). 1e-30ⁿ underflows to 0 for n ≥ 4.2 but is 1e-3 at
+ * n = 0.1, so a lobe whose base can be exactly 0 (Phong's saturated r·v) selects
+ * 0ⁿ itself: 1 for n = 0, else 0 (Fs_Phong). */
 #define MIN_POW_BASE 1.0e-30f
 
 /* ---- small math helpers -------------------------------------------------- */
@@ -279,8 +281,18 @@ INLINE real Fd_OrenNayar(real nl, real nv, real lv, real sigma) {
 
 /* Phong 1975, as a BRDF ("modified Phong", Lewis 1994): (r·v)ⁿ, r = 2(n·l)n − l.
  * r·v = 2(n·l)(n·v) − l·v of unit vectors rounds up to 1 + 1.1e-6 in float32;
- * (r·v)ⁿ would then exceed the lobe's peak by n·1.1e-6, so r·v is capped at 1. */
-INLINE real Fs_Phong(real rv, real n) { return pow_runtime(saturate(rv), n); }
+ * (r·v)ⁿ would then exceed the lobe's peak by n·1.1e-6, so r·v is capped at 1.
+ * Where r·v ≤ 0 the lobe is 0ⁿ exactly (1 for n = 0, else 0), not MIN_POW_BASEⁿ. */
+INLINE real Fs_Phong(real rv, real n) {
+    real zero_pow = n == 0.0f ? (real)(1.0f) : (real)(0.0f);
+    return rv > 0.0f ? pow_runtime(fmin(rv, 1.0f), n) : zero_pow;
+}
+
+/* Whether Fs_Phong is exactly 0 in every lane (r·v ≤ 0 and n > 0 in each: the
+ * mirror direction points away from the viewer for the whole work-item, about
+ * half the lit pixels of a glossy surface): the Phong models then skip the
+ * power's log2 and exp2. */
+INLINE int phong_lobe_is_zero(real rv, real n) { return !ANY((rv > 0.0f) | (n == 0.0f)); }
 
 /* Blinn 1977: (n·h)ⁿ. */
 INLINE real Fs_BlinnPhong(real nh, real n) { return pow_runtime(nh, n); }

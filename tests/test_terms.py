@@ -57,6 +57,18 @@ def test_dielectric_from_the_dense_side_total_internal_reflection() -> None:
     assert np.max(np.abs(f - g)[away] / np.maximum(g[away], A.FLOOR_REL)) <= A.TARGET
 
 
+def test_phong_lobe_at_or_behind_the_mirror_horizon_is_zero_to_the_n() -> None:
+    """Where r·v ≤ 0 the lobe is 0ⁿ exactly: 0 for every n > 0, small exponents included
+    (MIN_POW_BASEⁿ would be 1e-3 at n = 0.1), and 1 for n = 0; a positive r·v, its power."""
+    rv = np.array([-0.5, 0.0, -1e-7, 0.0, -0.5, 0.3, 0.3], np.float32)
+    n = np.array([0.1, 0.1, 0.5, 0.0, 0.0, 0.1, 0.0], np.float32)
+    x = np.zeros((len(rv), 4), np.float32)
+    x[:, 0], x[:, 1] = rv, n
+    f = A.eval_term("Fs_Phong", x, np.zeros_like(x), np.zeros_like(x))[:, 0]
+    np.testing.assert_array_equal(f[:5], [0.0, 0.0, 0.0, 1.0, 1.0])
+    np.testing.assert_allclose(f[5:], np.float64(0.3) ** np.float64(n[5:]), rtol=1e-5)
+
+
 def test_phong_power_below_flt_min_is_zero() -> None:
     """(r·v)ⁿ below 2⁻¹²⁶ is exactly 0 (kernels/brdf.h exp2_lanes, MIN_EXP2_ARG), never a
     clamped FLT_MIN or garbage exponent bits; just above it, the float64 value."""
