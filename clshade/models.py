@@ -241,7 +241,7 @@ def _unknown(spec: str, part: str) -> ClshadeError:
     import difflib
     choices = list(PRESETS) + list(lobes())
     near = difflib.get_close_matches(part, choices, n=1)
-    hint = f"; did you mean {near[0]!r}?" if near else f"; `clshade models` lists them"
+    hint = f"; did you mean {near[0]!r}?" if near else "; `clshade models` lists them"
     return ClshadeError(f"model {spec!r}: unknown model or lobe {part!r}{hint}")
 
 

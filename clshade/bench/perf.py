@@ -409,7 +409,7 @@ def _ms(value: float | None) -> str:
 def markdown(doc: dict) -> str:
     """The results file, rendered from the JSON document only."""
     s = doc["stream"]
-    L = [f"# Performance on the runtimes users get (issue 15)", "",
+    L = ["# Performance on the runtimes users get (issue 15)", "",
          f"Generated {doc['created']} by `{doc.get('command', '')}` "
          f"on {doc['machine']['processor']} ({doc['machine']['cpu_count']} cores, {doc['machine']['os']}); "
          f"{doc['scene']} {doc['width']}×{doc['height']}, {doc['rounds']} interleaved rounds, medians. "

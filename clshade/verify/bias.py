@@ -155,7 +155,8 @@ def floor_bias(runtime: Runtime | None = None) -> list[dict[str, Any]]:
                         kernel_only=True))
     out.append(_measure("MIN_N_DOT_H_BECKMANN", 1e-3, "n·h < 1e-3 (both directions grazing, 90° apart)",
                         [("cook_torrance", c, c, math.pi / 2) for c in (2e-4, 5e-4)], rt))
-    out.append(_measure("MIN_POW_BASE", 1e-30, "r·v ≤ 0 (Phong base 0)",
+    out.append(_measure("MIN_POW_BASE", 1e-30, "r·v ≤ 0 (Phong base 0: 0ⁿ is selected, the floor keeps the unused "
+                                               "lanes' log2 finite)",
                         [(m, c, c, 0.0) for m in ("phong", "phong_normalized") for c in (0.3, 0.5, 0.8)], rt))
     return out
 

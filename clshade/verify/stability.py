@@ -152,14 +152,7 @@ def run_model(model: Model, grid: Grid, rt: Runtime, fast_math: bool,
         i = int(np.argmax(dev))
         res.max_deviation = float(dev[i])
         res.max_deviation_at = _where(labels, i, {"f32": f[i].tolist(), "f64": ref[i].tolist()})
-        # MIN_POW_BASE acts where the Phong/Blinn–Phong base is 0 (x = 0 evaluates as
-        # 1e-30): a visible bias only for exponents below 0.5 (see clamp_bias).
-        unit = lambda x: x / np.maximum(np.linalg.norm(x, axis=1, keepdims=True), 1e-300)  # noqa: E731
-        un, ul, uv = unit(_f32(samples.n)), unit(_f32(samples.l)), unit(_f32(samples.v))
-        rv = 2 * np.sum(un * ul, 1) * np.sum(un * uv, 1) - np.sum(ul * uv, 1)
-        pow_base = rv if model.specular.startswith("phong") else np.sum(un * unit(ul + uv), 1)
-        pow_zero = (model.family == "empirical") & (pow_base <= 0) & (labels["shininess"] < 0.5)
-        unclamped = comparable & (nl >= MIN_COSINE) & (nv >= MIN_COSINE) & ~pow_zero
+        unclamped = comparable & (nl >= MIN_COSINE) & (nv >= MIN_COSINE)
         du = np.where(unclamped, dev, 0.0)
         j = int(np.argmax(du))
         res.max_deviation_unclamped = float(du[j])
