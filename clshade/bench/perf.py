@@ -61,6 +61,7 @@ ROUND_STREAM_MIB = 64
 SCHEMA = "clshade-perf/1"
 LAMBERT_BOUND = 1.3          # issue 15: Lambert within 1.3× of its bytes at the STREAM rate
 COPY_BOUND = 1.5             # every model ≤ 1.5× the copy kernel
+FRAME_BOUND_S = 0.100        # the robot scene at 1920×1080, whole frame (rasterize … read back)
 
 
 def _versions() -> dict[str, str]:
@@ -326,25 +327,27 @@ def targets(doc: dict) -> list[dict]:
                                 value=r["stream_ratio"], met=r["stream_ratio"] <= LAMBERT_BOUND,
                                 cause="" if r["stream_ratio"] <= LAMBERT_BOUND else
                                 stream_miss_cause(r, anchor, rt.get("opencl_stream_gbs"))))
-    for wf in whole_frame_results(doc):
+    for wf in doc.get("whole_frames", []):
         m = wf["median_s"]
-        host = m["rasterize"] + m["g-buffer"]
-        threads = f" on {wf['host_threads']} threads" if "host_threads" in wf else ""
-        why = (f"rasterize {m['rasterize'] / m['frame']:.0%} + G-buffer {m['g-buffer'] / m['frame']:.0%} of the frame: "
-               f"the NumPy host stages{threads} (clshade/render/raster.py, gbuffer.py) take {host * 1e3:.0f} ms where "
-               f"{(0.1 - (m['frame'] - host)) * 1e3:.0f} ms are left beside the device stages; shading "
-               f"{m['shade'] / m['frame']:.0%}" + (
-                   "; medians of the blocks " + " / ".join(f"{b * 1e3:.0f}" for b in wf["block_frame_s"]) + " ms"
-                   if "block_frame_s" in wf else "") if m["frame"] > 0.1 else "")
         out.append(dict(runtime=wf["device"], target="robot 1920×1080 whole frame ≤ 100 ms (ms)",
-                        value=m["frame"] * 1e3, met=m["frame"] <= 0.1, cause=why))
+                        value=m["frame"] * 1e3, met=m["frame"] <= FRAME_BOUND_S,
+                        cause="" if m["frame"] <= FRAME_BOUND_S else frame_miss_cause(wf)))
     return out
 
 
-def whole_frame_results(doc: dict) -> list[dict]:
-    """The whole-frame results of a document, one per runtime (documents before the runtimes were
-    interleaved hold one, under "whole_frame")."""
-    return doc.get("whole_frames") or ([doc["whole_frame"]] if doc.get("whole_frame") else [])
+def frame_miss_cause(wf: dict) -> str:
+    """Why a whole frame misses FRAME_BOUND_S, from its stages: the host stages' share and time
+    against what the device stages leave of the budget (and each block's median, when there are blocks)."""
+    m = wf["median_s"]
+    host = m["rasterize"] + m["g-buffer"]
+    threads = f" on {wf['host_threads']} threads" if "host_threads" in wf else ""
+    why = (f"rasterize {m['rasterize'] / m['frame']:.0%} + G-buffer {m['g-buffer'] / m['frame']:.0%} of the frame: "
+           f"the NumPy host stages{threads} (clshade/render/raster.py, gbuffer.py) take {host * 1e3:.0f} ms where "
+           f"{(FRAME_BOUND_S - (m['frame'] - host)) * 1e3:.0f} ms are left beside the device stages; shading "
+           f"{m['shade'] / m['frame']:.0%}")
+    if "block_frame_s" in wf:
+        why += "; medians of the blocks " + " / ".join(f"{b * 1e3:.0f}" for b in wf["block_frame_s"]) + " ms"
+    return why
 
 
 def copy_miss_cause(r: dict) -> str:
@@ -461,7 +464,7 @@ def markdown(doc: dict) -> str:
                     f"correct implementations) checked in the first column only" if p["ill_conditioned_pixels"] else "")
             L.append(f"| {p['peer']} {p['version']} | {p['model']} | {p['median_ms']:.2f} | {p['max_rel_diff']:.1e} | "
                      f"{p['max_rel_diff_well_conditioned']:.1e} | {'yes' if p['verified'] else 'NO'} | {note} |")
-    L += whole_frame_markdown(whole_frame_results(doc))
+    L += whole_frame_markdown(doc.get("whole_frames", []))
     L += ["", "## Targets (default build)", "", "| runtime | target | measured | met | cause of the miss (same run) |",
           "|---|---|---|---|---|"]
     for t in doc["targets"]:
@@ -490,8 +493,8 @@ def whole_frame_markdown(wfs: list[dict]) -> list[str]:
             cells += [f"**{ms}**" if k == "frame" else ms, f"{m[k] / m['frame']:.0%}"]
         L.append(f"| {'**whole frame**' if k == 'frame' else k} | " + " | ".join(cells) + " |")
     if all("block_frame_s" in w for w in wfs):
-        L.append("| whole frame, median of each block | " + " | ".join(
-            " / ".join(f"{b * 1e3:.1f}" for b in w["block_frame_s"]) + " | " for w in wfs) + " |")
+        cells = [cell for w in wfs for cell in (" / ".join(f"{b * 1e3:.1f}" for b in w["block_frame_s"]), "")]
+        L.append("| whole frame, median of each block | " + " | ".join(cells) + " |")
         loads = wfs[0].get("load_average") or []
         if loads and all(x is not None for x in loads):
             L += ["", "1-minute load average of the machine after each block: "
