@@ -25,26 +25,26 @@ __kernel void copy(const uint npix, const uint plane,
     size_t i = get_global_id(0);
     if (SIMD * i >= npix) return;
     real w = VLOAD(i, depth);
-    /* shade.cl reads only the depth of a work-item with no covered pixel. */
-    if (all_empty(w)) {
-        store4(i, out, v3s((real)(0.0f)), w);
-        return;
-    }
-    vec3 acc = v3add(load3(i, normal, plane), load3(i, base, plane));
+    vec3 acc = v3s((real)(0.0f));
+    /* shade.cl reads only the depth of a work-item with no covered pixel; one
+     * store4 site, as there (gbuffer.h). */
+    if (!all_empty(w)) {
+        acc = v3add(load3(i, normal, plane), load3(i, base, plane));
 #if HAS_ROUGHNESS
-    w += VLOAD(i, roughness);
+        w += VLOAD(i, roughness);
 #endif
 #if HAS_METALLIC
-    w += VLOAD(i, metallic);
+        w += VLOAD(i, metallic);
 #endif
 #if HAS_EMISSIVE
-    acc = v3add(acc, load3f(i, emissive, plane));
+        acc = v3add(acc, load3f(i, emissive, plane));
 #endif
 #if HAS_OCCLUSION
-    w += VLOAD(i, occlusion);
+        w += VLOAD(i, occlusion);
 #endif
 #if HAS_MATERIAL
-    w += convert_real(VLOAD_UCHAR(i, material));
+        w += convert_real(VLOAD_UCHAR(i, material));
 #endif
+    }
     store4(i, out, acc, w);
 }

@@ -47,9 +47,13 @@ INLINE int all_empty(real depth) { return !ANY(depth > 0.0f); }
  * unpack / shuffle / 128-bit permute sequence (12 shuffles) written as
  * __builtin_shufflevector: built from elements, (float8)(x.s0, y.s0, …), LLVM
  * made ~96 shuffles of it per work-item on PoCL 3.0 (objdump), and every
- * kernel was 5–8 % slower (A/B in one process, 2026-11-23).
- * Non-temporal stores (__builtin_nontemporal_store, no read for ownership)
- * were measured 10–20× slower on this machine, so the stores are plain. */
+ * kernel was 5–8 % slower (A/B in one process, 2026-11-23). The rows are
+ * written with STORE_ROW8 (simd.h: streaming stores on x86).
+ * One store4 call per kernel: with two (the sky's early return and the end),
+ * LLVM 14 sinks their common last store into one and drops its !nontemporal
+ * mark, so every output line got one streaming and one cached half: the copy
+ * kernel ran 18× slower (objdump of PoCL 3.0's binary: vmovntps ×3, vmovaps
+ * ×1 per row group; 2026-11-25). tests/test_kernel_sources.py checks it. */
 INLINE void store8_rows(__global float* o, float8 x, float8 y, float8 z, float8 a) {
     float8 t0 = __builtin_shufflevector(x, y, 0, 8, 1, 9, 4, 12, 5, 13);
     float8 t1 = __builtin_shufflevector(x, y, 2, 10, 3, 11, 6, 14, 7, 15);
@@ -59,10 +63,10 @@ INLINE void store8_rows(__global float* o, float8 x, float8 y, float8 z, float8 
     float8 u1 = __builtin_shufflevector(t0, t2, 2, 3, 10, 11, 6, 7, 14, 15);
     float8 u2 = __builtin_shufflevector(t1, t3, 0, 1, 8, 9, 4, 5, 12, 13);
     float8 u3 = __builtin_shufflevector(t1, t3, 2, 3, 10, 11, 6, 7, 14, 15);
-    VSTORE8(__builtin_shufflevector(u0, u1, 0, 1, 2, 3, 8, 9, 10, 11), 0, o);
-    VSTORE8(__builtin_shufflevector(u2, u3, 0, 1, 2, 3, 8, 9, 10, 11), 1, o);
-    VSTORE8(__builtin_shufflevector(u0, u1, 4, 5, 6, 7, 12, 13, 14, 15), 2, o);
-    VSTORE8(__builtin_shufflevector(u2, u3, 4, 5, 6, 7, 12, 13, 14, 15), 3, o);
+    STORE_ROW8(__builtin_shufflevector(u0, u1, 0, 1, 2, 3, 8, 9, 10, 11), 0, o);
+    STORE_ROW8(__builtin_shufflevector(u2, u3, 0, 1, 2, 3, 8, 9, 10, 11), 1, o);
+    STORE_ROW8(__builtin_shufflevector(u0, u1, 4, 5, 6, 7, 12, 13, 14, 15), 2, o);
+    STORE_ROW8(__builtin_shufflevector(u2, u3, 4, 5, 6, 7, 12, 13, 14, 15), 3, o);
 }
 
 INLINE void store4(size_t i, __global float4* out, vec3 c, real a) {

@@ -175,128 +175,130 @@ __kernel void shade(
     real z = VLOAD(i, depth);
     mask covered = z > 0.0f;
     /* Sky: a work-item with no covered pixel reads nothing else and writes the
-     * background (copy.cl skips the same reads, so the floor stays fair). */
-    if (all_empty(z)) {
-        store4(i, out, v3c(background.xyz), (real)(background.w));
-        return;
-    }
+     * background (copy.cl skips the same reads, so the floor stays fair). Both
+     * paths end in the one store4 below: gbuffer.h says why there is one site. */
+    vec3 color = v3c(background.xyz);
+    real alpha = (real)(background.w);
+    if (!all_empty(z)) {
+        /* Camera rays through the pixel centres; cam_right/cam_up are pre-scaled by
+         * tan(fov/2)·aspect and tan(fov/2), so P = cam_pos + depth · ray. */
+        /* Lane j is pixel SIMD·i + j: one division per work-item, then at most one
+         * wrap to the next row (SIMD ≤ width). */
+        uint first = (uint)(SIMD * i), row = first / width;
+        uindex px = (uindex)(first - row * width) + LANE_IOTA;
+        uindex py = (uindex)(row);
+        mask wrap = px >= width;
+        px = wrap ? px - width : px;
+        py = wrap ? py + 1u : py;
+        real sx = (convert_real(px) + 0.5f) * inv_width2 - 1.0f;
+        real sy = 1.0f - (convert_real(py) + 0.5f) * inv_height2;
+        vec3 ray = v3add(v3c(cam_fwd.xyz), v3add(v3scale(v3c(cam_right.xyz), sx), v3scale(v3c(cam_up.xyz), sy)));
+        vec3 v = v3scale(ray, -rsqrt(v3dot(ray, ray)));
 
-    /* Camera rays through the pixel centres; cam_right/cam_up are pre-scaled by
-     * tan(fov/2)·aspect and tan(fov/2), so P = cam_pos + depth · ray. */
-    /* Lane j is pixel SIMD·i + j: one division per work-item, then at most one
-     * wrap to the next row (SIMD ≤ width). */
-    uint first = (uint)(SIMD * i), row = first / width;
-    uindex px = (uindex)(first - row * width) + LANE_IOTA;
-    uindex py = (uindex)(row);
-    mask wrap = px >= width;
-    px = wrap ? px - width : px;
-    py = wrap ? py + 1u : py;
-    real sx = (convert_real(px) + 0.5f) * inv_width2 - 1.0f;
-    real sy = 1.0f - (convert_real(py) + 0.5f) * inv_height2;
-    vec3 ray = v3add(v3c(cam_fwd.xyz), v3add(v3scale(v3c(cam_right.xyz), sx), v3scale(v3c(cam_up.xyz), sy)));
-    vec3 v = v3scale(ray, -rsqrt(v3dot(ray, ray)));
-
-    vec3 n = unit_or(load3(i, normal, plane), v);     /* a bad normal shades as if facing the viewer */
-    vec3 b = v3max(load3(i, base, plane), 0.0f);
+        vec3 n = unit_or(load3(i, normal, plane), v);     /* a bad normal shades as if facing the viewer */
+        vec3 b = v3max(load3(i, base, plane), 0.0f);
 #if HAS_ROUGHNESS
-    real r = saturate(VLOAD(i, roughness));
+        real r = saturate(VLOAD(i, roughness));
 #else
-    real r = (real)(1.0f);
+        real r = (real)(1.0f);
 #endif
 #if HAS_METALLIC
-    real m = saturate(VLOAD(i, metallic));
+        real m = saturate(VLOAD(i, metallic));
 #else
-    real m = (real)(0.0f);
+        real m = (real)(0.0f);
 #endif
 #if HAS_MATERIAL
-    Surface s = make_surface(b, r, m, material_gather(VLOAD_UCHAR(i, material), materials));
+        Surface s = make_surface(b, r, m, material_gather(VLOAD_UCHAR(i, material), materials));
 #else
-    Surface s = make_surface(b, r, m, material_uniform(MAT_M0, MAT_M1, MAT_M2, MAT_M3));
+        Surface s = make_surface(b, r, m, material_uniform(MAT_M0, MAT_M1, MAT_M2, MAT_M3));
 #endif
 
 #ifdef SPECULAR_AA
-    s = specular_aa(s, normal_difference2(first, npix, width, depth, normal, plane, n));   /* specular_aa.h */
+        s = specular_aa(s, normal_difference2(first, npix, width, depth, normal, plane, n));   /* specular_aa.h */
 #endif
 
-    vec3 L = SUM_START;
+        vec3 L = SUM_START;
 #if HAS_OCCLUSION
 #define AMBIENT(A) v3scale(ambient_term(v3c((A).xyz), s), saturate(VLOAD(i, occlusion)))
 #else
 #define AMBIENT(A) ambient_term(v3c((A).xyz), s)
 #endif
 #if GENERAL || NUM_POINT + NUM_SPOT > 0 || HAS_SHADOWS
-    vec3 P = v3add(v3c(cam_pos.xyz), v3scale(ray, z));
+        vec3 P = v3add(v3c(cam_pos.xyz), v3scale(ray, z));
 #endif
 #if GENERAL
-    for (uint k = 0; k < num_lights; ++k) {
-        float4 a = lights[4 * k], c = lights[4 * k + 1];
-        int kind = (int)a.w;
-        vec3 l, E;
-        if (kind == LIGHT_DIRECTIONAL) {
-            l = v3c(-a.xyz);
-            E = v3c(c.xyz);
-        } else {
-            real d2;
-            l = towards_light(a, P, &d2);
-            if (kind == LIGHT_SPOT) {
-                float4 e = lights[4 * k + 2];
-                E = v3scale(v3c(c.xyz), spot_cone(l, e, e.w, lights[4 * k + 3].x) / d2);
+        for (uint k = 0; k < num_lights; ++k) {
+            float4 a = lights[4 * k], c = lights[4 * k + 1];
+            int kind = (int)a.w;
+            vec3 l, E;
+            if (kind == LIGHT_DIRECTIONAL) {
+                l = v3c(-a.xyz);
+                E = v3c(c.xyz);
             } else {
-                E = v3scale(v3c(c.xyz), 1.0f / d2);
+                real d2;
+                l = towards_light(a, P, &d2);
+                if (kind == LIGHT_SPOT) {
+                    float4 e = lights[4 * k + 2];
+                    E = v3scale(v3c(c.xyz), spot_cone(l, e, e.w, lights[4 * k + 3].x) / d2);
+                } else {
+                    E = v3scale(v3c(c.xyz), 1.0f / d2);
+                }
             }
+            if (has_shadows && c.w >= 0.0f && ANY(faces_light(n, l)))
+                E = v3scale(E, shadow_factor(shadow_maps, shadow_params, (int)c.w, shadow_size, P, n, pcf_radius));
+            L = v3add(L, shade_light(n, v, l, E, s));
         }
-        if (has_shadows && c.w >= 0.0f && ANY(faces_light(n, l)))
-            E = v3scale(E, shadow_factor(shadow_maps, shadow_params, (int)c.w, shadow_size, P, n, pcf_radius));
-        L = v3add(L, shade_light(n, v, l, E, s));
-    }
-    if (has_ambient)
-        L = v3add(L, AMBIENT(ambient));
+        if (has_ambient)
+            L = v3add(L, AMBIENT(ambient));
 #else
 #if HAS_SHADOWS
-/* Only where some lane faces the light: shade_light() adds nothing otherwise. */
+    /* Only where some lane faces the light: shade_light() adds nothing otherwise. */
 #define SHADOW(E, slot) \
-    if ((slot) >= 0.0f && ANY(faces_light(n, l))) \
-        (E) = v3scale((E), shadow_factor(shadow_maps, shadow_params, (int)(slot), shadow_size, P, n, SHADOW_PCF / 2))
+        if ((slot) >= 0.0f && ANY(faces_light(n, l))) \
+            (E) = v3scale((E), shadow_factor(shadow_maps, shadow_params, (int)(slot), shadow_size, P, n, SHADOW_PCF / 2))
 #else
 #define SHADOW(E, slot)
 #endif
 #if NUM_DIR > 0
-    for (int k = 0; k < NUM_DIR; ++k) {
-        vec3 l = v3c(-lights[2 * k].xyz);
-        float4 c = lights[2 * k + 1];
-        vec3 E = v3c(c.xyz);
-        SHADOW(E, c.w);
-        L = v3add(L, shade_light(n, v, l, E, s));
-    }
+        for (int k = 0; k < NUM_DIR; ++k) {
+            vec3 l = v3c(-lights[2 * k].xyz);
+            float4 c = lights[2 * k + 1];
+            vec3 E = v3c(c.xyz);
+            SHADOW(E, c.w);
+            L = v3add(L, shade_light(n, v, l, E, s));
+        }
 #endif
 #if NUM_POINT > 0
-    for (int k = 0; k < NUM_POINT; ++k) {
-        int o = 2 * NUM_DIR + 2 * k;
-        real d2;
-        vec3 l = towards_light(lights[o], P, &d2);
-        L = v3add(L, shade_light(n, v, l, v3scale(v3c(lights[o + 1].xyz), 1.0f / d2), s));
-    }
+        for (int k = 0; k < NUM_POINT; ++k) {
+            int o = 2 * NUM_DIR + 2 * k;
+            real d2;
+            vec3 l = towards_light(lights[o], P, &d2);
+            L = v3add(L, shade_light(n, v, l, v3scale(v3c(lights[o + 1].xyz), 1.0f / d2), s));
+        }
 #endif
 #if NUM_SPOT > 0
-    for (int k = 0; k < NUM_SPOT; ++k) {
-        int o = 2 * NUM_DIR + 2 * NUM_POINT + 3 * k;
-        float4 p = lights[o], e = lights[o + 1], a = lights[o + 2];
-        real d2;
-        vec3 l = towards_light(p, P, &d2);
-        vec3 E = v3scale(v3c(e.xyz), spot_cone(l, a, p.w, e.w) / d2);
-        SHADOW(E, a.w);
-        L = v3add(L, shade_light(n, v, l, E, s));
-    }
+        for (int k = 0; k < NUM_SPOT; ++k) {
+            int o = 2 * NUM_DIR + 2 * NUM_POINT + 3 * k;
+            float4 p = lights[o], e = lights[o + 1], a = lights[o + 2];
+            real d2;
+            vec3 l = towards_light(p, P, &d2);
+            vec3 E = v3scale(v3c(e.xyz), spot_cone(l, a, p.w, e.w) / d2);
+            SHADOW(E, a.w);
+            L = v3add(L, shade_light(n, v, l, E, s));
+        }
 #endif
 #if HAS_AMBIENT
-    L = v3add(L, AMBIENT(ambient));
+        L = v3add(L, AMBIENT(ambient));
 #endif
 #endif
 #if HAS_EMISSIVE
-    L = v3add(L, v3max(load3f(i, emissive, plane), 0.0f));
+        L = v3add(L, v3max(load3f(i, emissive, plane), 0.0f));
 #endif
 #ifndef RAW_RADIANCE
-    L = v3min(L, MAX_RADIANCE);   /* fmin: also turns a NaN into MAX_RADIANCE */
+        L = v3min(L, MAX_RADIANCE);   /* fmin: also turns a NaN into MAX_RADIANCE */
 #endif
-    store4(i, out, v3select(covered, L, v3c(background.xyz)), covered ? (real)(1.0f) : (real)(background.w));
+        color = v3select(covered, L, color);
+        alpha = covered ? (real)(1.0f) : alpha;
+    }
+    store4(i, out, color, alpha);
 }
