@@ -277,20 +277,21 @@ typedef short short8u __attribute__((ext_vector_type(8), aligned(2)));
 
 /* STORE_ROW8(v, k, p): row k of 8 floats at p, a 32-byte aligned address
  * (the image rows of gbuffer.h: the output buffer is device-allocated,
- * CL_DEVICE_MEM_BASE_ADDR_ALIGN ≥ 1024 bits, and every work-item writes whole
- * 32-byte rows). On x86 with AVX a streaming store (vmovntps): the image is
- * written once and read next by the host, so it skips the read for ownership
- * that a plain store makes of every output line, and the cache it would have
- * filled. Measured in one process on pip's PoCL 3.0 (2026-11-25): seven float
- * planes in, float4 rows out, 31.6 → 43.0 GB/s. The stores are weakly ordered;
- * the runtime's completion of each work-group (a locked instruction, which
- * drains the write-combining buffers: Intel SDM vol. 3 §11.3.1, AMD APM vol. 2
- * §7.4) orders them before the event completes. An SFENCE per work-item
- * instead made that copy 4.6× slower than plain stores; the earlier note
- * "streaming stores measured 10–20× slower" came from such a fence and from
- * unaligned (4-byte) vector types, which cannot use vmovntps.
- * CLSHADE_CACHED_STORES (build define) keeps plain stores, for A/B. */
+ * CL_DEVICE_MEM_BASE_ADDR_ALIGN is 1024 bits on PoCL, and every work-item
+ * writes whole 32-byte rows). On x86 with AVX a streaming store (vmovntps):
+ * the image is written once and read next by the host, so the store skips the
+ * read for ownership that a plain store makes of every output line, and the
+ * cache it would fill. The `plain stores` build of benchmarks/results/
+ * perf_1080p.md is the A/B. The stores are weakly ordered; each work-group's
+ * completion in the runtime (a locked instruction, which drains the
+ * write-combining buffers: Intel SDM vol. 3 §11.3.1, AMD APM vol. 2 §7.4)
+ * orders them before the event completes. An SFENCE per work-item would stall
+ * every work-item on its own lines (the copy kernel ran several times slower
+ * with one, 2026-11-25). A line must be written whole by streaming stores:
+ * gbuffer.h keeps one store site per kernel for that reason.
+ * CLSHADE_CACHED_STORES=1 (environment) keeps plain stores. */
 #if defined(__x86_64__) && defined(__AVX__) && !defined(CLSHADE_CACHED_STORES)
+#define CLSHADE_STREAMING_STORES 1
 #define STORE_ROW8(v, k, p) __builtin_nontemporal_store((v), (__global float8*)((p) + 8 * (size_t)(k)))
 #else
 #define STORE_ROW8(v, k, p) VSTORE8((v), (k), (p))

@@ -39,11 +39,13 @@ def test_stream_kernels_compute_copy_and_triad():
 
 
 def test_opencl_stream_counts_stream_bytes_and_checks_its_values(runtime, monkeypatch):
-    """The OpenCL STREAM kernels run (and verify c = b, a = b + s·c); rates are the bytes STREAM
-    counts (copy 2 × 4 B, triad 3 × 4 B per element) over the best profiled kernel time."""
+    """The OpenCL STREAM kernels run with plain and with streaming stores (and verify c = b,
+    a = b + s·c after each kind); rates are the bytes STREAM counts (copy 2 × 4 B, triad 3 × 4 B per
+    element) over the best profiled kernel time of each loop and store kind."""
     out = bandwidth.opencl_stream(runtime, repeats=2, mib=1)
-    assert out["copy_best_gbs"] > 0 and out["triad_best_gbs"] > 0
-    assert out["best_gbs"] == max(out["copy_best_gbs"], out["triad_best_gbs"])
+    keys = [loop + suffix for suffix in bandwidth.STORE_KINDS.values() for loop in ("copy", "triad")]
+    assert all(out[f"{k}_best_gbs"] > 0 for k in keys)
+    assert out["best_gbs"] == max(out[f"{k}_best_gbs"] for k in keys)
     real = runtime.cl.enqueue_nd_range_kernel
 
     times = []
@@ -56,9 +58,20 @@ def test_opencl_stream_counts_stream_bytes_and_checks_its_values(runtime, monkey
     monkeypatch.setattr(runtime.cl, "enqueue_nd_range_kernel", timed)
     out = bandwidth.opencl_stream(runtime, repeats=2, mib=1)
     n = 2 ** 20 // 4
-    copies, triads = times[2::2], times[3::2]
-    assert out["copy_best_gbs"] == pytest.approx(8 * n / min(copies) / 1e9)
-    assert out["triad_best_gbs"] == pytest.approx(12 * n / min(triads) / 1e9)
+    timed_runs = times[4:]            # after one warm-up run of each loop and store kind
+    for j, suffix in enumerate(bandwidth.STORE_KINDS.values()):
+        kind = timed_runs[4 * j:4 * j + 4]
+        assert out[f"copy{suffix}_best_gbs"] == pytest.approx(8 * n / min(kind[0::2]) / 1e9)
+        assert out[f"triad{suffix}_best_gbs"] == pytest.approx(12 * n / min(kind[1::2]) / 1e9)
+
+
+def test_opencl_stream_check_catches_a_wrong_streaming_kernel(runtime, monkeypatch):
+    """A streaming-store loop that writes the wrong value is refused, not timed."""
+    monkeypatch.setattr(bandwidth, "OPENCL_STREAM_SOURCE",
+                        bandwidth.OPENCL_STREAM_SOURCE.replace("STREAMING_STORE(b[i] + s * c[i], a + i)",
+                                                               "STREAMING_STORE(b[i] - s * c[i], a + i)"))
+    with pytest.raises(RuntimeError, match="wrong values"):
+        bandwidth.opencl_stream(runtime, repeats=1, mib=1)
 
 
 def test_cache_band_is_the_most_covered_window():

@@ -258,3 +258,34 @@ def test_inline_math_only_where_the_builtin_library_cannot_inline(runtime):
     cl.enqueue_copy(runtime.queue, out, buf)
     target_avx512, x86_avx = (bool(x) for x in out)
     assert runtime.inline_math == (x86_avx and host_has_avx512f() and not target_avx512)
+
+
+@pytest.mark.parametrize("simd", ["8", "16"])
+def test_streaming_stores_write_the_image_plain_stores_write(runtime, monkeypatch, simd):
+    """kernels/simd.h's STORE_ROW8 (streaming stores on x86) writes every row where the
+    plain stores do: the same image bit for bit, sky work-items and covered ones."""
+    from clshade.device.runtime import CACHED_STORES, Runtime
+    if simd == "16" and runtime.native_simd < 16 and not runtime.inline_math:
+        pytest.skip("16 lanes build here only with simd.h's inline builtins")
+    monkeypatch.setenv("CLSHADE_SIMD", simd)
+    frame = prepare_frame(parse_scene(SCENE))
+    features = scene_features(frame.scene, geometry=frame.geometry)
+    streaming, plain = Runtime(runtime.info.spec), Runtime(runtime.info.spec, options=(CACHED_STORES,))
+    assert not plain.streaming_stores
+    if "cpu" in runtime.info.kind and __import__("platform").machine() == "x86_64":
+        assert streaming.streaming_stores, "an x86 CPU device with AVX writes rows with streaming stores"
+    for model in ("lambert", "ggx_correlated"):
+        m = models.resolve(model)
+        a, b = (Shader(rt, frame.gbuffer, frame.scene, frame.camera, frame.shadows).render(m, features)
+                for rt in (streaming, plain))
+        assert (a[..., 3] == 0).any() and (a[..., 3] == 1).any(), "the frame has sky and covered pixels"
+        np.testing.assert_array_equal(a, b)
+
+
+def test_image_kernels_have_one_store_site():
+    """shade.cl and copy.cl write their pixels at one store4 call each: with two, LLVM merges
+    the last stores of both paths and drops their streaming mark (kernels/gbuffer.h)."""
+    from clshade.resources import kernels_dir
+    for name in ("shade.cl", "copy.cl"):
+        body = (kernels_dir() / name).read_text(encoding="utf-8").split("__kernel void", 1)[1]
+        assert body.count("store4(") == 1, f"kernels/{name}: {body.count('store4(')} store4 calls"

@@ -94,8 +94,16 @@ def stream(repeats: int = 10, mib: int = STREAM_MIB, method: str = "auto") -> di
 
 
 # The same two STREAM loops as OpenCL kernels, 16 floats a work-item: what the OpenCL runtime itself
-# streams (its work-group scheduling and threads, no G-buffer layout), beside the anchor above.
+# streams (its work-group scheduling and threads, no G-buffer layout), beside the anchor above. Each
+# twice: with plain stores, and on x86 with streaming (non-temporal) stores, which skip the read for
+# ownership of every written line — the store the image kernels use (kernels/simd.h, STORE_ROW8),
+# and STREAM's own when its compiler emits them; the anchor is the faster.
 OPENCL_STREAM_SOURCE = """
+#if defined(__x86_64__)
+#define STREAMING_STORE(v, p) __builtin_nontemporal_store((v), (p))
+#else
+#define STREAMING_STORE(v, p) (*(p) = (v))
+#endif
 __kernel void copy(__global const float16* a, __global float16* c) {
     size_t i = get_global_id(0);
     c[i] = a[i];
@@ -104,18 +112,31 @@ __kernel void triad(__global float16* a, __global const float16* b, __global con
     size_t i = get_global_id(0);
     a[i] = b[i] + s * c[i];   /* STREAM triad */
 }
+__kernel void copy_streaming(__global const float16* a, __global float16* c) {
+    size_t i = get_global_id(0);
+    STREAMING_STORE(a[i], c + i);
+}
+__kernel void triad_streaming(__global float16* a, __global const float16* b, __global const float16* c,
+                              const float s) {
+    size_t i = get_global_id(0);
+    STREAMING_STORE(b[i] + s * c[i], a + i);
+}
 """
+# The OpenCL STREAM loops by store kind: the suffix of their kernel names and of their result keys.
+STORE_KINDS = {"plain": "", "streaming": "_streaming"}
 
 
 class OpenCLStream:
     """The STREAM copy and triad as OpenCL kernels on a clshade Runtime's device, over three arrays of
-    `mib` MiB: c = b, then a = b + s·c (fixed values every repeat, so `check()` can verify them)."""
+    `mib` MiB: c = b, then a = b + s·c (fixed values every repeat, so `check()` can verify them), with
+    plain or streaming stores (STORE_KINDS)."""
 
     def __init__(self, runtime, mib: int = STREAM_MIB) -> None:
         self.rt, self.n = runtime, mib * 2 ** 20 // 4
         self.a, self.b, self.c = (runtime.to_device(np.full(self.n, v, np.float32)) for v in (1.0, 2.0, 0.5))
-        self._copy = runtime.kernel(OPENCL_STREAM_SOURCE, "copy", label="STREAM copy")
-        self._triad = runtime.kernel(OPENCL_STREAM_SOURCE, "triad", label="STREAM triad")
+        self._kernels = {(loop, kind): runtime.kernel(OPENCL_STREAM_SOURCE, loop + suffix,
+                                                      label=f"STREAM {loop} ({kind} stores)")
+                         for loop in ("copy", "triad") for kind, suffix in STORE_KINDS.items()}
         self.items = runtime.global_size(self.n // 16)
         if self.items != self.n // 16:
             raise ValueError(f"{mib} MiB is not a multiple of the work-group size {runtime.local_size} × 16 floats")
@@ -126,13 +147,13 @@ class OpenCLStream:
         ev.wait()
         return (ev.profile.end - ev.profile.start) * 1e-9
 
-    def copy(self) -> float:
+    def copy(self, stores: str = "plain") -> float:
         """One copy c = b; its kernel time in s."""
-        return self._run(self._copy, self.b, self.c)
+        return self._run(self._kernels["copy", stores], self.b, self.c)
 
-    def triad(self) -> float:
+    def triad(self, stores: str = "plain") -> float:
         """One triad a = b + s·c; its kernel time in s."""
-        return self._run(self._triad, self.a, self.b, self.c, TRIAD_SCALAR)
+        return self._run(self._kernels["triad", stores], self.a, self.b, self.c, TRIAD_SCALAR)
 
     def check(self) -> None:
         got_a, got_c = np.empty(self.n, np.float32), np.empty(self.n, np.float32)
@@ -144,23 +165,27 @@ class OpenCLStream:
 
 def opencl_stream(runtime, repeats: int = 10, mib: int = STREAM_MIB) -> dict[str, object]:
     """Copy and triad bandwidth of OpenCL kernels on `runtime`'s device (a clshade Runtime), counted
-    as STREAM counts (best and median of `repeats`, from the profiling events), in GB/s."""
+    as STREAM counts (best and median of `repeats`, from the profiling events), in GB/s: keys
+    copy_… and triad_… with plain stores, copy_streaming_… and triad_streaming_… with streaming
+    ones. Each kind's result is checked (`OpenCLStream.check`) after its repeats."""
     st = OpenCLStream(runtime, mib)
-    st.copy()
-    st.triad()
-    times: dict[str, list[float]] = {"copy": [], "triad": []}
-    for _ in range(repeats):
-        times["copy"].append(st.copy())
-        times["triad"].append(st.triad())
-    st.check()
+    loops = [(loop, kind) for kind in STORE_KINDS for loop in ("copy", "triad")]
+    times: dict[tuple[str, str], list[float]] = {key: [] for key in loops}
+    for loop, kind in loops:                 # warm the pages and build
+        getattr(st, loop)(kind)
+    for kind in STORE_KINDS:
+        for _ in range(repeats):             # copy and triad interleaved, like the shading rounds
+            for loop in ("copy", "triad"):
+                times[loop, kind].append(getattr(st, loop)(kind))
+        st.check()
     n = st.n
-    moved = {k: b * n for k, b in STREAM_BYTES.items()}
     out: dict[str, object] = dict(method=f"OpenCL float16 kernels on {runtime.info.description}", array_mib=mib,
                                   repeats=repeats)
-    for k, ts in times.items():
-        out[f"{k}_best_gbs"] = moved[k] / min(ts) / 1e9
-        out[f"{k}_median_gbs"] = moved[k] / float(np.median(ts)) / 1e9
-    out["best_gbs"] = max(out["copy_best_gbs"], out["triad_best_gbs"])
+    for (loop, kind), ts in times.items():
+        key = loop + STORE_KINDS[kind]
+        out[f"{key}_best_gbs"] = STREAM_BYTES[loop] * n / min(ts) / 1e9
+        out[f"{key}_median_gbs"] = STREAM_BYTES[loop] * n / float(np.median(ts)) / 1e9
+    out["best_gbs"] = max(v for k, v in out.items() if k.endswith("_best_gbs"))
     return out
 
 

@@ -39,7 +39,7 @@ import numpy as np
 
 from clshade import __version__
 from clshade.bench import bandwidth, frame as whole, peers as peer_mod
-from clshade.device.runtime import INLINE_MATH, LIBRARY_MATH, Runtime, list_devices
+from clshade.device.runtime import CACHED_STORES, INLINE_MATH, LIBRARY_MATH, Runtime, list_devices
 from clshade.device.shade import Shader, scene_features
 from clshade.models import resolve
 from clshade.pipeline import prepare_frame
@@ -124,8 +124,8 @@ def compare(scene_path: str, models: list, width: int | None, height: int | None
     frame = prepare_frame(load_scene(scene_path), width, height)
     gb, scene, camera = frame.gbuffer, frame.scene, frame.camera
     feats = scene_features(scene)
-    builds = ((("default", ()), ("library", (LIBRARY_MATH,)), ("inline", (INLINE_MATH,))) if library
-              else (("default", ()),))
+    builds = ((("default", ()), ("library", (LIBRARY_MATH,)), ("inline", (INLINE_MATH,)),
+               ("plain stores", (CACHED_STORES,))) if library else (("default", ()),))
     configs = []
     for spec in devices or pocl_devices():
         for build, opts in builds:
@@ -141,7 +141,7 @@ def compare(scene_path: str, models: list, width: int | None, height: int | None
                 continue
             configs.append(dict(device=rt.info.description, device_name=rt.info.device,
                                 platform_version=rt.info.platform_version, build=build, simd=rt.simd,
-                                inline_math=rt.inline_math,
+                                inline_math=rt.inline_math, streaming_stores=rt.streaming_stores,
                                 shader=sh, dispatches=ds, images=images, ms={k: [] for k in ds}))
     ok = [c for c in configs if "error" not in c]
     ref_images = ok[0]["images"]
@@ -195,8 +195,9 @@ def compare(scene_path: str, models: list, width: int | None, height: int | None
     round_stream: dict[str, list[float]] = {}
     for d, rt in devices_seen.items():
         st = bandwidth.OpenCLStream(rt, ROUND_STREAM_MIB)
-        round_stream[f"OpenCL triad on {short(d)}"] = []
-        items.append((round_stream[f"OpenCL triad on {short(d)}"], lambda st=st: st.triad() * 1e3))
+        for kind in bandwidth.STORE_KINDS:
+            times = round_stream[round_triad_key(d, kind)] = []
+            items.append((times, lambda st=st, kind=kind: st.triad(kind) * 1e3))
     numba_triad = bandwidth.numba_triad(ROUND_STREAM_MIB)
     if numba_triad is not None:
         round_stream[f"{numba_triad[1]} triad"] = []
@@ -246,8 +247,11 @@ def compare(scene_path: str, models: list, width: int | None, height: int | None
                              max_rel_diff_vs_first=peer_mod.verify(c["images"][m.id], ref_images[m.id], covered)))
         runtimes.append(dict(device=c["device"], device_name=c["device_name"], platform_version=c["platform_version"],
                              build=c["build"], simd=c["simd"], inline_math=c["inline_math"],
-                             opencl_stream_gbs=in_rounds.get(f"OpenCL triad on {short(c['device'])}", {}).get(
-                                 "median_gbs", ocl_best[c["device"]]), models=rows))
+                             streaming_stores=c["streaming_stores"],
+                             opencl_stream_gbs=max((in_rounds[k]["median_gbs"] for k in
+                                                    (round_triad_key(c["device"], kind) for kind in bandwidth.STORE_KINDS)
+                                                    if k in in_rounds), default=ocl_best[c["device"]]),
+                             models=rows))
     for row in peer_rows:
         if "ms" in row:
             row["median_ms"] = float(np.median(row.pop("ms")))
@@ -260,6 +264,11 @@ def compare(scene_path: str, models: list, width: int | None, height: int | None
                             in_rounds=in_rounds, round_array_mib=ROUND_STREAM_MIB,
                             opencl={d: dict(before=ocl_before[d], after=ocl_after[d]) for d in devices_seen}),
                 runtimes=runtimes, peers=peer_rows)
+
+
+def round_triad_key(device: str, stores: str) -> str:
+    """The in-rounds STREAM key of `device`'s OpenCL triad with `stores` (bandwidth.STORE_KINDS)."""
+    return f"OpenCL triad ({stores} stores) on {short(device)}"
 
 
 def run(scene_path: str, width: int, height: int, rounds: int, warmup: int, frame_scene: str,
@@ -370,7 +379,7 @@ def stream_miss_cause(r: dict, anchor: float, runtime_stream: float | None = Non
     text = (f"the copy kernel moving the same bytes runs at {r['copy_stream_ratio']:.2f}× the STREAM bound "
             f"({r['copy_gbs']:.1f} vs {anchor:.1f} GB/s)")
     if runtime_stream:
-        text += (f"; this runtime's own OpenCL STREAM triad reaches {runtime_stream:.1f} GB/s in the same rounds, so "
+        text += (f"; this runtime's own OpenCL STREAM triad (the faster of its store kinds) reaches {runtime_stream:.1f} GB/s in the same rounds, so "
                  f"the copy kernel's G-buffer traffic (several planes read, float4 rows written) streams at "
                  f"{r['copy_gbs'] / runtime_stream:.0%} of what the runtime can")
     if "copy_cache_frame_ms" in r:
@@ -388,8 +397,8 @@ def short(device: str) -> str:
 
 
 def _noise_lines(doc: dict) -> list[str]:
-    """Builds of one runtime that compiled the same code (same inline_math): their time
-    ratios per kernel are this run's noise band."""
+    """Builds of one runtime that compiled the same code (same inline_math and
+    streaming_stores): their time ratios per kernel are this run's noise band."""
     out = []
     by_device: dict[str, list[dict]] = {}
     for rt in doc["runtimes"]:
@@ -398,11 +407,22 @@ def _noise_lines(doc: dict) -> list[str]:
     for device, rts in by_device.items():
         for i, a in enumerate(rts):
             for b in rts[i + 1:]:
-                if a["inline_math"] == b["inline_math"]:
+                if all(a.get(k) == b.get(k) for k in ("inline_math", "streaming_stores")):
                     ratios = [ra[k] / rb[k] for ra, rb in zip(a["models"], b["models"]) for k in ("median_ms", "copy_ms")]
                     out.append(f"Noise: on {short(device)} the `{a['build']}` and `{b['build']}` builds are the same "
                                f"code; their kernel times differ by {min(ratios):.2f}–{max(ratios):.2f}× in this run.")
     return [""] + out if out else []
+
+
+def _opencl_stream_keys(result: dict) -> list[tuple[str, str]]:
+    """(label, key) of the OpenCL STREAM loops in one `bandwidth.opencl_stream` result (results
+    before streaming stores were measured have only the plain ones)."""
+    out = []
+    for kind, suffix in bandwidth.STORE_KINDS.items():
+        for loop in ("copy", "triad"):
+            if f"{loop}{suffix}_best_gbs" in result:
+                out.append((loop if not suffix else f"{loop} ({kind} stores)", loop + suffix))
+    return out
 
 
 def _ms(value: float | None) -> str:
@@ -421,14 +441,17 @@ def markdown(doc: dict) -> str:
          "Builds: `default` = what clshade builds (kernels/simd.h's inline builtins only where PoCL's AVX-512 "
          "builtin library meets a compiler target without AVX-512), `library` = the OpenCL library's "
          "builtins everywhere (the kernels before issue 15; CLSHADE_LIBRARY_MATH=1), `inline` = inline "
-         "builtins everywhere (CLSHADE_INLINE_MATH=1). Targets are judged on `default`.", "",
+         "builtins everywhere (CLSHADE_INLINE_MATH=1), `plain stores` = `default` with the image rows written "
+         "by plain stores instead of streaming ones (CLSHADE_CACHED_STORES=1; kernels/simd.h, STORE_ROW8). "
+         "Targets are judged on `default`.", "",
          f"**STREAM anchor** ({s['before']['method']}, {s['before']['array_mib']} MiB arrays, best of "
          f"{s['before']['repeats']}): copy {s['before']['copy_best_gbs']:.1f} / {s['after']['copy_best_gbs']:.1f} GB/s, "
          f"triad {s['before']['triad_best_gbs']:.1f} / {s['after']['triad_best_gbs']:.1f} GB/s (before / after the "
          f"rounds)"
-         + "".join(f"; OpenCL STREAM kernels on {short(d)}: copy {v['before']['copy_best_gbs']:.1f} / "
-                   f"{v['after']['copy_best_gbs']:.1f}, triad {v['before']['triad_best_gbs']:.1f} / "
-                   f"{v['after']['triad_best_gbs']:.1f} GB/s" for d, v in s.get("opencl", {}).items())
+         + "".join(f"; OpenCL STREAM kernels on {short(d)}: " + ", ".join(
+                       f"{loop} {v['before'][key + '_best_gbs']:.1f} / {v['after'][key + '_best_gbs']:.1f}"
+                       for loop, key in _opencl_stream_keys(v["before"])) + " GB/s"
+                   for d, v in s.get("opencl", {}).items())
          + f"; the fastest {s.get('best_anchor_gbs', s['anchor_gbs']):.1f} GB/s."
          + ("" if "in_rounds" not in s else
             f" In the rounds (STREAM triads over three {s['round_array_mib']} MiB arrays, interleaved with the "

@@ -143,6 +143,10 @@ ENV_LIBRARY_MATH = "CLSHADE_LIBRARY_MATH"
 ENV_INLINE_MATH = "CLSHADE_INLINE_MATH"
 LIBRARY_MATH = "-DCLSHADE_LIBRARY_MATH"
 INLINE_MATH = "-DCLSHADE_INLINE_MATH_FORCE"
+# kernels/simd.h writes the image rows with streaming (non-temporal) stores on x86 with AVX (see
+# STORE_ROW8 there). A/B switch: CLSHADE_CACHED_STORES=1 keeps plain stores.
+ENV_CACHED_STORES = "CLSHADE_CACHED_STORES"
+CACHED_STORES = "-DCLSHADE_CACHED_STORES"
 
 
 def host_has_avx512f() -> bool:
@@ -172,7 +176,8 @@ class Runtime:
         self._kernels: dict[tuple[str, str], object] = {}
         self.options = (tuple(options) + (("-DCLSHADE_HOST_AVX512F",) if host_has_avx512f() else ())
                         + ((LIBRARY_MATH,) if _flag(ENV_LIBRARY_MATH) else ())
-                        + ((INLINE_MATH,) if _flag(ENV_INLINE_MATH) else ()))
+                        + ((INLINE_MATH,) if _flag(ENV_INLINE_MATH) else ())
+                        + ((CACHED_STORES,) if _flag(ENV_CACHED_STORES) else ()))
 
     def kernel(self, source: str, name: str, options: tuple[str, ...] = (), label: str = "") -> object:
         """Build (once) and return kernel `name` from `source` with build `options`
@@ -303,9 +308,19 @@ class Runtime:
     def inline_math(self) -> bool:
         """Whether kernels built here use kernels/simd.h's inline builtins (the header
         decides from the compiler target and CLSHADE_HOST_AVX512F; probed on the device)."""
+        return self._simd_h_defines("CLSHADE_INLINE_MATH")
+
+    @property
+    def streaming_stores(self) -> bool:
+        """Whether the image kernels built here write their rows with streaming stores
+        (kernels/simd.h, STORE_ROW8; probed on the device)."""
+        return self._simd_h_defines("CLSHADE_STREAMING_STORES")
+
+    def _simd_h_defines(self, macro: str) -> bool:
+        """Whether kernels/simd.h defines `macro` when built on this device with these options."""
         from clshade.resources import kernels_dir
         source = ((kernels_dir() / "simd.h").read_text(encoding="utf-8") + "\n__kernel void probe(__global int* out) {\n"
-                  "#ifdef CLSHADE_INLINE_MATH\n out[0] = 1;\n#else\n out[0] = 0;\n#endif\n}\n")
+                  f"#ifdef {macro}\n out[0] = 1;\n#else\n out[0] = 0;\n#endif\n}}\n")
         kernel = self.kernel(source, "probe", label="simd.h probe")
         out = np.zeros(1, np.int32)
         buf = self.empty(out.nbytes)
