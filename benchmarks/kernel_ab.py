@@ -64,7 +64,7 @@ def measure(base_kernels: Path, base_label: str, rounds: int, base_simd_no_avx51
     """Median and minimum ms of every (runtime, kernels, model, entry) over interleaved rounds."""
     frame = prepare_frame(load_scene(scene), width, height)
     gb, sc, cam = frame.gbuffer, frame.scene, frame.camera
-    feats = scene_features(sc)
+    feats = scene_features(sc, geometry=frame.geometry)
     covered = np.flatnonzero(gb.channels["depth"] > 0)
     configs, reference = [], {}
     for spec in pocl_devices():

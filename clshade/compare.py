@@ -42,7 +42,7 @@ def shade_all(frame: Frame, models: list[Model], runtime: Runtime, repeats: int 
     """Shade one G-buffer with every model; time each kernel (median device time);
     `progress(done, total)` after each model."""
     shader = Shader(runtime, frame.gbuffer, frame.scene, frame.camera)
-    features = scene_features(frame.scene)
+    features = scene_features(frame.scene, geometry=frame.geometry)
     tiles = []
     for model in models:
         dispatch = shader.prepare(model, features)

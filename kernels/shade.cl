@@ -9,6 +9,9 @@
  * Variant defines (set by clshade/device/variants.py, see `clshade render --explain`):
  *   NUM_DIR, NUM_POINT, NUM_SPOT   light counts by kind
  *   HAS_ROUGHNESS, HAS_METALLIC    per-pixel channels present
+ *   ROUGHNESS_VALUE, METALLIC_VALUE  the channel's one value in the whole scene when it
+ *                                  is not read per pixel (defaults: 1, 0 — a model that
+ *                                  does not use the channel never sees it)
  *   HAS_MATERIAL                   per-pixel material id + material table
  *   MAT_M0..MAT_M3                 the material constants when HAS_MATERIAL is 0
  *   HAS_AMBIENT                    constant ambient radiance
@@ -65,6 +68,12 @@
 #endif
 #ifndef HAS_OCCLUSION
 #define HAS_OCCLUSION 0
+#endif
+#ifndef ROUGHNESS_VALUE
+#define ROUGHNESS_VALUE 1.0f
+#endif
+#ifndef METALLIC_VALUE
+#define METALLIC_VALUE 0.0f
 #endif
 #if GENERAL
 /* The general kernel reads every channel; its switches are runtime arguments. */
@@ -184,28 +193,35 @@ __kernel void shade(
          * tan(fov/2)·aspect and tan(fov/2), so P = cam_pos + depth · ray. */
         /* Lane j is pixel SIMD·i + j: one division per work-item, then at most one
          * wrap to the next row (SIMD ≤ width). */
+        /* Columns convert as signed ints (< 2·width < 2³¹: exact), one vcvtdq2ps: an
+         * unsigned conversion has no AVX2 instruction (6 per 8 lanes, objdump). The
+         * row is one or the next for every lane: (row + ½) or (row + 1½), exact in float. */
         uint first = (uint)(SIMD * i), row = first / width;
         uindex px = (uindex)(first - row * width) + LANE_IOTA;
-        uindex py = (uindex)(row);
         mask wrap = px >= width;
         px = wrap ? px - width : px;
-        py = wrap ? py + 1u : py;
-        real sx = (convert_real(px) + 0.5f) * inv_width2 - 1.0f;
-        real sy = 1.0f - (convert_real(py) + 0.5f) * inv_height2;
+        real sx = (convert_real(as_mask(px)) + 0.5f) * inv_width2 - 1.0f;
+        real sy = 1.0f - ((real)((float)row) + (wrap ? (real)(1.5f) : (real)(0.5f))) * inv_height2;
         vec3 ray = v3add(v3c(cam_fwd.xyz), v3add(v3scale(v3c(cam_right.xyz), sx), v3scale(v3c(cam_up.xyz), sy)));
         vec3 v = v3scale(ray, -rsqrt(v3dot(ray, ray)));
 
-        vec3 n = unit_or(load3(i, normal, plane), v);     /* a bad normal shades as if facing the viewer */
+        /* A bad normal (zero, NaN, Inf) shades as if facing the viewer. The fallback is a
+         * branch taken only where some lane has one, so a model that reads v nowhere else
+         * (Lambert) computes it only there (LLVM sinks v into the branch). */
+        vec3 n = load3(i, normal, plane);
+        mask n_ok = unit_in_place(&n);
+        if (!ALL(n_ok))
+            n = v3select(n_ok, n, v);
         vec3 b = v3max(load3(i, base, plane), 0.0f);
 #if HAS_ROUGHNESS
         real r = saturate(VLOAD(i, roughness));
 #else
-        real r = (real)(1.0f);
+        real r = saturate((real)(ROUGHNESS_VALUE));
 #endif
 #if HAS_METALLIC
         real m = saturate(VLOAD(i, metallic));
 #else
-        real m = (real)(0.0f);
+        real m = saturate((real)(METALLIC_VALUE));
 #endif
 #if HAS_MATERIAL
         Surface s = make_surface(b, r, m, material_gather(VLOAD_UCHAR(i, material), materials));

@@ -81,6 +81,14 @@ INLINE vec3 unit_or(vec3 x, vec3 fallback) {
     return v3select(len2 > MIN_UNIT_LEN2, v3scale(x, rsqrt(len2)), fallback);
 }
 
+/* *x normalised in the lanes where it can be (returned mask, as unit_or); the
+ * other lanes hold garbage (Inf, NaN) for the caller to replace. */
+INLINE mask unit_in_place(vec3* x) {
+    real len2 = v3dot(*x, *x);
+    *x = v3scale(*x, rsqrt(len2));
+    return len2 > MIN_UNIT_LEN2;
+}
+
 /* Lanes where the light is above the surface's horizon (n·l > 0). */
 INLINE mask faces_light(vec3 n, vec3 l) { return v3dot(n, l) > 0.0f; }
 

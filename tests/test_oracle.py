@@ -211,3 +211,33 @@ def test_bench_error_column_is_the_oracle_with_shadows(tmp_path):
                  "--width", "64", "--height", "40", "--numpy-frames", "2", "--no-progress", "--json", str(out)]) == 0
     row = json.loads(out.read_text(encoding="utf-8"))["models"][0]
     assert row["max_rel_error"] < TOLERANCE and row["numpy_frames"] == 2 and row["numpy_ratio"] > 0
+
+
+@pytest.mark.parametrize("model", ["lambert", "ggx_correlated"])
+def test_unusable_normals_shade_facing_the_viewer(tmp_path, runtime, model):
+    """Zero and NaN G-buffer normals (a zero one is bad input the G-buffer keeps; NaN only a
+    hand-made G-buffer has) shade as if the normal were the view direction, as the oracle
+    defines them: the kernels' fallback branch (shade.cl) against
+    clshade.verify.reference.pixels. Every fourth covered pixel."""
+    from clshade.device.shade import Shader, scene_features
+    from clshade.pipeline import prepare_frame
+    from clshade.render.gbuffer import GBuffer
+    frame = prepare_frame(load_scene(scene_file(tmp_path, "directional")), WIDTH, HEIGHT)
+    gb = frame.gbuffer
+    normal = np.array(gb.channels["normal"], np.float32).reshape(-1, 3)
+    bad = np.flatnonzero(gb.channels["depth"] > 0)[::4]
+    normal[bad[::2]] = 0.0
+    normal[bad[1::2]] = np.nan
+    gb = GBuffer(gb.width, gb.height, {**gb.channels, "normal": normal.reshape(-1)}, gb.materials, gb.coverage)
+    m = resolve(model)
+    image = Shader(runtime, gb, frame.scene, frame.camera).render(m, scene_features(frame.scene,
+                                                                                    geometry=frame.geometry))
+    want = R.radiance(gb, frame.scene, m, camera=frame.camera).reshape(-1, 3)[bad]
+    got = image[..., :3].reshape(-1, 3)[bad].astype(np.float64)
+    assert np.isfinite(got).all()
+    px = R.pixels(gb, frame.camera)
+    l = next(R.light_rays(frame.scene, px))[1][np.isin(px.index, bad)]
+    lit = np.abs(np.sum(px.v[np.isin(px.index, bad)] * l, axis=1)) >= MIN_COS
+    assert lit.sum() > 10
+    err = np.abs(got - want) / np.maximum(np.abs(want), DARK * float(np.abs(want).max()))
+    assert float(err[lit].max()) <= TOLERANCE

@@ -289,3 +289,44 @@ def test_image_kernels_have_one_store_site():
     for name in ("shade.cl", "copy.cl"):
         body = (kernels_dir() / name).read_text(encoding="utf-8").split("__kernel void", 1)[1]
         assert body.count("store4(") == 1, f"kernels/{name}: {body.count('store4(')} store4 calls"
+
+
+UNIFORM_SCENE = SCENE.replace("roughness = 0.7\n", "roughness = 0.3\nmetallic = 0.5\n")
+
+
+@pytest.mark.parametrize("model", ["ggx_correlated", "lambert", "burley"])
+def test_uniform_channels_are_compiled_in(runtime, model):
+    """Roughness and metallic with one value on every face (floor and ball alike) are
+    compiled in: the variant reads neither channel, and its image equals the general
+    kernel's, which reads both per pixel. Where the values differ (SCENE), both are read."""
+    frame = prepare_frame(parse_scene(UNIFORM_SCENE))
+    features = scene_features(frame.scene, geometry=frame.geometry)
+    assert dict(features.uniform) == {"roughness": pytest.approx(0.3), "metallic": pytest.approx(0.5)}
+    m = models.resolve(model)
+    shader = Shader(runtime, frame.gbuffer, frame.scene, frame.camera, frame.shadows)
+    variant = shader.variant(m, features)
+    assert not {"roughness", "metallic"} & set(variant.channels)
+    assert variant.defines()["METALLIC_VALUE"] == "0.5f"
+    _close(shader.render(m, features), shader.render(m, replace(features, general=True)))
+    varied = prepare_frame(parse_scene(SCENE))
+    assert scene_features(varied.scene, geometry=varied.geometry).uniform == ()
+
+
+def test_uniform_channels_follow_gltf_factors_and_textures():
+    """A face with a glTF texture set takes the set's factor, not its scene material's value;
+    a metallic-roughness texture makes neither channel uniform."""
+    from clshade.render.gbuffer import uniform_channels
+    from clshade.render.textures import Texture, TextureSet
+    frame = prepare_frame(parse_scene(UNIFORM_SCENE))
+    geo, mats = frame.geometry, list(frame.scene.materials.values())
+    assert dict(uniform_channels(geo, mats)) == {"roughness": pytest.approx(0.3), "metallic": pytest.approx(0.5)}
+    faces = len(geo.face_material)
+    half = np.where(np.arange(faces) < faces // 2, 0, -1).astype(np.int32)
+    same = replace(geo, face_texture=half, texture_sets=(TextureSet(roughness_factor=0.3, metallic_factor=0.5),))
+    assert dict(uniform_channels(same, mats)) == dict(uniform_channels(geo, mats))
+    other = replace(geo, face_texture=half, texture_sets=(TextureSet(roughness_factor=0.3, metallic_factor=1.0),))
+    assert dict(uniform_channels(other, mats)) == {"roughness": pytest.approx(0.3)}
+    image = Texture.from_pixels(np.ones((4, 4, 3), np.float32))
+    mapped = replace(geo, face_texture=half, texture_sets=(TextureSet(roughness_factor=0.3, metallic_factor=0.5,
+                                                                      metallic_roughness=image),))
+    assert uniform_channels(mapped, mats) == ()

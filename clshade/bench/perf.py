@@ -123,7 +123,7 @@ def compare(scene_path: str, models: list, width: int | None, height: int | None
     the peers, in the same interleaved rounds; peers verified against the first runtime."""
     frame = prepare_frame(load_scene(scene_path), width, height)
     gb, scene, camera = frame.gbuffer, frame.scene, frame.camera
-    feats = scene_features(scene)
+    feats = scene_features(scene, geometry=frame.geometry)
     builds = ((("default", ()), ("library", (LIBRARY_MATH,)), ("inline", (INLINE_MATH,)),
                ("plain stores", (CACHED_STORES,))) if library else (("default", ()),))
     configs = []

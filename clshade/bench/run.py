@@ -269,7 +269,7 @@ class Bench:
         if lights is not None:
             scene = with_lights(scene, lights)
         frame = prepare_frame(scene, width, height)
-        return cls(frame, get_runtime(device), scene_features(frame.scene), device)
+        return cls(frame, get_runtime(device), scene_features(frame.scene, geometry=frame.geometry), device)
 
     def shader(self, gbuffer: GBuffer | None = None, scene: Scene | None = None) -> Shader:
         """The Shader for (gbuffer, scene), uploaded once. Shaders share the runtime:
@@ -292,7 +292,11 @@ class Bench:
              group: str = "", numpy: bool = True) -> Case:
         sc = scene or self.frame.scene
         gb = gbuffer or self.frame.gbuffer
-        features = dataclasses.replace(scene_features(sc), half_gbuffer=half, fast_math=fast_math)
+        # The frame's geometry decides textures, emission and uniform channels; another scene's
+        # or G-buffer's is unknown here, so none of them is assumed.
+        geometry = self.frame.geometry if scene is None and gbuffer is None else None
+        features = dataclasses.replace(scene_features(sc, geometry=geometry), half_gbuffer=half,
+                                       fast_math=fast_math)
         vis = self.visibility(gb, sc) if features.shadows else None
         return Case(label or model.id, model, features, self.shader(gb, sc), sc, gb,
                     target=target, group=group, numpy=numpy, visibility=vis)

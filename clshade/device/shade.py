@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from clshade.render.gbuffer import GBuffer
+from clshade.render.gbuffer import GBuffer, uniform_channels
 from clshade.render.meshes import Geometry
 from clshade.models import Model
 from clshade.device.resolve import Resolver
@@ -41,7 +41,8 @@ def scene_features(scene: Scene, half_gbuffer: bool = False, fast_math: bool = F
                     emissive=bool(geometry is not None and geometry.has_emission),
                     occlusion=bool(ambient and geometry is not None and geometry.has_occlusion),
                     half_gbuffer=half_gbuffer, fast_math=fast_math, general=general,
-                    specular_aa=scene.specular_aa)
+                    specular_aa=scene.specular_aa,
+                    uniform=uniform_channels(geometry, list(scene.materials.values())) if geometry is not None else ())
 
 
 def _slot(slots: tuple[int, ...] | None, index: int) -> float:

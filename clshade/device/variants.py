@@ -31,6 +31,9 @@ TABLE_PARAMS = frozenset({"kd", "ks", "ka", "shininess", "ior", "f90", "eta", "k
 FRESNEL_DEFINES = {"schlick": "FRESNEL_SCHLICK", "dielectric": "FRESNEL_DIELECTRIC",
                    "conductor": "FRESNEL_CONDUCTOR"}
 WORKFLOW_DEFINES = {"metallic": "WORKFLOW_METALLIC", "kdks": "WORKFLOW_KDKS"}
+# The define that carries a uniform channel's value into shade.cl (Features.uniform), by channel,
+# in the kernels' argument order.
+UNIFORM_DEFINES = {"roughness": "ROUGHNESS_VALUE", "metallic": "METALLIC_VALUE"}
 
 FAST_MATH = "-cl-fast-relaxed-math"
 
@@ -55,6 +58,9 @@ class Features:
     general: bool = False          # the general kernel; the fields above are its runtime switches
     raw_radiance: bool = False     # no MAX_RADIANCE clamp: NaN/Inf reach the output (stability check only)
     specular_aa: bool = False      # specular lobe widened by the normal's screen-space variance (compile-time)
+    # (channel, value) of one-component surface channels with one value over the whole scene
+    # (clshade.render.gbuffer.uniform_channels): compiled in, not read per pixel (not by the general kernel)
+    uniform: tuple[tuple[str, float], ...] = ()
 
     @property
     def num_lights(self) -> int:
@@ -73,6 +79,9 @@ class Features:
         out.append(f"G-buffer storage: {'half (normal, base colour)' if self.half_gbuffer else 'float32'}")
         out.append(f"math: {'fast-relaxed' if self.fast_math else 'precise'}")
         out.append(f"specular anti-aliasing: {'on (normal variance, kernels/specular_aa.h)' if self.specular_aa else 'off'}")
+        if self.uniform and not self.general:
+            out.append("uniform channels: " + ", ".join(f"{k} = {v:g}" for k, v in self.uniform)
+                       + " (one value in the whole scene: compiled in, not read per pixel)")
         if self.raw_radiance:
             out.append("radiance: RAW (no MAX_RADIANCE clamp; NaN/Inf written as computed)")
         out.append("output: exposure, tone map and sRGB encoding on the host (clshade/render/image.py)")
@@ -113,7 +122,8 @@ class Variant:
 
     @classmethod
     def build(cls, model: Model, features: Features, material_table: np.ndarray) -> "Variant":
-        """Choose channels: roughness/metallic when the model reads them; the material id
+        """Choose channels: roughness/metallic when the model reads them and the scene does
+        not give them one value everywhere (Features.uniform: then compiled in); the material id
         channel only when the materials differ in a constant the model reads (otherwise
         those constants are compiled in)."""
         extra = (("emissive",) if features.emissive else ()) + (("occlusion",) if features.occlusion else ())
@@ -121,11 +131,9 @@ class Variant:
             return cls(model, features, ("depth", "normal", "base", "roughness", "metallic", *extra, "material"),
                        None)
         uses = model.uses
+        uniform = dict(features.uniform)
         channels = ["depth", "normal", "base"]
-        if "roughness" in uses:
-            channels.append("roughness")
-        if "metallic" in uses:
-            channels.append("metallic")
+        channels += [name for name in UNIFORM_DEFINES if name in uses and name not in uniform]
         channels += extra         # before "material": the kernels' argument order (shade.cl, copy.cl)
         mask = used_table_columns(model)
         table = np.asarray(material_table, np.float32).reshape(-1, 4, 4)
@@ -171,6 +179,9 @@ class Variant:
             "FRESNEL": FRESNEL_DEFINES[m.fresnel],
             "WORKFLOW": WORKFLOW_DEFINES[m.workflow],
         }
+        for name, value in f.uniform:
+            if name in m.uses:
+                d[UNIFORM_DEFINES[name]] = _c_float(value)
         if f.shadows:
             d["SHADOW_PCF"] = str(f.shadow_pcf)
         if f.half_gbuffer:

@@ -236,6 +236,35 @@ def _texture_pixels(geometry: Geometry, tri: np.ndarray, pixels: np.ndarray, bar
     return sel
 
 
+# One-component surface channels a kernel variant may compile in as a constant (variants.py).
+UNIFORM_CANDIDATES = ("roughness", "metallic")
+
+
+def uniform_channels(geometry: Geometry, mats: list) -> tuple[tuple[str, float], ...]:
+    """(name, value) of each UNIFORM_CANDIDATES channel that has one value on every face of the
+    scene: each face's material, or for a face with a glTF texture set its factor, gives the same
+    value, and no metallic-roughness texture scales it (the values _face_planes and the texture
+    sets write into the G-buffer). A kernel variant compiles such a channel in instead of reading
+    it per pixel; the G-buffer still holds it. Decided from the whole scene, not the visible
+    pixels, so every frame of a scene shares one variant."""
+    if not len(geometry.face_material):
+        return ()
+    tex = geometry.face_texture
+    textured = tex >= 0 if tex is not None else np.zeros(len(geometry.face_material), bool)
+    used_sets = [geometry.texture_sets[int(i)] for i in np.unique(tex[textured])] if textured.any() else []
+    if any(t.metallic_roughness is not None for t in used_sets):
+        return ()
+    out = []
+    for name in UNIFORM_CANDIDATES:
+        values = np.array([getattr(m, name) for m in mats], np.float32)[geometry.face_material]
+        if textured.any():
+            factors = np.array([getattr(t, f"{name}_factor") for t in geometry.texture_sets], np.float32)
+            values = np.where(textured, factors[np.where(textured, tex, 0)], values)
+        if np.all(values == values[0]):
+            out.append((name, float(values[0])))
+    return tuple(out)
+
+
 def _face_planes(geometry: Geometry, mats: list) -> dict[str, np.ndarray]:
     """Per-face lookup tables, one contiguous (F,) plane each: the corners' normal components
     (``n{corner}{axis}``) and the face material's values. Gathering one plane by triangle id
