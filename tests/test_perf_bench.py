@@ -11,7 +11,7 @@ from clshade.bench import bandwidth, frame as whole, peers
 from clshade.device.shade import Shader, scene_features
 from clshade.models import resolve
 from clshade.pipeline import prepare_frame
-from clshade.render.scene import load_scene
+from clshade.render.scene import load_scene, parse_scene
 from clshade.resources import scenes_dir
 
 SCENES = scenes_dir()
@@ -136,21 +136,30 @@ def test_whole_frames_interleave_runtimes_and_judge_each(runtime):
     assert header.count("median ms") == 2 and "slow device" in header
 
 
+@pytest.mark.parametrize("uniform", [False, True])
 @pytest.mark.parametrize("name", ["numba", "drjit"])
 @pytest.mark.parametrize("model", ["lambert", "ggx_correlated", "phong"])
-def test_peer_equals_clshade(runtime, name, model):
+def test_peer_equals_clshade(runtime, name, model, uniform):
     """Each peer shades sphere_grid (10 materials, roughness 0 → 1, ambient) like the
-    kernel: ≤ 1e-4 relative on covered, well-conditioned pixels."""
+    kernel: ≤ 1e-4 relative on covered, well-conditioned pixels. With `uniform`, every
+    ball's metallic is 0.5 and both sides compile it in (Features.uniform; the peers
+    take it as a constant)."""
     module = {"numba": "numba", "drjit": "drjit"}[name]
     if importlib.util.find_spec(module) is None:
         pytest.skip(f"{module} not installed (pip install 'clshade[peers]')")
-    frame = prepare_frame(load_scene(SCENES / "sphere_grid.toml"), 160, 72)
+    text = (SCENES / "sphere_grid.toml").read_text(encoding="utf-8")
+    if uniform:
+        text = text.replace("metallic = 0.0", "metallic = 0.5")
+    frame = prepare_frame(parse_scene(text), 160, 72)
+    features = scene_features(frame.scene, geometry=frame.geometry)
+    assert dict(features.uniform) == ({"metallic": 0.5} if uniform else {"metallic": 0.0})
     m = resolve(model)
     try:
-        peer = peers.PEERS[name](m, frame.gbuffer, frame.scene, frame.camera)
+        peer = peers.PEERS[name](m, frame.gbuffer, frame.scene, frame.camera,
+                                 uniform=dict(features.uniform) if uniform else None)
     except RuntimeError as exc:
         pytest.skip(str(exc))
-    image = Shader(runtime, frame.gbuffer, frame.scene, frame.camera).render(m, scene_features(frame.scene))
+    image = Shader(runtime, frame.gbuffer, frame.scene, frame.camera).render(m, features)
     covered = np.flatnonzero(frame.gbuffer.channels["depth"] > 0)
     good = peers.well_conditioned(m, frame.gbuffer, covered)
     assert good.sum() > 0.5 * len(covered)

@@ -50,11 +50,16 @@ MIN_HALF_LEN2, MIN_UNIT_LEN2 = constant("MIN_HALF_LEN2"), constant("MIN_UNIT_LEN
 MIN_POW_BASE, F0_DIELECTRIC, MAX_RADIANCE = constant("MIN_POW_BASE"), constant("F0_DIELECTRIC"), constant("MAX_RADIANCE")
 
 
-def _numba_kernel(model: int):
-    """A Numba kernel for one model (the model is a compile-time constant)."""
+def _numba_kernel(model: int, uniform: dict[str, float] | None = None):
+    """A Numba kernel for one model (the model is a compile-time constant), with the scene's
+    uniform roughness / metallic (Features.uniform) compiled in as clshade's variants do."""
     import numba
     f32 = np.float32
     inv_pi = f32(1.0 / np.pi)
+    uniform = uniform or {}
+    rough_const, metal_const = "roughness" in uniform, "metallic" in uniform
+    rough_value = f32(min(max(uniform.get("roughness", 0.0), 0.0), 1.0))
+    metal_value = f32(min(max(uniform.get("metallic", 0.0), 0.0), 1.0))
 
     @numba.njit(inline="always", fastmath=True)
     def schlick(c, f0, f90):
@@ -90,8 +95,8 @@ def _numba_kernel(model: int):
                 br = max(base[0, i], f32(0.0))
                 bg = max(base[1, i], f32(0.0))
                 bb = max(base[2, i], f32(0.0))
-                r = min(max(rough[i], f32(0.0)), f32(1.0))
-                m = min(max(metal[i], f32(0.0)), f32(1.0))
+                r = rough_value if rough_const else min(max(rough[i], f32(0.0)), f32(1.0))
+                m = metal_value if metal_const else min(max(metal[i], f32(0.0)), f32(1.0))
                 row = mats[mat_id[i]]
                 f90 = row[1, 1]
                 if model == PHONG:           # k_d + k_s workflow
@@ -186,11 +191,13 @@ def _planar_inputs(gb: GBuffer, scene: Scene, camera: Camera) -> dict[str, np.nd
         background=np.array([*scene.background, 0.0], np.float32))
 
 
-def numba_peer(model: Model, gb: GBuffer, scene: Scene, camera: Camera) -> Peer:
-    """The Numba peer for `model` on `gb`; raises RuntimeError with the reason it cannot."""
+def numba_peer(model: Model, gb: GBuffer, scene: Scene, camera: Camera,
+               uniform: dict[str, float] | None = None) -> Peer:
+    """The Numba peer for `model` on `gb`; raises RuntimeError with the reason it cannot.
+    `uniform`: the scene's one-value channels (Features.uniform), compiled in."""
     which = _check_supported(model, scene, "Numba")
     try:
-        kernel, version = _numba_kernel(which)
+        kernel, version = _numba_kernel(which, uniform)
     except ImportError as exc:
         raise RuntimeError(f"numba not installed ({exc}); pip install 'clshade[peers]'") from exc
     a = _planar_inputs(gb, scene, camera)
@@ -237,10 +244,14 @@ def _drjit():
     return dr, llvm, lib
 
 
-def drjit_peer(model: Model, gb: GBuffer, scene: Scene, camera: Camera) -> Peer:
+def drjit_peer(model: Model, gb: GBuffer, scene: Scene, camera: Camera,
+               uniform: dict[str, float] | None = None) -> Peer:
     """Dr.Jit's LLVM backend (`drjit.llvm`, its vectorised multi-threaded CPU JIT):
     dense — every pixel computed, then `dr.select` for the sky — and `@dr.freeze`
-    so that a frame replays the recorded kernel without tracing Python again."""
+    so that a frame replays the recorded kernel without tracing Python again.
+    Specialised as a JIT does it, with Python floats (literals in the traced kernel):
+    the scene's uniform roughness / metallic (`uniform`, Features.uniform) and every
+    material-table entry that is the same in all materials; the rest is read per pixel."""
     which = _check_supported(model, scene, "Dr.Jit")
     dr, llvm, lib = _drjit()
     Float, UInt32 = llvm.Float, llvm.UInt32
@@ -251,6 +262,9 @@ def drjit_peer(model: Model, gb: GBuffer, scene: Scene, camera: Camera) -> Peer:
     base = [Float(a["base"][c]) for c in range(3)]
     mat_id = UInt32(a["mat_id"].astype(np.uint32))
     mats = Float(a["mats"].reshape(-1))
+    uniform = uniform or {}
+    table = a["mats"].reshape(-1, 16)
+    same = np.all(table == table[0], axis=0)     # table entries with one value in every material
     # Python floats: a NumPy scalar would take over the arithmetic with Dr.Jit arrays.
     cam, lights = a["cam"].tolist(), a["lights"].tolist()
     amb, bgc = a["ambient"].tolist(), a["background"].tolist()
@@ -279,13 +293,16 @@ def drjit_peer(model: Model, gb: GBuffer, scene: Scene, camera: Camera) -> Peer:
         inv = dr.rsqrt(dr.select(ok, l2, 1.0))
         nn = [dr.select(ok, x * inv, vc) for x, vc in zip(nn, v)]
         b = [dr.maximum(x, 0.0) for x in (b0, b1, b2)]
-        r = dr.clip(rough, 0.0, 1.0)
-        m = dr.clip(metal, 0.0, 1.0)
+        r = min(max(uniform["roughness"], 0.0), 1.0) if "roughness" in uniform else dr.clip(rough, 0.0, 1.0)
+        m = min(max(uniform["metallic"], 0.0), 1.0) if "metallic" in uniform else dr.clip(metal, 0.0, 1.0)
         row = mat_id * 16
-        f90 = dr.gather(Float, mats, row + 5)
+
+        def entry(k: int):
+            return float(table[0, k]) if same[k] else dr.gather(Float, mats, row + k)
+        f90 = entry(5)
         if which == PHONG:
-            kd, ks, ka, shin = (dr.gather(Float, mats, row + k) for k in range(4))
-            ior = dr.gather(Float, mats, row + 4)
+            kd, ks, ka, shin = (entry(k) for k in range(4))
+            ior = entry(4)
             r0 = (ior - 1.0) / (ior + 1.0)
             dc, f0 = b, [r0 * r0] * 3
         else:
@@ -359,7 +376,7 @@ def drjit_peer(model: Model, gb: GBuffer, scene: Scene, camera: Camera) -> Peer:
     return peer
 
 
-PEERS: dict[str, Callable[[Model, GBuffer, Scene, Camera], Peer]] = {"numba": numba_peer, "drjit": drjit_peer}
+PEERS: dict[str, Callable[..., Peer]] = {"numba": numba_peer, "drjit": drjit_peer}
 
 
 # (r·v)ⁿ = exp2(n·log2(r·v)) in float32: r·v carries a few ulp of rounding and

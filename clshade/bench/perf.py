@@ -150,7 +150,7 @@ def compare(scene_path: str, models: list, width: int | None, height: int | None
     for name in peer_names:
         for m in models:
             try:
-                p = peer_mod.PEERS[name](m, gb, scene, camera)
+                p = peer_mod.PEERS[name](m, gb, scene, camera, uniform=dict(feats.uniform))
             except (RuntimeError, KeyError) as exc:
                 peer_rows.append(dict(peer=name, model=m.id, skipped=str(exc)))
                 continue
