@@ -112,12 +112,23 @@ INLINE real spot_cone(vec3 l, float4 axis, float cos_outer, float cos_inner) {
 
 #if HAS_MATERIAL
 /* Each lane's row of the material table (a gather: lanes may differ). */
-INLINE Material material_gather(uindex id, __constant float4* materials) {
+INLINE Material material_gather(uindex id, mask covered, __constant float4* materials) {
     uindex_lanes ids = {id};
+    /* Sky lanes hold id 0 and their shading is discarded (shade.cl selects the
+     * background there): they take the first covered lane's id, so that a
+     * work-item on one object's silhouette stays on the one-row path below
+     * (comparing every lane sent a tenth of sphere_grid's covered work-items to
+     * the per-lane gather). Some lane is covered: the caller skips all-sky ones. */
+    mask_lanes cov = {covered};
+    uint first = ids.s[0];
+    for (int j = 0; j < SIMD; ++j)
+        if (cov.s[j]) { first = ids.s[j]; break; }
+    id = covered ? id : (uindex)(first);
+    ids.v = id;
     /* Fast path: neighbouring pixels mostly share a material. A branch per
      * work-item, not per lane (nothing vectorises across work-items here). */
-    if (ALL(id == (uindex)(ids.s[0]))) {
-        uint mi = ids.s[0] * MATERIAL_STRIDE;
+    if (ALL(id == (uindex)(first))) {
+        uint mi = first * MATERIAL_STRIDE;
         return material_uniform(materials[mi], materials[mi + 1], materials[mi + 2], materials[mi + 3]);
     }
     real_lanes t[12];
@@ -224,7 +235,7 @@ __kernel void shade(
         real m = saturate((real)(METALLIC_VALUE));
 #endif
 #if HAS_MATERIAL
-        Surface s = make_surface(b, r, m, material_gather(VLOAD_UCHAR(i, material), materials));
+        Surface s = make_surface(b, r, m, material_gather(VLOAD_UCHAR(i, material), covered, materials));
 #else
         Surface s = make_surface(b, r, m, material_uniform(MAT_M0, MAT_M1, MAT_M2, MAT_M3));
 #endif
