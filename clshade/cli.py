@@ -322,6 +322,8 @@ def _explain(model, result) -> None:
         print(f"feature {line}")
     print(f"G-buffer channels: {', '.join(variant.channels)} "
           f"({shader.gb.bytes_per_pixel(variant.channels, result.features.half_gbuffer)} B/pixel read, 16 B written)")
+    print("G-buffer normals: " + ("unit or zero, not normalised again (UNIT_NORMALS)" if variant.unit_normals
+                                  else "normalised in the kernel"))
     if result.bands > 1:
         print(f"bands: {result.bands} (rows rasterised, written to the G-buffer and shaded band by band)")
     if result.shadows is not None:

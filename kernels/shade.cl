@@ -19,6 +19,8 @@
  *   HAS_OCCLUSION                  per-pixel ambient occlusion multiplying the ambient term
  *                                  (both compile-time in the general kernel too)
  *   HALF_GBUFFER                   normal and base colour stored as half floats
+ *   UNIT_NORMALS                   the G-buffer's normals are unit or zero (clshade's own
+ *                                  G-buffers): not normalised again, only the zero ones replaced
  *   HAS_SHADOWS, SHADOW_PCF        shadow-map lookup (shadow.h), PCF kernel width
  *   SIMD                           pixels per work-item (1, 4, 8 or 16)
  *   SPECULAR_AA                    specular lobe widened by the normal's screen-space
@@ -220,7 +222,11 @@ __kernel void shade(
          * branch taken only where some lane has one, so a model that reads v nowhere else
          * (Lambert) computes it only there (LLVM sinks v into the branch). */
         vec3 n = load3(i, normal, plane);
+#ifdef UNIT_NORMALS
+        mask n_ok = v3dot(n, n) > MIN_UNIT_LEN2;   /* unit or zero already (GBuffer.unit_normals) */
+#else
         mask n_ok = unit_in_place(&n);
+#endif
         if (!ALL(n_ok))
             n = v3select(n_ok, n, v);
         vec3 b = v3max(load3(i, base, plane), 0.0f);

@@ -330,3 +330,33 @@ def test_uniform_channels_follow_gltf_factors_and_textures():
     mapped = replace(geo, face_texture=half, texture_sets=(TextureSet(roughness_factor=0.3, metallic_factor=0.5,
                                                                       metallic_roughness=image),))
     assert uniform_channels(mapped, mats) == ()
+
+
+@pytest.mark.parametrize("scene_name", ["sphere_grid.toml", "textured.toml"])
+def test_gbuffer_normals_are_unit_or_zero(scene_name):
+    """build_gbuffer's contract behind UNIT_NORMALS: every covered normal (interpolated, or
+    from a normal map in textured.toml) is unit to float32 rounding, or exactly zero."""
+    from clshade.resources import scenes_dir
+    from clshade.render.scene import load_scene
+    frame = prepare_frame(load_scene(scenes_dir() / scene_name), 160, 96)
+    gb = frame.gbuffer
+    assert gb.unit_normals
+    n = np.asarray(gb.channels["normal"], np.float64).reshape(-1, 3)[gb.channels["depth"] > 0]
+    len2 = np.sum(n * n, axis=1)
+    assert len(n) and np.all((np.abs(len2 - 1.0) <= 8 * 2.0 ** -23) | (len2 == 0.0)), np.abs(len2 - 1.0).max()
+
+
+def test_unit_normals_only_where_the_gbuffer_promises_them(runtime, frame):
+    """Frame G-buffers compile UNIT_NORMALS in (general kernel too); a hand-made G-buffer and
+    the half-float one normalise in the kernel."""
+    from clshade.render.gbuffer import GBuffer
+    m = models.resolve("ggx_correlated")
+    features = scene_features(frame.scene, geometry=frame.geometry)
+    own = Shader(runtime, frame.gbuffer, frame.scene, frame.camera, frame.shadows)
+    assert own.variant(m, features).defines().get("UNIT_NORMALS") == "1"
+    assert own.variant(m, replace(features, general=True)).defines().get("UNIT_NORMALS") == "1"
+    assert "UNIT_NORMALS" not in own.variant(m, replace(features, half_gbuffer=True)).defines()
+    gb = frame.gbuffer
+    by_hand = GBuffer(gb.width, gb.height, dict(gb.channels), gb.materials, gb.coverage)
+    other = Shader(runtime, by_hand, frame.scene, frame.camera, frame.shadows)
+    assert "UNIT_NORMALS" not in other.variant(m, features).defines()

@@ -119,9 +119,11 @@ class Variant:
     features: Features
     channels: tuple[str, ...]
     baked_material: tuple[float, ...] | None = field(default=None)
+    unit_normals: bool = False     # the G-buffer's normals are unit or zero (GBuffer.unit_normals)
 
     @classmethod
-    def build(cls, model: Model, features: Features, material_table: np.ndarray) -> "Variant":
+    def build(cls, model: Model, features: Features, material_table: np.ndarray,
+              unit_normals: bool = False) -> "Variant":
         """Choose channels: roughness/metallic when the model reads them and the scene does
         not give them one value everywhere (Features.uniform: then compiled in); the material id
         channel only when the materials differ in a constant the model reads (otherwise
@@ -129,7 +131,7 @@ class Variant:
         extra = (("emissive",) if features.emissive else ()) + (("occlusion",) if features.occlusion else ())
         if features.general:
             return cls(model, features, ("depth", "normal", "base", "roughness", "metallic", *extra, "material"),
-                       None)
+                       None, unit_normals and not features.half_gbuffer)
         uses = model.uses
         uniform = dict(features.uniform)
         channels = ["depth", "normal", "base"]
@@ -144,7 +146,8 @@ class Variant:
             channels.append("material")
         else:
             baked = tuple(float(x) for x in np.zeros(16))
-        return cls(model, features, tuple(channels), baked)
+        # Half-float normals are unit only to half precision: normalised again in the kernel.
+        return cls(model, features, tuple(channels), baked, unit_normals and not features.half_gbuffer)
 
     @property
     def has_material(self) -> bool:
@@ -160,8 +163,10 @@ class Variant:
         effects = {"HAS_EMISSIVE": str(int(f.emissive)), "HAS_OCCLUSION": str(int(f.occlusion))}
         raw = {"RAW_RADIANCE": "1"} if f.raw_radiance else {}
         aa = {"SPECULAR_AA": "1"} if self.specular_aa else {}
+        # The normals' contract is the G-buffer's, not a scene effect: the general kernel shares it.
+        unit = {"UNIT_NORMALS": "1"} if self.unit_normals else {}
         if f.general:
-            return {"GENERAL": "1", **effects, **aa, "HAS_DIFFUSE": str(int(m.diffuse != NONE)),
+            return {"GENERAL": "1", **effects, **aa, **unit, "HAS_DIFFUSE": str(int(m.diffuse != NONE)),
                     "HAS_SPECULAR": str(int(m.specular != NONE)),
                     "SPECULAR_FRESNEL": str(int(m.uses_fresnel)),
                     "FRESNEL": FRESNEL_DEFINES[m.fresnel], "WORKFLOW": WORKFLOW_DEFINES[m.workflow], **raw}
@@ -182,6 +187,7 @@ class Variant:
         for name, value in f.uniform:
             if name in m.uses:
                 d[UNIFORM_DEFINES[name]] = _c_float(value)
+        d.update(unit)
         if f.shadows:
             d["SHADOW_PCF"] = str(f.shadow_pcf)
         if f.half_gbuffer:
@@ -214,8 +220,8 @@ class Variant:
     @property
     def key(self) -> tuple:
         """What makes a variant distinct (the cache adds the device): model, features,
-        channels, baked constants and build options."""
-        return (self.model.id, self.features, self.channels, self.baked_material, self.options())
+        channels, baked constants, the normals' contract and build options."""
+        return (self.model.id, self.features, self.channels, self.baked_material, self.unit_normals, self.options())
 
 
 def _read(name: str) -> str:

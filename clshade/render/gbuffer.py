@@ -74,15 +74,19 @@ class GBuffer:
     coverage: np.ndarray                     # (H, W) bool
     nonfinite_pixels: int = 0                # pixels whose inputs were not finite (replaced)
     stats: dict[str, float] = field(default_factory=dict)
+    # Every normal is unit length to float32 rounding, or zero (build_gbuffer normalises them): the
+    # kernels then do not normalise again (UNIT_NORMALS). False for G-buffers made by hand.
+    unit_normals: bool = False
     # name → (components, padded pixels) planes, the device layout (gbuffer.h); made from
     # `channels` on demand (not an init field: dataclasses.replace() never copies stale planes).
     _planes: dict[str, np.ndarray] = field(default_factory=dict, init=False, repr=False, compare=False)
 
     @classmethod
     def from_planes(cls, width: int, height: int, planes: dict[str, np.ndarray], materials: np.ndarray,
-                    coverage: np.ndarray, nonfinite_pixels: int = 0) -> GBuffer:
+                    coverage: np.ndarray, nonfinite_pixels: int = 0, unit_normals: bool = False) -> GBuffer:
         """A G-buffer whose channels are given as planes (what build_gbuffer writes)."""
-        gbuffer = cls(width, height, PlaneChannels(planes, width * height), materials, coverage, nonfinite_pixels)
+        gbuffer = cls(width, height, PlaneChannels(planes, width * height), materials, coverage, nonfinite_pixels,
+                      unit_normals=unit_normals)
         gbuffer._planes.update(planes)
         return gbuffer
 
@@ -360,4 +364,6 @@ def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments, camera
             if name in planes:
                 planes[name][:, bad] = 0.0
         cov[bad] = False
-    return GBuffer.from_planes(w, h, planes, material_table(scene), cov.reshape(h, w), len(bad))
+    # Normals: interpolated ones scaled by 1/|n| above (0 stays 0), mapped ones normalised in
+    # _apply_texture_set, replaced ones 0: unit or zero.
+    return GBuffer.from_planes(w, h, planes, material_table(scene), cov.reshape(h, w), len(bad), unit_normals=True)
