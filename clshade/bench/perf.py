@@ -17,8 +17,9 @@ Phong (the first items) measured 1.4–1.7× the same code built as `library`
 (benchmarks/results/perf_1080p.md, 2026-11-23T17:50; reproduced A/B in one
 process, 2026-11-23).
 
-The bandwidth anchor is measured in the same rounds: a STREAM triad per runtime (OpenCL kernels) and
-Numba's, interleaved with the kernels; the fastest median is the anchor (the machine's bandwidth varied
+The bandwidth anchor is measured in the same rounds: STREAM triads per runtime (OpenCL kernels, with
+plain and with streaming stores: bandwidth.STORE_KINDS) and Numba's, interleaved with the kernels; the
+fastest median is the anchor (the machine's bandwidth varied
 25–45 GB/s with the other users' load on 2026-11-23, so a best-of-10 taken at a quiet moment is no
 yardstick for medians taken over the whole run); the best-of figures before and after are shown beside it.
 
