@@ -213,6 +213,8 @@ CATALOGUE: list[Mutant] = [
       "                nd = nrm[d]\n", "G-buffer: interpolated normals not normalised (the kernel trusts UNIT_NORMALS)"),
     M("kernel_unit_normals_always", "kernels/shade.cl", "#ifdef UNIT_NORMALS\n        mask n_ok",
       "#ifndef HALF_GBUFFER\n        mask n_ok", "shade.cl: normals never normalised (UNIT_NORMALS assumed for every G-buffer)"),
+    M("peer_numba_unit_normals", "clshade/bench/peers.py", "                    if not unit_normals:\n",
+      "                    if unit_normals:\n", "Numba peer: normals normalised only where the G-buffer promises unit ones"),
     M("store_row_offset", "kernels/simd.h",
       "__builtin_nontemporal_store((v), (__global float8*)((p) + 8 * (size_t)(k)))",
       "__builtin_nontemporal_store((v), (__global float8*)((p) + 8 * (size_t)((k) ^ 1)))",

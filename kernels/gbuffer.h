@@ -51,9 +51,10 @@ INLINE int all_empty(real depth) { return !ANY(depth > 0.0f); }
  * written with STORE_ROW8 (simd.h: streaming stores on x86).
  * One store4 call per kernel: with two (the sky's early return and the end),
  * LLVM 14 sinks their common last store into one and drops its !nontemporal
- * mark, so every output line got one streaming and one cached half: the copy
- * kernel ran 18× slower (objdump of PoCL 3.0's binary: vmovntps ×3, vmovaps
- * ×1 per row group; 2026-11-25). tests/test_kernel_sources.py checks it. */
+ * mark, so every output line got one streaming and one cached half and the
+ * copy kernel ran over ten times slower (objdump of PoCL 3.0's binary:
+ * vmovntps ×3, vmovaps ×1 per row group; docs/bench-notes.md, 2026-11-25).
+ * tests/test_specialisation.py checks that there is one site. */
 INLINE void store8_rows(__global float* o, float8 x, float8 y, float8 z, float8 a) {
     float8 t0 = __builtin_shufflevector(x, y, 0, 8, 1, 9, 4, 12, 5, 13);
     float8 t1 = __builtin_shufflevector(x, y, 2, 10, 3, 11, 6, 14, 7, 15);

@@ -282,14 +282,16 @@ typedef short short8u __attribute__((ext_vector_type(8), aligned(2)));
  * the image is written once and read next by the host, so the store skips the
  * read for ownership that a plain store makes of every output line, and the
  * cache it would fill. The `plain stores` build of benchmarks/results/
- * perf_1080p.md is the A/B. The stores are weakly ordered; each work-group's
- * completion in the runtime (a locked instruction, which drains the
- * write-combining buffers: Intel SDM vol. 3 §11.3.1, AMD APM vol. 2 §7.4)
- * orders them before the event completes. An SFENCE per work-item would stall
- * every work-item on its own lines (the copy kernel ran several times slower
- * with one, 2026-11-25). A line must be written whole by streaming stores:
- * gbuffer.h keeps one store site per kernel for that reason.
- * CLSHADE_CACHED_STORES=1 (environment) keeps plain stores. */
+ * perf_1080p.md is the A/B. Used at SIMD 8 and 16 (gbuffer.h's store8_rows).
+ * The stores are weakly ordered. OpenCL gives no fence for them; the kernels
+ * rely on PoCL's CPU device signalling a finished work-group with locked
+ * instructions (atomics, mutexes), which drain the write-combining buffers
+ * (Intel SDM vol. 3 §11.3.1, AMD APM vol. 2 §7.4) before the event completes —
+ * runtime behaviour, not a guarantee of the standard; CLSHADE_CACHED_STORES=1
+ * (environment) keeps plain stores. An SFENCE per work-item would stall every
+ * work-item on its own lines (the copy kernel ran several times slower with
+ * one: docs/bench-notes.md). A line must be written whole by streaming
+ * stores: gbuffer.h keeps one store site per kernel for that reason. */
 #if defined(__x86_64__) && defined(__AVX__) && !defined(CLSHADE_CACHED_STORES)
 #define CLSHADE_STREAMING_STORES 1
 #define STORE_ROW8(v, k, p) __builtin_nontemporal_store((v), (__global float8*)((p) + 8 * (size_t)(k)))

@@ -213,12 +213,15 @@ def test_bench_error_column_is_the_oracle_with_shadows(tmp_path):
     assert row["max_rel_error"] < TOLERANCE and row["numpy_frames"] == 2 and row["numpy_ratio"] > 0
 
 
+@pytest.mark.parametrize("unit", [False, True])
 @pytest.mark.parametrize("model", ["lambert", "ggx_correlated"])
-def test_unusable_normals_shade_facing_the_viewer(tmp_path, runtime, model):
+def test_unusable_normals_shade_facing_the_viewer(tmp_path, runtime, model, unit):
     """Zero and NaN G-buffer normals (a zero one is bad input the G-buffer keeps; NaN only a
     hand-made G-buffer has) shade as if the normal were the view direction, as the oracle
     defines them: the kernels' fallback branch (shade.cl) against
-    clshade.verify.reference.pixels. Every fourth covered pixel."""
+    clshade.verify.reference.pixels. Every fourth covered pixel. With `unit` the G-buffer keeps
+    build_gbuffer's promise of unit-or-zero normals for the rest (UNIT_NORMALS: the kernel only
+    tests for zero), without it the kernel normalises every normal."""
     from clshade.device.shade import Shader, scene_features
     from clshade.pipeline import prepare_frame
     from clshade.render.gbuffer import GBuffer
@@ -228,10 +231,13 @@ def test_unusable_normals_shade_facing_the_viewer(tmp_path, runtime, model):
     bad = np.flatnonzero(gb.channels["depth"] > 0)[::4]
     normal[bad[::2]] = 0.0
     normal[bad[1::2]] = np.nan
-    gb = GBuffer(gb.width, gb.height, {**gb.channels, "normal": normal.reshape(-1)}, gb.materials, gb.coverage)
+    gb = GBuffer(gb.width, gb.height, {**gb.channels, "normal": normal.reshape(-1)}, gb.materials, gb.coverage,
+                 unit_normals=unit)
     m = resolve(model)
-    image = Shader(runtime, gb, frame.scene, frame.camera).render(m, scene_features(frame.scene,
-                                                                                    geometry=frame.geometry))
+    shader = Shader(runtime, gb, frame.scene, frame.camera)
+    features = scene_features(frame.scene, geometry=frame.geometry)
+    assert ("UNIT_NORMALS" in shader.variant(m, features).defines()) == unit
+    image = shader.render(m, features)
     want = R.radiance(gb, frame.scene, m, camera=frame.camera).reshape(-1, 3)[bad]
     got = image[..., :3].reshape(-1, 3)[bad].astype(np.float64)
     assert np.isfinite(got).all()

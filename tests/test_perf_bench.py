@@ -2,6 +2,7 @@
 orbiting camera of whole frames, and the peers' output against clshade's."""
 from __future__ import annotations
 
+import dataclasses
 import importlib.util
 
 import numpy as np
@@ -143,7 +144,8 @@ def test_peer_equals_clshade(runtime, name, model, uniform):
     """Each peer shades sphere_grid (10 materials, roughness 0 → 1, ambient) like the
     kernel: ≤ 1e-4 relative on covered, well-conditioned pixels. With `uniform`, every
     ball's metallic is 0.5 and both sides compile it in (Features.uniform; the peers
-    take it as a constant)."""
+    take it as a constant) and trust the G-buffer's unit normals; without, both normalise
+    every normal (a G-buffer that does not promise unit normals)."""
     module = {"numba": "numba", "drjit": "drjit"}[name]
     if importlib.util.find_spec(module) is None:
         pytest.skip(f"{module} not installed (pip install 'clshade[peers]')")
@@ -151,20 +153,21 @@ def test_peer_equals_clshade(runtime, name, model, uniform):
     if uniform:
         text = text.replace("metallic = 0.0", "metallic = 0.5")
     frame = prepare_frame(parse_scene(text), 160, 72)
+    gb = frame.gbuffer if uniform else dataclasses.replace(frame.gbuffer, unit_normals=False)
     features = scene_features(frame.scene, geometry=frame.geometry)
     assert dict(features.uniform) == ({"metallic": 0.5} if uniform else {"metallic": 0.0})
     m = resolve(model)
     try:
-        peer = peers.PEERS[name](m, frame.gbuffer, frame.scene, frame.camera,
+        peer = peers.PEERS[name](m, gb, frame.scene, frame.camera,
                                  uniform=dict(features.uniform) if uniform else None)
     except RuntimeError as exc:
         pytest.skip(str(exc))
-    image = Shader(runtime, frame.gbuffer, frame.scene, frame.camera).render(m, features)
-    covered = np.flatnonzero(frame.gbuffer.channels["depth"] > 0)
-    good = peers.well_conditioned(m, frame.gbuffer, covered)
+    image = Shader(runtime, gb, frame.scene, frame.camera).render(m, features)
+    covered = np.flatnonzero(gb.channels["depth"] > 0)
+    good = peers.well_conditioned(m, gb, covered)
     assert good.sum() > 0.5 * len(covered)
     assert peers.verify(peer.run(), image, covered[good]) <= peers.VERIFY_RTOL
-    empty = np.flatnonzero(frame.gbuffer.channels["depth"] <= 0)
+    empty = np.flatnonzero(gb.channels["depth"] <= 0)
     np.testing.assert_allclose(peer.run().reshape(-1, 4)[empty], image.reshape(-1, 4)[empty], rtol=1e-6)
 
 

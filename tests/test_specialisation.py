@@ -326,6 +326,9 @@ def test_uniform_channels_follow_gltf_factors_and_textures():
     assert dict(uniform_channels(same, mats)) == dict(uniform_channels(geo, mats))
     other = replace(geo, face_texture=half, texture_sets=(TextureSet(roughness_factor=0.3, metallic_factor=1.0),))
     assert dict(uniform_channels(other, mats)) == {"roughness": pytest.approx(0.3)}
+    huge = replace(geo, face_texture=np.zeros(faces, np.int32),
+                   texture_sets=(TextureSet(roughness_factor=1e39, metallic_factor=-2.0),))
+    assert dict(uniform_channels(huge, mats)) == {"roughness": 1.0, "metallic": 0.0}   # saturated, as per pixel
     image = Texture.from_pixels(np.ones((4, 4, 3), np.float32))
     mapped = replace(geo, face_texture=half, texture_sets=(TextureSet(roughness_factor=0.3, metallic_factor=0.5,
                                                                       metallic_roughness=image),))

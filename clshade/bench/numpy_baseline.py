@@ -25,7 +25,7 @@ NUMPY_THREADS = 1     # NumPy ufuncs are single-threaded; the oracle's per-pixel
 def half_gbuffer(gb: GBuffer) -> GBuffer:
     """The G-buffer with normal and base colour rounded to half floats, as the device reads them."""
     channels = {**gb.channels, **{k: gb.channel(k, half=True).astype(np.float32) for k in ("normal", "base")}}
-    return dataclasses.replace(gb, channels=channels)
+    return dataclasses.replace(gb, channels=channels, unit_normals=False)   # half normals are not unit
 
 
 def shade_numpy(model: Model, gb: GBuffer, scene: Scene, camera: Camera, half: bool = False,

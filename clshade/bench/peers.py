@@ -50,9 +50,10 @@ MIN_HALF_LEN2, MIN_UNIT_LEN2 = constant("MIN_HALF_LEN2"), constant("MIN_UNIT_LEN
 MIN_POW_BASE, F0_DIELECTRIC, MAX_RADIANCE = constant("MIN_POW_BASE"), constant("F0_DIELECTRIC"), constant("MAX_RADIANCE")
 
 
-def _numba_kernel(model: int, uniform: dict[str, float] | None = None):
+def _numba_kernel(model: int, uniform: dict[str, float] | None = None, unit_normals: bool = False):
     """A Numba kernel for one model (the model is a compile-time constant), with the scene's
-    uniform roughness / metallic (Features.uniform) compiled in as clshade's variants do."""
+    uniform roughness / metallic (Features.uniform) compiled in as clshade's variants do, and
+    with `unit_normals` (GBuffer.unit_normals) the normals only tested for zero, as UNIT_NORMALS."""
     import numba
     f32 = np.float32
     inv_pi = f32(1.0 / np.pi)
@@ -88,8 +89,9 @@ def _numba_kernel(model: int, uniform: dict[str, float] | None = None):
                 nx, ny, nz = nrm[0, i], nrm[1, i], nrm[2, i]
                 l2 = nx * nx + ny * ny + nz * nz
                 if l2 > f32(MIN_UNIT_LEN2):
-                    s = f32(1.0) / np.sqrt(l2)
-                    nx, ny, nz = nx * s, ny * s, nz * s
+                    if not unit_normals:
+                        s = f32(1.0) / np.sqrt(l2)
+                        nx, ny, nz = nx * s, ny * s, nz * s
                 else:                        # the kernels: a bad normal faces the viewer
                     nx, ny, nz = vx, vy, vz
                 br = max(base[0, i], f32(0.0))
@@ -197,7 +199,7 @@ def numba_peer(model: Model, gb: GBuffer, scene: Scene, camera: Camera,
     `uniform`: the scene's one-value channels (Features.uniform), compiled in."""
     which = _check_supported(model, scene, "Numba")
     try:
-        kernel, version = _numba_kernel(which, uniform)
+        kernel, version = _numba_kernel(which, uniform, gb.unit_normals)
     except ImportError as exc:
         raise RuntimeError(f"numba not installed ({exc}); pip install 'clshade[peers]'") from exc
     a = _planar_inputs(gb, scene, camera)
@@ -251,7 +253,8 @@ def drjit_peer(model: Model, gb: GBuffer, scene: Scene, camera: Camera,
     so that a frame replays the recorded kernel without tracing Python again.
     Specialised as a JIT does it, with Python floats (literals in the traced kernel):
     the scene's uniform roughness / metallic (`uniform`, Features.uniform) and every
-    material-table entry that is the same in all materials; the rest is read per pixel."""
+    material-table entry that is the same in all materials; the rest is read per pixel.
+    Unit-or-zero normals (GBuffer.unit_normals) are only tested for zero, as UNIT_NORMALS."""
     which = _check_supported(model, scene, "Dr.Jit")
     dr, llvm, lib = _drjit()
     Float, UInt32 = llvm.Float, llvm.UInt32
@@ -290,8 +293,11 @@ def drjit_peer(model: Model, gb: GBuffer, scene: Scene, camera: Camera,
         nn = [n0, n1, n2]
         l2 = dot(nn, nn)
         ok = l2 > MIN_UNIT_LEN2
-        inv = dr.rsqrt(dr.select(ok, l2, 1.0))
-        nn = [dr.select(ok, x * inv, vc) for x, vc in zip(nn, v)]
+        if gb.unit_normals:
+            nn = [dr.select(ok, x, vc) for x, vc in zip(nn, v)]
+        else:
+            inv = dr.rsqrt(dr.select(ok, l2, 1.0))
+            nn = [dr.select(ok, x * inv, vc) for x, vc in zip(nn, v)]
         b = [dr.maximum(x, 0.0) for x in (b0, b1, b2)]
         r = min(max(uniform["roughness"], 0.0), 1.0) if "roughness" in uniform else dr.clip(rough, 0.0, 1.0)
         m = min(max(uniform["metallic"], 0.0), 1.0) if "metallic" in uniform else dr.clip(metal, 0.0, 1.0)

@@ -313,8 +313,9 @@ class Runtime:
     @property
     def streaming_stores(self) -> bool:
         """Whether the image kernels built here write their rows with streaming stores
-        (kernels/simd.h, STORE_ROW8; probed on the device)."""
-        return self._simd_h_defines("CLSHADE_STREAMING_STORES")
+        (kernels/simd.h, STORE_ROW8: x86 with AVX, probed on the device; rows of 8 floats,
+        so only at SIMD 8 and 16)."""
+        return self.simd >= 8 and self._simd_h_defines("CLSHADE_STREAMING_STORES")
 
     def _simd_h_defines(self, macro: str) -> bool:
         """Whether kernels/simd.h defines `macro` when built on this device with these options."""

@@ -262,10 +262,13 @@ def uniform_channels(geometry: Geometry, mats: list) -> tuple[tuple[str, float],
     for name in UNIFORM_CANDIDATES:
         values = np.array([getattr(m, name) for m in mats], np.float32)[geometry.face_material]
         if textured.any():
-            factors = np.array([getattr(t, f"{name}_factor") for t in geometry.texture_sets], np.float32)
+            with np.errstate(over="ignore"):       # float32 as the G-buffer holds them (1e39 → inf)
+                factors = np.array([getattr(t, f"{name}_factor") for t in geometry.texture_sets], np.float32)
             values = np.where(textured, factors[np.where(textured, tex, 0)], values)
         if np.all(values == values[0]):
-            out.append((name, float(values[0])))
+            # In [0, 1] as the kernels saturate the per-pixel value (a glTF factor is not range-checked:
+            # 1e39 is inf in float32, which saturates to 1 but is no float literal). NaN never compares equal.
+            out.append((name, min(max(float(values[0]), 0.0), 1.0)))
     return tuple(out)
 
 
