@@ -144,8 +144,8 @@ def test_peer_equals_clshade(runtime, name, model, uniform):
     """Each peer shades sphere_grid (10 materials, roughness 0 → 1, ambient) like the
     kernel: ≤ 1e-4 relative on covered, well-conditioned pixels. With `uniform`, every
     ball's metallic is 0.5 and both sides compile it in (Features.uniform; the peers
-    take it as a constant) and trust the G-buffer's unit normals; without, both normalise
-    every normal (a G-buffer that does not promise unit normals)."""
+    take it as a constant) and trust the G-buffer's unit normals; without, the normals
+    have length 2.5 and both sides normalise them."""
     module = {"numba": "numba", "drjit": "drjit"}[name]
     if importlib.util.find_spec(module) is None:
         pytest.skip(f"{module} not installed (pip install 'clshade[peers]')")
@@ -153,7 +153,10 @@ def test_peer_equals_clshade(runtime, name, model, uniform):
     if uniform:
         text = text.replace("metallic = 0.0", "metallic = 0.5")
     frame = prepare_frame(parse_scene(text), 160, 72)
-    gb = frame.gbuffer if uniform else dataclasses.replace(frame.gbuffer, unit_normals=False)
+    gb = frame.gbuffer
+    if not uniform:   # normals of length 2.5: a G-buffer that does not promise unit ones
+        scaled = np.asarray(gb.channels["normal"], np.float32) * np.float32(2.5)
+        gb = dataclasses.replace(gb, channels={**gb.channels, "normal": scaled}, unit_normals=False)
     features = scene_features(frame.scene, geometry=frame.geometry)
     assert dict(features.uniform) == ({"metallic": 0.5} if uniform else {"metallic": 0.0})
     m = resolve(model)
