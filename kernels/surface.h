@@ -75,18 +75,18 @@ INLINE Material material_uniform(float4 m0, float4 m1, float4 m2, float4 m3) {
  * vectors come only from bad input (zero or denormal normals). */
 #define MIN_UNIT_LEN2 1.0e-20f
 
-/* x normalised, or `fallback` where x has no usable direction (lane-wise). */
-INLINE vec3 unit_or(vec3 x, vec3 fallback) {
-    real len2 = v3dot(x, x);
-    return v3select(len2 > MIN_UNIT_LEN2, v3scale(x, rsqrt(len2)), fallback);
-}
-
-/* *x normalised in the lanes where it can be (returned mask, as unit_or); the
- * other lanes hold garbage (Inf, NaN) for the caller to replace. */
+/* *x normalised in the lanes where it has a usable direction (the returned mask);
+ * the other lanes hold garbage (Inf, NaN) for the caller to replace. */
 INLINE mask unit_in_place(vec3* x) {
     real len2 = v3dot(*x, *x);
     *x = v3scale(*x, rsqrt(len2));
     return len2 > MIN_UNIT_LEN2;
+}
+
+/* x normalised, or `fallback` where x has no usable direction (lane-wise). */
+INLINE vec3 unit_or(vec3 x, vec3 fallback) {
+    mask ok = unit_in_place(&x);
+    return v3select(ok, x, fallback);
 }
 
 /* Lanes where the light is above the surface's horizon (n·l > 0). */

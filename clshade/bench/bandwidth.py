@@ -22,6 +22,7 @@ STREAM_MIB = 256            # per array: ≫ the last-level cache (32 MiB on thi
 # Bytes per float32 element as STREAM counts them: copy reads one and writes one, triad reads two and
 # writes one (write-allocate traffic not counted).
 STREAM_BYTES = {"copy": 2 * 4, "triad": 3 * 4}
+STREAM_LOOPS = tuple(STREAM_BYTES)
 TRIAD_SCALAR = np.float32(3.0)
 
 
@@ -136,7 +137,7 @@ class OpenCLStream:
         self.a, self.b, self.c = (runtime.to_device(np.full(self.n, v, np.float32)) for v in (1.0, 2.0, 0.5))
         self._kernels = {(loop, kind): runtime.kernel(OPENCL_STREAM_SOURCE, loop + suffix,
                                                       label=f"STREAM {loop} ({kind} stores)")
-                         for loop in ("copy", "triad") for kind, suffix in STORE_KINDS.items()}
+                         for loop in STREAM_LOOPS for kind, suffix in STORE_KINDS.items()}
         self.items = runtime.global_size(self.n // 16)
         if self.items != self.n // 16:
             raise ValueError(f"{mib} MiB is not a multiple of the work-group size {runtime.local_size} × 16 floats")
@@ -169,13 +170,13 @@ def opencl_stream(runtime, repeats: int = 10, mib: int = STREAM_MIB) -> dict[str
     copy_… and triad_… with plain stores, copy_streaming_… and triad_streaming_… with streaming
     ones. Each kind's result is checked (`OpenCLStream.check`) after its repeats."""
     st = OpenCLStream(runtime, mib)
-    loops = [(loop, kind) for kind in STORE_KINDS for loop in ("copy", "triad")]
+    loops = [(loop, kind) for kind in STORE_KINDS for loop in STREAM_LOOPS]
     times: dict[tuple[str, str], list[float]] = {key: [] for key in loops}
     for loop, kind in loops:                 # warm the pages and build
         getattr(st, loop)(kind)
     for kind in STORE_KINDS:
         for _ in range(repeats):             # copy and triad interleaved, like the shading rounds
-            for loop in ("copy", "triad"):
+            for loop in STREAM_LOOPS:
                 times[loop, kind].append(getattr(st, loop)(kind))
         st.check()
     n = st.n

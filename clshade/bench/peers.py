@@ -59,8 +59,8 @@ def _numba_kernel(model: int, uniform: dict[str, float] | None = None, unit_norm
     inv_pi = f32(1.0 / np.pi)
     uniform = uniform or {}
     rough_const, metal_const = "roughness" in uniform, "metallic" in uniform
-    rough_value = f32(min(max(uniform.get("roughness", 0.0), 0.0), 1.0))
-    metal_value = f32(min(max(uniform.get("metallic", 0.0), 0.0), 1.0))
+    rough_value = f32(uniform.get("roughness", 0.0))     # in [0, 1]: uniform_channels saturates them
+    metal_value = f32(uniform.get("metallic", 0.0))
 
     @numba.njit(inline="always", fastmath=True)
     def schlick(c, f0, f90):
@@ -299,8 +299,9 @@ def drjit_peer(model: Model, gb: GBuffer, scene: Scene, camera: Camera,
             inv = dr.rsqrt(dr.select(ok, l2, 1.0))
             nn = [dr.select(ok, x * inv, vc) for x, vc in zip(nn, v)]
         b = [dr.maximum(x, 0.0) for x in (b0, b1, b2)]
-        r = min(max(uniform["roughness"], 0.0), 1.0) if "roughness" in uniform else dr.clip(rough, 0.0, 1.0)
-        m = min(max(uniform["metallic"], 0.0), 1.0) if "metallic" in uniform else dr.clip(metal, 0.0, 1.0)
+        # Uniform values are in [0, 1] already (gbuffer.uniform_channels saturates them).
+        r = uniform["roughness"] if "roughness" in uniform else dr.clip(rough, 0.0, 1.0)
+        m = uniform["metallic"] if "metallic" in uniform else dr.clip(metal, 0.0, 1.0)
         row = mat_id * 16
 
         def entry(k: int):

@@ -420,7 +420,7 @@ def _opencl_stream_keys(result: dict) -> list[tuple[str, str]]:
     before streaming stores were measured have only the plain ones)."""
     out = []
     for kind, suffix in bandwidth.STORE_KINDS.items():
-        for loop in ("copy", "triad"):
+        for loop in bandwidth.STREAM_LOOPS:
             if f"{loop}{suffix}_best_gbs" in result:
                 out.append((loop if not suffix else f"{loop} ({kind} stores)", loop + suffix))
     return out

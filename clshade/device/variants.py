@@ -129,9 +129,11 @@ class Variant:
         channel only when the materials differ in a constant the model reads (otherwise
         those constants are compiled in)."""
         extra = (("emissive",) if features.emissive else ()) + (("occlusion",) if features.occlusion else ())
+        # Half-float normals are unit only to half precision: normalised again in the kernel.
+        unit = unit_normals and not features.half_gbuffer
         if features.general:
             return cls(model, features, ("depth", "normal", "base", "roughness", "metallic", *extra, "material"),
-                       None, unit_normals and not features.half_gbuffer)
+                       None, unit)
         uses = model.uses
         uniform = dict(features.uniform)
         channels = ["depth", "normal", "base"]
@@ -146,8 +148,7 @@ class Variant:
             channels.append("material")
         else:
             baked = tuple(float(x) for x in np.zeros(16))
-        # Half-float normals are unit only to half precision: normalised again in the kernel.
-        return cls(model, features, tuple(channels), baked, unit_normals and not features.half_gbuffer)
+        return cls(model, features, tuple(channels), baked, unit)
 
     @property
     def has_material(self) -> bool:
