@@ -275,6 +275,18 @@ CATALOGUE: list[Mutant] = [
       "Reinhard x/(1 + x/2)"),
     M("srgb_encode", "clshade/render/image.py", "np.power(c, 1 / 2.4, out=", "np.power(c, 1 / 2.2, out=",
       "sRGB encode exponent 1/2.2"),
+    M("grey_f0_value", "kernels/surface.h", "        s.f0 = v3s((real)(F0_DIELECTRIC));\n",
+      "        s.f0 = v3s((real)(0.05f));\n", "dielectric scenes with metallic compiled in: F0 0.05 instead of 0.04"),
+    M("grey_f0_diffuse", "kernels/surface.h", "        s.diffuse_color = base;\n",
+      "        s.diffuse_color = v3s(base.x);\n", "dielectric scenes with metallic compiled in: red base colour on every channel"),
+    M("dv_product_den", "kernels/brdf.h", "return (d.num * v.num) / (d.den * v.den);",
+      "return (d.num * v.num) / (d.den + v.den);", "GGX lobes: D·V divided by the sum of the denominators"),
+    M("power_zero_bound", "kernels/brdf.h", "#define POW_ZERO_BOUND (MIN_EXP2_ARG - 2.0f)",
+      "#define POW_ZERO_BOUND (-20.0f)", "Phong/Blinn–Phong powers above FLT_MIN skipped as zero"),
+    M("power_zero_log2e", "kernels/brdf.h", "(fmin(fmax(x, MIN_POW_BASE), 1.0f) - 1.0f) * 1.44269504089f <",
+      "(fmin(fmax(x, MIN_POW_BASE), 1.0f) - 1.0f) * 4.0f <", "power underflow bound without ln x ≤ x − 1 (too eager)"),
+    M("blinn_phong_skip", "kernels/models/blinn_phong.cl", "    if (blinn_phong_lobe_is_zero(g.nh, s.shininess))",
+      "    if (!ANY(g.nh > 0.9f))", "Blinn–Phong lobe skipped wherever n·h ≤ 0.9 in every lane"),
 ]
 
 

@@ -141,14 +141,30 @@ INLINE real pow_runtime(real x, real n) {
 
 /* ---- normal distribution functions D ------------------------------------ */
 
+/* A term as numerator / denominator, so that a lobe that multiplies two terms
+ * divides once (dv_product): a division costs as much as ~10 multiplies on these
+ * CPUs. Each term documents its denominator's range, which dv_product's callers
+ * need to rule out overflow and underflow. */
+typedef struct { real num, den; } quotient;
+
+INLINE real quotient_value(quotient q) { return q.num / q.den; }
+
+/* D·V with one division. For GGX's D and the GGX visibilities below, num ≤ 1 and
+ * π·MIN_ALPHA⁴ · 2·MIN_N_DOT_L·MIN_ALPHA ≈ 6e-24 ≤ den ≤ 2π (each term's comment):
+ * no product overflows or leaves float32's normal range. */
+INLINE real dv_product(quotient d, quotient v) { return (d.num * v.num) / (d.den * v.den); }
+
 /* GGX / Trowbridge–Reitz (Walter et al. 2007, eq. 33).
  * D = α² / (π ((n·h)²(α²−1) + 1)²); 1 − (n·h)² is passed in as sin2_nh,
- * computed from |n × h|² to keep precision near the peak (Filament). */
-INLINE real D_GGX(real nh, real sin2_nh, real alpha) {
+ * computed from |n × h|² to keep precision near the peak (Filament).
+ * den = π d², d = 1 − (n·h)²(1 − α²) in [α², 1]: den ≥ π·MIN_ALPHA⁴ = 3e-16. */
+INLINE quotient D_GGX_q(real nh, real sin2_nh, real alpha) {
     real a2 = alpha * alpha;
     real d = sin2_nh + nh * nh * a2;          /* = (n·h)²(α²−1) + 1 */
-    return a2 / (CLSHADE_PI * d * d);
+    quotient q = {a2, CLSHADE_PI * d * d};
+    return q;
 }
+INLINE real D_GGX(real nh, real sin2_nh, real alpha) { return quotient_value(D_GGX_q(nh, sin2_nh, alpha)); }
 
 /* Beckmann (Cook & Torrance 1982): D = exp(−tan²θh/m²) / (π m² cos⁴θh). */
 INLINE real D_Beckmann(real nh, real sin2_nh, real m) {
@@ -163,30 +179,38 @@ INLINE real D_Beckmann(real nh, real sin2_nh, real m) {
 /* ---- visibility V = G / (4 (n·l)(n·v)) ----------------------------------- */
 
 /* Height-correlated Smith for GGX (Heitz 2014, eq. 99), as Filament writes it:
- * V = 0.5 / (n·l √((n·v)²(1−α²)+α²) + n·v √((n·l)²(1−α²)+α²)). */
-INLINE real V_SmithGGXCorrelated(real nl, real nv, real alpha) {
+ * V = 0.5 / (n·l √((n·v)²(1−α²)+α²) + n·v √((n·l)²(1−α²)+α²)).
+ * den ≥ 2·MIN_N_DOT_L·α (each root ≥ α, each cosine ≥ its floor). */
+INLINE quotient V_SmithGGXCorrelated_q(real nl, real nv, real alpha) {
     real a2 = alpha * alpha;
     real gv = nl * sqrt(nv * nv * (1.0f - a2) + a2);
     real gl = nv * sqrt(nl * nl * (1.0f - a2) + a2);
-    return 0.5f / (gv + gl);
+    quotient q = {(real)(0.5f), gv + gl};
+    return q;
 }
+INLINE real V_SmithGGXCorrelated(real nl, real nv, real alpha) { return quotient_value(V_SmithGGXCorrelated_q(nl, nv, alpha)); }
 
 /* Separable Smith for GGX (Walter et al. 2007, eq. 34): G = G1(l)·G1(v),
  * G1(x) = 2(n·x) / (n·x + √(α² + (1−α²)(n·x)²)). Divided by 4(n·l)(n·v)
- * in closed form so that no cosine is divided by. */
-INLINE real V_SmithGGXSeparable(real nl, real nv, real alpha) {
+ * in closed form so that no cosine is divided by. den ≥ (2·MIN_N_DOT_L)². */
+INLINE quotient V_SmithGGXSeparable_q(real nl, real nv, real alpha) {
     real a2 = alpha * alpha;
     real sl = nl + sqrt(a2 + (1.0f - a2) * nl * nl);
     real sv = nv + sqrt(a2 + (1.0f - a2) * nv * nv);
-    return 1.0f / (sl * sv);
+    quotient q = {(real)(1.0f), sl * sv};
+    return q;
 }
+INLINE real V_SmithGGXSeparable(real nl, real nv, real alpha) { return quotient_value(V_SmithGGXSeparable_q(nl, nv, alpha)); }
 
 /* Smith with Schlick's approximation, k = α/2 (the study's shader):
- * G1(x) = n·x / (n·x(1−k) + k), divided by 4(n·l)(n·v) in closed form. */
-INLINE real V_SmithSchlickGGX(real nl, real nv, real alpha) {
+ * G1(x) = n·x / (n·x(1−k) + k), divided by 4(n·l)(n·v) in closed form.
+ * den ≥ (MIN_ALPHA/2)² = 2.5e-9 (each factor ≥ k). */
+INLINE quotient V_SmithSchlickGGX_q(real nl, real nv, real alpha) {
     real k = 0.5f * alpha;
-    return 0.25f / ((nl * (1.0f - k) + k) * (nv * (1.0f - k) + k));
+    quotient q = {(real)(0.25f), (nl * (1.0f - k) + k) * (nv * (1.0f - k) + k)};
+    return q;
 }
+INLINE real V_SmithSchlickGGX(real nl, real nv, real alpha) { return quotient_value(V_SmithSchlickGGX_q(nl, nv, alpha)); }
 
 /* Cook–Torrance V-cavity G (Cook & Torrance 1982, Torrance–Sparrow):
  * G = min(1, 2(n·h)(n·v)/(v·h), 2(n·h)(n·l)/(v·h)), over 4(n·l)(n·v). */
@@ -288,11 +312,27 @@ INLINE real Fs_Phong(real rv, real n) {
     return rv > 0.0f ? pow_runtime(fmin(rv, 1.0f), n) : zero_pow;
 }
 
-/* Whether Fs_Phong is exactly 0 in every lane (r·v ≤ 0 and n > 0 in each: the
- * mirror direction points away from the viewer for the whole work-item, about
- * half the lit pixels of a glossy surface): the Phong models then skip the
- * power's log2 and exp2. */
-INLINE int phong_lobe_is_zero(real rv, real n) { return !ANY((rv > 0.0f) | (n == 0.0f)); }
+/* Bound below which pow_runtime(x, n) is exactly 0: when n·(x − 1)·log2 e is below it,
+ * so is n·log2 x (ln x ≤ x − 1), and exp2_lanes returns 0 below MIN_EXP2_ARG; the 2 of
+ * margin covers log2_lanes' few ulp and the rounding of the bound's own products. */
+#define POW_ZERO_BOUND (MIN_EXP2_ARG - 2.0f)
+
+/* Lanes whose pow_runtime(x, n) is exactly 0 for want of float32 range: a shiny lobe
+ * away from its peak (n = 1000 underflows below x = 0.92). Two multiplies instead of
+ * a log2 and an exp2; NaN lanes are not claimed. */
+INLINE mask power_underflows(real x, real n) {
+    return n * (fmin(fmax(x, MIN_POW_BASE), 1.0f) - 1.0f) * 1.44269504089f < POW_ZERO_BOUND;
+}
+
+/* Whether Fs_Phong is exactly 0 in every lane of a work-item: r·v ≤ 0 with n > 0 (the
+ * mirror direction points away from the viewer, about half the lit pixels of a glossy
+ * surface) or (r·v)ⁿ underflows. The Phong models then skip the power's log2 and exp2. */
+INLINE int phong_lobe_is_zero(real rv, real n) {
+    return ALL((!(rv > 0.0f) & (n != 0.0f)) | power_underflows(rv, n));
+}
+
+/* Whether Fs_BlinnPhong is exactly 0 in every lane (its power underflows there). */
+INLINE int blinn_phong_lobe_is_zero(real nh, real n) { return ALL(power_underflows(nh, n)); }
 
 /* Blinn 1977: (n·h)ⁿ. */
 INLINE real Fs_BlinnPhong(real nh, real n) { return pow_runtime(nh, n); }

@@ -291,22 +291,28 @@ def test_image_kernels_have_one_store_site():
         assert body.count("store4(") == 1, f"kernels/{name}: {body.count('store4(')} store4 calls"
 
 
-UNIFORM_SCENE = SCENE.replace("roughness = 0.7\n", "roughness = 0.3\nmetallic = 0.5\n")
+def uniform_scene(metallic: str) -> str:
+    """SCENE with roughness 0.3 and the given metallic on the floor and the ball alike."""
+    return SCENE.replace("metallic = 0.5\n", f"metallic = {metallic}\n").replace(
+        "roughness = 0.7\n", f"roughness = 0.3\nmetallic = {metallic}\n")
 
 
-@pytest.mark.parametrize("model", ["ggx_correlated", "lambert", "burley"])
-def test_uniform_channels_are_compiled_in(runtime, model):
+@pytest.mark.parametrize("model, metallic", [("ggx_correlated", "0.5"), ("lambert", "0.5"), ("burley", "0.5"),
+                                             ("ggx_correlated", "0.0"), ("cook_torrance", "0.0")])
+def test_uniform_channels_are_compiled_in(runtime, model, metallic):
     """Roughness and metallic with one value on every face (floor and ball alike) are
     compiled in: the variant reads neither channel, and its image equals the general
-    kernel's, which reads both per pixel. Where the values differ (SCENE), both are read."""
-    frame = prepare_frame(parse_scene(UNIFORM_SCENE))
+    kernel's, which reads both per pixel. Metallic 0 takes make_surface's dielectric
+    branch (grey F0, base colour as diffuse colour: kernels/surface.h). Where the values
+    differ (SCENE), both are read."""
+    frame = prepare_frame(parse_scene(uniform_scene(metallic)))
     features = scene_features(frame.scene, geometry=frame.geometry)
-    assert dict(features.uniform) == {"roughness": pytest.approx(0.3), "metallic": pytest.approx(0.5)}
+    assert dict(features.uniform) == {"roughness": pytest.approx(0.3), "metallic": pytest.approx(float(metallic))}
     m = models.resolve(model)
     shader = Shader(runtime, frame.gbuffer, frame.scene, frame.camera, frame.shadows)
     variant = shader.variant(m, features)
     assert not {"roughness", "metallic"} & set(variant.channels)
-    assert variant.defines()["METALLIC_VALUE"] == "0.5f"
+    assert variant.defines()["METALLIC_VALUE"] == f"{metallic}f"
     _close(shader.render(m, features), shader.render(m, replace(features, general=True)))
     varied = prepare_frame(parse_scene(SCENE))
     assert scene_features(varied.scene, geometry=varied.geometry).uniform == ()
@@ -317,7 +323,7 @@ def test_uniform_channels_follow_gltf_factors_and_textures():
     a metallic-roughness texture makes neither channel uniform."""
     from clshade.render.gbuffer import uniform_channels
     from clshade.render.textures import Texture, TextureSet
-    frame = prepare_frame(parse_scene(UNIFORM_SCENE))
+    frame = prepare_frame(parse_scene(uniform_scene("0.5")))
     geo, mats = frame.geometry, list(frame.scene.materials.values())
     assert dict(uniform_channels(geo, mats)) == {"roughness": pytest.approx(0.3), "metallic": pytest.approx(0.5)}
     faces = len(geo.face_material)

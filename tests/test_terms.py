@@ -80,3 +80,42 @@ def test_phong_power_below_flt_min_is_zero() -> None:
     assert np.all(f[:5] == 0.0)
     want = np.float64(rv[5:]) ** np.float64(n[5:])
     np.testing.assert_allclose(f[5:], want, rtol=1e-4)
+
+
+@pytest.mark.parametrize("model_id", ["phong", "phong_normalized", "blinn_phong", "blinn_phong_normalized"])
+def test_power_lobes_skip_only_what_underflows(model_id: str, runtime) -> None:
+    """The Phong lobes skip their power where it underflows (kernels/brdf.h,
+    power_underflows): every lobe value from 1 down to just above FLT_MIN is still
+    computed, equal to float64's; where it is below 2⁻¹²⁶ the lobe is 0, as the power
+    itself returns it. Through the model as it renders (eval.cl), n = v = +z, so r·v = n·l."""
+    from clshade.device.evaluate import Samples, constant_materials, eval_brdf
+    from clshade.models import resolve
+    from clshade.verify import reference as R
+    rng = np.random.default_rng(7)
+    k = 4000
+    cos = rng.uniform(0.05, 0.95, k)                    # r·v (Phong) or n·h (Blinn–Phong)
+    target = 10.0 ** rng.uniform(-45.0, 0.0, k)          # the power's value, FLT_MIN ≈ 1.2e-38 inside
+    blinn = model_id.startswith("blinn")
+    theta = 2.0 * np.arccos(cos) if blinn else np.arccos(cos)     # n·h = cos(θ/2) with v = n
+    keep = theta < np.pi / 2 - 1e-3                      # the light above the horizon
+    cos, target, theta = cos[keep], target[keep], theta[keep]
+    shininess = (np.log(target) / np.log(cos)).astype(np.float32)
+    k = len(cos)
+    z = np.tile([0.0, 0.0, 1.0], (k, 1))
+    l = np.stack([np.sin(theta), np.zeros(k), np.cos(theta)], axis=1).astype(np.float32)
+    samples = Samples(z, l, z, np.zeros((k, 3)), np.full(k, 0.5), np.zeros(k),
+                      constant_materials(k, kd=0.0, ks=1.0, shininess=shininess))
+    f = eval_brdf(resolve(model_id), samples, runtime=runtime)[:, 0].astype(np.float64)
+    l64 = l.astype(np.float64) / np.linalg.norm(l.astype(np.float64), axis=1, keepdims=True)
+    if blinn:
+        h = l64 + z
+        x = (h / np.linalg.norm(h, axis=1, keepdims=True))[:, 2]
+    else:
+        x = 2.0 * l64[:, 2] * 1.0 - l64[:, 2]            # r·v = 2(n·l)(n·v) − l·v with v = n
+    n64 = shininess.astype(np.float64)
+    want = getattr(R, model_id)(x, n64)
+    power = (R.blinn_phong if blinn else R.phong)(x, n64)          # without the normalisation factor
+    normal = power > 2.0 * np.finfo(np.float32).tiny    # representable, with a margin for float32 inputs
+    assert normal.sum() > k // 2 and (~normal).sum() > k // 10
+    np.testing.assert_allclose(f[normal], want[normal], rtol=2e-3)
+    assert np.all(f[power < 0.5 * np.finfo(np.float32).tiny] == 0.0)

@@ -13,5 +13,7 @@
  * deviation: multiplied by n·l like every BRDF here; the study's shader adds the specular term without n·l and adds ambient and diffuse outside the k_d + k_s = 1 rule.
  */
 INLINE vec3 specular_lobe(const Geometry g, const Surface s) {
+    if (blinn_phong_lobe_is_zero(g.nh, s.shininess))  /* every lane's power underflows: skip it */
+        return v3s((real)(0.0f));
     return v3s(Fs_BlinnPhong(g.nh, s.shininess));
 }

@@ -10,7 +10,6 @@
  * note: with F = 1 and α = 1 the albedo at normal incidence is 1 − ln 2.
  */
 INLINE vec3 specular_lobe(const Geometry g, const Surface s) {
-    real D = D_GGX(g.nh, g.sin2_nh, s.alpha);
-    real V = V_SmithGGXCorrelated(g.nl, g.nv, s.alpha);
-    return v3scale(fresnel(g, s), D * V);
+    real DV = dv_product(D_GGX_q(g.nh, g.sin2_nh, s.alpha), V_SmithGGXCorrelated_q(g.nl, g.nv, s.alpha));
+    return v3scale(fresnel(g, s), DV);
 }

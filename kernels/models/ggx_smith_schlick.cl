@@ -10,7 +10,6 @@
  * note: the study's shader shortcut, kept as a rung of the approximation ladder against walter_ggx and ggx_correlated.
  */
 INLINE vec3 specular_lobe(const Geometry g, const Surface s) {
-    real D = D_GGX(g.nh, g.sin2_nh, s.alpha);
-    real V = V_SmithSchlickGGX(g.nl, g.nv, s.alpha);
-    return v3scale(fresnel(g, s), D * V);
+    real DV = dv_product(D_GGX_q(g.nh, g.sin2_nh, s.alpha), V_SmithSchlickGGX_q(g.nl, g.nv, s.alpha));
+    return v3scale(fresnel(g, s), DV);
 }

@@ -13,7 +13,7 @@
  * deviation: the lobe is the reciprocal "modified Phong" BRDF, multiplied by n·l like every BRDF here; the study's shader adds the specular term without n·l and adds ambient and diffuse outside the k_d + k_s = 1 rule.
  */
 INLINE vec3 specular_lobe(const Geometry g, const Surface s) {
-    if (phong_lobe_is_zero(g.rv, s.shininess))      /* every lane 0ⁿ = 0: skip the power */
+    if (phong_lobe_is_zero(g.rv, s.shininess))      /* every lane exactly 0: skip the power */
         return v3s((real)(0.0f));
     return v3s(Fs_Phong(g.rv, s.shininess));
 }

@@ -13,7 +13,7 @@
  * note: albedo of the lobe is exactly 1 at normal incidence and below 1 elsewhere.
  */
 INLINE vec3 specular_lobe(const Geometry g, const Surface s) {
-    if (phong_lobe_is_zero(g.rv, s.shininess))      /* every lane 0ⁿ = 0: skip the power */
+    if (phong_lobe_is_zero(g.rv, s.shininess))      /* every lane exactly 0: skip the power */
         return v3s((real)(0.0f));
     real norm = (s.shininess + 2.0f) * (0.5f * CLSHADE_INV_PI);
     return v3s(norm * Fs_Phong(g.rv, s.shininess));

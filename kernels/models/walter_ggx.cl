@@ -10,7 +10,6 @@
  * deviation: the study's appendix uses Schlick's G1 with k = α/2 and the same k as the metallic blend; here G1 is Walter's exact Smith G1 (the k = α/2 shortcut is the separate model ggx_smith_schlick).
  */
 INLINE vec3 specular_lobe(const Geometry g, const Surface s) {
-    real D = D_GGX(g.nh, g.sin2_nh, s.alpha);
-    real V = V_SmithGGXSeparable(g.nl, g.nv, s.alpha);
-    return v3scale(fresnel(g, s), D * V);
+    real DV = dv_product(D_GGX_q(g.nh, g.sin2_nh, s.alpha), V_SmithGGXSeparable_q(g.nl, g.nv, s.alpha));
+    return v3scale(fresnel(g, s), DV);
 }
