@@ -46,7 +46,7 @@ class Mutant:
 M = Mutant
 CATALOGUE: list[Mutant] = [
     # ---- term functions (kernels/brdf.h)
-    M("ggx_d_square", "kernels/brdf.h", "return a2 / (CLSHADE_PI * d * d);", "return a2 / (CLSHADE_PI * d);",
+    M("ggx_d_square", "kernels/brdf.h", "quotient q = {a2, CLSHADE_PI * d * d};", "quotient q = {a2, CLSHADE_PI * d};",
       "GGX D: denominator not squared"),
     M("beckmann_exp_sign", "kernels/brdf.h", "return exp_lanes(-sin2_nh * t)", "return exp_lanes(-0.5f * sin2_nh * t)",
       "Beckmann D: exponent halved"),
