@@ -125,23 +125,19 @@ INLINE Surface make_surface(vec3 base, real roughness, real metallic, const Mate
     s.f90 = m.f90;
     s.eta = m.eta;
     s.k = m.k;
-#if WORKFLOW == WORKFLOW_METALLIC && defined(METALLIC_VALUE)
+#if WORKFLOW == WORKFLOW_METALLIC
+#ifdef METALLIC_VALUE
     /* metallic is the scene's one value, compiled in (shade.cl; defined only for
      * the shading variants with a uniform channel). A dielectric scene (0) has the
      * base colour as diffuse colour and a grey F0, so every Fresnel term has one
-     * value for the three channels and is computed once. The same values as the
-     * general formula below for finite base colours. */
-    if (METALLIC_VALUE == 0.0f) {
-        s.diffuse_color = base;
-        s.f0 = v3s((real)(F0_DIELECTRIC));
-    } else {
-        s.diffuse_color = v3scale(base, 1.0f - metallic);
-        s.f0 = v3mix(v3s((real)(F0_DIELECTRIC)), base, metallic);
-    }
-    s.kd = (real)(1.0f); s.ks = (real)(1.0f); s.ka = (real)(1.0f);
-#elif WORKFLOW == WORKFLOW_METALLIC
-    s.diffuse_color = v3scale(base, 1.0f - metallic);
-    s.f0 = v3mix(v3s((real)(F0_DIELECTRIC)), base, metallic);
+     * value for the three channels and is computed once: the general formulas'
+     * values for finite base colours. A compile-time choice, not a select. */
+    const int dielectric = METALLIC_VALUE == 0.0f;
+#else
+    const int dielectric = 0;
+#endif
+    s.diffuse_color = dielectric ? base : v3scale(base, 1.0f - metallic);
+    s.f0 = dielectric ? v3s((real)(F0_DIELECTRIC)) : v3mix(v3s((real)(F0_DIELECTRIC)), base, metallic);
     s.kd = (real)(1.0f); s.ks = (real)(1.0f); s.ka = (real)(1.0f);
 #else
     real r0 = (s.ior - 1.0f) / (s.ior + 1.0f);
