@@ -150,7 +150,7 @@ typedef struct { real num, den; } quotient;
 INLINE real quotient_value(quotient q) { return q.num / q.den; }
 
 /* D·V with one division. For GGX's D and the GGX visibilities below, num ≤ 1 and
- * π·MIN_ALPHA⁴ · 2·MIN_N_DOT_L·MIN_ALPHA ≈ 6e-24 ≤ den ≤ 2π (each term's comment):
+ * π·MIN_ALPHA⁴ · 2·MIN_N_DOT_L·MIN_ALPHA ≈ 6e-24 ≤ den ≤ 4π (each term's comment):
  * no product overflows or leaves float32's normal range. */
 INLINE real dv_product(quotient d, quotient v) { return (d.num * v.num) / (d.den * v.den); }
 
@@ -192,7 +192,8 @@ INLINE real V_SmithGGXCorrelated(real nl, real nv, real alpha) { return quotient
 
 /* Separable Smith for GGX (Walter et al. 2007, eq. 34): G = G1(l)·G1(v),
  * G1(x) = 2(n·x) / (n·x + √(α² + (1−α²)(n·x)²)). Divided by 4(n·l)(n·v)
- * in closed form so that no cosine is divided by. den ≥ (2·MIN_N_DOT_L)². */
+ * in closed form so that no cosine is divided by. Each factor ≥ MIN_N_DOT_L + α
+ * (the root ≥ α): den ≥ (MIN_N_DOT_L + MIN_ALPHA)² = 4e-8. */
 INLINE quotient V_SmithGGXSeparable_q(real nl, real nv, real alpha) {
     real a2 = alpha * alpha;
     real sl = nl + sqrt(a2 + (1.0f - a2) * nl * nl);
@@ -318,7 +319,7 @@ INLINE real Fs_Phong(real rv, real n) {
 #define POW_ZERO_BOUND (MIN_EXP2_ARG - 2.0f)
 
 /* Lanes whose pow_runtime(x, n) is exactly 0 for want of float32 range: a shiny lobe
- * away from its peak (n = 1000 underflows below x = 0.92). Two multiplies instead of
+ * away from its peak (n = 1000: every x below 0.91). Two multiplies instead of
  * a log2 and an exp2; NaN lanes are not claimed. */
 INLINE mask power_underflows(real x, real n) {
     return n * (fmin(fmax(x, MIN_POW_BASE), 1.0f) - 1.0f) * 1.44269504089f < POW_ZERO_BOUND;
