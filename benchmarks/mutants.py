@@ -288,6 +288,10 @@ CATALOGUE: list[Mutant] = [
       "(fmin(fmax(x, MIN_POW_BASE), 1.0f) - 1.0f) * 4.0f <", "power underflow bound without ln x ≤ x − 1 (too eager)"),
     M("blinn_phong_skip", "kernels/models/blinn_phong.cl", "    if (blinn_phong_lobe_is_zero(g.nh, s.shininess))",
       "    if (!ANY(g.nh > 0.9f))", "Blinn–Phong lobe skipped wherever n·h ≤ 0.9 in every lane"),
+    M("power_zero_margin", "kernels/brdf.h", "#define POW_ZERO_BOUND (MIN_EXP2_ARG - 2.0f)",
+      "#define POW_ZERO_BOUND (MIN_EXP2_ARG + 3.0f)", "Phong powers just above FLT_MIN (2⁻¹²³) skipped as zero"),
+    M("half_vector_below", "kernels/surface.h", "((h_len2 < MIN_HALF_LEN2) | (nh_raw <= 0.0f))",
+      "(h_len2 < MIN_HALF_LEN2)", "a half vector below the surface: n·h clamped to 0, sin²θh left at |n × h|²"),
 ]
 
 

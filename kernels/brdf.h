@@ -150,14 +150,16 @@ typedef struct { real num, den; } quotient;
 INLINE real quotient_value(quotient q) { return q.num / q.den; }
 
 /* D·V with one division. For GGX's D and the GGX visibilities below, num ≤ 1 and
- * π·MIN_ALPHA⁴ · 2·MIN_N_DOT_L·MIN_ALPHA ≈ 6e-24 ≤ den ≤ 4π (each term's comment):
- * no product overflows or leaves float32's normal range. */
+ * π·MIN_ALPHA⁴ · (MIN_ALPHA/2)² ≈ 8e-25 ≤ den ≤ 16π (each term's comment; the
+ * smallest V denominator is Schlick's): no product overflows or leaves float32's
+ * normal range. */
 INLINE real dv_product(quotient d, quotient v) { return (d.num * v.num) / (d.den * v.den); }
 
 /* GGX / Trowbridge–Reitz (Walter et al. 2007, eq. 33).
  * D = α² / (π ((n·h)²(α²−1) + 1)²); 1 − (n·h)² is passed in as sin2_nh,
  * computed from |n × h|² to keep precision near the peak (Filament).
- * den = π d², d = 1 − (n·h)²(1 − α²) in [α², 1]: den ≥ π·MIN_ALPHA⁴ = 3e-16. */
+ * den = π d², d = 1 − (n·h)²(1 − α²) in [α², 1 + α²] (make_geometry keeps sin² and
+ * the clamped n·h consistent): den ≥ π·MIN_ALPHA⁴ = 3e-16. */
 INLINE quotient D_GGX_q(real nh, real sin2_nh, real alpha) {
     real a2 = alpha * alpha;
     real d = sin2_nh + nh * nh * a2;          /* = (n·h)²(α²−1) + 1 */
@@ -320,7 +322,8 @@ INLINE real Fs_Phong(real rv, real n) {
 
 /* Lanes whose pow_runtime(x, n) is exactly 0 for want of float32 range: a shiny lobe
  * away from its peak (n = 1000: every x below 0.91). Two multiplies instead of
- * a log2 and an exp2; NaN lanes are not claimed. */
+ * a log2 and an exp2. A NaN n is not claimed; a NaN x is where n > 88.7 (fmax drops
+ * it), and pow_runtime returns 0 there as well. */
 INLINE mask power_underflows(real x, real n) {
     return n * (fmin(fmax(x, MIN_POW_BASE), 1.0f) - 1.0f) * 1.44269504089f < POW_ZERO_BOUND;
 }

@@ -102,12 +102,16 @@ INLINE Geometry make_geometry(vec3 n, vec3 l, vec3 v) {
     vec3 h = v3add(l, v);
     real h_len2 = v3dot(h, h);
     h = v3scale(h, rsqrt(fmax(h_len2, MIN_HALF_LEN2)));
-    g.nh = saturate(v3dot(n, h));
+    real nh_raw = v3dot(n, h);
+    g.nh = saturate(nh_raw);
     vec3 c = v3cross(n, h);
     /* l = −v: no half vector. Treat h as perpendicular to n (n·h = 0 already,
      * sin² = 1) so that D_GGX sees 1, not the 0 that made α²/0 = Inf and,
-     * times F = 0, NaN. A select, not a branch. */
-    g.sin2_nh = h_len2 < MIN_HALF_LEN2 ? (real)(1.0f) : saturate(v3dot(c, c));
+     * times F = 0, NaN. So is a half vector below the surface (n·v < 0 at a
+     * back-lit silhouette, l ≈ −v): n·h is clamped to 0, and sin² must agree with
+     * it, or D's d = sin² + (n·h)²α² falls below α² (to 0 at l = −v exactly).
+     * A select, not a branch. */
+    g.sin2_nh = ((h_len2 < MIN_HALF_LEN2) | (nh_raw <= 0.0f)) ? (real)(1.0f) : saturate(v3dot(c, c));
     g.vh = saturate(v3dot(v, h));
     g.lv = v3dot(l, v);
     g.rv = 2.0f * g.nl_raw * nv_raw - g.lv;

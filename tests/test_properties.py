@@ -110,3 +110,27 @@ def test_albedo_rule_is_exact_for_lambert() -> None:
     """The quadrature itself: Lambert's albedo is 1 to well within ALBEDO_TOL."""
     f = lambda n, l, v: R.brdf("lambert", "none", n, l, v, base_color=1.0, roughness=0.5)[:, 0]  # noqa: E731
     assert abs(R.directional_albedo(f, 8, v=np.array([0, 0.6, 0.8]), levels=8, ratio=0.25) - 1.0) < ALBEDO_TOL / 10
+
+
+@pytest.mark.parametrize("model_id", ["ggx_correlated", "walter_ggx", "ggx_smith_schlick", "cook_torrance"])
+def test_half_vector_below_the_surface_stays_finite(model_id: str) -> None:
+    """A back-lit silhouette: light grazing above the surface, the view just below it (an
+    interpolated normal), l ≈ −v. The half vector points below the surface; make_geometry
+    clamps n·h to 0 and must treat sin²θh as 1 with it (kernels/surface.h), or GGX's D
+    divides by ~0: Inf at roughness 0 (found in review, 2026-11-25). Finite, non-negative,
+    and at most the lobe's value with h perpendicular to n."""
+    from clshade.models import resolve
+    rng = np.random.default_rng(11)
+    k = 200_000
+    n = rng.normal(size=(k, 3))
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    a = np.cross(n, rng.normal(size=(k, 3)))
+    a /= np.linalg.norm(a, axis=1, keepdims=True)
+    eps = 10.0 ** rng.uniform(-10, -4, k)                 # the light's height above the surface
+    tilt = 10.0 ** rng.uniform(-8, -1, k)                 # the view's depth below it
+    l = a * np.sqrt(1 - eps ** 2)[:, None] + n * eps[:, None]
+    v = -a * np.sqrt(1 - eps ** 2)[:, None] - n * (eps + tilt)[:, None]
+    s = Samples(n, l, v, np.full((k, 3), 0.5), np.zeros(k), np.zeros(k), constant_materials(k))
+    f = eval_brdf(resolve(model_id), s)
+    assert np.isfinite(f).all() and (f >= 0).all()
+    assert f.max() < 1e3, f"{model_id}: {f.max():.3g} sr⁻¹ for a half vector below the surface"
