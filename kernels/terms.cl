@@ -41,3 +41,8 @@ TERM_KERNEL(Fd_Burley,           SCALAR(Fd_Burley(a.x, a.y, a.z, a.w)))
 TERM_KERNEL(Fd_OrenNayar,        SCALAR(Fd_OrenNayar(a.x, a.y, a.z, a.w)))
 TERM_KERNEL(Fs_Phong,            SCALAR(Fs_Phong(a.x, a.y)))
 TERM_KERNEL(Fs_BlinnPhong,       SCALAR(Fs_BlinnPhong(a.x, a.y)))
+
+/* Not a term: the Phong powers' early-out (brdf.h power_underflows) beside the power
+ * it claims is 0 — .x pow_runtime(x, n), .y 1 where the lane is claimed
+ * (tests/test_terms.py, test_power_underflow_claims_only_exact_zeros). */
+TERM_KERNEL(power_underflows,    (float4)(pow_runtime(a.x, a.y), power_underflows(a.x, a.y) ? 1.0f : 0.0f, 0.0f, 0.0f))
