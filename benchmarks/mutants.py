@@ -110,7 +110,7 @@ CATALOGUE: list[Mutant] = [
     # ---- geometry (kernels/surface.h)
     M("rv_sign", "kernels/surface.h", "g.rv = 2.0f * g.nl_raw * nv_raw - g.lv;", "g.rv = 2.0f * g.nl_raw * nv_raw + g.lv;",
       "Phong mirror: r·v = 2(n·l)(n·v) + l·v"),
-    M("vh_uses_l", "kernels/surface.h", "g.vh = saturate(v3dot(v, h));", "g.vh = saturate(v3dot(n, h));",
+    M("vh_uses_l", "kernels/surface.h", "g.vh = saturate(v3dot(v, H) * inv_len);", "g.vh = saturate(v3dot(n, H) * inv_len);",
       "v·h computed as n·h"),
     M("f0_dielectric", "kernels/surface.h", ": v3mix(v3s((real)(F0_DIELECTRIC)), base, metallic);",
       ": v3mix(v3s((real)(0.08f)), base, metallic);", "metallic workflow: dielectric F0 = 0.08"),
@@ -290,8 +290,16 @@ CATALOGUE: list[Mutant] = [
       "    if (!ANY(g.nh > 0.9f))", "Blinn–Phong lobe skipped wherever n·h ≤ 0.9 in every lane"),
     M("power_zero_margin", "kernels/brdf.h", "#define POW_ZERO_BOUND (MIN_EXP2_ARG - 2.0f)",
       "#define POW_ZERO_BOUND (MIN_EXP2_ARG + 3.0f)", "Phong powers just above FLT_MIN (2⁻¹²³) skipped as zero"),
-    M("half_vector_below", "kernels/surface.h", "((h_len2 < MIN_HALF_LEN2) | (nh_raw <= 0.0f))",
+    M("half_vector_below", "kernels/surface.h", "((h_len2 < MIN_HALF_LEN2) | (nH <= 0.0f))",
       "(h_len2 < MIN_HALF_LEN2)", "a half vector below the surface: n·h clamped to 0, sin²θh left at |n × h|²"),
+    M("sin2_half_scaled", "kernels/surface.h", ": saturate(v3dot(c, c) * inv_len * inv_len);",
+      ": saturate(v3dot(c, c) * inv_len);", "sin²θh = |n × H|²/|H| instead of /|H|² (H = l + v unnormalised)"),
+    M("nh_unscaled", "kernels/surface.h", "g.nh = saturate(nH * inv_len);", "g.nh = saturate(nH);",
+      "n·h taken with H = l + v not divided by |H|"),
+    M("prefetch_dropped", "kernels/shade.cl", "PREFETCH_GBUFFER(SIMD * i);   /* gbuffer.h */", "/* no prefetch */",
+      "the covered path no longer prefetches the G-buffer ahead"),
+    M("prefetch_noop", "kernels/simd.h", "#define PREFETCH(p) __builtin_prefetch((p))", "#define PREFETCH(p) ((void)(p))",
+      "PREFETCH a no-op on x86 although CLSHADE_PREFETCH says it prefetches"),
 ]
 
 

@@ -35,6 +35,52 @@ INLINE vec3 load3f(size_t i, __global const float* p, uint plane) {
     return v3(VLOAD(i, p), VLOAD(i, p + plane), VLOAD(i, p + 2 * plane));
 }
 
+/* Software prefetch of the channels a covered work-item reads, PREFETCH_PIXELS
+ * pixels (8 work-items at SIMD 16: 512 B of a float plane) ahead of pixel
+ * `first`. The hardware prefetchers follow a stream only after a few misses
+ * and stop at every 4 KiB page; a covered work-item reads one line from each
+ * of up to 14 planes, so without the hint about a sixth of GGX's samples sat
+ * on G-buffer loads (perf annotate of PoCL 3.0's binary). Distances of 4, 8,
+ * 16 and 32 work-items were tried: 8 and 16 were fastest (A/B in one process,
+ * docs/bench-notes.md 2026-11-25). Only in shade.cl's covered path: a sky
+ * work-item reads one stream, which the hardware follows, and the copy kernel
+ * with the same hint was no faster (its loads are all it does). Uses the
+ * kernel's parameter names (depth, normal, base, …), as shade.cl declares them. */
+#define PREFETCH_PIXELS 128
+#define PREFETCH_PLANE3(p, o) do { PREFETCH((p) + (o)); PREFETCH((p) + plane + (o)); \
+                                   PREFETCH((p) + 2 * plane + (o)); } while (0)
+#if HAS_ROUGHNESS
+#define PREFETCH_ROUGHNESS(o) PREFETCH(roughness + (o))
+#else
+#define PREFETCH_ROUGHNESS(o) ((void)0)
+#endif
+#if HAS_METALLIC
+#define PREFETCH_METALLIC(o) PREFETCH(metallic + (o))
+#else
+#define PREFETCH_METALLIC(o) ((void)0)
+#endif
+#if HAS_EMISSIVE
+#define PREFETCH_EMISSIVE(o) PREFETCH_PLANE3(emissive, (o))
+#else
+#define PREFETCH_EMISSIVE(o) ((void)0)
+#endif
+#if HAS_OCCLUSION
+#define PREFETCH_OCCLUSION(o) PREFETCH(occlusion + (o))
+#else
+#define PREFETCH_OCCLUSION(o) ((void)0)
+#endif
+#if HAS_MATERIAL
+#define PREFETCH_MATERIAL(o) PREFETCH(material + (o))
+#else
+#define PREFETCH_MATERIAL(o) ((void)0)
+#endif
+#define PREFETCH_GBUFFER(first) do { \
+        size_t o_ = (size_t)(first) + PREFETCH_PIXELS; \
+        PREFETCH(depth + o_); PREFETCH_PLANE3(normal, o_); PREFETCH_PLANE3(base, o_); \
+        PREFETCH_ROUGHNESS(o_); PREFETCH_METALLIC(o_); PREFETCH_EMISSIVE(o_); \
+        PREFETCH_OCCLUSION(o_); PREFETCH_MATERIAL(o_); \
+    } while (0)
+
 /* None of the work-item's pixels is covered (depth ≤ 0 in every lane): the
  * shading kernel then reads only depth and writes the background, and the copy
  * kernel does the same so that the bandwidth floor moves the same bytes. */

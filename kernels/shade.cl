@@ -202,6 +202,7 @@ __kernel void shade(
     vec3 color = v3c(background.xyz);
     real alpha = (real)(background.w);
     if (!all_empty(z)) {
+        PREFETCH_GBUFFER(SIMD * i);   /* gbuffer.h */
         /* Camera rays through the pixel centres; cam_right/cam_up are pre-scaled by
          * tan(fov/2)·aspect and tan(fov/2), so P = cam_pos + depth · ray. */
         /* Lane j is pixel SIMD·i + j: one division per work-item, then at most one

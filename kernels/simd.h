@@ -275,6 +275,18 @@ typedef short short8u __attribute__((ext_vector_type(8), aligned(2)));
 #define ALL(m) (MASK_BITS(m) == MASK_FULL)
 #endif
 
+/* PREFETCH(p): a hint that the cache line at global address p is read soon
+ * (prefetcht0 on x86: into every cache level; never faults, so an address past
+ * the buffer's end is harmless). Where PoCL compiles for x86; elsewhere nothing.
+ * gbuffer.h's PREFETCH_GBUFFER says what is prefetched and why.
+ * CLSHADE_NO_PREFETCH (CLSHADE_NO_PREFETCH=1 on the host) leaves it out. */
+#if defined(__x86_64__) && !defined(CLSHADE_NO_PREFETCH)
+#define CLSHADE_PREFETCH 1
+#define PREFETCH(p) __builtin_prefetch((p))
+#else
+#define PREFETCH(p) ((void)0)
+#endif
+
 /* STORE_ROW8(v, k, p): row k of 8 floats at p, a 32-byte aligned address
  * (the image rows of gbuffer.h: the output buffer is device-allocated,
  * CL_DEVICE_MEM_BASE_ADDR_ALIGN is 1024 bits on PoCL, and every work-item

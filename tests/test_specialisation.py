@@ -282,6 +282,31 @@ def test_streaming_stores_write_the_image_plain_stores_write(runtime, monkeypatc
         np.testing.assert_array_equal(a, b)
 
 
+def test_prefetch_changes_no_pixel(runtime):
+    """kernels/gbuffer.h's PREFETCH_GBUFFER is a hint (x86): with it and without it
+    (CLSHADE_NO_PREFETCH) the specialised and the general kernel write the same image,
+    bit for bit, and the switch reaches the kernels."""
+    from clshade.device.runtime import NO_PREFETCH, Runtime
+    frame = prepare_frame(parse_scene(SCENE))
+    features = scene_features(frame.scene, geometry=frame.geometry)
+    on, off = Runtime(runtime.info.spec), Runtime(runtime.info.spec, options=(NO_PREFETCH,))
+    assert not off.prefetches
+    if "cpu" in runtime.info.kind and __import__("platform").machine() == "x86_64":
+        assert on.prefetches, "an x86 CPU device prefetches the G-buffer ahead"
+    m = models.resolve("ggx_correlated")
+    for feats in (features, replace(features, general=True)):
+        shaders = [Shader(rt, frame.gbuffer, frame.scene, frame.camera, frame.shadows) for rt in (on, off)]
+        a, b = (sh.render(m, feats) for sh in shaders)
+        assert (a[..., 3] == 1).any(), "the frame has covered pixels"
+        np.testing.assert_array_equal(a, b)
+        # The hint is in the built program (PoCL's binary is LLVM bitcode) exactly where it should be.
+        for sh, rt in zip(shaders, (on, off)):
+            program = sh.prepare(m, feats).kernel.program
+            binary = b"".join(program.get_info(cl.program_info.BINARIES))
+            if "PoCL" in rt.info.platform_version:
+                assert (b"llvm.prefetch" in binary) == rt.prefetches, (rt.options, rt.prefetches)
+
+
 def test_image_kernels_have_one_store_site():
     """shade.cl and copy.cl write their pixels at one store4 call each: with two, LLVM merges
     the last stores of both paths and drops their streaming mark (kernels/gbuffer.h)."""

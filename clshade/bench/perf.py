@@ -40,7 +40,7 @@ import numpy as np
 
 from clshade import __version__
 from clshade.bench import bandwidth, frame as whole, peers as peer_mod
-from clshade.device.runtime import CACHED_STORES, INLINE_MATH, LIBRARY_MATH, Runtime, list_devices
+from clshade.device.runtime import CACHED_STORES, INLINE_MATH, LIBRARY_MATH, NO_PREFETCH, Runtime, list_devices
 from clshade.device.shade import Shader, scene_features
 from clshade.models import resolve
 from clshade.pipeline import prepare_frame
@@ -126,7 +126,8 @@ def compare(scene_path: str, models: list, width: int | None, height: int | None
     gb, scene, camera = frame.gbuffer, frame.scene, frame.camera
     feats = scene_features(scene, geometry=frame.geometry)
     builds = ((("default", ()), ("library", (LIBRARY_MATH,)), ("inline", (INLINE_MATH,)),
-               ("plain stores", (CACHED_STORES,))) if library else (("default", ()),))
+               ("plain stores", (CACHED_STORES,)), ("no prefetch", (NO_PREFETCH,)))
+              if library else (("default", ()),))
     configs = []
     for spec in devices or pocl_devices():
         for build, opts in builds:
@@ -143,6 +144,7 @@ def compare(scene_path: str, models: list, width: int | None, height: int | None
             configs.append(dict(device=rt.info.description, device_name=rt.info.device,
                                 platform_version=rt.info.platform_version, build=build, simd=rt.simd,
                                 inline_math=rt.inline_math, streaming_stores=rt.streaming_stores,
+                                prefetch=rt.prefetches,
                                 shader=sh, dispatches=ds, images=images, ms={k: [] for k in ds}))
     ok = [c for c in configs if "error" not in c]
     ref_images = ok[0]["images"]
@@ -248,7 +250,7 @@ def compare(scene_path: str, models: list, width: int | None, height: int | None
                              max_rel_diff_vs_first=peer_mod.verify(c["images"][m.id], ref_images[m.id], covered)))
         runtimes.append(dict(device=c["device"], device_name=c["device_name"], platform_version=c["platform_version"],
                              build=c["build"], simd=c["simd"], inline_math=c["inline_math"],
-                             streaming_stores=c["streaming_stores"],
+                             streaming_stores=c["streaming_stores"], prefetch=c["prefetch"],
                              opencl_stream_gbs=max((in_rounds[k]["median_gbs"] for k in
                                                     (round_triad_key(c["device"], kind) for kind in bandwidth.STORE_KINDS)
                                                     if k in in_rounds), default=ocl_best[c["device"]]),
@@ -398,8 +400,8 @@ def short(device: str) -> str:
 
 
 def _noise_lines(doc: dict) -> list[str]:
-    """Builds of one runtime that compiled the same code (same inline_math and
-    streaming_stores): their time ratios per kernel are this run's noise band."""
+    """Builds of one runtime that compiled the same code (same inline_math,
+    streaming_stores and prefetch): their time ratios per kernel are this run's noise band."""
     out = []
     by_device: dict[str, list[dict]] = {}
     for rt in doc["runtimes"]:
@@ -408,7 +410,7 @@ def _noise_lines(doc: dict) -> list[str]:
     for device, rts in by_device.items():
         for i, a in enumerate(rts):
             for b in rts[i + 1:]:
-                if all(a.get(k) == b.get(k) for k in ("inline_math", "streaming_stores")):
+                if all(a.get(k) == b.get(k) for k in ("inline_math", "streaming_stores", "prefetch")):
                     ratios = [ra[k] / rb[k] for ra, rb in zip(a["models"], b["models"]) for k in ("median_ms", "copy_ms")]
                     out.append(f"Noise: on {short(device)} the `{a['build']}` and `{b['build']}` builds are the same "
                                f"code; their kernel times differ by {min(ratios):.2f}–{max(ratios):.2f}× in this run.")
@@ -443,7 +445,9 @@ def markdown(doc: dict) -> str:
          "builtin library meets a compiler target without AVX-512), `library` = the OpenCL library's "
          "builtins everywhere (the kernels before issue 15; CLSHADE_LIBRARY_MATH=1), `inline` = inline "
          "builtins everywhere (CLSHADE_INLINE_MATH=1), `plain stores` = `default` with the image rows written "
-         "by plain stores instead of streaming ones (CLSHADE_CACHED_STORES=1; kernels/simd.h, STORE_ROW8). "
+         "by plain stores instead of streaming ones (CLSHADE_CACHED_STORES=1; kernels/simd.h, STORE_ROW8), "
+         "`no prefetch` = `default` without the software prefetch of the G-buffer ahead (CLSHADE_NO_PREFETCH=1; "
+         "kernels/gbuffer.h, PREFETCH_GBUFFER). "
          "Targets are judged on `default`.", "",
          f"**STREAM anchor** ({s['before']['method']}, {s['before']['array_mib']} MiB arrays, best of "
          f"{s['before']['repeats']}): copy {s['before']['copy_best_gbs']:.1f} / {s['after']['copy_best_gbs']:.1f} GB/s, "

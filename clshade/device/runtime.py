@@ -147,6 +147,10 @@ INLINE_MATH = "-DCLSHADE_INLINE_MATH_FORCE"
 # STORE_ROW8 there). A/B switch: CLSHADE_CACHED_STORES=1 keeps plain stores.
 ENV_CACHED_STORES = "CLSHADE_CACHED_STORES"
 CACHED_STORES = "-DCLSHADE_CACHED_STORES"
+# shade.cl prefetches the G-buffer lines of the work-items ahead on x86 (kernels/gbuffer.h,
+# PREFETCH_GBUFFER). A/B switch: CLSHADE_NO_PREFETCH=1 leaves the hint out.
+ENV_NO_PREFETCH = "CLSHADE_NO_PREFETCH"
+NO_PREFETCH = "-DCLSHADE_NO_PREFETCH"
 
 
 def host_has_avx512f() -> bool:
@@ -177,7 +181,8 @@ class Runtime:
         self.options = (tuple(options) + (("-DCLSHADE_HOST_AVX512F",) if host_has_avx512f() else ())
                         + ((LIBRARY_MATH,) if _flag(ENV_LIBRARY_MATH) else ())
                         + ((INLINE_MATH,) if _flag(ENV_INLINE_MATH) else ())
-                        + ((CACHED_STORES,) if _flag(ENV_CACHED_STORES) else ()))
+                        + ((CACHED_STORES,) if _flag(ENV_CACHED_STORES) else ())
+                        + ((NO_PREFETCH,) if _flag(ENV_NO_PREFETCH) else ()))
 
     def kernel(self, source: str, name: str, options: tuple[str, ...] = (), label: str = "") -> object:
         """Build (once) and return kernel `name` from `source` with build `options`
@@ -316,6 +321,12 @@ class Runtime:
         (kernels/simd.h, STORE_ROW8: x86 with AVX, probed on the device; rows of 8 floats,
         so only at SIMD 8 and 16)."""
         return self.simd >= 8 and self._simd_h_defines("CLSHADE_STREAMING_STORES")
+
+    @property
+    def prefetches(self) -> bool:
+        """Whether shade.cl built here prefetches the G-buffer ahead (kernels/simd.h PREFETCH:
+        x86, probed on the device; CLSHADE_NO_PREFETCH=1 leaves it out)."""
+        return self._simd_h_defines("CLSHADE_PREFETCH")
 
     def _simd_h_defines(self, macro: str) -> bool:
         """Whether kernels/simd.h defines `macro` when built on this device with these options."""
