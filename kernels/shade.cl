@@ -205,18 +205,21 @@ __kernel void shade(
         PREFETCH_GBUFFER(SIMD * i);   /* gbuffer.h */
         /* Camera rays through the pixel centres; cam_right/cam_up are pre-scaled by
          * tan(fov/2)·aspect and tan(fov/2), so P = cam_pos + depth · ray. */
-        /* Lane j is pixel SIMD·i + j: one division per work-item, then at most one
-         * wrap to the next row (SIMD ≤ width). */
-        /* Columns convert as signed ints (< 2·width < 2³¹: exact), one vcvtdq2ps: an
-         * unsigned conversion has no AVX2 instruction (6 per 8 lanes, objdump). The
-         * row is one or the next for every lane: (row + ½) or (row + 1½), exact in float. */
-        uint first = (uint)(SIMD * i), row = first / width;
-        uindex px = (uindex)(first - row * width) + LANE_IOTA;
-        mask wrap = px >= width;
-        px = wrap ? px - width : px;
-        real sx = (convert_real(as_mask(px)) + 0.5f) * inv_width2 - 1.0f;
-        real sy = 1.0f - ((real)((float)row) + (wrap ? (real)(1.5f) : (real)(0.5f))) * inv_height2;
-        vec3 ray = v3add(v3c(cam_fwd.xyz), v3add(v3scale(v3c(cam_right.xyz), sx), v3scale(v3c(cam_up.xyz), sy)));
+        /* Lane j is pixel SIMD·i + j: one division per work-item. The first pixel's ray
+         * is scalar arithmetic, and each lane steps cam_right·inv_width2 from it (a
+         * vector of lane offsets the same in every work-item); a work-item that runs
+         * past the row's end (only where width is not a multiple of SIMD) moves those
+         * lanes back one row width and down one row. */
+        uint first = (uint)(SIMD * i), row = first / width, col = first - row * width;
+        float3 step = cam_right.xyz * inv_width2;
+        float3 ray0 = cam_fwd.xyz - cam_right.xyz + ((float)col + 0.5f) * step
+                    + (1.0f - ((float)row + 0.5f) * inv_height2) * cam_up.xyz;
+        vec3 ray = v3add(v3c(ray0), v3scale(v3c(step), convert_real(as_mask(LANE_IOTA))));
+        if (col + SIMD > width) {
+            mask wrap = as_mask(LANE_IOTA >= (uindex)(width - col));
+            vec3 back = v3c(-(float)width * step - inv_height2 * cam_up.xyz);
+            ray = v3select(wrap, v3add(ray, back), ray);
+        }
         vec3 v = v3scale(ray, -rsqrt(v3dot(ray, ray)));
 
         /* A bad normal (zero, NaN, Inf) shades as if facing the viewer. The fallback is a
