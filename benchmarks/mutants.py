@@ -302,6 +302,8 @@ CATALOGUE: list[Mutant] = [
       ": saturate(v3dot(c, c) * inv_len);", "sin²θh = |n × H|²/|H| instead of /|H|² (H = l + v unnormalised)"),
     M("nh_unscaled", "kernels/surface.h", "g.nh = saturate(nH * inv_len);", "g.nh = saturate(nH);",
       "n·h taken with H = l + v not divided by |H|"),
+    M("directional_unlit_skip", "kernels/shade.cl", "            if (fmax(fmax(c.x, c.y), c.z) > 0.0f)\n",
+      "            if (fmax(fmax(c.x, c.y), c.z) > 1.0f)\n", "directional lights up to irradiance 1 skipped as unlit"),
     M("prefetch_dropped", "kernels/shade.cl", "PREFETCH_GBUFFER(SIMD * i);   /* gbuffer.h */", "/* no prefetch */",
       "the covered path no longer prefetches the G-buffer ahead"),
     M("prefetch_noop", "kernels/simd.h", "#define PREFETCH(p) __builtin_prefetch((p))", "#define PREFETCH(p) ((void)(p))",

@@ -38,18 +38,27 @@ INLINE vec3 brdf(const Geometry g, const Surface s) {
  * lobes' denominators (g.nl), never on the irradiance: a pixel at n·l = 1e-5
  * receives 1e-5 · E, not 1e-4 · E. E·(n·l) is formed first so that a huge E
  * times a 0 lobe never makes NaN. */
-INLINE vec3 shade_light(vec3 n, vec3 v, vec3 l, vec3 E, const Surface s) {
-    /* Every lane below the horizon or unlit (outside a spot cone): the sum
-     * below would add exactly 0, so skip the BRDF. One branch per work-item
-     * (lanes are neighbouring pixels, mostly alike); about half the covered
-     * work-items face away from a given light. */
-    real e_max = fmax(fmax(E.x, E.y), E.z);
-    if (!ANY(faces_light(n, l) & (e_max > 0.0f)))
+INLINE vec3 shade_light_lit(vec3 n, vec3 v, vec3 l, vec3 E, const Surface s) {
+    /* Every lane below the horizon: the sum below would add exactly 0, so skip
+     * the BRDF. One branch per work-item (lanes are neighbouring pixels, mostly
+     * alike); about half the covered work-items face away from a given light. */
+    if (!ANY(faces_light(n, l)))
         return v3s((real)(0.0f));
     Geometry g = make_geometry(n, l, v);
     vec3 e = v3scale(E, fmax(g.nl_raw, 0.0f));
     vec3 lo = v3mul(brdf(g, s), e);
     return v3select(g.nl_raw > 0.0f, lo, v3s((real)(0.0f)));
+}
+
+/* shade_light_lit, first skipping a work-item none of whose facing lanes receives
+ * light (E = 0: outside a spot cone, in a shadow, a black light). A directional
+ * light without shadows has one E for every lane: shade.cl tests it once, on
+ * scalars, and calls shade_light_lit. */
+INLINE vec3 shade_light(vec3 n, vec3 v, vec3 l, vec3 E, const Surface s) {
+    real e_max = fmax(fmax(E.x, E.y), E.z);
+    if (!ANY(faces_light(n, l) & (e_max > 0.0f)))
+        return v3s((real)(0.0f));
+    return shade_light_lit(n, v, l, E, s);
 }
 
 /* The constant ambient term of the study's shaders, A = ambient radiance:

@@ -301,8 +301,15 @@ __kernel void shade(
             vec3 l = v3c(-lights[2 * k].xyz);
             float4 c = lights[2 * k + 1];
             vec3 E = v3c(c.xyz);
+#if HAS_SHADOWS
             SHADOW(E, c.w);
             L = v3add(L, shade_light(n, v, l, E, s));
+#else
+            /* One irradiance for every lane: whether it is 0 is a scalar test
+             * (compose.h, shade_light). */
+            if (fmax(fmax(c.x, c.y), c.z) > 0.0f)
+                L = v3add(L, shade_light_lit(n, v, l, E, s));
+#endif
         }
 #endif
 #if NUM_POINT > 0
