@@ -304,6 +304,8 @@ CATALOGUE: list[Mutant] = [
       "n·h taken with H = l + v not divided by |H|"),
     M("directional_unlit_skip", "kernels/shade.cl", "            if (fmax(fmax(c.x, c.y), c.z) > 0.0f)\n",
       "            if (fmax(fmax(c.x, c.y), c.z) > 1.0f)\n", "directional lights up to irradiance 1 skipped as unlit"),
+    M("peer_alpha_bound", "clshade/bench/peers.py", "good &= np.maximum(r * r, MIN_ALPHA) >= WELL_CONDITIONED_ALPHA",
+      "good &= np.maximum(r, MIN_ALPHA) >= WELL_CONDITIONED_ALPHA", "peer check: α taken as r, not r²"),
     M("prefetch_dropped", "kernels/shade.cl", "PREFETCH_GBUFFER(SIMD * i);   /* gbuffer.h */", "/* no prefetch */",
       "the covered path no longer prefetches the G-buffer ahead"),
     M("prefetch_noop", "kernels/simd.h", "#define PREFETCH(p) __builtin_prefetch((p))", "#define PREFETCH(p) ((void)(p))",

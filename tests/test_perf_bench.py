@@ -174,6 +174,25 @@ def test_peer_equals_clshade(runtime, name, model, uniform):
     np.testing.assert_allclose(peer.run().reshape(-1, 4)[empty], image.reshape(-1, 4)[empty], rtol=1e-6)
 
 
+def test_peers_leave_out_only_the_ill_conditioned_pixels():
+    """well_conditioned: a microfacet lobe's pixels with α below WELL_CONDITIONED_ALPHA (the
+    roughness-0 ball of sphere_grid) are left out of the ≤ 1e-4 check, every other pixel
+    stays in; a diffuse model keeps them all; the bound is 4·2⁻²³/1e-4."""
+    frame = prepare_frame(load_scene(SCENES / "sphere_grid.toml"), 192, 108)
+    gb = frame.gbuffer
+    covered = np.flatnonzero(gb.channels["depth"] > 0)
+    r = gb.channels["roughness"][covered]
+    alpha = np.maximum(r.astype(float) ** 2, peers.MIN_ALPHA)
+    assert peers.WELL_CONDITIONED_ALPHA == pytest.approx(4.77e-3, rel=1e-3)
+    good = peers.well_conditioned(resolve("ggx_correlated"), gb, covered)
+    assert (r == 0).any() and not good[r == 0].any()
+    np.testing.assert_array_equal(good, alpha >= peers.WELL_CONDITIONED_ALPHA)
+    assert good[r >= 0.07].all() and good.sum() > 0.5 * len(covered)
+    assert peers.well_conditioned(resolve("lambert"), gb, covered).all()
+    assert "α <" in peers.ill_conditioned_note(resolve("ggx_correlated"))
+    assert "exponent" in peers.ill_conditioned_note(resolve("phong"))
+
+
 def test_peer_refuses_models_it_does_not_implement():
     frame = prepare_frame(load_scene(SCENES / "sphere_grid.toml"), 16, 8)
     with pytest.raises(RuntimeError, match="implements"):

@@ -24,7 +24,7 @@ from typing import Callable
 import numpy as np
 
 from clshade.device.shade import camera_args
-from clshade.models import Model
+from clshade.models import Model, lobes
 from clshade.render.gbuffer import GBuffer
 from clshade.render.scene import Camera, Scene
 from clshade.resources import constant
@@ -393,14 +393,36 @@ PEERS: dict[str, Callable[..., Peer]] = {"numba": numba_peer, "drjit": drjit_pee
 # checked separately (their difference is reported, not hidden).
 WELL_CONDITIONED_EXPONENT = VERIFY_RTOL * 2.0 ** 23 / 4
 
+# A microfacet D near its peak (GGX: α²/(π(sin²θh + cos²θh·α²)²)) is as steep as its
+# width α: a direction error δ moves sin²θh by 2θh·δ, so D by up to 2δ/α relative (at
+# θh = α). n, v and h carry a few ulp each (δ ≈ 2·2⁻²³), so two correct float32
+# implementations differ by up to ~4·2⁻²³/α near the highlight: beyond 1e-4 once
+# α < 4·2⁻²³/1e-4 ≈ 4.8e-3 (roughness below 0.069). sphere_grid's roughness-0 ball
+# (α = MIN_ALPHA = 1e-4) has such a pixel. Its difference is reported, not hidden.
+WELL_CONDITIONED_ALPHA = 4 * 2.0 ** -23 / VERIFY_RTOL
+
+
+def ill_conditioned_note(model: Model) -> str:
+    """Which pixels well_conditioned() leaves out for `model`, and why (for the results)."""
+    if model.specular in ("phong", "blinn_phong"):
+        return (f"exponent n > {WELL_CONDITIONED_EXPONENT:.0f} (float32 (r·v)ⁿ differs by ~4·n·2⁻²³ between "
+                "correct implementations)")
+    return (f"α < {WELL_CONDITIONED_ALPHA:.1e} (near its peak float32 D differs by ~4·2⁻²³/α between "
+            "correct implementations)")
+
 
 def well_conditioned(model: Model, gb: GBuffer, covered: np.ndarray) -> np.ndarray:
-    """Mask over `covered`: pixels where float32 peers can agree to VERIFY_RTOL
-    (all, except empirical lobes whose exponent exceeds WELL_CONDITIONED_EXPONENT)."""
-    if model.specular not in ("phong", "blinn_phong") or not len(gb.materials):
-        return np.ones(len(covered), bool)
-    shininess = gb.materials[:, 0, 3][gb.channels["material"][covered].astype(np.intp)]
-    return shininess <= WELL_CONDITIONED_EXPONENT
+    """Mask over `covered`: pixels where float32 peers can agree to VERIFY_RTOL (all,
+    except empirical lobes whose exponent exceeds WELL_CONDITIONED_EXPONENT and microfacet
+    lobes whose α = max(r², MIN_ALPHA) is below WELL_CONDITIONED_ALPHA)."""
+    good = np.ones(len(covered), bool)
+    family = lobes()[model.specular].family if model.specular in lobes() else ""
+    if model.specular in ("phong", "blinn_phong") and len(gb.materials):
+        good &= gb.materials[:, 0, 3][gb.channels["material"][covered].astype(np.intp)] <= WELL_CONDITIONED_EXPONENT
+    if family == "microfacet" and "roughness" in gb.channels:
+        r = np.clip(gb.channels["roughness"][covered].astype(np.float64), 0.0, 1.0)
+        good &= np.maximum(r * r, MIN_ALPHA) >= WELL_CONDITIONED_ALPHA
+    return good
 
 
 def verify(peer_image: np.ndarray, clshade_image: np.ndarray, covered: np.ndarray) -> float:

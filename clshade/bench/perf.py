@@ -163,6 +163,7 @@ def compare(scene_path: str, models: list, width: int | None, height: int | None
             diff_good = peer_mod.verify(image, ref_images[m.id], covered[good])
             row = dict(peer=name, version=p.version, model=m.id, max_rel_diff=diff,
                        well_conditioned_pixels=int(good.sum()), ill_conditioned_pixels=int((~good).sum()),
+                       ill_conditioned_why=peer_mod.ill_conditioned_note(m),
                        max_rel_diff_well_conditioned=diff_good,
                        verified=diff_good <= peer_mod.VERIFY_RTOL, ms=[])
             peer_rows.append(row)
@@ -487,9 +488,9 @@ def markdown(doc: dict) -> str:
         if "skipped" in p:
             L.append(f"| {p['peer']} | {p['model']} | — | — | — | — | skipped: {p['skipped']} |")
         else:
-            note = (f"{p['ill_conditioned_pixels']} pixels with exponent n > "
-                    f"{peer_mod.WELL_CONDITIONED_EXPONENT:.0f} (float32 (r·v)ⁿ differs by ~4·n·2⁻²³ between "
-                    f"correct implementations) checked in the first column only" if p["ill_conditioned_pixels"] else "")
+            why = p.get("ill_conditioned_why") or peer_mod.ill_conditioned_note(resolve(p["model"]))
+            note = (f"{p['ill_conditioned_pixels']} pixels with {why} checked in the first column only"
+                    if p["ill_conditioned_pixels"] else "")
             L.append(f"| {p['peer']} {p['version']} | {p['model']} | {p['median_ms']:.2f} | {p['max_rel_diff']:.1e} | "
                      f"{p['max_rel_diff_well_conditioned']:.1e} | {'yes' if p['verified'] else 'NO'} | {note} |")
     L += whole_frame_markdown(doc.get("whole_frames", []))
