@@ -306,8 +306,10 @@ CATALOGUE: list[Mutant] = [
       "            if (fmax(fmax(c.x, c.y), c.z) > 1.0f)\n", "directional lights up to irradiance 1 skipped as unlit"),
     M("peer_alpha_bound", "clshade/bench/peers.py", "good &= np.maximum(r * r, MIN_ALPHA) >= WELL_CONDITIONED_ALPHA",
       "good &= np.maximum(r, MIN_ALPHA) >= WELL_CONDITIONED_ALPHA", "peer check: α taken as r, not r²"),
-    M("prefetch_dropped", "kernels/shade.cl", "PREFETCH_GBUFFER(SIMD * i);   /* gbuffer.h */", "/* no prefetch */",
-      "the covered path no longer prefetches the G-buffer ahead"),
+    M("prefetch_dropped", "kernels/shade.cl", "    PREFETCH_AHEAD(i, z);   /* gbuffer.h: the lines of the work-items ahead */",
+      "    /* no prefetch */", "the shading kernel no longer prefetches the G-buffer ahead"),
+    M("copy_prefetch_dropped", "kernels/copy.cl", "    PREFETCH_AHEAD(i, w);", "    /* no prefetch */",
+      "the copy kernel (the floor) no longer prefetches what the shading kernel does"),
     M("prefetch_noop", "kernels/simd.h", "#define PREFETCH(p) __builtin_prefetch((p))", "#define PREFETCH(p) ((void)(p))",
       "PREFETCH a no-op on x86 although CLSHADE_PREFETCH says it prefetches"),
 ]

@@ -25,6 +25,7 @@ __kernel void copy(const uint npix, const uint plane,
     size_t i = get_global_id(0);
     if (SIMD * i >= npix) return;
     real w = VLOAD(i, depth);
+    PREFETCH_AHEAD(i, w);   /* as shade.cl: the same prefetches (gbuffer.h) */
     vec3 acc = v3s((real)(0.0f));
     /* shade.cl reads only the depth of a work-item with no covered pixel; one
      * store4 site, as there (gbuffer.h). */

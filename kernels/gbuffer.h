@@ -42,10 +42,15 @@ INLINE vec3 load3f(size_t i, __global const float* p, uint plane) {
  * of up to 14 planes, so without the hint about a sixth of GGX's samples sat
  * on G-buffer loads (perf annotate of PoCL 3.0's binary). Distances of 4, 8,
  * 16 and 32 work-items were tried: 8 and 16 were fastest (A/B in one process,
- * docs/bench-notes.md 2026-11-25). Only in shade.cl's covered path: a sky
- * work-item reads one stream, which the hardware follows, and the copy kernel
- * with the same hint was no faster (its loads are all it does). Uses the
- * kernel's parameter names (depth, normal, base, …), as shade.cl declares them. */
+ * docs/bench-notes.md 2026-11-25). Uses the kernel's parameter names (depth,
+ * normal, base, …), as shade.cl and copy.cl declare them.
+ * PREFETCH_AHEAD(i, z) is what both kernels do with it, the same in both so
+ * that the copy kernel stays the floor of the same traffic: a covered
+ * work-item prefetches; a sky work-item (which reads only depth) prefetches
+ * too when the work-item PREFETCH_PIXELS ahead has a covered pixel, so that
+ * the first covered work-items after a stretch of sky do not wait on every
+ * plane (the copy kernel ran ~8 % faster with both, and ~1 % slower with the
+ * covered half alone). Nothing where PREFETCH is nothing (simd.h). */
 #define PREFETCH_PIXELS 128
 #define PREFETCH_PLANE3(p, o) do { PREFETCH((p) + (o)); PREFETCH((p) + plane + (o)); \
                                    PREFETCH((p) + 2 * plane + (o)); } while (0)
@@ -80,6 +85,15 @@ INLINE vec3 load3f(size_t i, __global const float* p, uint plane) {
         PREFETCH_ROUGHNESS(o_); PREFETCH_METALLIC(o_); PREFETCH_EMISSIVE(o_); \
         PREFETCH_OCCLUSION(o_); PREFETCH_MATERIAL(o_); \
     } while (0)
+#ifdef CLSHADE_PREFETCH
+#define PREFETCH_AHEAD(i, z) do { \
+        size_t ahead_ = (size_t)(i) + PREFETCH_PIXELS / SIMD; \
+        if (!all_empty(z) || (SIMD * ahead_ < npix && !all_empty(VLOAD(ahead_, depth)))) \
+            PREFETCH_GBUFFER(SIMD * (i)); \
+    } while (0)
+#else
+#define PREFETCH_AHEAD(i, z) ((void)0)
+#endif
 
 /* None of the work-item's pixels is covered (depth ≤ 0 in every lane): the
  * shading kernel then reads only depth and writes the background, and the copy

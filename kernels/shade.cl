@@ -196,13 +196,13 @@ __kernel void shade(
 
     real z = VLOAD(i, depth);
     mask covered = z > 0.0f;
+    PREFETCH_AHEAD(i, z);   /* gbuffer.h: the lines of the work-items ahead */
     /* Sky: a work-item with no covered pixel reads nothing else and writes the
      * background (copy.cl skips the same reads, so the floor stays fair). Both
      * paths end in the one store4 below: gbuffer.h says why there is one site. */
     vec3 color = v3c(background.xyz);
     real alpha = (real)(background.w);
     if (!all_empty(z)) {
-        PREFETCH_GBUFFER(SIMD * i);   /* gbuffer.h */
         /* Camera rays through the pixel centres; cam_right/cam_up are pre-scaled by
          * tan(fov/2)·aspect and tan(fov/2), so P = cam_pos + depth · ray. */
         /* Lane j is pixel SIMD·i + j: one division per work-item. The first pixel's ray

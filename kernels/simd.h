@@ -278,7 +278,7 @@ typedef short short8u __attribute__((ext_vector_type(8), aligned(2)));
 /* PREFETCH(p): a hint that the cache line at global address p is read soon
  * (prefetcht0 on x86: into every cache level; never faults, so an address past
  * the buffer's end is harmless). Where PoCL compiles for x86; elsewhere nothing.
- * gbuffer.h's PREFETCH_GBUFFER says what is prefetched and why.
+ * gbuffer.h's PREFETCH_AHEAD says what is prefetched and why.
  * CLSHADE_NO_PREFETCH (CLSHADE_NO_PREFETCH=1 on the host) leaves it out. */
 #if defined(__x86_64__) && !defined(CLSHADE_NO_PREFETCH)
 #define CLSHADE_PREFETCH 1

@@ -283,9 +283,9 @@ def test_streaming_stores_write_the_image_plain_stores_write(runtime, monkeypatc
 
 
 def test_prefetch_changes_no_pixel(runtime):
-    """kernels/gbuffer.h's PREFETCH_GBUFFER is a hint (x86): with it and without it
+    """kernels/gbuffer.h's PREFETCH_AHEAD is a hint (x86): with it and without it
     (CLSHADE_NO_PREFETCH) the specialised and the general kernel write the same image,
-    bit for bit, and the switch reaches the kernels."""
+    bit for bit, and the switch reaches the shading and the copy kernel."""
     from clshade.device.runtime import NO_PREFETCH, Runtime
     frame = prepare_frame(parse_scene(SCENE))
     features = scene_features(frame.scene, geometry=frame.geometry)
@@ -299,12 +299,14 @@ def test_prefetch_changes_no_pixel(runtime):
         a, b = (sh.render(m, feats) for sh in shaders)
         assert (a[..., 3] == 1).any(), "the frame has covered pixels"
         np.testing.assert_array_equal(a, b)
-        # The hint is in the built program (PoCL's binary is LLVM bitcode) exactly where it should be.
+        # The hint is in the built programs (PoCL's binary is LLVM bitcode) exactly where it should
+        # be: the shading kernel and its copy kernel, which must make the same traffic.
         for sh, rt in zip(shaders, (on, off)):
-            program = sh.prepare(m, feats).kernel.program
-            binary = b"".join(program.get_info(cl.program_info.BINARIES))
-            if "PoCL" in rt.info.platform_version:
-                assert (b"llvm.prefetch" in binary) == rt.prefetches, (rt.options, rt.prefetches)
+            for entry in ("shade",) if feats.general else ("shade", "copy"):
+                program = sh.prepare(m, feats, entry=entry).kernel.program
+                binary = b"".join(program.get_info(cl.program_info.BINARIES))
+                if "PoCL" in rt.info.platform_version:
+                    assert (b"llvm.prefetch" in binary) == rt.prefetches, (entry, rt.options, rt.prefetches)
 
 
 def test_image_kernels_have_one_store_site():

@@ -448,7 +448,7 @@ def markdown(doc: dict) -> str:
          "builtins everywhere (CLSHADE_INLINE_MATH=1), `plain stores` = `default` with the image rows written "
          "by plain stores instead of streaming ones (CLSHADE_CACHED_STORES=1; kernels/simd.h, STORE_ROW8), "
          "`no prefetch` = `default` without the software prefetch of the G-buffer ahead (CLSHADE_NO_PREFETCH=1; "
-         "kernels/gbuffer.h, PREFETCH_GBUFFER). "
+         "kernels/gbuffer.h, PREFETCH_AHEAD). "
          "Targets are judged on `default`.", "",
          f"**STREAM anchor** ({s['before']['method']}, {s['before']['array_mib']} MiB arrays, best of "
          f"{s['before']['repeats']}): copy {s['before']['copy_best_gbs']:.1f} / {s['after']['copy_best_gbs']:.1f} GB/s, "

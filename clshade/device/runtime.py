@@ -147,8 +147,8 @@ INLINE_MATH = "-DCLSHADE_INLINE_MATH_FORCE"
 # STORE_ROW8 there). A/B switch: CLSHADE_CACHED_STORES=1 keeps plain stores.
 ENV_CACHED_STORES = "CLSHADE_CACHED_STORES"
 CACHED_STORES = "-DCLSHADE_CACHED_STORES"
-# shade.cl prefetches the G-buffer lines of the work-items ahead on x86 (kernels/gbuffer.h,
-# PREFETCH_GBUFFER). A/B switch: CLSHADE_NO_PREFETCH=1 leaves the hint out.
+# shade.cl and copy.cl prefetch the G-buffer lines of the work-items ahead on x86 (kernels/gbuffer.h,
+# PREFETCH_AHEAD). A/B switch: CLSHADE_NO_PREFETCH=1 leaves the hint out.
 ENV_NO_PREFETCH = "CLSHADE_NO_PREFETCH"
 NO_PREFETCH = "-DCLSHADE_NO_PREFETCH"
 
@@ -324,7 +324,7 @@ class Runtime:
 
     @property
     def prefetches(self) -> bool:
-        """Whether shade.cl built here prefetches the G-buffer ahead (kernels/simd.h PREFETCH:
+        """Whether the image kernels built here prefetch the G-buffer ahead (kernels/simd.h PREFETCH:
         x86, probed on the device; CLSHADE_NO_PREFETCH=1 leaves it out)."""
         return self._simd_h_defines("CLSHADE_PREFETCH")
 
