@@ -181,11 +181,15 @@ def test_peers_leave_out_only_the_ill_conditioned_pixels():
     frame = prepare_frame(load_scene(SCENES / "sphere_grid.toml"), 192, 108)
     gb = frame.gbuffer
     covered = np.flatnonzero(gb.channels["depth"] > 0)
-    r = gb.channels["roughness"][covered]
+    roughness = gb.channels["roughness"]
+    # Some pixels at roughness 0.05 (α = 2.5e-3, below the bound, though r is above it).
+    roughness[covered[roughness[covered] > 0.5][:50]] = 0.05
+    r = roughness[covered]
+    assert (r == np.float32(0.05)).sum() == 50
     alpha = np.maximum(r.astype(float) ** 2, peers.MIN_ALPHA)
     assert peers.WELL_CONDITIONED_ALPHA == pytest.approx(4.77e-3, rel=1e-3)
     good = peers.well_conditioned(resolve("ggx_correlated"), gb, covered)
-    assert (r == 0).any() and not good[r == 0].any()
+    assert (r == 0).any() and not good[r == 0].any() and not good[r == np.float32(0.05)].any()
     np.testing.assert_array_equal(good, alpha >= peers.WELL_CONDITIONED_ALPHA)
     assert good[r >= 0.07].all() and good.sum() > 0.5 * len(covered)
     assert peers.well_conditioned(resolve("lambert"), gb, covered).all()

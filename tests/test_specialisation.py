@@ -260,20 +260,29 @@ def test_inline_math_only_where_the_builtin_library_cannot_inline(runtime):
     assert runtime.inline_math == (x86_avx and host_has_avx512f() and not target_avx512)
 
 
+def switch_pair(runtime, option: str, prop: str, what: str):
+    """(default, switched) runtimes for one of kernels/simd.h's A/B build options: the
+    Runtime property `prop` is False with `option`, and True by default on an x86 CPU."""
+    from clshade.device.runtime import Runtime
+    default, switched = Runtime(runtime.info.spec), Runtime(runtime.info.spec, options=(option,))
+    assert not getattr(switched, prop)
+    if "cpu" in runtime.info.kind and __import__("platform").machine() == "x86_64":
+        assert getattr(default, prop), what
+    return default, switched
+
+
 @pytest.mark.parametrize("simd", ["8", "16"])
 def test_streaming_stores_write_the_image_plain_stores_write(runtime, monkeypatch, simd):
     """kernels/simd.h's STORE_ROW8 (streaming stores on x86) writes every row where the
     plain stores do: the same image bit for bit, sky work-items and covered ones."""
-    from clshade.device.runtime import CACHED_STORES, Runtime
+    from clshade.device.runtime import CACHED_STORES
     if simd == "16" and runtime.native_simd < 16 and not runtime.inline_math:
         pytest.skip("16 lanes build here only with simd.h's inline builtins")
     monkeypatch.setenv("CLSHADE_SIMD", simd)
     frame = prepare_frame(parse_scene(SCENE))
     features = scene_features(frame.scene, geometry=frame.geometry)
-    streaming, plain = Runtime(runtime.info.spec), Runtime(runtime.info.spec, options=(CACHED_STORES,))
-    assert not plain.streaming_stores
-    if "cpu" in runtime.info.kind and __import__("platform").machine() == "x86_64":
-        assert streaming.streaming_stores, "an x86 CPU device with AVX writes rows with streaming stores"
+    streaming, plain = switch_pair(runtime, CACHED_STORES, "streaming_stores",
+                                   "an x86 CPU device with AVX writes rows with streaming stores")
     for model in ("lambert", "ggx_correlated"):
         m = models.resolve(model)
         a, b = (Shader(rt, frame.gbuffer, frame.scene, frame.camera, frame.shadows).render(m, features)
@@ -286,13 +295,10 @@ def test_prefetch_changes_no_pixel(runtime):
     """kernels/gbuffer.h's PREFETCH_AHEAD is a hint (x86): with it and without it
     (CLSHADE_NO_PREFETCH) the specialised and the general kernel write the same image,
     bit for bit, and the switch reaches the shading and the copy kernel."""
-    from clshade.device.runtime import NO_PREFETCH, Runtime
+    from clshade.device.runtime import NO_PREFETCH
     frame = prepare_frame(parse_scene(SCENE))
     features = scene_features(frame.scene, geometry=frame.geometry)
-    on, off = Runtime(runtime.info.spec), Runtime(runtime.info.spec, options=(NO_PREFETCH,))
-    assert not off.prefetches
-    if "cpu" in runtime.info.kind and __import__("platform").machine() == "x86_64":
-        assert on.prefetches, "an x86 CPU device prefetches the G-buffer ahead"
+    on, off = switch_pair(runtime, NO_PREFETCH, "prefetches", "an x86 CPU device prefetches the G-buffer ahead")
     m = models.resolve("ggx_correlated")
     for feats in (features, replace(features, general=True)):
         shaders = [Shader(rt, frame.gbuffer, frame.scene, frame.camera, frame.shadows) for rt in (on, off)]
