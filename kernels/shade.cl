@@ -207,18 +207,19 @@ __kernel void shade(
          * tan(fov/2)·aspect and tan(fov/2), so P = cam_pos + depth · ray. */
         /* Lane j is pixel SIMD·i + j: one division per work-item. The first pixel's ray
          * is scalar arithmetic, and each lane steps cam_right·inv_width2 from it (a
-         * vector of lane offsets the same in every work-item); a work-item that runs
-         * past the row's end (only where width is not a multiple of SIMD) moves those
-         * lanes back one row width and down one row. */
+         * vector of lane offsets the same in every work-item). Lanes past the row's end
+         * (only where width is not a multiple of SIMD) move back k row widths and down
+         * k rows, k = (col + j) div width: 1, or more in a frame narrower than SIMD. */
         uint first = (uint)(SIMD * i), row = first / width, col = first - row * width;
         float3 step = cam_right.xyz * inv_width2;
         float3 ray0 = cam_fwd.xyz - cam_right.xyz + ((float)col + 0.5f) * step
                     + (1.0f - ((float)row + 0.5f) * inv_height2) * cam_up.xyz;
         vec3 ray = v3add(v3c(ray0), v3scale(v3c(step), convert_real(as_mask(LANE_IOTA))));
         if (col + SIMD > width) {
-            mask wrap = as_mask(LANE_IOTA >= (uindex)(width - col));
+            /* k in float: exact, as (col + j + ½)/width stays ≥ ½/width from every integer. */
+            real k = floor((convert_real(as_mask(LANE_IOTA + (uindex)(col))) + 0.5f) * (0.5f * inv_width2));
             vec3 back = v3c(-(float)width * step - inv_height2 * cam_up.xyz);
-            ray = v3select(wrap, v3add(ray, back), ray);
+            ray = v3add(ray, v3scale(back, k));
         }
         vec3 v = v3scale(ray, -rsqrt(v3dot(ray, ray)));
 

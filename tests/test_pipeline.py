@@ -159,20 +159,22 @@ outer_angle = 30.0
 """
 
 
-@pytest.mark.parametrize("half", [False, True])
-def test_odd_sized_frame_matches_the_oracle_pixel_by_pixel(runtime, half):
-    """83×37 (rows wrap inside the SIMD work-items, the last work-item is padded), every pixel covered, lit
-    unevenly by a point light and a spot: each pixel equals the float64 frame oracle at that pixel (with the
-    half-float G-buffer: the oracle of the half-rounded G-buffer)."""
+@pytest.mark.parametrize("half, width, height", [(False, 83, 37), (True, 83, 37), (False, 7, 9)])
+def test_odd_sized_frame_matches_the_oracle_pixel_by_pixel(runtime, half, width, height):
+    """83×37 (rows wrap inside the SIMD work-items, the last work-item is padded) and 7×9 (narrower than a
+    work-item: its lanes span up to three rows), every pixel covered, lit unevenly by a point light and a
+    spot: each pixel equals the float64 frame oracle at that pixel (with the half-float G-buffer: the
+    oracle of the half-rounded G-buffer)."""
     from clshade.bench.numpy_baseline import half_gbuffer
     from clshade.verify.reference import radiance
-    scene = parse_scene(PLANE_SCENE.replace("width = 48", "width = 83").replace("height = 32", "height = 37")
+    scene = parse_scene(PLANE_SCENE.replace("width = 48", f"width = {width}")
+                        .replace("height = 32", f"height = {height}")
                         .replace("base_color = [0.5, 0.25, 0.75]", "base_color = [0.51, 0.27, 0.73]")  # not exact in half
                         + POINT_SPOT)
     frame = prepare_frame(scene)
     model = models.resolve("ggx_correlated")
     image = render(scene, model, runtime=runtime, frame=frame, half_gbuffer=half).image
-    assert image.shape[:2] == (37, 83) and image[..., 3].min() == 1.0
+    assert image.shape[:2] == (height, width) and image[..., 3].min() == 1.0
     gb = half_gbuffer(frame.gbuffer) if half else frame.gbuffer
     want = radiance(gb, frame.scene, model, camera=frame.camera)
     peak = np.abs(want).max()
