@@ -195,6 +195,7 @@ def test_peers_leave_out_only_the_ill_conditioned_pixels():
     assert peers.well_conditioned(resolve("lambert"), gb, covered).all()
     assert "α <" in peers.ill_conditioned_note(resolve("ggx_correlated"))
     assert "exponent" in peers.ill_conditioned_note(resolve("phong"))
+    assert peers.ill_conditioned_note(resolve("lambert")) == ""
 
 
 def test_peer_refuses_models_it_does_not_implement():

@@ -392,6 +392,7 @@ PEERS: dict[str, Callable[..., Peer]] = {"numba": numba_peer, "drjit": drjit_pee
 # beyond 1e-4 once n > 1e-4·2²³/4 ≈ 210. Pixels with a larger exponent are
 # checked separately (their difference is reported, not hidden).
 WELL_CONDITIONED_EXPONENT = VERIFY_RTOL * 2.0 ** 23 / 4
+POWER_LOBES = ("phong", "blinn_phong")   # the peers' lobes with a runtime exponent (r·v)ⁿ, (n·h)ⁿ
 
 # A microfacet D near its peak (GGX: α²/(π(sin²θh + cos²θh·α²)²)) is as steep as its
 # width α: a direction error δ moves sin²θh by 2θh·δ, so D by up to 2δ/α relative (at
@@ -402,13 +403,20 @@ WELL_CONDITIONED_EXPONENT = VERIFY_RTOL * 2.0 ** 23 / 4
 WELL_CONDITIONED_ALPHA = 4 * 2.0 ** -23 / VERIFY_RTOL
 
 
+def _is_microfacet(model: Model) -> bool:
+    return model.specular in lobes() and lobes()[model.specular].family == "microfacet"
+
+
 def ill_conditioned_note(model: Model) -> str:
-    """Which pixels well_conditioned() leaves out for `model`, and why (for the results)."""
-    if model.specular in ("phong", "blinn_phong"):
+    """Which pixels well_conditioned() leaves out for `model`, and why (for the results);
+    "" for a model it never leaves a pixel out of."""
+    if model.specular in POWER_LOBES:
         return (f"exponent n > {WELL_CONDITIONED_EXPONENT:.0f} (float32 (r·v)ⁿ differs by ~4·n·2⁻²³ between "
                 "correct implementations)")
-    return (f"α < {WELL_CONDITIONED_ALPHA:.1e} (near its peak float32 D differs by ~4·2⁻²³/α between "
-            "correct implementations)")
+    if _is_microfacet(model):
+        return (f"α < {WELL_CONDITIONED_ALPHA:.1e} (near its peak float32 D differs by ~4·2⁻²³/α between "
+                "correct implementations)")
+    return ""
 
 
 def well_conditioned(model: Model, gb: GBuffer, covered: np.ndarray) -> np.ndarray:
@@ -416,10 +424,9 @@ def well_conditioned(model: Model, gb: GBuffer, covered: np.ndarray) -> np.ndarr
     except empirical lobes whose exponent exceeds WELL_CONDITIONED_EXPONENT and microfacet
     lobes whose α = max(r², MIN_ALPHA) is below WELL_CONDITIONED_ALPHA)."""
     good = np.ones(len(covered), bool)
-    family = lobes()[model.specular].family if model.specular in lobes() else ""
-    if model.specular in ("phong", "blinn_phong") and len(gb.materials):
+    if model.specular in POWER_LOBES and len(gb.materials):
         good &= gb.materials[:, 0, 3][gb.channels["material"][covered].astype(np.intp)] <= WELL_CONDITIONED_EXPONENT
-    if family == "microfacet" and "roughness" in gb.channels:
+    if _is_microfacet(model) and "roughness" in gb.channels:
         r = np.clip(gb.channels["roughness"][covered].astype(np.float64), 0.0, 1.0)
         good &= np.maximum(r * r, MIN_ALPHA) >= WELL_CONDITIONED_ALPHA
     return good

@@ -488,9 +488,8 @@ def markdown(doc: dict) -> str:
         if "skipped" in p:
             L.append(f"| {p['peer']} | {p['model']} | — | — | — | — | skipped: {p['skipped']} |")
         else:
-            why = p.get("ill_conditioned_why") or peer_mod.ill_conditioned_note(resolve(p["model"]))
-            note = (f"{p['ill_conditioned_pixels']} pixels with {why} checked in the first column only"
-                    if p["ill_conditioned_pixels"] else "")
+            note = (f"{p['ill_conditioned_pixels']} pixels with {p['ill_conditioned_why']} checked in the first "
+                    "column only" if p["ill_conditioned_pixels"] else "")
             L.append(f"| {p['peer']} {p['version']} | {p['model']} | {p['median_ms']:.2f} | {p['max_rel_diff']:.1e} | "
                      f"{p['max_rel_diff_well_conditioned']:.1e} | {'yes' if p['verified'] else 'NO'} | {note} |")
     L += whole_frame_markdown(doc.get("whole_frames", []))
