@@ -315,6 +315,12 @@ CATALOGUE: list[Mutant] = [
       "the copy kernel (the floor) no longer prefetches what the shading kernel does"),
     M("prefetch_noop", "kernels/simd.h", "#define PREFETCH(p) __builtin_prefetch((p))", "#define PREFETCH(p) ((void)(p))",
       "PREFETCH a no-op on x86 although CLSHADE_PREFETCH says it prefetches"),
+    M("copy_sky_zeros", "kernels/copy.cl", "    vec3 color = v3c(background.xyz);", "    vec3 color = v3s((real)(0.0f));",
+      "the copy kernel writes 0 over the sky, where the shading kernel writes the background"),
+    M("copy_sky_lanes_zeros", "kernels/copy.cl", "        color = v3select(covered, acc, color);", "        color = acc;",
+      "the copy kernel writes the loaded sums (0) in the sky lanes of covered work-items"),
+    M("fill_value_unused", "clshade/bench/bandwidth.py", "    STREAMING_STORE((float16)(v), c + i);",
+      "    STREAMING_STORE((float16)(1.0f), c + i);", "the fill kernel ignores its value: zeros are never timed"),
 ]
 
 

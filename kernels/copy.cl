@@ -2,7 +2,8 @@
  * G-buffer channels a model variant reads (same defines as shade.cl, same
  * SIMD pixels per work-item, same loads and stores from gbuffer.h) and writes
  * the same float4 output, with no lighting arithmetic. Like shade.cl it
- * reads only the depth of a work-item whose pixels are all empty. */
+ * reads only the depth of a work-item whose pixels are all empty, and it
+ * writes the background where shade.cl does. */
 __kernel void copy(const uint npix, const uint plane,
     __global const float* depth, __global const GB3* normal, __global const GB3* base
 #if HAS_ROUGHNESS
@@ -20,17 +21,24 @@ __kernel void copy(const uint npix, const uint plane,
 #if HAS_MATERIAL
     , __global const uchar* material
 #endif
-    , __global float4* out)
+    , const float4 background, __global float4* out)
 {
     size_t i = get_global_id(0);
     if (SIMD * i >= npix) return;
     real w = VLOAD(i, depth);
     PREFETCH_AHEAD(i, w);   /* as shade.cl: the same prefetches (gbuffer.h) */
-    vec3 acc = v3s((real)(0.0f));
-    /* shade.cl reads only the depth of a work-item with no covered pixel; one
-     * store4 site, as there (gbuffer.h). */
+    /* The background wherever shade.cl writes it: every lane of a work-item with
+     * no covered pixel (which reads only depth, as there) and the uncovered lanes
+     * of the others. Not 0: on the machine these kernels were tuned on, cache lines
+     * of zeros are written faster than lines of any other value (perf's STREAM
+     * fill rows measure it), and a floor that wrote 0 over the sky ran faster than
+     * the same stores of shade.cl's background could (docs/bench-notes.md,
+     * 2026-11-25). One store4 site, as there (gbuffer.h). */
+    vec3 color = v3c(background.xyz);
+    real alpha = (real)(background.w);
     if (!all_empty(w)) {
-        acc = v3add(load3(i, normal, plane), load3(i, base, plane));
+        mask covered = w > 0.0f;
+        vec3 acc = v3add(load3(i, normal, plane), load3(i, base, plane));
 #if HAS_ROUGHNESS
         w += VLOAD(i, roughness);
 #endif
@@ -46,6 +54,8 @@ __kernel void copy(const uint npix, const uint plane,
 #if HAS_MATERIAL
         w += convert_real(VLOAD_UCHAR(i, material));
 #endif
+        color = v3select(covered, acc, color);
+        alpha = covered ? w : alpha;
     }
-    store4(i, out, acc, w);
+    store4(i, out, color, alpha);
 }

@@ -75,6 +75,31 @@ def test_opencl_stream_check_catches_a_wrong_streaming_kernel(runtime, monkeypat
         bandwidth.opencl_stream(runtime, repeats=1, mib=1)
 
 
+def test_opencl_fill_times_zeros_and_ones_and_checks_them(runtime, monkeypatch):
+    """The fill rows time a streaming fill with each of FILL_VALUES (4 B per element over the best
+    profiled time), interleaved after one warm-up round, and refuse a fill that wrote another value."""
+    real = runtime.cl.enqueue_nd_range_kernel
+    times = []
+
+    def timed(*a, **k):
+        ev = real(*a, **k)
+        ev.wait()
+        times.append((ev.profile.end - ev.profile.start) * 1e-9)
+        return type("E", (), {"wait": lambda self: None, "profile": ev.profile})()
+    monkeypatch.setattr(runtime.cl, "enqueue_nd_range_kernel", timed)
+    out = bandwidth.opencl_fill(runtime, repeats=3, mib=1)
+    n = 2 ** 20 // 4
+    kept = times[2:]
+    assert out["zeros_best_gbs"] == pytest.approx(4 * n / min(kept[0::2]) / 1e9)
+    assert out["ones_best_gbs"] == pytest.approx(4 * n / min(kept[1::2]) / 1e9)
+    assert out["zeros_over_ones"] == pytest.approx(out["zeros_median_gbs"] / out["ones_median_gbs"])
+    monkeypatch.setattr(bandwidth, "FILL_VALUES", {"zeros": 0.0, "ones": 1.0, "twos": 2.0})
+    monkeypatch.setattr(bandwidth, "OPENCL_STREAM_SOURCE", bandwidth.OPENCL_STREAM_SOURCE.replace(
+        "STREAMING_STORE((float16)(v), c + i)", "STREAMING_STORE((float16)(fmin(v, 1.0f)), c + i)"))
+    with pytest.raises(RuntimeError, match="fill of 2.0 wrote other values"):
+        bandwidth.opencl_fill(runtime, repeats=1, mib=1)
+
+
 def test_cache_band_is_the_most_covered_window():
     from clshade.bench import perf
     coverage = np.zeros(64 * 40, bool)

@@ -315,6 +315,25 @@ def test_prefetch_changes_no_pixel(runtime):
                     assert (b"llvm.prefetch" in binary) == rt.prefetches, (entry, rt.options, rt.prefetches)
 
 
+def test_copy_kernel_writes_the_background_where_shade_does(runtime):
+    """The bandwidth floor writes the same values as the shading kernel over every uncovered
+    pixel (the background, in sky work-items and in the sky lanes of covered ones) and no pixel
+    of zeros elsewhere: lines of zeros are written faster on the machine this was tuned on
+    (perf's fill rows), so a floor that wrote 0 there was a floor no shading kernel could reach."""
+    frame = prepare_frame(parse_scene(SCENE))
+    features = scene_features(frame.scene, geometry=frame.geometry)
+    sh = Shader(runtime, frame.gbuffer, frame.scene, frame.camera, frame.shadows)
+    for name in ("lambert", "ggx_correlated"):
+        shaded = sh.render(models.resolve(name), features)
+        sh.enqueue(sh.prepare(models.resolve(name), features, entry="copy")).wait()
+        copied = sh.read()
+        sky = shaded[..., 3] == 0
+        assert sky.any() and (~sky).any(), "the frame has sky and covered pixels"
+        np.testing.assert_array_equal(copied[sky], shaded[sky])
+        assert np.all(shaded[sky][:, :3] == np.float32(frame.scene.background)), "shade.cl writes the background"
+        assert np.all(np.abs(copied[~sky]).sum(axis=1) > 0), "a covered pixel written as zeros"
+
+
 def test_image_kernels_have_one_store_site():
     """shade.cl and copy.cl write their pixels at one store4 call each: with two, LLVM merges
     the last stores of both paths and drops their streaming mark (kernels/gbuffer.h)."""

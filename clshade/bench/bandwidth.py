@@ -122,6 +122,10 @@ __kernel void triad_streaming(__global float16* a, __global const float16* b, __
     size_t i = get_global_id(0);
     STREAMING_STORE(b[i] + s * c[i], a + i);
 }
+__kernel void fill_streaming(__global float16* c, const float v) {
+    size_t i = get_global_id(0);
+    STREAMING_STORE((float16)(v), c + i);
+}
 """
 # The OpenCL STREAM loops by store kind: the suffix of their kernel names and of their result keys.
 STORE_KINDS = {"plain": "", "streaming": "_streaming"}
@@ -187,6 +191,39 @@ def opencl_stream(runtime, repeats: int = 10, mib: int = STREAM_MIB) -> dict[str
         out[f"{key}_best_gbs"] = STREAM_BYTES[loop] * n / min(ts) / 1e9
         out[f"{key}_median_gbs"] = STREAM_BYTES[loop] * n / float(np.median(ts)) / 1e9
     out["best_gbs"] = max(v for k, v in out.items() if k.endswith("_best_gbs"))
+    return out
+
+
+# The two values of `opencl_fill`: whether lines of zeros are written faster than lines of anything
+# else. They were on this machine (2026-11-25), which is why kernels/copy.cl writes the background,
+# not 0, where shade.cl writes it.
+FILL_VALUES = {"zeros": 0.0, "ones": 1.0}
+
+
+def opencl_fill(runtime, repeats: int = 10, mib: int = STREAM_MIB) -> dict[str, object]:
+    """Write bandwidth (4 B per element, GB/s, best and median of `repeats`) of a streaming-store
+    fill of one `mib` MiB array with 0 and with 1.0, interleaved, on `runtime`'s device: keys
+    zeros_… and ones_…, and `zeros_over_ones` (ratio of the medians). Each fill's values are
+    checked after its last repeat."""
+    st = OpenCLStream(runtime, mib)
+    kernel = runtime.kernel(OPENCL_STREAM_SOURCE, "fill_streaming", label="STREAM fill (streaming stores)")
+    times: dict[str, list[float]] = {k: [] for k in FILL_VALUES}
+    for r in range(repeats + 1):             # the first round warms the pages and is not kept
+        for name, v in FILL_VALUES.items():
+            t = st._run(kernel, st.c, np.float32(v))
+            if r:
+                times[name].append(t)
+            if r == repeats:
+                got = np.empty(st.n, np.float32)
+                runtime.cl.enqueue_copy(runtime.queue, got, st.c)
+                if not np.all(got == np.float32(v)):
+                    raise RuntimeError(f"the OpenCL fill of {v} wrote other values on {runtime.info.description}")
+    out: dict[str, object] = dict(method=f"OpenCL float16 streaming fill on {runtime.info.description}",
+                                  array_mib=mib, repeats=repeats)
+    for name, ts in times.items():
+        out[f"{name}_best_gbs"] = 4 * st.n / min(ts) / 1e9
+        out[f"{name}_median_gbs"] = 4 * st.n / float(np.median(ts)) / 1e9
+    out["zeros_over_ones"] = out["zeros_median_gbs"] / out["ones_median_gbs"]
     return out
 
 

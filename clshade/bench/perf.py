@@ -173,6 +173,7 @@ def compare(scene_path: str, models: list, width: int | None, height: int | None
     for c in ok:
         devices_seen.setdefault(c["device"], c["shader"].rt)
     ocl_before = {d: bandwidth.opencl_stream(rt) for d, rt in devices_seen.items()}
+    fills = {d: bandwidth.opencl_fill(rt) for d, rt in devices_seen.items()}
     def dispatch(c: dict, k: str, d) -> float:
         ev = c["shader"].enqueue(d)
         ev.wait()
@@ -266,7 +267,8 @@ def compare(scene_path: str, models: list, width: int | None, height: int | None
                 covered_pixels=int(len(covered)), rounds=rounds, warmup=warmup,
                 stream=dict(before=stream_before, after=stream_after, anchor_gbs=anchor, best_anchor_gbs=best_anchor,
                             in_rounds=in_rounds, round_array_mib=ROUND_STREAM_MIB,
-                            opencl={d: dict(before=ocl_before[d], after=ocl_after[d]) for d in devices_seen}),
+                            opencl={d: dict(before=ocl_before[d], after=ocl_after[d]) for d in devices_seen},
+                            fill=fills),
                 runtimes=runtimes, peers=peer_rows)
 
 
@@ -465,6 +467,12 @@ def markdown(doc: dict) -> str:
                                               for k, v in s["in_rounds"].items()))
          + f". **Anchor** of the × STREAM columns and targets: {s['anchor_gbs']:.1f} GB/s"
          + (" (the fastest in-round median)." if "in_rounds" in s else "."), "",
+         *([" ".join(["**Lines of zeros.** A streaming fill of one array with 0 and with 1.0, interleaved "
+                      "(medians):"] + [f"{short(d)} {v['zeros_median_gbs']:.1f} vs {v['ones_median_gbs']:.1f} "
+                                       f"GB/s ({v['zeros_over_ones']:.2f}×);" for d, v in s["fill"].items()]
+                     + ["the copy kernel writes the background where the shading kernels do (every pixel with "
+                        "no coverage), not 0, so that it moves the same values' worth of lines as they do "
+                        "(kernels/copy.cl)."]), ""] if s.get("fill") else []),
          "In cache: the kernel on the frame's most covered band of "
          f"{CACHE_BAND_PIXELS} px, dispatched twice and the second timed, scaled to the frame by covered "
          "work-items: its instructions without the trip to memory.", "",

@@ -196,8 +196,8 @@ class Shader:
                     args += [np.uint32(self.shadows.size), self.shadow_maps, self.shadow_params]
                 if features.ambient:
                     args.append(self.ambient)
-            args.append(self.background)
-        args.append(self.out)
+        # Both entries write the background where no pixel is covered (copy.cl says why).
+        args += [self.background, self.out]
         kernel.set_args(*args)
         dispatch = Dispatch(variant, kernel, self.rt.global_size((n + simd - 1) // simd))
         self._dispatches[key] = dispatch
