@@ -100,6 +100,22 @@ def test_opencl_fill_times_zeros_and_ones_and_checks_them(runtime, monkeypatch):
         bandwidth.opencl_fill(runtime, repeats=1, mib=1)
 
 
+def test_committed_perf_tables_are_rendered_from_their_json():
+    """benchmarks/results/perf_1080p.md is perf.markdown() of the committed JSON, so no figure in it was
+    typed by hand, and its fill line quotes each runtime's fill medians."""
+    import json
+    from pathlib import Path
+    from clshade.bench import perf
+    results = Path(__file__).resolve().parents[1] / "benchmarks" / "results"
+    if not (results / "perf_1080p.json").exists():
+        pytest.skip("no committed perf results (benchmarks/results/perf_1080p.json) in this checkout")
+    doc = json.loads((results / "perf_1080p.json").read_text(encoding="utf-8"))
+    md = (results / "perf_1080p.md").read_text(encoding="utf-8")
+    assert md == perf.markdown(doc)
+    for v in doc["stream"]["fill"].values():
+        assert f"{v['zeros_median_gbs']:.1f} vs {v['ones_median_gbs']:.1f} GB/s ({v['zeros_over_ones']:.2f}×)" in md
+
+
 def test_cache_band_is_the_most_covered_window():
     from clshade.bench import perf
     coverage = np.zeros(64 * 40, bool)

@@ -470,9 +470,9 @@ def markdown(doc: dict) -> str:
          *([" ".join(["**Lines of zeros.** A streaming fill of one array with 0 and with 1.0, interleaved "
                       "(medians):"] + [f"{short(d)} {v['zeros_median_gbs']:.1f} vs {v['ones_median_gbs']:.1f} "
                                        f"GB/s ({v['zeros_over_ones']:.2f}×);" for d, v in s["fill"].items()]
-                     + ["the copy kernel writes the background where the shading kernels do (every pixel with "
-                        "no coverage), not 0, so that it moves the same values' worth of lines as they do "
-                        "(kernels/copy.cl)."]), ""] if s.get("fill") else []),
+                     + ["so the copy kernel writes the background wherever the shading kernels do (every pixel "
+                        "with no coverage), not 0: the same lines with the same values there (kernels/copy.cl)."]),
+            ""] if s.get("fill") else []),
          "In cache: the kernel on the frame's most covered band of "
          f"{CACHE_BAND_PIXELS} px, dispatched twice and the second timed, scaled to the frame by covered "
          "work-items: its instructions without the trip to memory.", "",
