@@ -324,6 +324,8 @@ CATALOGUE: list[Mutant] = [
     M("fill_line_swapped", "clshade/bench/perf.py", "f\"{short(d)} {v['zeros_median_gbs']:.1f} vs {v['ones_median_gbs']:.1f} \"",
       "f\"{short(d)} {v['ones_median_gbs']:.1f} vs {v['zeros_median_gbs']:.1f} \"",
       "perf's fill line quotes the fill of 1.0 as the fill of zeros"),
+    M("timed_first_run", "clshade/bench/perf.py", "    timed()\n    return timed()", "    return timed()",
+      "perf times each item after whatever the round's order put before it"),
 ]
 
 

@@ -116,6 +116,18 @@ def test_committed_perf_tables_are_rendered_from_their_json():
         assert f"{v['zeros_median_gbs']:.1f} vs {v['ones_median_gbs']:.1f} GB/s ({v['zeros_over_ones']:.2f}×)" in md
 
 
+def test_each_item_is_timed_right_after_itself():
+    """perf times the second of two back-to-back runs of an item, so the item before the timed run is
+    the item itself, whatever the round's random order put before it."""
+    from clshade.bench import perf
+    calls = []
+
+    def item() -> float:
+        calls.append(len(calls))
+        return float(len(calls))
+    assert perf.timed_after_itself(item) == 2.0 and calls == [0, 1]
+
+
 def test_cache_band_is_the_most_covered_window():
     from clshade.bench import perf
     coverage = np.zeros(64 * 40, bool)

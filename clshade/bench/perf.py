@@ -9,7 +9,9 @@ Markdown rendered from it.
 Timing: medians over interleaved rounds (each round dispatches every runtime ×
 build × model, its copy kernels and every peer, in a new random order each
 round, seeded), so machine noise hits all alike; ratios are within one run.
-Every timed item starts with the process idle (`settle`): Numba's and Dr.Jit's
+Each item runs twice back to back and the second run is timed (`timed_after_itself`):
+the item before it is then itself, whatever the round's order. Every item starts
+with the process idle (`settle`): Numba's and Dr.Jit's
 worker threads keep spinning for up to ~20 ms after a frame, and the item run
 next paid for it. With the order only turned by one each round, the item after
 the last peer was always the same, and PoCL 3.1's `default` Lambert, GGX and
@@ -23,6 +25,10 @@ fastest median is the anchor (the machine's bandwidth varied
 25–45 GB/s with the other users' load on 2026-11-23, so a best-of-10 taken at a quiet moment is no
 yardstick for medians taken over the whole run); the best-of figures before and after are shown beside it.
 
+The copy kernel writes the background wherever the models do (kernels/copy.cl): lines of zeros are
+written faster than others on the machine this was written on, and the fill rows
+(`bandwidth.opencl_fill`, 0 against 1.0) measure by how much on each run's machine.
+
 Causes of misses come from the same run: each kernel is also timed in cache
 (`CACHE_BAND_PIXELS` of the frame's most covered rows, dispatched twice, the
 second timed), which leaves its instructions without the trip to memory.
@@ -35,6 +41,7 @@ import platform
 import re
 import time
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -87,6 +94,20 @@ def settle(quiet_s: float = SETTLE_QUIET_S, max_s: float = SETTLE_MAX_S) -> floa
             break
         cpu = now
     return time.perf_counter() - t0
+
+
+# What each round's items are timed by: the second of two back-to-back runs of the item (timed_after_itself).
+TIMED_RUN = "the second of two back-to-back runs of each item"
+
+
+def timed_after_itself(timed: Callable[[], float]) -> float:
+    """Run a timed item twice back to back and return the second time: what ran just before it is then
+    the item itself, not whichever item the round's random order put there. A STREAM triad leaves the
+    cache full of its arrays, and the item after it paid for that, a memory-bound one (the copy kernel)
+    more than a compute-bound one: the × copy ratios read lower than they are (docs/bench-notes.md,
+    2026-11-25)."""
+    timed()
+    return timed()
 
 
 def active_items(coverage: np.ndarray, simd: int) -> np.ndarray:
@@ -212,7 +233,7 @@ def compare(scene_path: str, models: list, width: int | None, height: int | None
         for j in rng.permutation(len(items)):
             out, timed = items[j]
             settle()
-            t = timed()
+            t = timed_after_itself(timed)
             if r >= warmup:
                 out.append(t)
     stream_after = bandwidth.stream()
@@ -264,7 +285,7 @@ def compare(scene_path: str, models: list, width: int | None, height: int | None
                 machine=dict(processor=_cpu_name(), cpu_count=__import__("os").cpu_count(), os=platform.platform()),
                 versions=_versions(), libllvm_drjit=peer_mod.drjit_libllvm(), scene=scene_path,
                 width=frame.camera.width, height=frame.camera.height, pixels=gb.pixels,
-                covered_pixels=int(len(covered)), rounds=rounds, warmup=warmup,
+                covered_pixels=int(len(covered)), rounds=rounds, warmup=warmup, timed_run=TIMED_RUN,
                 stream=dict(before=stream_before, after=stream_after, anchor_gbs=anchor, best_anchor_gbs=best_anchor,
                             in_rounds=in_rounds, round_array_mib=ROUND_STREAM_MIB,
                             opencl={d: dict(before=ocl_before[d], after=ocl_after[d]) for d in devices_seen},
@@ -441,7 +462,8 @@ def markdown(doc: dict) -> str:
     L = ["# Performance on the runtimes users get (issue 15)", "",
          f"Generated {doc['created']} by `{doc.get('command', '')}` "
          f"on {doc['machine']['processor']} ({doc['machine']['cpu_count']} cores, {doc['machine']['os']}); "
-         f"{doc['scene']} {doc['width']}×{doc['height']}, {doc['rounds']} interleaved rounds, medians. "
+         f"{doc['scene']} {doc['width']}×{doc['height']}, {doc['rounds']} interleaved rounds"
+         + (f" ({doc['timed_run']})" if doc.get("timed_run") else "") + ", medians. "
          f"Versions: " + ", ".join(f"{k} {v}" for k, v in doc["versions"].items()) + ".", "",
          "Times are of the shading dispatch alone (OpenCL profiling); the whole-frame figure is below. "
          "Builds: `default` = what clshade builds (kernels/simd.h's inline builtins only where PoCL's AVX-512 "
