@@ -39,6 +39,20 @@ def test_stream_kernels_compute_copy_and_triad():
     np.testing.assert_array_equal(a, 2.0 + 3.0 * np.arange(10, dtype=np.float32))
 
 
+def record_kernel_times(runtime, monkeypatch) -> list[float]:
+    """A list that receives the profiled time (s) of every kernel `runtime` enqueues from now on."""
+    real = runtime.cl.enqueue_nd_range_kernel
+    times: list[float] = []
+
+    def timed(*a, **k):
+        ev = real(*a, **k)
+        ev.wait()
+        times.append((ev.profile.end - ev.profile.start) * 1e-9)
+        return type("E", (), {"wait": lambda self: None, "profile": ev.profile})()
+    monkeypatch.setattr(runtime.cl, "enqueue_nd_range_kernel", timed)
+    return times
+
+
 def test_opencl_stream_counts_stream_bytes_and_checks_its_values(runtime, monkeypatch):
     """The OpenCL STREAM kernels run with plain and with streaming stores (and verify c = b,
     a = b + s·c after each kind); rates are the bytes STREAM counts (copy 2 × 4 B, triad 3 × 4 B per
@@ -47,16 +61,7 @@ def test_opencl_stream_counts_stream_bytes_and_checks_its_values(runtime, monkey
     keys = [loop + suffix for suffix in bandwidth.STORE_KINDS.values() for loop in ("copy", "triad")]
     assert all(out[f"{k}_best_gbs"] > 0 for k in keys)
     assert out["best_gbs"] == max(out[f"{k}_best_gbs"] for k in keys)
-    real = runtime.cl.enqueue_nd_range_kernel
-
-    times = []
-
-    def timed(*a, **k):
-        ev = real(*a, **k)
-        ev.wait()
-        times.append((ev.profile.end - ev.profile.start) * 1e-9)
-        return type("E", (), {"wait": lambda self: None, "profile": ev.profile})()
-    monkeypatch.setattr(runtime.cl, "enqueue_nd_range_kernel", timed)
+    times = record_kernel_times(runtime, monkeypatch)
     out = bandwidth.opencl_stream(runtime, repeats=2, mib=1)
     n = 2 ** 20 // 4
     timed_runs = times[4:]            # after one warm-up run of each loop and store kind
@@ -78,15 +83,7 @@ def test_opencl_stream_check_catches_a_wrong_streaming_kernel(runtime, monkeypat
 def test_opencl_fill_times_zeros_and_ones_and_checks_them(runtime, monkeypatch):
     """The fill rows time a streaming fill with each of FILL_VALUES (4 B per element over the best
     profiled time), interleaved after one warm-up round, and refuse a fill that wrote another value."""
-    real = runtime.cl.enqueue_nd_range_kernel
-    times = []
-
-    def timed(*a, **k):
-        ev = real(*a, **k)
-        ev.wait()
-        times.append((ev.profile.end - ev.profile.start) * 1e-9)
-        return type("E", (), {"wait": lambda self: None, "profile": ev.profile})()
-    monkeypatch.setattr(runtime.cl, "enqueue_nd_range_kernel", timed)
+    times = record_kernel_times(runtime, monkeypatch)
     out = bandwidth.opencl_fill(runtime, repeats=3, mib=1)
     n = 2 ** 20 // 4
     kept = times[2:]
