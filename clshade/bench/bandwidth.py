@@ -142,6 +142,7 @@ class OpenCLStream:
         self._kernels = {(loop, kind): runtime.kernel(OPENCL_STREAM_SOURCE, loop + suffix,
                                                       label=f"STREAM {loop} ({kind} stores)")
                          for loop in STREAM_LOOPS for kind, suffix in STORE_KINDS.items()}
+        self._fill = runtime.kernel(OPENCL_STREAM_SOURCE, "fill_streaming", label="STREAM fill (streaming stores)")
         self.items = runtime.global_size(self.n // 16)
         if self.items != self.n // 16:
             raise ValueError(f"{mib} MiB is not a multiple of the work-group size {runtime.local_size} × 16 floats")
@@ -159,6 +160,16 @@ class OpenCLStream:
     def triad(self, stores: str = "plain") -> float:
         """One triad a = b + s·c; its kernel time in s."""
         return self._run(self._kernels["triad", stores], self.a, self.b, self.c, TRIAD_SCALAR)
+
+    def fill(self, value: float) -> float:
+        """One streaming-store fill c = value; its kernel time in s."""
+        return self._run(self._fill, self.c, np.float32(value))
+
+    def check_fill(self, value: float) -> None:
+        got = np.empty(self.n, np.float32)
+        self.rt.cl.enqueue_copy(self.rt.queue, got, self.c)
+        if not np.all(got == np.float32(value)):
+            raise RuntimeError(f"the OpenCL fill of {value} wrote other values on {self.rt.info.description}")
 
     def check(self) -> None:
         got_a, got_c = np.empty(self.n, np.float32), np.empty(self.n, np.float32)
@@ -206,18 +217,14 @@ def opencl_fill(runtime, repeats: int = 10, mib: int = STREAM_MIB) -> dict[str, 
     zeros_… and ones_…, and `zeros_over_ones` (ratio of the medians). Each fill's values are
     checked after its last repeat."""
     st = OpenCLStream(runtime, mib)
-    kernel = runtime.kernel(OPENCL_STREAM_SOURCE, "fill_streaming", label="STREAM fill (streaming stores)")
     times: dict[str, list[float]] = {k: [] for k in FILL_VALUES}
     for r in range(repeats + 1):             # the first round warms the pages and is not kept
         for name, v in FILL_VALUES.items():
-            t = st._run(kernel, st.c, np.float32(v))
+            t = st.fill(v)
             if r:
                 times[name].append(t)
             if r == repeats:
-                got = np.empty(st.n, np.float32)
-                runtime.cl.enqueue_copy(runtime.queue, got, st.c)
-                if not np.all(got == np.float32(v)):
-                    raise RuntimeError(f"the OpenCL fill of {v} wrote other values on {runtime.info.description}")
+                st.check_fill(v)
     out: dict[str, object] = dict(method=f"OpenCL float16 streaming fill on {runtime.info.description}",
                                   array_mib=mib, repeats=repeats)
     for name, ts in times.items():
