@@ -384,12 +384,20 @@ def cmd_models(args: argparse.Namespace) -> int:
 
 
 def cmd_devices(args: argparse.Namespace) -> int:
-    from clshade.device.runtime import list_devices, select_device
-    default, _ = select_device(None)
+    from clshade.device.runtime import choose_device, device_health, list_devices
+    from clshade.errors import ClshadeError
+    try:
+        default = choose_device(None).info
+    except ClshadeError:
+        default = None
     for info, device in list_devices():
         mark = "*" if info == default else " "
+        state = device_health(info, device)
+        status = "healthy" if state.ok else f"BROKEN: {state.reason}"
         print(f"{mark} {info.spec}  {info.kind:10s} {info.device}  |  {info.platform} | {info.platform_version}")
-    print("(* = default; choose with --device P:D or CLSHADE_DEVICE)")
+        print(f"        {info.runtime}: {status}")
+    print("(* = default: the first healthy CPU device in clshade.device.runtime.RUNTIME_PREFERENCE; "
+          "choose with --device P:D or CLSHADE_DEVICE)")
     return 0
 
 

@@ -24,19 +24,54 @@ CHECKOUT = ROOT if (ROOT / "pyproject.toml").is_file() else None
 
 
 def pytest_report_header(config) -> str:
-    return f"clshade imported from {PACKAGE}; scenes from {SCENES}"
+    devices = ", ".join(f"{i.spec} {i.runtime} ({i.kind})" for i in healthy_devices())
+    return f"clshade imported from {PACKAGE}; scenes from {SCENES}\nhealthy OpenCL devices: {devices}"
 
 
 def pytest_sessionstart(session) -> None:
     if os.environ.get("CLSHADE_EXPECT_INSTALLED") == "1" and PACKAGE == ROOT / "clshade":
         raise pytest.UsageError(f"CLSHADE_EXPECT_INSTALLED=1 but clshade was imported from the checkout "
                                 f"({PACKAGE}), not from the installed package")
+    want = int(os.environ.get("CLSHADE_EXPECT_RUNTIMES", "0") or 0)
+    if want:
+        have = healthy_devices()
+        runtimes = sorted({i.runtime for i in have})
+        if len(runtimes) < want:
+            raise pytest.UsageError(f"CLSHADE_EXPECT_RUNTIMES={want} but the healthy runtimes are {runtimes}")
 
 
 @pytest.fixture(scope="session")
 def runtime():
     from clshade.device.runtime import get_runtime
     return get_runtime()
+
+
+_HEALTHY: list | None = None
+
+
+def healthy_devices() -> list:
+    """Every healthy OpenCL device present (CPU and GPU), in the default's order: the oracle,
+    stability and AA tests run on each (issue 24). With fewer than two, CI is not testing what
+    it promises, so CLSHADE_EXPECT_RUNTIMES=N makes the session fail below N."""
+    global _HEALTHY
+    if _HEALTHY is None:
+        from clshade.device.runtime import healthy_devices as found
+        _HEALTHY = [info for info, _ in found(kind=None)]
+    return _HEALTHY
+
+
+def pytest_generate_tests(metafunc) -> None:
+    """`device_runtime`: the test runs once per healthy device, with that device's Runtime."""
+    if "device_runtime" in metafunc.fixturenames:
+        infos = healthy_devices()
+        metafunc.parametrize("device_runtime", [i.spec for i in infos], indirect=True,
+                             ids=[f"{i.runtime}-{i.kind}".replace(" ", "_") for i in infos])
+
+
+@pytest.fixture(scope="session")
+def device_runtime(request):
+    from clshade.device.runtime import get_runtime
+    return get_runtime(request.param)
 
 
 @pytest.fixture(scope="session")

@@ -81,9 +81,9 @@ def test_sample_offsets_are_the_ordered_grid():
     assert np.allclose(sample_offsets(1), 0.0)
 
 
-def test_device_resolve_is_the_box_mean_of_the_samples(spheres, runtime):
+def test_device_resolve_is_the_box_mean_of_the_samples(spheres, device_runtime):
     scene, geometry = spheres
-    result = _render(scene, geometry, runtime, samples=3)
+    result = _render(scene, geometry, device_runtime, samples=3)
     samples = result.shader.read_samples()
     assert samples.shape == (3 * H, 3 * W, 4)
     box = samples.reshape(H, 3, W, 3, 4).mean(axis=(1, 3))
@@ -131,12 +131,12 @@ def test_supersampling_in_bands_equals_the_whole_frame(spheres, runtime):
     assert np.mean(diff < 1e-5) > 0.995 and np.median(diff) < 1e-6
 
 
-def test_samples_convergence_against_the_float64_pixel_integral(spheres, runtime):
+def test_samples_convergence_against_the_float64_pixel_integral(spheres, device_runtime):
     """Error against the supersampled float64 truth falls with N, on the whole frame,
     on silhouettes and on highlights."""
     scene, geometry = spheres
     truth = truth_frame(scene, geometry, GGX, 8)
-    errs = [errors(_render(scene, geometry, runtime, samples=n).image, truth) for n in (1, 2, 4)]
+    errs = [errors(_render(scene, geometry, device_runtime, samples=n).image, truth) for n in (1, 2, 4)]
     for key in ("frame_rel_error", "silhouette_rel_error", "highlight_rel_error"):
         e = [x[key] for x in errs]
         assert e[0] > e[1] > e[2], (key, e)
@@ -189,30 +189,30 @@ def _msaa(scene, geometry, runtime, n, model=GGX):
     return shader.read(), gb, fraction
 
 
-def test_msaa_shades_the_centre_sample_and_blends_by_coverage(spheres, runtime):
+def test_msaa_shades_the_centre_sample_and_blends_by_coverage(spheres, device_runtime):
     """Odd N: the pixel's shading sample is its centre, so fully covered pixels equal the
     1-sample image; partly covered ones are L·c + background·(1 − c), c the covered fraction."""
     scene, geometry = spheres
-    image, gb, fraction = _msaa(scene, geometry, runtime, 3)
+    image, gb, fraction = _msaa(scene, geometry, device_runtime, 3)
     ss = prepare_frame(dataclasses.replace(scene, samples=3), geometry=geometry).gbuffer
     cov = (ss.channels["depth"].reshape(H, 3, W, 3) > 0).mean(axis=(1, 3))
     np.testing.assert_array_equal(fraction, cov)
-    one = _render(scene, geometry, runtime).image
+    one = _render(scene, geometry, device_runtime).image
     full = fraction == 1.0
     assert np.mean(np.abs(image[full] - one[full]).max(-1) < 1e-5) > 0.99
     np.testing.assert_allclose(image[..., 3], fraction, atol=1e-7)
     part = (fraction > 0) & (fraction < 1)
-    shaded = Shader(runtime, gb, dataclasses.replace(scene, samples=1), scene.camera).render(GGX, scene_features(scene))
+    shaded = Shader(device_runtime, gb, dataclasses.replace(scene, samples=1), scene.camera).render(GGX, scene_features(scene))
     bg = np.asarray(scene.background, np.float32)
     expect = shaded[part, :3] * fraction[part, None] + bg * (1 - fraction[part, None])
     np.testing.assert_allclose(image[part, :3], expect, rtol=1e-5, atol=1e-6)
 
 
-def test_msaa_silhouettes_beat_one_sample(spheres, runtime):
+def test_msaa_silhouettes_beat_one_sample(spheres, device_runtime):
     scene, geometry = spheres
     truth = truth_frame(scene, geometry, GGX, 6)
-    msaa = errors(_msaa(scene, geometry, runtime, 4)[0], truth)
-    one = errors(_render(scene, geometry, runtime).image, truth)
+    msaa = errors(_msaa(scene, geometry, device_runtime, 4)[0], truth)
+    one = errors(_render(scene, geometry, device_runtime).image, truth)
     assert msaa["silhouette_rel_error"] < 0.5 * one["silhouette_rel_error"]
 
 
@@ -248,11 +248,11 @@ def _widened_roughness(gb, variance=0.15, threshold=0.2):
     return np.sqrt(np.sqrt(a2))
 
 
-def test_specular_aa_matches_its_formula(spheres, runtime):
+def test_specular_aa_matches_its_formula(spheres, device_runtime):
     """The kernel's widened GGX equals the float64 reference evaluated with the roughness
     of Tokuyoshi–Kaplanyan / Filament (σ² = 0.15, κ = 0.2) from the G-buffer normals."""
     scene, geometry = spheres
-    result = _render(scene, geometry, runtime, specular_aa=True)
+    result = _render(scene, geometry, device_runtime, specular_aa=True)
     gb = result.frame.gbuffer
     widened = dataclasses.replace(gb, channels={**gb.channels,
                                                 "roughness": _widened_roughness(gb).astype(np.float32).ravel()})
@@ -261,7 +261,7 @@ def test_specular_aa_matches_its_formula(spheres, runtime):
     got = result.image.reshape(-1, 4)[idx, :3]
     rel = np.abs(got - L) / np.maximum(np.abs(L), 1e-3 * np.abs(L).max())
     assert np.quantile(rel.max(axis=1), 0.999) < 2e-3
-    plain = _render(scene, geometry, runtime)
+    plain = _render(scene, geometry, device_runtime)
     assert not np.array_equal(plain.image, result.image)
 
 

@@ -126,10 +126,11 @@ outer_angle = 35.0
 MODELS = ("ggx_correlated", "phong")
 
 
-def compare(scene_path, model_spec: str) -> dict[str, float]:
-    """Render with the kernel, evaluate the oracle; errors on the comparable pixels."""
+def compare(scene_path, model_spec: str, runtime=None) -> dict[str, float]:
+    """Render with the kernel (on `runtime`, default the default device), evaluate the oracle;
+    errors on the comparable pixels."""
     model = resolve(model_spec)
-    r = render(scene_path, model, width=WIDTH, height=HEIGHT)
+    r = render(scene_path, model, width=WIDTH, height=HEIGHT, runtime=runtime)
     frame = r.frame
     vis = R.visibility(frame.gbuffer, frame.scene, frame.shadows, frame.camera)
     want = R.radiance(frame.gbuffer, frame.scene, model, visibility=vis, camera=frame.camera)
@@ -160,8 +161,8 @@ def scene_file(tmp_path, kind: str) -> Path:
 
 @pytest.mark.parametrize("model", MODELS)
 @pytest.mark.parametrize("kind", ["directional", "point", "spot", "ambient", "shadowed"])
-def test_light_kind_matches_oracle(tmp_path, kind, model):
-    res = compare(scene_file(tmp_path, kind), model)
+def test_light_kind_matches_oracle(tmp_path, kind, model, device_runtime):
+    res = compare(scene_file(tmp_path, kind), model, device_runtime)
     assert res["pixels"] > 0.5 * res["covered"], res
     assert res["max"] <= TOLERANCE, res
     assert res["background"] <= 1e-6, res
@@ -171,9 +172,9 @@ def test_light_kind_matches_oracle(tmp_path, kind, model):
 
 @pytest.mark.parametrize("model", ["ggx_correlated", "lambert+walter_ggx@conductor", "oren_nayar+cook_torrance@dielectric",
                                    "burley+ggx_correlated/kdks", "blinn_phong_normalized"])
-def test_textured_matches_oracle(model):
+def test_textured_matches_oracle(model, device_runtime):
     """Base colour, metallic-roughness and normal maps sampled into the G-buffer; every Fresnel."""
-    res = compare(SCENES / "textured.toml", model)
+    res = compare(SCENES / "textured.toml", model, device_runtime)
     assert res["pixels"] > 0.5 * res["covered"], res
     assert res["max"] <= TOLERANCE, res
 
@@ -215,7 +216,7 @@ def test_bench_error_column_is_the_oracle_with_shadows(tmp_path):
 
 @pytest.mark.parametrize("unit", [False, True])
 @pytest.mark.parametrize("model", ["lambert", "ggx_correlated"])
-def test_unusable_normals_shade_facing_the_viewer(tmp_path, runtime, model, unit):
+def test_unusable_normals_shade_facing_the_viewer(tmp_path, device_runtime, model, unit):
     """Zero and NaN G-buffer normals (a zero one is bad input the G-buffer keeps; NaN only a
     hand-made G-buffer has) shade as if the normal were the view direction, as the oracle
     defines them: the kernels' fallback branch (shade.cl) against
@@ -234,7 +235,7 @@ def test_unusable_normals_shade_facing_the_viewer(tmp_path, runtime, model, unit
     gb = GBuffer(gb.width, gb.height, {**gb.channels, "normal": normal.reshape(-1)}, gb.materials, gb.coverage,
                  unit_normals=unit)
     m = resolve(model)
-    shader = Shader(runtime, gb, frame.scene, frame.camera)
+    shader = Shader(device_runtime, gb, frame.scene, frame.camera)
     features = scene_features(frame.scene, geometry=frame.geometry)
     assert ("UNIT_NORMALS" in shader.variant(m, features).defines()) == unit
     image = shader.render(m, features)

@@ -9,9 +9,9 @@ from clshade.report import stability_text
 DOCUMENTED_PRECISE_DEVIATION = 3e-4
 
 
-def test_grid_finite_non_negative_and_accurate() -> None:
+def test_grid_finite_non_negative_and_accurate(device_runtime) -> None:
     models = [resolve("ggx_correlated@conductor"), resolve("ggx_correlated@dielectric"), resolve("phong")]
-    rep = stability.run(models, extras=False)
+    rep = stability.run(models, extras=False, runtime=device_runtime)
     assert rep.ok, stability_text(rep)
     assert rep.results and all(r.cases > 0 for r in rep.results)
     precise = [r for r in rep.results if not r.fast_math]

@@ -14,6 +14,7 @@ from __future__ import annotations
 import hashlib
 import os
 import re
+import warnings
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -21,15 +22,19 @@ from pathlib import Path
 import numpy as np
 
 from clshade.cachedir import read_entry, user_cache_dir, write_entry
+from clshade.device import health
 from clshade.errors import ClshadeError
 from clshade.render.arrays import PIXEL_PAD
 
 ENV_DEVICE = "CLSHADE_DEVICE"
-INSTALL_HINT = ("install an OpenCL CPU runtime without root: "
-                "`pip install pocl-binary-distribution` (or Debian's pocl-opencl-icd)")
+INSTALL_HINT = ("install an OpenCL CPU runtime without root: `pip install pocl-binary-distribution` or "
+                "`pip install intel-opencl-rt` (or Debian's pocl-opencl-icd)")
 
 
 def _cl():
+    """pyopencl, with pip's OpenCL runtimes registered with the ICD loader first (clshade/device/icd.py)."""
+    from clshade.device import icd
+    icd.register()
     try:
         import pyopencl as cl
     except ImportError as exc:  # pragma: no cover - depends on the install
@@ -53,6 +58,16 @@ class DeviceInfo:
     @property
     def description(self) -> str:
         return f"{self.device} [{self.platform_version}]"
+
+    @property
+    def runtime(self) -> str:
+        """A short name of the OpenCL runtime: `PoCL 3.0`, `Intel OpenCL 3.1`, else the platform name."""
+        pocl = _pocl_version(self.platform_version)
+        if pocl != (-1,):
+            return "PoCL " + ".".join(map(str, pocl))
+        version = re.search(r"OpenCL (\d+\.\d+)", self.platform_version)
+        name = re.sub(r"\(R\)|\(TM\)", "", self.platform).strip()
+        return f"{name} {version.group(1)}" if version else name
 
 
 def list_devices() -> list[tuple[DeviceInfo, object]]:
@@ -82,25 +97,68 @@ def _pocl_version(version: str) -> tuple[int, ...]:
     return tuple(int(x) for x in match.groups()) if match else (-1,)
 
 
-def select_device(spec: str | None = None):
-    """Pick an OpenCL device by spec (see module docstring); returns (DeviceInfo, cl.Device)."""
+#: The default device's runtime, in order of preference among healthy CPU devices: the order of the
+#: runtimes' kernel times on the same frame in benchmarks/results/runtimes.json (fastest first;
+#: tests/test_runtimes.py fails when the measured order there disagrees). A substring of
+#: "platform, platform version"; runtimes matching none come after these.
+RUNTIME_PREFERENCE = ("PoCL 3.1", "PoCL 3.0", "Intel(R) OpenCL")
+
+
+def preference(info: DeviceInfo) -> tuple:
+    """Sort key of the default selection: CPU devices first, then RUNTIME_PREFERENCE, then the
+    newest PoCL, then the listing order."""
+    text = f"{info.platform}, {info.platform_version}"
+    rank = next((i for i, key in enumerate(RUNTIME_PREFERENCE) if key in text), len(RUNTIME_PREFERENCE))
+    return ("cpu" not in info.kind, rank, tuple(-x for x in _pocl_version(info.platform_version)),
+            info.platform_index, info.device_index)
+
+
+def device_health(info: DeviceInfo, device) -> "health.Health":
+    """Whether `device` builds and runs the probe program (clshade/device/health.py; cached)."""
+    return health.probe(_cl(), info, device)
+
+
+@dataclass(frozen=True)
+class Selection:
+    """The chosen device, and the better-ranked devices the default skipped with their reasons."""
+    info: DeviceInfo
+    device: object
+    skipped: tuple[tuple[DeviceInfo, str], ...] = ()
+
+
+def choose_device(spec: str | None = None) -> Selection:
+    """Pick a healthy OpenCL device by spec (see module docstring). The default is the first
+    healthy device in `preference` order; an explicit spec naming a broken device fails in one
+    line naming the device, the compiler's reason and the remedy."""
     spec = spec or os.environ.get(ENV_DEVICE) or None
     devices = list_devices()
     if spec is None:
-        def rank(item):
-            info = item[0]
-            return ("cpu" not in info.kind, "PoCL" not in info.platform_version,
-                    tuple(-x for x in _pocl_version(info.platform_version)))
-        return sorted(devices, key=rank)[0]
+        skipped = []
+        for info, device in sorted(devices, key=lambda item: preference(item[0])):
+            state = device_health(info, device)
+            if state.ok:
+                return Selection(info, device, tuple(skipped))
+            skipped.append((info, state.reason))
+        detail = "; ".join(f"{i.spec} {i.description}: {reason}" for i, reason in skipped)
+        raise ClshadeError(f"no OpenCL device can build programs ({detail}); {INSTALL_HINT}")
+    info, device = _match(spec, devices)
+    state = device_health(info, device)
+    if not state.ok:
+        raise ClshadeError(f"device {info.spec} {info.description} cannot build OpenCL programs: {state.reason}; "
+                           f"{health.remedy(info)}")
+    return Selection(info, device)
+
+
+def _match(spec: str, devices: list[tuple[DeviceInfo, object]]) -> tuple[DeviceInfo, object]:
     text = spec.strip()
     if re.fullmatch(r"\d+:\d+", text):
         for info, device in devices:
             if info.spec == text:
                 return info, device
     elif text.lower() in ("cpu", "gpu", "accelerator"):
-        for info, device in devices:
-            if text.lower() in info.kind:
-                return info, device
+        matches = [item for item in devices if text.lower() in item[0].kind]
+        if matches:
+            return min(matches, key=lambda item: preference(item[0]))
     else:
         for info, device in devices:
             haystack = f"{info.platform}, {info.platform_version}, {info.device}".lower()
@@ -108,6 +166,21 @@ def select_device(spec: str | None = None):
                 return info, device
     known = "; ".join(f"{i.spec} {i.description}" for i, _ in devices)
     raise ClshadeError(f"device {spec!r} matches no OpenCL device (have: {known})")
+
+
+def select_device(spec: str | None = None):
+    """`choose_device` as (DeviceInfo, cl.Device)."""
+    chosen = choose_device(spec)
+    return chosen.info, chosen.device
+
+
+def healthy_devices(kind: str | None = "cpu") -> list[tuple[DeviceInfo, object]]:
+    """Every device (of `kind`, None for all) that passes the probe, in `preference` order."""
+    out = []
+    for info, device in sorted(list_devices(), key=lambda item: preference(item[0])):
+        if (kind is None or kind in info.kind) and device_health(info, device).ok:
+            out.append((info, device))
+    return out
 
 
 ENV_NO_BINARY_CACHE = "CLSHADE_NO_BINARY_CACHE"
@@ -173,7 +246,9 @@ class Runtime:
         """`options`: build options added to every program (e.g. LIBRARY_MATH, INLINE_MATH)."""
         cl = _cl()
         self.cl = cl
-        self.info, self.device = select_device(device)
+        chosen = choose_device(device)
+        self.info, self.device = chosen.info, chosen.device
+        self.skipped = chosen.skipped          # better-ranked devices the default passed over, with reasons
         self.context = cl.Context([self.device])
         self.queue = cl.CommandQueue(self.context, properties=cl.command_queue_properties.PROFILING_ENABLE)
         self._programs: dict[str, object] = {}
@@ -197,7 +272,9 @@ class Runtime:
         if program is None:
             program = self.cl.Program(self.context, source)
             try:
-                program.build(options=list(options))
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", self.cl.CompilerWarning)   # a non-empty log on success
+                    program.build(options=list(options))
             except self.cl.RuntimeError as exc:
                 files = ", ".join(sorted(set(re.findall(r'#line 1 "([^"]+)"', source))))
                 log = str(exc).strip()
@@ -230,7 +307,9 @@ class Runtime:
             return None
         try:
             program = self.cl.Program(self.context, [self.device], [binary])
-            return program.build(options=list(options))
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", self.cl.CompilerWarning)
+                return program.build(options=list(options))
         except self.cl.Error:
             return None
 
