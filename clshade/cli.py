@@ -341,6 +341,8 @@ def _explain(model, result) -> None:
     print("defines: " + " ".join(f"{k}={v}" for k, v in {"SIMD": str(simd), **variant.defines()}.items()))
     print(f"device: {shader.rt.info.description}; {simd} pixel{'s' if simd > 1 else ''} per work-item "
           f"(kernels/simd.h; CLSHADE_SIMD to override)")
+    for info, reason in getattr(shader.rt, "skipped", ()):
+        print(f"skipped device: {info.spec} {info.description}: {reason}")
 
 
 def cmd_models(args: argparse.Namespace) -> int:
