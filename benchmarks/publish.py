@@ -27,6 +27,7 @@ BENCH_JSON = RESULTS / "bench_1080p.json"
 MUTANTS_JSON = RESULTS / "mutants.json"
 FLOOR_BIAS_JSON = RESULTS / "floor_bias.json"
 STABILITY_JSON = RESULTS / "stability.json"
+RUNTIMES_JSON = RESULTS / "runtimes.json"
 GROUPS = ("diffuse", "empirical", "microfacet")
 
 
@@ -485,6 +486,9 @@ def renderings() -> dict[Path, Callable[[str], str]]:
             out[RESULTS / f"{name}.md"] = (lambda r, j: lambda text: r(load(j)))(render, RESULTS / f"{name}.json")
     if REPORT_JSON.exists():
         out[ROOT / "benchmarks" / "REPORT.md"] = lambda text: render_report(load(REPORT_JSON))
+    if RUNTIMES_JSON.exists():
+        from clshade.bench.runtimes import markdown as runtimes_markdown
+        out[RESULTS / "runtimes.md"] = lambda text: runtimes_markdown(load(RUNTIMES_JSON))
     if MUTANTS_JSON.exists():
         out[RESULTS / "mutants.md"] = lambda text: render_mutants(load(MUTANTS_JSON))
     if FLOOR_BIAS_JSON.exists():

@@ -1,4 +1,4 @@
-"""Issue 15's performance run: every PoCL runtime on the machine as its own
+"""Issue 15's performance run: every healthy CPU runtime on the machine as its own
 column, the kernels as clshade builds them, with the OpenCL library's builtins
 everywhere (the state before issue 15) and with simd.h's inline ones, the copy
 kernel, the Numba peer, the STREAM anchor and whole frames — one JSON, one
@@ -47,7 +47,7 @@ import numpy as np
 
 from clshade import __version__
 from clshade.bench import bandwidth, frame as whole, peers as peer_mod
-from clshade.device.runtime import CACHED_STORES, INLINE_MATH, LIBRARY_MATH, NO_PREFETCH, Runtime, list_devices
+from clshade.device.runtime import CACHED_STORES, INLINE_MATH, LIBRARY_MATH, NO_PREFETCH, Runtime, healthy_devices
 from clshade.device.shade import Shader, scene_features
 from clshade.models import resolve
 from clshade.pipeline import prepare_frame
@@ -128,11 +128,12 @@ def cache_band(active: np.ndarray, local: int, items: int) -> tuple[int, int]:
     return int(best), items
 
 
-def pocl_devices() -> list[str]:
-    """One spec per PoCL CPU platform version (`P:D`)."""
+def cpu_runtimes() -> list[str]:
+    """One spec (`P:D`) per healthy CPU runtime (platform version), in the default's order: a
+    runtime that cannot build here (clshade/device/health.py) is left out, not a stop."""
     seen, out = set(), []
-    for info, _ in list_devices():
-        if "cpu" in info.kind and "PoCL" in info.platform_version and info.platform_version not in seen:
+    for info, _ in healthy_devices("cpu"):
+        if info.platform_version not in seen:
             seen.add(info.platform_version)
             out.append(info.spec)
     return out
@@ -140,7 +141,7 @@ def pocl_devices() -> list[str]:
 
 def compare(scene_path: str, models: list, width: int | None, height: int | None, rounds: int, warmup: int,
             peer_names: tuple[str, ...], devices: list[str] | None = None, library: bool = True) -> dict:
-    """Every runtime in `devices` (default: every PoCL CPU runtime) × build (inline math,
+    """Every runtime in `devices` (default: every healthy CPU runtime) × build (inline math,
     and with `library` the OpenCL library's builtins) × model, their copy kernels and
     the peers, in the same interleaved rounds; peers verified against the first runtime."""
     frame = prepare_frame(load_scene(scene_path), width, height)
@@ -150,7 +151,7 @@ def compare(scene_path: str, models: list, width: int | None, height: int | None
                ("plain stores", (CACHED_STORES,)), ("no prefetch", (NO_PREFETCH,)))
               if library else (("default", ()),))
     configs = []
-    for spec in devices or pocl_devices():
+    for spec in devices or cpu_runtimes():
         for build, opts in builds:
             rt = Runtime(spec, options=opts)
             try:
@@ -301,7 +302,7 @@ def round_triad_key(device: str, stores: str) -> str:
 def run(scene_path: str, width: int, height: int, rounds: int, warmup: int, frame_scene: str,
         frame_frames: int, peer_names: tuple[str, ...]) -> dict:
     """Issue 15's document: `compare` on MODELS, whole frames, the targets."""
-    runtimes = [Runtime(spec) for spec in pocl_devices()]
+    runtimes = [Runtime(spec) for spec in cpu_runtimes()]
 
     def frames_block() -> list[dict]:
         return whole.whole_frames_on(load_scene(frame_scene), resolve("ggx_correlated"), runtimes, 1920, 1080,
