@@ -251,3 +251,19 @@ def test_a_device_that_computes_wrong_values_is_broken(monkeypatch):
     monkeypatch.setattr(health, "PROBE_EXPECTED", health.PROBE_EXPECTED + 1e-3)
     state = health.run_probe(cl, info, device)
     assert not state.ok and "computed 2.0" in state.reason
+
+
+def test_the_default_order_is_the_measured_order(checkout):
+    """RUNTIME_PREFERENCE ranks the healthy CPU runtimes of benchmarks/results/runtimes.json as
+    their measured kernel times do (fastest first), and the file was measured with that order."""
+    doc = json.loads((checkout / "benchmarks" / "results" / "runtimes.json").read_text(encoding="utf-8"))
+    measured = [d for d in doc["devices"] if d["healthy"] and "cpu" in d["kind"]]
+    assert len({d["runtime"] for d in measured}) >= 2, "runtimes.json compares fewer than two runtimes"
+    by_speed = [d["runtime"] for d in sorted(measured, key=lambda d: d["geomean_median_ms"])]
+    by_preference = [d["runtime"] for d in sorted(measured, key=lambda d: R.preference(
+        R.DeviceInfo(0, 0, d["platform"], d["platform_version"], d["device"], d["kind"])))]
+    assert by_preference == by_speed, (by_preference, by_speed)
+    assert doc["runtime_preference"] == list(R.RUNTIME_PREFERENCE)
+    assert doc["default"]["runtime"] == by_speed[0]
+    for d in measured:     # every runtime's images were checked against the oracle in the same run
+        assert all(r["max_rel_error"] is not None for r in d["models"].values()), d["runtime"]

@@ -1,11 +1,11 @@
 """Every OpenCL runtime present on one frame: health, what each build gets, kernel times and
 the error against the float64 oracle (issue 24).
 
-    python -m clshade.bench.runtimes [--out benchmarks/results/runtimes] [--rounds 200]
+    python -m clshade.bench.runtimes [--out benchmarks/results/runtimes] [--rounds 100]
 
 Every device listed is probed (clshade/device/health.py); every healthy one shades the same
 G-buffer (scenes/sphere_grid.toml, 1920×1080) with each model of MODELS and its copy kernel,
-interleaved in the same rounds (clshade.bench.run.run_cases: noise hits every runtime alike),
+interleaved in the same rounds with perf's protocol (`measure`: noise hits every runtime alike),
 and its image is compared with the float64 frame oracle on the same pixels as `clshade bench`.
 The runtimes are ranked by the geometric mean of their models' median kernel times; the JSON
 says which device the default selection picks and whether it is the fastest (the order of
@@ -26,7 +26,8 @@ from pathlib import Path
 import numpy as np
 
 from clshade import __version__
-from clshade.bench.run import Case, run_cases, summarize
+from clshade.bench import perf
+from clshade.bench.run import compared_pixels, relative_error
 from clshade.device import health
 from clshade.device.runtime import RUNTIME_PREFERENCE, Runtime, choose_device, device_health, list_devices
 from clshade.device.shade import Shader, scene_features
@@ -38,7 +39,6 @@ from clshade.verify import reference
 
 SCHEMA = "clshade-runtimes/1"
 MODELS = ("lambert", "ggx_correlated", "phong", "oren_nayar+cook_torrance@dielectric")
-ROW_KEYS = ("median_ms", "mean_ms", "avg_fps", "low1_fps", "copy_ratio", "max_rel_error", "mean_rel_error")
 
 
 def commit() -> str | None:
@@ -77,7 +77,18 @@ def device_rows() -> list[dict]:
     return rows
 
 
-def measure(scene_path: str, width: int, height: int, rounds: int, warmup: int) -> dict:
+def _device_ms(shader: Shader, dispatch) -> float:
+    event = shader.enqueue(dispatch)
+    event.wait()
+    return (event.profile.end - event.profile.start) * 1e-6
+
+
+def measure(scene_path: str, width: int, height: int, rounds: int, warmup: int, seed: int = 24) -> dict:
+    """Time every healthy device × model (and its copy kernel) on one frame, and check each image
+    against the float64 oracle. Protocol as perf's: each round runs every item in a new random order
+    (seeded); each item starts with the process idle (perf.settle: one runtime's worker threads
+    spinning after its dispatch must not slow the next runtime's) and is timed as the second of two
+    back-to-back runs (perf.timed_after_itself); medians over the rounds."""
     devices = device_rows()
     healthy = [d for d in devices if d["healthy"]]
     scene = load_scene(scene_path)
@@ -86,17 +97,35 @@ def measure(scene_path: str, width: int, height: int, rounds: int, warmup: int) 
     vis = (reference.visibility(frame.gbuffer, frame.scene, frame.shadows, frame.camera)
            if feats.shadows else None)
     models = [resolve(m) for m in MODELS]
-    cases, owner = [], []
+    idx = compared_pixels(frame.gbuffer, frame.camera)
+    truth = {m.id: reference.radiance(frame.gbuffer, frame.scene, m, visibility=vis,
+                                      camera=frame.camera).reshape(-1, 3)[idx] for m in models}
+    items: list[tuple[str, str, str, Shader, object]] = []
     for d in healthy:
         shader = Shader(Runtime(d["spec"]), frame.gbuffer, frame.scene, frame.camera, frame.shadows)
+        d["models"] = {}
         for m in models:
-            cases.append(Case(m.label, m, feats, shader, frame.scene, frame.gbuffer, numpy=False, visibility=vis))
-            owner.append(d["spec"])
-    copy_ms = run_cases(cases, rounds, warmup, numpy_frames=0)
-    rows = summarize(cases, copy_ms)
+            image = shader.render(m, feats)
+            err_max, err_mean = relative_error(image, idx, truth[m.id])
+            d["models"][m.id] = dict(max_rel_error=err_max, mean_rel_error=err_mean)
+            for entry in ("shade", "copy"):
+                items.append((d["spec"], m.id, entry, shader, shader.prepare(m, feats, entry=entry)))
+    times: dict[tuple[str, str, str], list[float]] = {it[:3]: [] for it in items}
+    rng = np.random.default_rng(seed)
+    for r in range(warmup + rounds):
+        for k in rng.permutation(len(items)):
+            spec, mid, entry, shader, dispatch = items[k]
+            perf.settle()
+            ms = perf.timed_after_itself(lambda: _device_ms(shader, dispatch))
+            if r >= warmup:
+                times[(spec, mid, entry)].append(ms)
     for d in healthy:
-        d["models"] = {r["model"]: {k: r[k] for k in ROW_KEYS}
-                       for r, spec in zip(rows, owner) if spec == d["spec"]}
+        for mid, row in d["models"].items():
+            shade, copy = np.array(times[(d["spec"], mid, "shade")]), np.array(times[(d["spec"], mid, "copy")])
+            row.update(median_ms=float(np.median(shade)), mean_ms=float(shade.mean()),
+                       avg_fps=1e3 / float(shade.mean()),
+                       low1_fps=1e3 / float(np.sort(shade)[-max(1, len(shade) // 100):].mean()),
+                       copy_ratio=float(np.median(shade) / np.median(copy)))
         d["geomean_median_ms"] = math.exp(float(np.mean([math.log(v["median_ms"]) for v in d["models"].values()])))
     ranked = sorted(healthy, key=lambda d: d["geomean_median_ms"])
     default = choose_device(None).info
@@ -104,10 +133,12 @@ def measure(scene_path: str, width: int, height: int, rounds: int, warmup: int) 
     return dict(
         schema=SCHEMA, clshade_version=__version__, commit=commit(),
         created=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
-        machine=dict(cpu=_cpu(), cores=os.cpu_count(), os=platform.platform(), python=platform.python_version()),
+        machine=dict(cpu=_cpu(), cores=os.cpu_count(), os=platform.platform(), python=platform.python_version(),
+                     load_average_at_start=list(os.getloadavg())),
         environment=health.build_environment(),
         scene=str(Path(scene_path).name), width=width, height=height, pixels=frame.gbuffer.pixels,
-        covered_pixels=int(frame.gbuffer.coverage.sum()), rounds=rounds, warmup=warmup,
+        covered_pixels=int(frame.gbuffer.coverage.sum()), compared_pixels=int(len(idx)), rounds=rounds,
+        warmup=warmup, seed=seed, timed_run=perf.TIMED_RUN,
         models=[m.id for m in models], devices=devices,
         ranking=[d["spec"] for d in ranked],
         runtime_preference=list(RUNTIME_PREFERENCE),
@@ -124,7 +155,7 @@ def markdown(doc: dict) -> str:
     lines = [f"# Every OpenCL runtime on one frame",
              "",
              f"{doc['scene']} at {doc['width']}×{doc['height']} ({doc['covered_pixels']} covered pixels), "
-             f"{doc['rounds']} interleaved rounds after {doc['warmup']} warm-up; measured {doc['created']} on "
+             f"{doc['rounds']} interleaved rounds after {doc['warmup']} warm-up ({doc['timed_run']}, process idle before each); medians; measured {doc['created']} on "
              f"{doc['machine']['cpu']} ({doc['machine']['cores']} cores), commit `{doc['commit']}`, "
              f"with `{doc['command']}`.",
              f"Error: against the float64 frame oracle on the same G-buffer, as in `clshade bench`. "
@@ -165,8 +196,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--scene", default=str(scenes_dir() / "sphere_grid.toml"))
     ap.add_argument("--width", type=int, default=1920)
     ap.add_argument("--height", type=int, default=1080)
-    ap.add_argument("--rounds", type=int, default=200)
-    ap.add_argument("--warmup", type=int, default=10)
+    ap.add_argument("--rounds", type=int, default=100)
+    ap.add_argument("--warmup", type=int, default=3)
     ap.add_argument("--out", default="benchmarks/results/runtimes", help="path stem: writes .json and .md")
     ap.add_argument("--render-only", action="store_true", help="re-render OUT.md from OUT.json")
     args = ap.parse_args(argv)

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import tempfile
 from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
@@ -83,7 +84,6 @@ def _write_folder(files: dict[str, str]) -> Path:
     folder = base / digest
     if folder.is_dir() and sorted(p.name for p in folder.glob("*.icd")) == sorted(files):
         return folder
-    import tempfile
     base.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=".icd-", dir=base))
     for name, text in files.items():
@@ -98,9 +98,9 @@ def _write_folder(files: dict[str, str]) -> Path:
 
 
 def register() -> str | None:
-    """Point OCL_ICD_VENDORS at a folder with the system's and pip's runtimes; returns the folder,
-    or None when nothing was changed (the user's OCL_ICD_VENDORS, CLSHADE_NO_PIP_RUNTIMES=1,
-    no pip runtime installed, or no folder could be written). Call before the first OpenCL call:
+    """Point OCL_ICD_VENDORS at a folder with the system's and pip's runtimes (in the cache, else a
+    temporary folder); returns the folder, or None when nothing was changed (the user's
+    OCL_ICD_VENDORS, CLSHADE_NO_PIP_RUNTIMES=1, no pip runtime installed, or no folder could be written). Call before the first OpenCL call:
     the loader reads the variable once per process."""
     global _registered
     if _registered is not None:
@@ -112,8 +112,13 @@ def register() -> str | None:
         return None
     try:
         folder = _write_folder(files)
-    except OSError:
-        return None
+    except OSError:                   # no writable cache: a folder for this process alone
+        try:
+            folder = Path(tempfile.mkdtemp(prefix="clshade-icd-"))
+            for name, text in files.items():
+                (folder / name).write_text(text, encoding="utf-8")
+        except OSError:
+            return None
     os.environ[ENV_VENDORS] = str(folder)
     _registered = str(folder)
     return _registered
