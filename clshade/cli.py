@@ -9,8 +9,8 @@ import sys
 from contextlib import contextmanager
 from pathlib import Path
 
-from clshade import __version__
-from clshade.errors import ClshadeError
+from clshade import __version__, budget
+from clshade.errors import ClshadeError, one_line
 
 
 @contextmanager
@@ -417,6 +417,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     width = args.width or args.tile
     height = args.height or max(1, round(width * scene.camera.height / scene.camera.width))
     reference = resolve(args.reference) if args.reference else None
+    budget.sheet_pixels(len(models) + (reference is not None), 1, width, height)
     with progress_bar("compare", "model") as progress:
         sheet, tiles = compare_sheet(scene, models, width=width, height=height, reference=reference,
                                      device=args.device, progress=progress)
@@ -440,11 +441,14 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         raise ClshadeError(f"--roughness = {args.roughness!r}: not a list of numbers") from exc
     if not values or any(not 0 <= v <= 1 for v in values):
         raise ClshadeError(f"--roughness = {args.roughness!r}: values must be within [0, 1]")
+    if len(values) > budget.MAX_SWEEP_COLUMNS:
+        raise ClshadeError(f"--roughness: {len(values)} values exceed the limit of {budget.MAX_SWEEP_COLUMNS} columns")
     if not 1 <= args.size <= MAX_TILE:
         raise ClshadeError(f"--size = {args.size}: must be within [1, {MAX_TILE}]")
+    models = resolve_many(args.models)
+    budget.sheet_pixels(len(models), len(values), args.size, args.size)
     with progress_bar("sweep", "column") as progress:
-        sheet = sweep_sheet(scene, resolve_many(args.models), values, size=args.size, device=args.device,
-                            progress=progress)
+        sheet = sweep_sheet(scene, models, values, size=args.size, device=args.device, progress=progress)
     out = write_sheet(args.output, sheet, scene.inputs())
     print(f"wrote {out}")
     return 0
@@ -453,27 +457,56 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 PLOT_SUFFIXES = (".png", ".pdf", ".svg", ".jpg", ".jpeg")
 
 
-def _check_bench_outputs(args: argparse.Namespace) -> None:
-    """Every output path, and matplotlib for --plot, before the benchmark runs."""
-    from clshade.outputs import check_output_file
+def _check_bench_outputs(args: argparse.Namespace, protected: list[Path]) -> None:
+    """Every output path (none an input, no two the same; --plot's ladder plot beside it with
+    --ladder), and matplotlib for --plot, before the benchmark runs."""
+    from clshade.outputs import check_distinct, check_output_file
     from clshade.report import _pyplot
+    ladder_plot = None
     if args.json:
-        check_output_file(args.json, "--json")
+        check_output_file(args.json, "--json", protected=protected)
     if args.csv:
-        check_output_file(args.csv, "--csv")
+        check_output_file(args.csv, "--csv", protected=protected)
     if args.plot:
-        check_output_file(args.plot, "--plot", PLOT_SUFFIXES)
+        check_output_file(args.plot, "--plot", PLOT_SUFFIXES, protected=protected)
+        if args.ladder:
+            plot = Path(args.plot)
+            ladder_plot = plot.with_name(plot.stem + "_ladder" + plot.suffix)
+            check_output_file(ladder_plot, "--plot (its ladder plot)", PLOT_SUFFIXES, protected=protected)
         _pyplot()
+    check_distinct([("--json", args.json), ("--csv", args.csv), ("--plot", args.plot),
+                    ("--plot (its ladder plot)", ladder_plot)])
+
+
+def _check_bench_options(args: argparse.Namespace) -> None:
+    """The counts of `clshade bench`, before the scene is prepared: each within its budget."""
+    _size(args.width, "width")
+    _size(args.height, "height")
+    budget.check_count("--frames", args.frames, budget.MAX_FRAMES, low=1)
+    budget.check_count("--warmup", args.warmup, budget.MAX_FRAMES)
+    budget.check_count("--numpy-frames", args.numpy_frames, budget.MAX_FRAMES)
+    if args.lights is not None:
+        budget.check_count("--lights", args.lights, budget.MAX_LIGHTS)
+    if args.peers is not None:
+        from clshade.bench.peers import PEERS
+        names = [p.strip() for p in args.peers.split(",") if p.strip()]
+        unknown = [p for p in names if p not in PEERS]
+        if unknown or not names:
+            raise ClshadeError(f"--peers = {args.peers!r}: {'unknown peer ' + repr(unknown[0]) if unknown else 'no peer'}"
+                               f"; choose from {', '.join(PEERS)}")
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
     import json
     from clshade.bench.run import run_bench
     from clshade.models import resolve_many
+    from clshade.outputs import write_text_atomic
     from clshade.report import bench_csv, bench_plots, bench_text
-    _check_bench_outputs(args)
+    _check_bench_options(args)
+    scene = _load_scene(args.scene, args)
+    _check_bench_outputs(args, scene.inputs())
     with progress_bar("bench", "round") as progress:
-        doc = run_bench(_load_scene(args.scene, args), resolve_many(args.models), args.frames, args.warmup, width=args.width,
+        doc = run_bench(scene, resolve_many(args.models), args.frames, args.warmup, width=args.width,
                         height=args.height, lights=args.lights, ladder=args.ladder, numpy_frames=args.numpy_frames,
                         device=args.device, progress=None if args.no_progress else progress)
     print(bench_text(doc))
@@ -483,7 +516,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
         print()
         print(perf.markdown(doc["peers"]))
     if args.json:
-        Path(args.json).write_text(json.dumps(doc, indent=2, ensure_ascii=False), encoding="utf-8")
+        write_text_atomic(args.json, json.dumps(doc, indent=2, ensure_ascii=False))
     if args.csv:
         bench_csv(doc["models"], Path(args.csv))
     if args.plot:
@@ -491,12 +524,13 @@ def cmd_bench(args: argparse.Namespace) -> int:
     return 0
 
 
-def _check_aa_outputs(prefix: Path) -> None:
-    """The four output files and matplotlib (the ladder plot), before the long run."""
+def _check_aa_outputs(prefix: Path, protected: list[Path]) -> None:
+    """The four output files (none an input of the scene) and matplotlib (the ladder plot),
+    before the long run."""
     from clshade.outputs import check_output_file
     from clshade.report import _pyplot
     for suffix in (".json", ".md", "_ladder.png", "_crops.png"):
-        check_output_file(prefix.with_name(prefix.name + suffix), "-o")
+        check_output_file(prefix.with_name(prefix.name + suffix), "-o", protected=protected)
     try:
         _pyplot()
     except ClshadeError as exc:
@@ -508,10 +542,14 @@ def cmd_aa(args: argparse.Namespace) -> int:
     from clshade.bench.aa import run
     from clshade.compare import write_sheet
     from clshade.models import resolve_many
+    from clshade.outputs import write_text_atomic
+    from clshade.render.scene import load_scene
     from clshade.report import aa_markdown, plot_aa
     from clshade.resources import scenes_dir
     scene = args.scene or str(scenes_dir() / "aa_spheres.toml")
-    _check_aa_outputs(Path(args.output))
+    _check_aa_outputs(Path(args.output), load_scene(scene).inputs())
+    budget.check_count("--frames", args.frames, budget.MAX_FRAMES, low=1)
+    budget.check_count("--temporal-frames", args.temporal_frames, budget.MAX_FRAMES)
     if args.frames < 1 or args.truth_samples < 1 or args.check_samples < 0 or args.temporal_frames < 0:
         raise ClshadeError(f"--frames = {args.frames}, --truth-samples = {args.truth_samples}, --check-samples = "
                            f"{args.check_samples}, --temporal-frames = {args.temporal_frames}: need ≥ 1, ≥ 1, ≥ 0, ≥ 0")
@@ -524,9 +562,9 @@ def cmd_aa(args: argparse.Namespace) -> int:
     doc["command"] = " ".join(["clshade aa", args.scene or "scenes/aa_spheres.toml",
                                *(f"--{k} {v}" for k, v in opts.items() if v is not None), "-o", args.output])
     prefix = Path(args.output)
-    prefix.with_name(prefix.name + ".json").write_text(json.dumps(doc, indent=2, ensure_ascii=False), encoding="utf-8")
+    write_text_atomic(prefix.with_name(prefix.name + ".json"), json.dumps(doc, indent=2, ensure_ascii=False))
     text = aa_markdown(doc)
-    prefix.with_name(prefix.name + ".md").write_text(text, encoding="utf-8")
+    write_text_atomic(prefix.with_name(prefix.name + ".md"), text)
     plot_aa(doc, prefix.with_name(prefix.name + "_ladder.png"))
     write_sheet(prefix.with_name(prefix.name + "_crops.png"), sheet)
     print(text)
@@ -556,7 +594,7 @@ def cmd_stability(args: argparse.Namespace) -> int:
     from clshade.report import stability_text
     from clshade.verify import stability
     models = None
-    if args.model:
+    if args.model is not None:
         models = []
         for m in resolve_many(args.model):
             models += [m.with_options(fresnel=f) for f in FRESNELS] if m.uses_fresnel else [m]
@@ -597,10 +635,16 @@ def run() -> int:
     And the allocator tuned (tune_allocator), NumPy's BLAS single-threaded
     (load_numpy_single_threaded_blas)."""
     start_process()
+    status = 1
     try:
-        return main(after_parse=_resume_gc)
+        status = main(after_parse=_resume_gc)
+        return status
     finally:
-        gc.freeze()
+        if status == 0:
+            # Not after an error: objects of OpenImageIO's bindings held in a cycle by the
+            # error's traceback would be frozen too, and nanobind reports them at exit
+            # ("leaked 269 instances") on stderr, after clshade's one line.
+            gc.freeze()
 
 
 def start_process() -> None:
@@ -672,22 +716,51 @@ def main(argv: list[str] | None = None, after_parse=None) -> int:
 
 
 def _main(argv: list[str] | None, after_parse=None) -> int:
+    from clshade import diagnostics
     parser = build_parser()
     args = parser.parse_args(argv)
     if after_parse is not None:
         after_parse()
     try:
-        status = int(args.func(args) or 0)
+        with diagnostics.warnings_captured():
+            status = int(args.func(args) or 0)
         sys.stdout.flush()      # a closed pipe shows here, inside the handler, not at exit
         return status
-    except ClshadeError as exc:
+    except BrokenPipeError:
+        raise
+    except (ClshadeError, OSError, MemoryError) as exc:
+        # OSError and MemoryError: the system refused (disk full, permissions, memory) where
+        # no check could tell in advance; one line too, with the traceback under --debug.
         if args.debug:
             raise
-        print(f"clshade: error: {exc}", file=sys.stderr)
+        print(f"clshade: error: {_one_line_error(exc)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("clshade: interrupted", file=sys.stderr)
         return 130
+    finally:
+        if args.debug:
+            _print_debug(diagnostics.NOTES, sys.exc_info()[1])
+        diagnostics.NOTES.clear()
+
+
+def _one_line_error(exc: BaseException) -> str:
+    if isinstance(exc, MemoryError):
+        return f"out of memory ({exc or 'MemoryError'}); see the README's Resource limits"
+    if isinstance(exc, OSError):
+        where = f"{exc.filename}: " if exc.filename else ""
+        return one_line(f"{where}{exc.strerror or exc}")
+    return str(exc)
+
+
+def _print_debug(notes: list[str], exc: BaseException | None) -> None:
+    """--debug: the messages of other libraries captured during the run, and an error's detail
+    (a build log), on stderr."""
+    for text in notes:
+        print(f"clshade: debug: {text}", file=sys.stderr)
+    detail = getattr(exc, "detail", "")
+    if detail:
+        print(f"clshade: debug: detail of the error:\n{detail}", file=sys.stderr)
 
 
 if __name__ == "__main__":  # pragma: no cover

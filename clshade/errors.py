@@ -6,7 +6,30 @@ from typing import Any
 
 
 class ClshadeError(Exception):
-    """An error a user can act on; its message is one line naming what is wrong."""
+    """An error a user can act on; its message is one line naming what is wrong. `detail`
+    (a build log, a library's own messages) is shown only with `clshade --debug`."""
+
+    def __init__(self, message: str, detail: str = "") -> None:
+        super().__init__(one_line(message))
+        self.detail = detail
+
+
+def one_line(text: str) -> str:
+    """A message from a library (OpenImageIO, a compiler) as one line: its non-blank lines,
+    without repeats, joined by '; '."""
+    lines: list[str] = []
+    for line in str(text).splitlines():
+        line = line.strip()
+        if line and line not in lines:
+            lines.append(line)
+    return "; ".join(lines)
+
+
+def first_error(log: str) -> str:
+    """The line of a compiler log a reader needs first: its first line naming an error
+    (else its first non-blank line)."""
+    lines = [line.strip() for line in str(log).splitlines() if line.strip()]
+    return next((line for line in lines if "error" in line.lower()), lines[0] if lines else "")
 
 
 def located(message: str, file: str | Path | None = None, key: str | None = None,

@@ -218,7 +218,10 @@ def resolve(spec: str, fresnel: str | None = None, workflow: str | None = None) 
     if key in PRESETS:
         model = preset(key)
     elif "+" in key or key in lobes():
-        names = [p for p in key.split("+") if p]
+        names = key.split("+")
+        if not all(names):
+            raise ClshadeError(f"model {spec!r}: an empty lobe name around '+'; write diffuse+specular, "
+                               f"e.g. oren_nayar+ggx_correlated")
         diffuse, specular = NONE, NONE
         for part in names:
             if part not in lobes():
@@ -234,6 +237,9 @@ def resolve(spec: str, fresnel: str | None = None, workflow: str | None = None) 
         model = Model(diffuse, specular, "schlick", default_workflow(specular))
     else:
         raise _unknown(spec, key)
+    if "@" in spec and not model.uses_fresnel:
+        raise ClshadeError(f"model {spec!r}: {model.id} has no Fresnel term (no specular lobe that uses one); "
+                           f"drop '@{fresnel}'")
     return model.with_options(fresnel, workflow)
 
 

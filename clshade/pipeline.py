@@ -13,6 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
+from clshade import budget
+from clshade.budget import available_memory
 from clshade.errors import ClshadeError
 from clshade.render.gbuffer import GBuffer, build_gbuffer
 from clshade.render.meshes import Geometry, build_geometry
@@ -68,6 +70,7 @@ def prepare_frame(scene: Scene | str | Path, width: int | None = None, height: i
     camera = scene.camera.with_size(width, height)
     samples = scene.samples if samples is None else samples
     check_samples(samples, camera.width, camera.height)
+    budget.frame_samples(camera.width, camera.height, samples)
     if samples != scene.samples:
         scene = dataclasses.replace(scene, samples=samples)
     camera = supersampled(camera, samples)
@@ -197,21 +200,6 @@ def render_streamed(scene: Scene, model: Model, on_band, *, width: int | None = 
         if progress is not None:
             progress(done, len(starts))
     return StreamResult(camera, geometry, features, shader, shadows, covered, nonfinite, len(starts), timings)
-
-
-def available_memory() -> int | None:
-    """Bytes the system can give without swapping (MemAvailable, Linux); None when unknown."""
-    try:
-        with open("/proc/meminfo", encoding="ascii") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    try:
-        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (ValueError, OSError, AttributeError):
-        return None
 
 
 def check_frame_memory(width: int, height: int, output_bytes_per_pixel: int, available: int | None = None) -> int:

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from clshade.errors import ClshadeError
+from clshade.outputs import write_atomic
 from clshade.tables import cell, markdown, write_csv
 
 # ---------------------------------------------------------------- bench
@@ -74,7 +75,7 @@ def _finish(plt, fig, ax, path: Path, title: str, legend_size: int) -> None:
     ax.set_title(title, fontsize=10)
     ax.legend(fontsize=legend_size)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=120))
     plt.close(fig)
 
 
@@ -288,5 +289,5 @@ def plot_aa(doc: dict, path: Path) -> None:
     fig.suptitle(f"anti-aliasing ladder vs the pixel integral ({t}x{t} float64), {doc['scene']} "
                  f"{doc['width']}x{doc['height']}, {doc['device']['name']}", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=120))
     plt.close(fig)

@@ -12,6 +12,8 @@ from typing import Iterable, Sequence
 
 from tabulate import tabulate
 
+from clshade.outputs import write_atomic
+
 MISSING = "—"     # a value that was not measured
 
 
@@ -30,8 +32,11 @@ def write_csv(rows: list[dict], path: Path | str, first: Sequence[str] = ()) -> 
     """Rows as CSV: the `first` keys, then every other key in the order met; lists joined by ';'."""
     keys = list(first) + [k for r in rows for k in r if k not in first]
     keys = list(dict.fromkeys(keys))
-    with open(path, "w", newline="", encoding="utf-8") as fh:
-        writer = csv.DictWriter(fh, fieldnames=keys, extrasaction="ignore")
-        writer.writeheader()
-        for r in rows:
-            writer.writerow({k: (";".join(map(str, v)) if isinstance(v, list) else v) for k, v in r.items()})
+
+    def write(tmp: Path) -> None:
+        with open(tmp, "w", newline="", encoding="utf-8") as fh:
+            writer = csv.DictWriter(fh, fieldnames=keys, extrasaction="ignore")
+            writer.writeheader()
+            for r in rows:
+                writer.writerow({k: (";".join(map(str, v)) if isinstance(v, list) else v) for k, v in r.items()})
+    write_atomic(path, write)

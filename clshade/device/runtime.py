@@ -23,7 +23,7 @@ import numpy as np
 
 from clshade.cachedir import read_entry, user_cache_dir, write_entry
 from clshade.device import health
-from clshade.errors import ClshadeError
+from clshade.errors import ClshadeError, first_error
 from clshade.render.arrays import PIXEL_PAD
 
 ENV_DEVICE = "CLSHADE_DEVICE"
@@ -279,7 +279,8 @@ class Runtime:
                 files = ", ".join(sorted(set(re.findall(r'#line 1 "([^"]+)"', source))))
                 log = str(exc).strip()
                 raise ClshadeError(f"kernel build failed for {label or name} (files: {files}; "
-                                   f"options: {' '.join(options) or 'none'}) on {self.info.description}:\n{log}") from exc
+                                   f"options: {' '.join(options) or 'none'}) on {self.info.description}: "
+                                   f"{first_error(log)} (the whole log: clshade --debug)", detail=log) from exc
             self._store_program(source, options, program)
         self._programs[key] = program
         kernel = self.cl.Kernel(program, name)

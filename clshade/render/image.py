@@ -7,14 +7,12 @@ Tone maps: `none` (clip to [0, 1]), `reinhard` (x / (1 + x)), `aces`
 """
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from clshade.errors import ClshadeError
-from clshade.outputs import folder_writable
+from clshade.errors import ClshadeError, one_line
+from clshade.outputs import check_output_file, refuse_inputs, write_atomic
 
 LINEAR_SUFFIXES = (".exr",)
 DISPLAY_SUFFIXES = (".png", ".jpg", ".jpeg")
@@ -96,37 +94,17 @@ def to_display(image: np.ndarray, method: str = "aces", exposure: float = 0.0) -
     return out
 
 
-def check_output_path(path: Path, protected: list[Path] | tuple[Path, ...] = ()) -> Path:
+def check_output_path(path: Path, protected: list[Path] | tuple[Path, ...] = (), flag: str = "-o") -> Path:
     """Refuse outputs that would overwrite an input, have no supported format, or
-    sit in a folder that does not exist or cannot be written."""
+    sit in a folder that does not exist or cannot be written (clshade.outputs)."""
     path = Path(path)
-    resolved = path.resolve()
     # Inputs first: `-o scene.toml` must say why it is refused, not only that .toml is no image format.
-    for p in protected:
-        if p is not None and Path(p).resolve() == resolved:
-            raise ClshadeError(f"{path}: refusing to overwrite an input of the scene ({p})")
+    refuse_inputs(path, flag, protected)
     suffix = path.suffix.lower()
     if suffix not in LINEAR_SUFFIXES + DISPLAY_SUFFIXES:
-        raise ClshadeError(f"{path}: unsupported output format {suffix or '(none)'}; "
+        raise ClshadeError(f"{flag} {path}: unsupported output format {suffix or '(none)'}; "
                            f"use .exr (linear float), .png or .jpg (sRGB 8-bit)")
-    if resolved.is_dir():
-        raise ClshadeError(f"{path}: is a folder, not a file")
-    folder = resolved.parent
-    if not folder.is_dir():
-        raise ClshadeError(f"{path}: output folder {folder} does not exist")
-    if not folder_writable(folder):
-        raise ClshadeError(f"{path}: output folder {folder} is not writable")
-    return path
-
-
-def _file_mode(path: Path) -> int:
-    """The mode a new file gets from open(): 0666 less the umask; an overwritten file keeps its own."""
-    try:
-        return path.stat().st_mode & 0o7777
-    except FileNotFoundError:
-        umask = os.umask(0)
-        os.umask(umask)
-        return 0o666 & ~umask
+    return check_output_file(path, flag)
 
 
 def write_image(path: str | Path, image: np.ndarray, method: str = "aces", exposure: float = 0.0,
@@ -151,9 +129,8 @@ def write_encoded(path: str | Path, pixels: np.ndarray, protected: list[Path] | 
     pixels = np.ascontiguousarray(pixels)
     fmt = "float" if linear else "uint8"
     height, width, channels = pixels.shape
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.resolve().parent)
-    os.close(fd)
-    try:
+
+    def encode(tmp: Path) -> None:
         spec = oiio.ImageSpec(width, height, channels, fmt)
         if linear:
             spec.channelnames = ("R", "G", "B", "A")[:channels]
@@ -166,20 +143,16 @@ def write_encoded(path: str | Path, pixels: np.ndarray, protected: list[Path] | 
             spec.attribute("png:filter", PNG_FILTER_NONE)
         else:
             spec.attribute("oiio:ColorSpace", "sRGB")
-        out = oiio.ImageOutput.create(tmp)
+        out = oiio.ImageOutput.create(str(tmp))
         if out is None:
-            raise ClshadeError(f"{path}: OpenImageIO cannot write this format ({oiio.geterror()})")
-        ok = out.open(tmp, spec) and out.write_image(pixels)
+            raise ClshadeError(f"{path}: OpenImageIO cannot write this format ({one_line(oiio.geterror())})")
+        ok = out.open(str(tmp), spec) and out.write_image(pixels)
         error = out.geterror() if not ok else ""
         out.close()
         if not ok:
-            raise ClshadeError(f"{path}: writing failed ({error})")
-        os.chmod(tmp, _file_mode(path))     # mkstemp creates 0600
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-    return path
+            raise ClshadeError(f"{path}: writing failed ({one_line(error)})")
+
+    return write_atomic(path, encode)
 
 
 def read_image(path: str | Path) -> np.ndarray:
@@ -187,5 +160,5 @@ def read_image(path: str | Path) -> np.ndarray:
     import OpenImageIO as oiio
     buf = oiio.ImageBuf(str(path))
     if buf.has_error:
-        raise ClshadeError(f"{path}: cannot read image ({buf.geterror()})")
+        raise ClshadeError(f"{path}: cannot read image ({one_line(buf.geterror())})")
     return buf.get_pixels(oiio.FLOAT)

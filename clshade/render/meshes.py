@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -276,6 +277,10 @@ def load_parts(path: Path, scene_file: Path | None = None, key: str = "mesh") ->
         if n is not None:
             n = n @ np.linalg.inv(m[:3, :3])
         f = np.asarray(g.faces, np.int64)
+        if f.size and (f.min() < 0 or f.max() >= len(v)):
+            bad = int(f.min()) if f.min() < 0 else int(f.max())
+            raise located(f"face index {bad} is out of range: {gname!r} has {len(v)} vertices (0 to {len(v) - 1})",
+                          scene_file, key, str(path), has_value=True)
         if np.linalg.det(m[:3, :3]) < 0:
             f = f[:, ::-1]
         uv = getattr(g.visual, "uv", None)
@@ -311,10 +316,30 @@ def _load_trimesh(path: Path, scene_file: Path | None, key: str, force: str | No
     if path.suffix.lower() not in MESH_SUFFIXES:
         raise located(f"unsupported mesh format {path.suffix or '(none)'}; use one of {', '.join(MESH_SUFFIXES)}",
                       scene_file, key, str(path), has_value=True)
+    if path.suffix.lower() == ".obj":
+        _check_obj_indices(path, scene_file, key)
     try:
         return trimesh.load(path, process=False, force=force)
     except Exception as exc:  # trimesh raises many kinds
         raise located(f"cannot load mesh ({type(exc).__name__}: {exc})", scene_file, key, str(path), has_value=True) from exc
+
+
+#: An OBJ face corner whose vertex, texture or normal index is 0 (OBJ counts from 1, negative
+#: from the end; 0 names nothing): a `0` after "f " or after a space or slash on an f line.
+_OBJ_ZERO_INDEX = re.compile(rb"^[ \t]*f[ \t](?:[^\n]*[ \t/])?-?0+(?=[/ \t\r\n]|$)", re.M)
+
+
+def _check_obj_indices(path: Path, scene_file: Path | None, key: str) -> None:
+    """Refuse an OBJ face with index 0 (trimesh would read it as the last vertex)."""
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise located(f"cannot read mesh ({exc.strerror or exc})", scene_file, key, str(path), has_value=True) from None
+    match = _OBJ_ZERO_INDEX.search(data)
+    if match:
+        line = data.count(b"\n", 0, match.start()) + 1
+        raise located(f"line {line}: face index 0 (OBJ indices start at 1)", scene_file, key, str(path),
+                      has_value=True)
 
 
 def _gltf_texture_set(material, name: str, with_images: bool = True) -> TextureSet:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import difflib
 import math
+import os
 import tomllib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -15,10 +16,12 @@ from typing import Any
 
 import numpy as np
 
+from clshade import budget
+from clshade.budget import MAX_COORDINATE, MAX_LIGHTS
 from clshade.errors import ClshadeError, located
 from clshade.models import resolve
 from clshade.resources import scenes_dir
-from clshade.render.transforms import look_at, perspective
+from clshade.render.transforms import look_at, perspective, unit
 
 TONEMAPS = ("none", "reinhard", "aces")
 PRIMITIVES = ("sphere", "box", "cylinder", "cone", "plane", "torus", "capsule")
@@ -295,6 +298,23 @@ class _Reader:
             raise self.error(key, "must not be the zero vector")
         return tuple(float(x) for x in value)
 
+    def direction(self, key: str, default: Any = None, required: bool = False) -> np.ndarray | None:
+        """A non-zero vector as a unit vector (transforms.unit: exact for lengths from subnormal
+        to 1e308, where dividing by the Euclidean norm over- or underflows)."""
+        value = self.vector(key, default, required=required, nonzero=True)
+        return None if value is None else unit(value)
+
+    def input_file(self, key: str, what: str) -> Path | None:
+        """A file named relative to the scene file; it must be a regular file (budget.regular_file)."""
+        value = self.string(key)
+        if value is None:
+            return None
+        path = Path(value) if Path(value).is_absolute() else (Path(self.file).parent / value).resolve()
+        try:
+            return budget.regular_file(path, what)
+        except ClshadeError as exc:
+            raise self.error(key, str(exc).removeprefix(f"{path}: ")) from None
+
     def string(self, key: str, default: str | None = None, choices: tuple[str, ...] | None = None,
                required: bool = False) -> str | None:
         value = self.raw(key)
@@ -365,14 +385,8 @@ def _material(file: Path | str, table: Any, name: str, where: str) -> Material:
 
 
 def _texture_path(file: Path | str, r: "_Reader", key: str) -> Path | None:
-    """A texture file named relative to the scene file; it must exist."""
-    value = r.string(key)
-    if value is None:
-        return None
-    path = Path(value) if Path(value).is_absolute() else (Path(file).parent / value).resolve()
-    if not path.is_file():
-        raise r.error(key, "texture file not found")
-    return path
+    """A texture file named relative to the scene file; it must be a regular file."""
+    return r.input_file(key, "texture file")
 
 
 def _light(file: Path | str, table: Any, where: str, shadows_default: bool = False) -> Light:
@@ -385,19 +399,18 @@ def _light(file: Path | str, table: Any, where: str, shadows_default: bool = Fal
         raise located(f"point lights cannot cast shadows (cube shadow maps are not supported); {hint}",
                       file, f"{where}.shadows", shadows, has_value=True)
     if kind == "directional":
-        d = np.array(r.vector("direction", required=True, nonzero=True))
         light = Light(kind, np.array(r.vector("irradiance", (1.0, 1.0, 1.0), 0.0, 1e30, allow_scalar=True)),
-                      direction=d / np.linalg.norm(d))
+                      direction=r.direction("direction", required=True))
     else:
-        pos = np.array(r.vector("position", required=True))
+        pos = np.array(r.vector("position", required=True, low=-MAX_COORDINATE, high=MAX_COORDINATE))
         color = np.array(r.vector("intensity", (1.0, 1.0, 1.0), 0.0, 1e30, allow_scalar=True))
         if kind == "point":
             light = Light(kind, color, position=pos)
         else:
-            d = np.array(r.vector("direction", required=True, nonzero=True))
+            d = r.direction("direction", required=True)
             outer = r.number("outer_angle", 30.0, 0.0, 90.0)
             inner = r.number("inner_angle", 0.8 * outer, 0.0, outer)
-            light = Light(kind, color, direction=d / np.linalg.norm(d), position=pos,
+            light = Light(kind, color, direction=d, position=pos,
                           inner_angle=inner, outer_angle=outer)
     r.finish()
     return replace(light, shadows=shadows)
@@ -419,11 +432,7 @@ def _object(file: Path, table: Any, where: str, materials: dict[str, Material]) 
                 params[key] = r.vector(key, (default,) * 3, low, high, allow_scalar=True)
             else:
                 params[key] = r.number(key, default, low, high)
-    mesh_path = None
-    if mesh is not None:
-        mesh_path = (Path(file).parent / mesh).resolve() if not Path(mesh).is_absolute() else Path(mesh)
-        if not mesh_path.is_file():
-            raise located("mesh file not found", file, f"{where}.mesh", mesh, has_value=True)
+    mesh_path = r.input_file("mesh", "mesh file") if mesh is not None else None
     mat = r.raw("material", None)
     if mat is None:
         raise located("is required", file, f"{where}.material")
@@ -438,7 +447,7 @@ def _object(file: Path, table: Any, where: str, materials: dict[str, Material]) 
         materials[mat_name] = _material(file, mat, mat_name, f"{where}.material")
     obj = SceneObject(
         name=name, material=mat_name, mesh=mesh_path, primitive=primitive, params=params,
-        translate=r.vector("translate", (0.0, 0.0, 0.0)),
+        translate=r.vector("translate", (0.0, 0.0, 0.0), -MAX_COORDINATE, MAX_COORDINATE),
         rotate=r.vector("rotate", (0.0, 0.0, 0.0), -360.0, 360.0),
         scale=r.vector("scale", (1.0, 1.0, 1.0), 1e-9, 1e9, allow_scalar=True),
         mesh_material=r.boolean("mesh_material", False),
@@ -472,9 +481,9 @@ def parse_scene(text: str, file: Path | str = "<scene>") -> Scene:
     top = _Reader(file, data, "")
     cam = _Reader(file, top.raw("camera", None) or _missing(file, "camera"), "camera")
     camera = Camera(
-        position=np.array(cam.vector("position", required=True)),
-        target=np.array(cam.vector("target", (0.0, 0.0, 0.0))),
-        up=np.array(cam.vector("up", (0.0, 1.0, 0.0), nonzero=True)),
+        position=np.array(cam.vector("position", required=True, low=-MAX_COORDINATE, high=MAX_COORDINATE)),
+        target=np.array(cam.vector("target", (0.0, 0.0, 0.0), -MAX_COORDINATE, MAX_COORDINATE)),
+        up=cam.direction("up", (0.0, 1.0, 0.0)),
         fov=cam.number("fov", 45.0, 1e-3, 179.0),
         width=cam.integer("width", 640, 1, MAX_RESOLUTION),
         height=cam.integer("height", 480, 1, MAX_RESOLUTION),
@@ -512,7 +521,15 @@ def parse_scene(text: str, file: Path | str = "<scene>") -> Scene:
     lights_raw = top.raw("lights", [])
     if not isinstance(lights_raw, list):
         raise located("must be an array of tables ([[lights]])", file, "lights")
+    if len(lights_raw) > MAX_LIGHTS:
+        raise located(f"{len(lights_raw)} lights exceed the limit of {MAX_LIGHTS}", file, "lights")
     lights = tuple(_light(file, t, f"lights[{i}]", shadows) for i, t in enumerate(lights_raw))
+    casting = sum(light.shadows for light in lights)
+    if casting:
+        try:
+            budget.shadow_texels(casting, shadow_map_size)
+        except ClshadeError as exc:
+            raise rnd.error("shadow_map_size", str(exc)) from None
 
     mats_raw = top.raw("materials", {})
     mats_reader = _Reader(file, mats_raw, "materials")
@@ -536,14 +553,11 @@ def _missing(file: Path, key: str) -> None:
 
 
 def load_scene(path: str | Path) -> Scene:
-    """Read and validate a scene file."""
+    """Read and validate a scene file (a regular file of at most budget.MAX_SCENE_FILE_BYTES)."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError as exc:
+    if not os.path.lexists(path):
         bundled = scenes_dir() / path.name
-        hint = f" (the bundled scene of that name is {bundled})" if bundled.is_file() else ""
-        raise ClshadeError(f"{path}: scene file not found{hint}") from exc
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ClshadeError(f"{path}: cannot read scene file ({exc})") from exc
+        hint = f" (the bundled scene of that name is {bundled})" if os.path.isfile(bundled) else ""
+        raise ClshadeError(f"{path}: scene file not found{hint}")
+    text = budget.read_text(path, "scene file", budget.MAX_SCENE_FILE_BYTES)
     return parse_scene(text, path.resolve())

@@ -27,7 +27,9 @@ from pathlib import Path
 
 import numpy as np
 
-from clshade.errors import located
+from clshade import budget
+from clshade.diagnostics import stderr_captured
+from clshade.errors import ClshadeError, located, one_line
 from clshade.render.image import srgb_decode
 
 # A texture set whose tangent frame has |T|² below this keeps the interpolated
@@ -118,25 +120,58 @@ def _to_rgb(pixels: np.ndarray) -> np.ndarray:
 
 
 def load_texture_file(path: Path, srgb: bool, scene_file: Path | str | None, key: str) -> Texture:
-    """Read an image file with OpenImageIO (PNG, JPEG, EXR, TIFF, ...) as a Texture."""
-    import OpenImageIO as oiio
-    buf = oiio.ImageBuf(str(path))
-    pixels = buf.get_pixels(oiio.FLOAT) if not buf.has_error else None
-    if pixels is None or buf.has_error or pixels.size == 0:
-        raise located(f"cannot read texture ({buf.geterror() or 'no pixels'})", scene_file, key, str(path),
-                      has_value=True)
-    rgb = _to_rgb(np.asarray(pixels, np.float32))
+    """Read an image file with OpenImageIO (PNG, JPEG, EXR, TIFF, ...) as a Texture: its size
+    from the header first (budget.texture_pixels), then the pixels. What the image libraries
+    print (libpng's "libpng error: ...") goes to clshade.diagnostics, not to stderr."""
+    def refuse(message: str) -> ClshadeError:
+        return located(message, scene_file, key, str(path), has_value=True)
+
+    try:
+        budget.regular_file(path, "texture file")
+    except ClshadeError as exc:
+        raise refuse(str(exc).removeprefix(f"{path}: ")) from None
+    with stderr_captured(f"OpenImageIO reading {path.name}"):
+        pixels, is_float = _read_pixels(path, refuse)
+    rgb = _to_rgb(pixels)
     if not np.isfinite(rgb).all():
-        raise located("texture has non-finite pixels", scene_file, key, str(path), has_value=True)
-    is_float = buf.spec().format.basetype in (oiio.FLOAT, oiio.HALF, oiio.DOUBLE)
+        raise refuse("texture has non-finite pixels")
     if srgb and not is_float:
         rgb = srgb_decode(rgb)
     return Texture.from_pixels(rgb, path.name)
 
 
+def _read_pixels(path: Path, refuse) -> tuple[np.ndarray, bool]:
+    """(float32 (h, w, c) pixels of the first sub-image, whether the file stores floats); the
+    header's size is checked against the budget before any pixel is decoded."""
+    import OpenImageIO as oiio
+    image = oiio.ImageInput.open(str(path))
+    if image is None:
+        raise refuse(f"cannot read texture ({one_line(oiio.geterror()) or 'unknown format'})")
+    try:
+        spec = image.spec()
+        width, height, channels = spec.width, spec.height, spec.nchannels
+        if width <= 0 or height <= 0 or channels <= 0:
+            raise refuse(f"cannot read texture (no pixels: {width}x{height}, {channels} channels)")
+        try:
+            budget.texture_pixels(width, height, channels)
+        except ClshadeError as exc:
+            raise refuse(str(exc)) from None
+        pixels = image.read_image(0, 0, 0, channels, oiio.FLOAT)
+        if pixels is None:
+            raise refuse(f"cannot read texture ({one_line(image.geterror()) or 'no pixels'})")
+        is_float = spec.format.basetype in (oiio.FLOAT, oiio.HALF, oiio.DOUBLE)
+    finally:
+        image.close()
+    return np.asarray(pixels, np.float32).reshape(height, width, channels), is_float
+
+
 def texture_from_image(image, srgb: bool, name: str = "") -> Texture:
     """A PIL image (as trimesh loads glTF textures) → Texture. 8-bit values decode through a
     256-entry table of the same codec (srgb_decode of k/255): equal values, no per-pixel pow."""
+    try:
+        budget.texture_pixels(*image.size, len(image.getbands()))
+    except ClshadeError as exc:
+        raise ClshadeError(f"{name}: {exc}") from None
     codes = _to_rgb(np.asarray(image.convert("RGB") if image.mode not in ("RGB", "L") else image, np.uint8))
     levels = np.arange(256, dtype=np.float32) / np.float32(255.0)
     table = srgb_decode(levels) if srgb else levels

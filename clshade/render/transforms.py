@@ -8,12 +8,26 @@ import math
 import numpy as np
 
 
+def unit(v) -> np.ndarray | None:
+    """`v` scaled to length 1, or None when it has none (zero or non-finite components).
+    Divided by its largest component first, so that squaring cannot overflow (1e200) or
+    underflow (1e-300, subnormal 1e-320): the direction of any finite non-zero vector survives."""
+    v = np.asarray(v, np.float64)
+    largest = float(np.max(np.abs(v))) if v.size else 0.0
+    if not (np.isfinite(largest) and largest > 0.0):
+        return None
+    w = v / largest
+    return w / math.sqrt(float(np.dot(w, w)))
+
+
 def look_along(eye, forward, up=(0.0, 1.0, 0.0)) -> np.ndarray:
     """World → view for a camera at `eye` looking along `forward`. When `up` is
     (nearly) parallel to `forward`, +X serves as the up hint instead."""
     eye, f, up = (np.asarray(a, dtype=np.float64) for a in (eye, forward, up))
-    f = f / np.linalg.norm(f)
-    if abs(np.dot(f, up / np.linalg.norm(up))) > 0.99:
+    f, up_dir = unit(f), unit(up)
+    if f is None or up_dir is None:
+        raise ValueError(f"look_along: forward {forward!r} and up {up!r} need a finite non-zero length")
+    if abs(np.dot(f, up_dir)) > 0.99:
         up = np.array([1.0, 0.0, 0.0])
     right = np.cross(f, up)
     right /= np.linalg.norm(right)
