@@ -595,6 +595,8 @@ def cmd_stability(args: argparse.Namespace) -> int:
     from clshade.verify import stability
     models = None
     if args.model is not None:
+        if not args.model.replace(",", "").strip():
+            raise ClshadeError(f"--model = {args.model!r}: no model given; `clshade models` lists them")
         models = []
         for m in resolve_many(args.model):
             models += [m.with_options(fresnel=f) for f in FRESNELS] if m.uses_fresnel else [m]

@@ -36,15 +36,15 @@ def check_output_file(path: str | Path, flag: str, suffixes: tuple[str, ...] | N
 
 def _check_writable(path: Path, flag: str) -> Path:
     resolved = path.resolve()
-    if resolved.is_dir():
-        raise ClshadeError(f"{flag} {path}: is a folder, not a file")
     folder = resolved.parent
-    if not folder.is_dir():
-        raise ClshadeError(f"{flag} {path}: output folder {folder} does not exist")
     name_max = _name_max(folder)
     if len(os.fsencode(resolved.name)) > name_max:
         raise ClshadeError(f"{flag} {path}: file name is {len(os.fsencode(resolved.name))} bytes long, "
                            f"the limit of this file system is {name_max}")
+    if resolved.is_dir():
+        raise ClshadeError(f"{flag} {path}: is a folder, not a file")
+    if not folder.is_dir():
+        raise ClshadeError(f"{flag} {path}: output folder {folder} does not exist")
     if os.path.lexists(resolved) and not stat.S_ISREG(os.stat(resolved).st_mode):
         raise ClshadeError(f"{flag} {path}: exists and is not a regular file (a device, FIFO or socket)")
     if not folder_writable(folder) or (resolved.exists() and not os.access(resolved, os.W_OK)):
@@ -53,7 +53,8 @@ def _check_writable(path: Path, flag: str) -> Path:
 
 
 def _name_max(folder: Path) -> int:
-    """The longest file name (bytes) the file system of `folder` takes (255 when unknown)."""
+    """The longest file name (bytes) the file system of `folder` takes (255 when unknown or
+    when the folder does not exist)."""
     try:
         return int(os.pathconf(folder, "PC_NAME_MAX"))
     except (OSError, ValueError, AttributeError):
