@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from clshade import budget
 from clshade.cachedir import read_entry, user_cache_dir, write_entry
 from clshade.errors import ClshadeError, located
 from clshade.render import primitives
@@ -319,9 +320,30 @@ def _load_trimesh(path: Path, scene_file: Path | None, key: str, force: str | No
     if path.suffix.lower() == ".obj":
         _check_obj_indices(path, scene_file, key)
     try:
-        return trimesh.load(path, process=False, force=force)
+        return trimesh.load(path, process=False, force=force, resolver=_regular_files_resolver(path))
     except Exception as exc:  # trimesh raises many kinds
         raise located(f"cannot load mesh ({type(exc).__name__}: {exc})", scene_file, key, str(path), has_value=True) from exc
+
+
+def _regular_files_resolver(path: Path):
+    """trimesh's resolver of the files a mesh names (OBJ mtllib and textures, glTF buffers and
+    images) in the mesh's folder, refusing any that is not a regular file (a FIFO named as a
+    material library would block the read for ever, a device would never end)."""
+    from trimesh.resolvers import FilePathResolver
+
+    class RegularFiles(FilePathResolver):
+        def get(self, name: str):
+            for candidate in (name.strip(), name.strip().lstrip("/"), os.path.split(name)[-1]):
+                try:
+                    found = self.absolute(candidate)
+                except ValueError:
+                    continue
+                if found.exists():
+                    budget.regular_file(found, f"file {name!r} named by the mesh")
+                    break
+            return super().get(name)
+
+    return RegularFiles(path)
 
 
 #: An OBJ face corner whose vertex, texture or normal index is 0 (OBJ counts from 1, negative
