@@ -2,12 +2,16 @@
 the file, key and value, exit status 2; nothing written over an input; no size from input
 allocated before the budget (clshade/budget.py) allowed it; stderr silent on success.
 
+Modules under test: clshade.budget, clshade.outputs, clshade.diagnostics, clshade.render.scene,
+clshade.render.meshes, clshade.render.textures, clshade.render.transforms, clshade.models, clshade.cli.
+
 Frames are tiny (24×16) and the CLI runs in-process, except where what is checked is the
 process's own stderr (C libraries, interpreter exit) or an unbounded read (run in a child
 process under a timeout)."""
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -216,6 +220,7 @@ def test_7_bench_lights_are_bounded(tmp_path, capsys):
 
 @pytest.mark.parametrize("name, content, index", [
     ("big.ply", ply_triangle((0, 1, 500)), "500"),
+    ("edge.ply", ply_triangle((0, 1, 3)), "3"),           # one past the last vertex
     ("negative.ply", ply_triangle((0, 1, -1)), "-1"),
     ("accessor.gltf", gltf_triangle((0, 1, 500)), "500"),
 ])
@@ -402,3 +407,17 @@ def test_19_obj_indices_that_contain_zero_digits_are_accepted(tmp_path, capsys):
     write(tmp_path / "ten.obj", text)
     image = render_image(capsys, mesh_scene(tmp_path, "ten.obj"), tmp_path / "ten.exr")
     assert np.isfinite(image).all()
+
+
+def test_readme_states_the_budget_as_it_is(checkout):
+    """README's Resource limits section names each ceiling with the value budget.py holds."""
+    text = (checkout / "README.md").read_text(encoding="utf-8")
+    section = text[text.index("## Resource limits"):text.index("## What it measures")]
+    for name, shown in (("MAX_SCENE_FILE_BYTES", f"{budget.MAX_SCENE_FILE_BYTES >> 20} MiB"),
+                        ("MAX_TEXTURE_PIXELS", "4096 × 4096"), ("MAX_SHADOW_TEXELS", "8192²"),
+                        ("MAX_LIGHTS", str(budget.MAX_LIGHTS)), ("MAX_FRAMES", f"{budget.MAX_FRAMES:,}".replace(",", " ")),
+                        ("MAX_SWEEP_COLUMNS", str(budget.MAX_SWEEP_COLUMNS)), ("MAX_SHEET_PIXELS", "8192²"),
+                        ("MAX_COORDINATE", f"±{budget.MAX_COORDINATE:.0e}".replace("e+", "e"))):
+        assert re.search(rf"{re.escape(shown)}[^|\n]*`{name}`", section), (name, shown)
+    assert budget.MAX_TEXTURE_PIXELS == 4096 * 4096 and budget.MAX_SHADOW_TEXELS == 8192 ** 2
+    assert budget.MAX_SHEET_PIXELS == 8192 ** 2
