@@ -146,7 +146,7 @@ def test_no_opencl_platform(tmp_path, capsys, monkeypatch):
     assert_no_output(tmp_path, before)
 
 
-def test_kernel_build_failure_names_file_and_log(tmp_path, capsys, monkeypatch):
+def test_kernel_build_failure_is_one_line_and_the_log_under_debug(tmp_path, capsys, monkeypatch):
     import shutil
 
     from clshade.device import variants
@@ -160,9 +160,13 @@ def test_kernel_build_failure_names_file_and_log(tmp_path, capsys, monkeypatch):
     before = set(os.listdir(tmp_path))
     code, _, err = run_cli(capsys, ["render", str(scene), "-o", str(tmp_path / "o.png"), *SIZE])
     assert code == 2 and err.startswith("clshade: error: kernel build failed") and "Traceback" not in err
-    assert "surface.h" in err.splitlines()[0]
-    assert "surface.h:" in err and "error" in err.lower()      # the build log, located by #line
+    assert err.count("\n") == 1, err            # issue 29, item 13: one line, the log's first error in it
+    assert "surface.h:" in err and "error" in err.lower() and "clshade --debug" in err   # located by #line
     assert_no_output(tmp_path, before)
+    with pytest.raises(ClshadeError):            # --debug: the whole log after the traceback's error
+        cli.main(["--debug", "render", str(scene), "-o", str(tmp_path / "o.png"), *SIZE])
+    debug = capsys.readouterr().err
+    assert "clshade: debug: detail of the error:" in debug and debug.count("\n") > 2
 
 
 @pytest.mark.parametrize("output, needle", [

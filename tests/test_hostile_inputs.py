@@ -310,23 +310,8 @@ def test_12_the_reported_target_is_refused_in_one_line(tmp_path, capsys):
             "camera.target = [0, 1e+308, 0]", f"[-{budget.MAX_COORDINATE:g}, {budget.MAX_COORDINATE:g}]")
 
 
-def test_13_build_failure_prints_one_line_and_the_log_under_debug(tmp_path, capsys, monkeypatch):
-    import shutil
-
-    from clshade.device import variants
-    from clshade.resources import kernels_dir
-    broken = tmp_path / "kernels"
-    shutil.copytree(kernels_dir(), broken)
-    text = (broken / "surface.h").read_text()
-    (broken / "surface.h").write_text(text.replace("return g;", "return g  /* missing ; */ oops", 1))
-    monkeypatch.setattr(variants, "kernels_dir", lambda: broken)
-    scene = scene_file(tmp_path)
-    err = refused(capsys, ["render", str(scene), "-o", str(tmp_path / "o.png")], "kernel build failed",
-                  "surface.h", "error", "clshade --debug")
-    with pytest.raises(cli.ClshadeError):
-        cli.main(["--debug", "render", str(scene), "-o", str(tmp_path / "o.png")])
-    debug = capsys.readouterr().err
-    assert "clshade: debug: detail of the error:" in debug and debug.count("\n") > err.count("\n")
+# Item 13 (a failed kernel build prints its whole log): test_bad_input.py
+# test_kernel_build_failure_is_one_line_and_the_log_under_debug.
 
 
 # ---------------------------------------------------------------- silently wrong (14–19)
