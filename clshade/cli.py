@@ -629,7 +629,7 @@ def run() -> int:
       which the collector would otherwise traverse again and again.
     - Then `gc.freeze()`: the survivors go to the permanent generation, which later
       collections skip; collection is on again for the command itself.
-    - `gc.freeze()` once more when the command returns: interpreter shutdown then does not
+    - `gc.freeze()` once more when the command succeeds: interpreter shutdown then does not
       traverse every object in its final full collections. Shutdown is otherwise
       complete: atexit handlers run, streams are flushed, objects are released by reference
       count; only objects in reference cycles are left to the operating system.

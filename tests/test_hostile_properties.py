@@ -1,7 +1,7 @@
 """The hostile-input promise as properties (Hypothesis): for generated scene values, mesh files,
 texture files and command-line flags, `clshade` either
 
-  - exits 0, writes a finite image and prints nothing on stderr, or
+  - exits 0, writes a finite image and prints nothing on stderr but clshade's own warnings, or
   - exits 2 with exactly one line on stderr (`clshade: error: ...`),
 
 within a bounded time and memory, and never changes the scene or the files it reads.
@@ -170,8 +170,8 @@ def check_promise(args: list[str], inputs: list[Path], image: Path | None, kind:
     code, err, seconds = run_clshade(args)
     EXAMPLES[kind, code] += 1
     assert code in (0, 2), (code, args, err)
-    if code == 0:
-        assert err == "", (args, err)
+    if code == 0:      # nothing but clshade's own warnings (a scene without lights, NaN normals)
+        assert all(line.startswith("clshade: warning: ") for line in err.splitlines()), (args, err)
         if image is not None:
             from clshade.render.image import read_image
             pixels = read_image(image)
