@@ -406,3 +406,17 @@ def test_readme_states_the_budget_as_it_is(checkout):
         assert re.search(rf"{re.escape(shown)}[^|\n]*`{name}`", section), (name, shown)
     assert budget.MAX_TEXTURE_PIXELS == 4096 * 4096 and budget.MAX_SHADOW_TEXELS == 8192 ** 2
     assert budget.MAX_SHEET_PIXELS == 8192 ** 2
+
+
+def test_4_gltf_images_are_checked_before_decoding():
+    """glTF textures arrive as PIL images, opened lazily: their size is checked before conversion."""
+    import io
+
+    from PIL import Image
+
+    from clshade.render.textures import texture_from_image
+    image = Image.open(io.BytesIO(png_header(8192, 8192, padding=1 << 16)))    # header read, nothing decoded
+    with pytest.raises(cli.ClshadeError, match=r"robot\.baseColorTexture: 8192x8192 texture exceeds the limit"):
+        texture_from_image(image, True, "robot.baseColorTexture")
+    small = Image.new("RGB", (4, 2), (255, 0, 0))
+    assert texture_from_image(small, True, "small").size == (4, 2)
