@@ -353,8 +353,8 @@ CATALOGUE: list[Mutant] = [
     # ---- hostile inputs (issue 29): the budget, the output checks, the one-line stderr
     M("texture_budget_after_decode", "clshade/render/textures.py", "            budget.texture_pixels(width, height, channels)",
       "            budget.texture_pixels(1, 1, channels)", "a texture's header size is not checked before decoding"),
-    M("shadow_budget_64x", "clshade/budget.py", "    if texels > MAX_SHADOW_TEXELS:",
-      "    if texels > 64 * MAX_SHADOW_TEXELS:", "the shadow maps' total allowed 64× its ceiling"),
+    M("shadow_budget_2x", "clshade/budget.py", "    if texels > MAX_SHADOW_TEXELS:",
+      "    if texels > 2 * MAX_SHADOW_TEXELS:", "the shadow maps' total allowed twice its ceiling"),
     M("scene_lights_unbounded", "clshade/render/scene.py", "    if len(lights_raw) > MAX_LIGHTS:",
       "    if len(lights_raw) > MAX_LIGHTS + 1:", "a scene with one light over the ceiling accepted"),
     M("sweep_columns_unbounded", "clshade/cli.py", "    if len(values) > budget.MAX_SWEEP_COLUMNS:",

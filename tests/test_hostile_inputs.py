@@ -196,6 +196,19 @@ def test_5_shadow_map_total_is_bounded(tmp_path, capsys, kind):
     assert len(parse_scene(text.replace("shadow_map_size = 8192", "shadow_map_size = 1024")).shadow_lights) == 64
 
 
+def test_5_shadow_budget_boundary(monkeypatch):
+    """Exactly the ceiling fits, one map more does not, whatever the memory (decided before allocation)."""
+    monkeypatch.setattr(budget, "available_memory", lambda: 1 << 40)
+    assert budget.shadow_texels(1, 8192) == 8192 * 8192 * budget.SHADOW_BYTES_PER_TEXEL
+    assert budget.shadow_texels(64, 1024) == budget.shadow_texels(1, 8192)
+    for count, size in ((2, 8192), (65, 1024), (1025, 256)):
+        with pytest.raises(cli.ClshadeError, match=f"{count} shadow maps of {size}x{size}"):
+            budget.shadow_texels(count, size)
+    monkeypatch.setattr(budget, "available_memory", lambda: 64 << 20)
+    with pytest.raises(cli.ClshadeError, match=r"32 shadow maps of 1024x1024 needs about 0.1\d GiB"):
+        budget.shadow_texels(32, 1024)
+
+
 def test_6_sweep_columns_are_bounded(tmp_path, capsys):
     values = ",".join(f"{i / 4999:.4f}" for i in range(5000))
     refused(capsys, ["sweep", str(scene_file(tmp_path)), "-o", str(tmp_path / "s.png"), "--roughness", values],
