@@ -282,11 +282,17 @@ COORD = st.one_of(st.floats(-2.0, 2.0), st.sampled_from(["nan", "inf", "-inf", "
 def mesh_files(draw) -> tuple[str, str | bytes]:
     """(suffix, content) of an OBJ, PLY or glTF with generated vertices and face indices, or garbage."""
     kind = draw(st.sampled_from(["obj", "ply", "gltf", "garbage"]))
-    plain = draw(st.booleans())       # half the meshes well-formed: the accepted path is checked too
+    # "plain": well-formed (the accepted path is checked too); "edge": one face corner just past
+    # either end of the vertex list; "wild": any coordinates and indices.
+    defect = draw(st.sampled_from(["plain", "edge", "wild"]))
+    plain = defect != "wild"
     vertices = draw(st.lists(st.tuples(*(st.floats(-2.0, 2.0) if plain else COORD,) * 3), min_size=3 if plain else 0,
                              max_size=5))
     index = st.integers(1 if kind == "obj" else 0, len(vertices) - (kind != "obj")) if plain else INDEX
     faces = draw(st.lists(st.tuples(index, index, index), min_size=1 if plain else 0, max_size=4))
+    if defect == "edge":
+        edge = draw(st.sampled_from([0, len(vertices) + 1] if kind == "obj" else [-1, len(vertices)]))
+        faces[-1] = (faces[-1][0], faces[-1][1], edge)
     if kind == "obj":
         extra = draw(st.sampled_from(["", "vt 0 0\n", "vn 0 0 1\n", "f\n", "f 1\n", "f 1/2/3 x y\n", "o\n", "g \x00\n"]))
         text = "".join(f"v {x} {y} {z}\n" for x, y, z in vertices) + extra + \
@@ -298,7 +304,9 @@ def mesh_files(draw) -> tuple[str, str | bytes]:
         return ".ply", header + "".join(f"{x} {y} {z}\n" for x, y, z in vertices) + \
             "".join(f"3 {a} {b} {c}\n" for a, b, c in faces)
     if kind == "gltf":
-        a, b, c = draw(st.tuples(*(st.integers(0, 2) if plain else st.integers(0, 65535),) * 3))
+        a, b, c = draw(st.tuples(*(st.integers(0, 2) if defect == "plain" else st.integers(0, 65535),) * 3))
+        if defect == "edge":
+            c = 3
         return ".gltf", gltf_triangle((a, b, c))
     return draw(st.sampled_from([".obj", ".ply", ".stl", ".glb", ".off"])), draw(st.binary(max_size=200))
 
