@@ -390,6 +390,9 @@ CATALOGUE: list[Mutant] = [
     M("warnings_uncaptured", "clshade/diagnostics.py", '        warnings.simplefilter("always")\n        try:',
       '        warnings.simplefilter("default")\n        caught = []\n        try:',
       "Python warnings dropped instead of kept for --debug"),
+    M("bench_oracle_unchecked", "clshade/bench/run.py",
+      "    for m in models:\n        reference.check_model(m)\n    bench = Bench.prepare(", "    bench = Bench.prepare(",
+      "bench starts a model the float64 oracle cannot evaluate (a ValueError at the end of the run)"),
 ]
 
 

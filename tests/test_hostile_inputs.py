@@ -433,3 +433,20 @@ def test_4_gltf_images_are_checked_before_decoding():
         texture_from_image(image, True, "robot.baseColorTexture")
     small = Image.new("RGB", (4, 2), (255, 0, 0))
     assert texture_from_image(small, True, "small").size == (4, 2)
+
+
+@pytest.mark.parametrize("command", [["bench", "--frames", "1", *SIZE], ["aa", "--frames", "1"],
+                                     ["check", "stability"]])
+def test_models_without_an_oracle_are_refused_before_the_run(tmp_path, capsys, command):
+    """Found by the hostile-long profile: `bench -m phong/metallic` ended in a ValueError from the
+    float64 oracle (empirical lobes have no metallic-workflow formula). Refused in one line before the
+    run by every command that measures error against the oracle; `render` still shades it."""
+    scene = scene_file(tmp_path)
+    if command[0] == "check":
+        args = [*command, "--model", "phong/metallic"]
+    else:
+        args = [command[0], str(scene), "-m", "phong/metallic", *command[1:]]
+        args += ["-o", str(tmp_path / "aa")] if command[0] == "aa" else []
+    refused(capsys, args, "'lambert+phong/metallic'", "float64 oracle has no formula", "needs workflow='kdks'")
+    code, _, err = run_cli(capsys, ["render", str(scene), "-m", "phong/metallic", "-o", str(tmp_path / "p.png")])
+    assert code == 0 and err == ""

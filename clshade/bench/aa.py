@@ -392,6 +392,8 @@ def run(scene_path: str | Path, models: list[Model], *, width: int | None = None
         check_samples: int | None = CHECK_SAMPLES, temporal_frames: int = TEMPORAL_FRAMES,
         device: str | None = None) -> tuple[dict, np.ndarray]:
     """The whole study: ladder, convergence of the truth, temporal table; and the crop sheet."""
+    for m in models:
+        reference.check_model(m)
     scene = load_scene(scene_path)
     scene = dataclasses.replace(scene, camera=scene.camera.with_size(width, height), samples=1, specular_aa=False)
     runtime = get_runtime(device)

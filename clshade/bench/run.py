@@ -389,6 +389,8 @@ def run_bench(scene: Scene | str | Path, models: list[Model], frames: int, warmu
     rounds, and return the JSON document (docs/bench-schema.md)."""
     if frames < 1 or warmup < 0:
         raise ClshadeError(f"--frames = {frames}, --warmup = {warmup}: need frames ≥ 1, warmup ≥ 0")
+    for m in models:
+        reference.check_model(m)
     bench = Bench.prepare(scene, width, height, lights, device)
     cases = [bench.case(m, label=m.label) for m in models]
     rungs = ladder_cases(bench) if ladder else []

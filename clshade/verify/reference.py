@@ -583,6 +583,22 @@ _MICROFACET_FN = {
 # --------------------------------------------------------------------------
 
 
+def check_model(model: Model) -> Model:
+    """`model` when :func:`brdf` has a formula for it; else ClshadeError naming the model, raised
+    before a command that measures error against this oracle (bench, aa, check stability) spends
+    its run on the device. The test is brdf's own validation, on one sample."""
+    from clshade.errors import ClshadeError
+    from clshade.render.scene import GOLD_ETA, GOLD_K
+    n = np.array([[0.0, 0.0, 1.0]])
+    try:
+        brdf(model.diffuse, model.specular, n, n, n, base_color=0.5, roughness=0.5, workflow=model.workflow,
+             fresnel=model.fresnel, eta=GOLD_ETA, k=GOLD_K)
+    except ValueError as exc:
+        raise ClshadeError(f"model {model.id!r}: the float64 oracle has no formula for it ({exc}); "
+                           f"`clshade render` shades it, error measurements cannot") from None
+    return model
+
+
 def brdf(
     diffuse: str,
     specular: str,

@@ -403,7 +403,7 @@ def run(models: list[Model] | None = None, device: str | None = None, runtime: R
     start = time.perf_counter()
     rt = runtime or get_runtime(device)
     grid = geometry_grid()
-    models = models if models is not None else grid_models()
+    models = [R.check_model(m) for m in models] if models is not None else grid_models()
     results, shades, cache = [], [], {}
     total = len(models) * len(fast_math) + (1 if extras else 0)
     for model in models:
