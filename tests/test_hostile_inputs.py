@@ -3,7 +3,8 @@ the file, key and value, exit status 2; nothing written over an input; no size f
 allocated before the budget (clshade/budget.py) allowed it; stderr silent on success.
 
 Modules under test: clshade.budget, clshade.outputs, clshade.diagnostics, clshade.render.scene,
-clshade.render.meshes, clshade.render.textures, clshade.render.transforms, clshade.models, clshade.cli.
+clshade.render.meshes, clshade.render.textures, clshade.render.transforms, clshade.models, clshade.cli,
+and the oracle check of clshade.bench.run, clshade.bench.aa and clshade.verify.stability.
 
 Frames are tiny (24×16) and the CLI runs in-process, except where what is checked is the
 process's own stderr (C libraries, interpreter exit) or an unbounded read (run in a child
