@@ -629,10 +629,11 @@ def run() -> int:
       which the collector would otherwise traverse again and again.
     - Then `gc.freeze()`: the survivors go to the permanent generation, which later
       collections skip; collection is on again for the command itself.
-    - `gc.freeze()` once more when the command succeeds: interpreter shutdown then does not
-      traverse every object in its final full collections. Shutdown is otherwise
-      complete: atexit handlers run, streams are flushed, objects are released by reference
-      count; only objects in reference cycles are left to the operating system.
+    - `gc.freeze()` once more when the command returns (not after a reported error):
+      interpreter shutdown then does not traverse every object in its final full collections.
+      Shutdown is otherwise complete: atexit handlers run, streams are flushed, objects are
+      released by reference count; only objects in reference cycles are left to the operating
+      system.
 
     And the allocator tuned (tune_allocator), NumPy's BLAS single-threaded
     (load_numpy_single_threaded_blas)."""
@@ -642,10 +643,10 @@ def run() -> int:
         status = main(after_parse=_resume_gc)
         return status
     finally:
-        if status == 0:
-            # Not after an error: objects of OpenImageIO's bindings held in a cycle by the
-            # error's traceback would be frozen too, and nanobind reports them at exit
-            # ("leaked 269 instances") on stderr, after clshade's one line.
+        if status != 2:
+            # Not after a reported error (exit status 2): objects of OpenImageIO's bindings
+            # held in a cycle by the error's traceback would be frozen too, and nanobind
+            # reports them at exit ("leaked 269 instances") on stderr, after clshade's one line.
             gc.freeze()
 
 
