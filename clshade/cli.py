@@ -112,6 +112,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_devices)
 
     _add_compare(sub)
+    _add_view(sub)
     _add_bench(sub)
     _add_aa(sub)
     check = sub.add_parser("check", help="measure physical plausibility or numerical stability",
@@ -152,6 +153,26 @@ def _add_compare(sub: argparse._SubParsersAction) -> None:
     _add_aa_options(p)
     p.add_argument("--device")
     p.set_defaults(func=cmd_sweep)
+
+
+def _add_view(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("view", help="explore lighting models live in the browser",
+                       description="Serve a local web page that renders SCENE live: drag to orbit, wheel to zoom, "
+                                   "two models split on one G-buffer, |A - B|, sliders from the models' parameters, "
+                                   "each model's shading time; save writes a scene that `clshade render` reproduces.")
+    p.add_argument("scene", help="scene file (TOML)")
+    p.add_argument("--width", type=int, help="override camera.width")
+    p.add_argument("--height", type=int, help="override camera.height")
+    p.add_argument("-o", "--output-dir", default=".", metavar="DIR",
+                   help="folder where 'save' writes NAME.toml, NAME.png and NAME.exr (default: the current folder)")
+    p.add_argument("--host", default="127.0.0.1",
+                   help="address to listen on (default 127.0.0.1; any other address requires the random token "
+                        "of the printed URL)")
+    p.add_argument("--port", type=int, default=0, help="port (default: a free one)")
+    p.add_argument("--no-browser", action="store_true", help="print the URL, do not open a browser")
+    p.add_argument("--keep-running", action="store_true", help="keep serving after the last page is closed")
+    _add_device(p)
+    p.set_defaults(func=cmd_view)
 
 
 def _add_bench(sub: argparse._SubParsersAction) -> None:
@@ -451,6 +472,30 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         sheet = sweep_sheet(scene, models, values, size=args.size, device=args.device, progress=progress)
     out = write_sheet(args.output, sheet, scene.inputs())
     print(f"wrote {out}")
+    return 0
+
+
+def cmd_view(args: argparse.Namespace) -> int:
+    import asyncio
+    import webbrowser
+    from clshade.view.server import ViewServer
+    from clshade.view.session import ViewSession
+    if not 0 <= args.port <= 65535:
+        raise ClshadeError(f"--port = {args.port}: must be within [0, 65535]")
+    session = ViewSession(args.scene, args.output_dir, _size(args.width, "width"), _size(args.height, "height"),
+                          device=args.device)
+    server = ViewServer(session, args.host, args.port, linger=None if args.keep_running else 3.0)
+
+    def ready(url: str) -> None:
+        print(f"clshade view: serving {url} (Ctrl-C to stop)", flush=True)
+        if not args.no_browser:
+            webbrowser.open(url)
+
+    try:
+        asyncio.run(server.serve(ready))
+    except OSError as exc:
+        raise ClshadeError(f"--host {args.host} --port {args.port}: cannot listen ({exc.strerror or exc})") from exc
+    print("clshade view: stopped", flush=True)
     return 0
 
 

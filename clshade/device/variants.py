@@ -143,7 +143,9 @@ class Variant:
         table = np.asarray(material_table, np.float32).reshape(-1, 4, 4)
         baked = None
         if len(table) and np.all(table[:, mask] == table[0][mask]):
-            baked = tuple(float(x) for x in table[0].ravel())
+            # Only the entries the model reads: a change of another (shininess for GGX) is
+            # the same kernel, not a new build (the live viewer's sliders).
+            baked = tuple(float(x) for x in np.where(mask, table[0], 0.0).ravel())
         elif len(table):
             channels.append("material")
         else:

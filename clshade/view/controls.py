@@ -1,0 +1,230 @@
+"""What the page may ask for, checked on the server before anything is rendered.
+
+The page sends its whole control state as JSON with every change. `parse_message`
+turns the text into a dict (no NaN or Infinity: JSON has neither, Python's reader
+would take them), `parse_controls` checks every value against the limits of the
+scene at hand (`Limits`: its materials, its lights, the lobes' declared parameter
+ranges) and returns a frozen `Controls`, or raises ControlError naming the key,
+the value and the reason, which the page shows. Nothing unchecked reaches the
+renderer.
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from clshade.errors import ClshadeError
+from clshade.models import Model, lobes, resolve
+from clshade.render.scene import EXPOSURE_RANGE, MAX_SAMPLES, TONEMAPS, Material, Scene
+
+#: Longest message the server reads (a control state is well under 4 KiB).
+MAX_MESSAGE_BYTES = 64 * 1024
+#: Longest model spec accepted (`diffuse+specular@fresnel/workflow` is under 60 characters).
+MAX_MODEL_SPEC = 128
+#: Elevation of the orbit camera, degrees: short of the poles, where the view direction
+#: would be parallel to the camera's up vector (scene.py refuses that camera).
+MAX_ELEVATION = 89.0
+#: Zoom range as a factor of the scene camera's own distance to its target.
+ZOOM_RANGE = (0.02, 50.0)
+#: Light intensity: a factor on the scene's irradiance / intensity of that light.
+LIGHT_SCALE_RANGE = (0.0, 100.0)
+#: Largest |azimuth| in degrees (the page keeps it small; this bounds the float math).
+MAX_AZIMUTH = 1e6
+
+
+class ControlError(ClshadeError):
+    """A control value the server refuses: `key = value: why`."""
+
+
+@dataclass(frozen=True)
+class Controls:
+    azimuth: float                    # degrees about the scene camera's up axis, 0 = the scene's camera
+    elevation: float                  # degrees above the plane through the target
+    distance: float                   # camera to target, scene units
+    model_a: str
+    model_b: str
+    split: bool
+    diff: bool
+    exposure: float
+    tonemap: str
+    samples: int
+    specular_aa: bool
+    materials: tuple[tuple[str, tuple[tuple[str, float], ...]], ...] = ()   # (material, ((param, value), …))
+    lights: tuple[tuple[int, tuple[float, float, float] | None, float | None], ...] = ()  # (index, direction, scale)
+
+    def models(self) -> tuple[Model, Model]:
+        return resolve(self.model_a), resolve(self.model_b)
+
+
+def material_params() -> dict[str, tuple[float, float, float]]:
+    """name → (low, high, default) of every parameter a lobe declares that a scene material
+    holds (roughness, shininess, kd, ks, ka): the sliders. Read from the registry, so new lobes
+    bring their parameters with them."""
+    fields = Material.__dataclass_fields__
+    out: dict[str, tuple[float, float, float]] = {}
+    for lobe in lobes().values():
+        for p in lobe.params:
+            if p.name in fields and p.name not in out:
+                out[p.name] = (p.low, p.high, p.default)
+    return out
+
+
+@dataclass(frozen=True)
+class Limits:
+    """What the scene allows: its material names, its lights' kinds, the parameter ranges,
+    the distance range and the frame size (for the supersampling limit)."""
+    materials: tuple[str, ...]
+    light_kinds: tuple[str, ...]
+    params: dict[str, tuple[float, float, float]]
+    distance: tuple[float, float]
+    width: int
+    height: int
+
+    @classmethod
+    def of(cls, scene: Scene, distance: float, width: int, height: int) -> "Limits":
+        named = tuple(m for m in scene.materials if "#" not in m)     # inline object materials have no [materials] table
+        return cls(named, tuple(l.kind for l in scene.lights), material_params(),
+                   (distance * ZOOM_RANGE[0], distance * ZOOM_RANGE[1]), width, height)
+
+
+def parse_message(text: str | bytes) -> dict[str, Any]:
+    """One message from the page: a JSON object of at most MAX_MESSAGE_BYTES."""
+    if len(text) > MAX_MESSAGE_BYTES:
+        raise ControlError(f"message of {len(text)} bytes: longer than {MAX_MESSAGE_BYTES}")
+
+    def no_constant(name: str) -> None:
+        raise ControlError(f"message: {name} is not a number JSON allows")
+
+    try:
+        value = json.loads(text, parse_constant=no_constant)
+    except (ValueError, RecursionError) as exc:      # JSONDecodeError and bad UTF-8 are ValueErrors
+        raise ControlError(f"message: not JSON ({exc})") from None
+    if not isinstance(value, dict):
+        raise ControlError(f"message: expected a JSON object, got {type(value).__name__}")
+    return value
+
+
+def _shown(value: Any) -> str:
+    text = json.dumps(value) if not isinstance(value, float) else repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _fail(key: str, value: Any, why: str) -> ControlError:
+    return ControlError(f"{key} = {_shown(value)}: {why}")
+
+
+def _number(key: str, value: Any, low: float, high: float) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise _fail(key, value, "must be a number")
+    if not math.isfinite(value) or not low <= value <= high:
+        raise _fail(key, value, f"must be within [{low:g}, {high:g}]")
+    return float(value)
+
+
+def _boolean(key: str, value: Any) -> bool:
+    if not isinstance(value, bool):
+        raise _fail(key, value, "must be true or false")
+    return value
+
+
+def _table(key: str, value: Any) -> dict[str, Any]:
+    if not isinstance(value, dict):
+        raise _fail(key, value, "must be an object")
+    return value
+
+
+def _model(key: str, value: Any) -> str:
+    if not isinstance(value, str) or not value.strip() or len(value) > MAX_MODEL_SPEC:
+        raise _fail(key, value, f"must be a model name of 1 to {MAX_MODEL_SPEC} characters")
+    try:
+        resolve(value)
+    except ClshadeError as exc:
+        raise _fail(key, value, str(exc).removeprefix(f"model {value!r}: ")) from None
+    return value.strip()
+
+
+def _direction(key: str, value: Any) -> tuple[float, float, float]:
+    if not isinstance(value, list) or len(value) != 3:
+        raise _fail(key, value, "must be a list of 3 numbers")
+    d = tuple(_number(f"{key}[{i}]", x, -1e6, 1e6) for i, x in enumerate(value))
+    if math.hypot(*d) < 1e-6:
+        raise _fail(key, value, "must not be (nearly) the zero vector")
+    return d
+
+
+def _materials(value: Any, limits: Limits) -> tuple:
+    out = []
+    for name, params in _table("materials", value).items():
+        if name not in limits.materials:
+            raise _fail(f"materials.{name}", params, f"no such material; the scene has {', '.join(limits.materials)}")
+        row = []
+        for param, v in _table(f"materials.{name}", params).items():
+            if param not in limits.params:
+                raise _fail(f"materials.{name}.{param}", v, f"not a lobe parameter ({', '.join(limits.params)})")
+            low, high, _ = limits.params[param]
+            row.append((param, _number(f"materials.{name}.{param}", v, low, high)))
+        out.append((name, tuple(sorted(row))))
+    return tuple(sorted(out))
+
+
+def _lights(value: Any, limits: Limits) -> tuple:
+    out = []
+    for index_text, light in _table("lights", value).items():
+        key = f"lights.{index_text}"
+        if not index_text.isdigit() or int(index_text) >= len(limits.light_kinds):
+            raise _fail(key, light, f"no such light; the scene has {len(limits.light_kinds)} (0 to "
+                                    f"{len(limits.light_kinds) - 1})")
+        index = int(index_text)
+        light = dict(_table(key, light))
+        direction = light.pop("direction", None)
+        scale = light.pop("scale", None)
+        if light:
+            raise _fail(f"{key}.{next(iter(light))}", next(iter(light.values())), "unknown key (direction, scale)")
+        if direction is not None:
+            if limits.light_kinds[index] == "point":
+                raise _fail(f"{key}.direction", direction, "a point light has no direction")
+            direction = _direction(f"{key}.direction", direction)
+        if scale is not None:
+            scale = _number(f"{key}.scale", scale, *LIGHT_SCALE_RANGE)
+        out.append((index, direction, scale))
+    return tuple(sorted(out))
+
+
+CONTROL_KEYS = ("azimuth", "elevation", "distance", "model_a", "model_b", "split", "diff", "exposure",
+                "tonemap", "samples", "specular_aa", "materials", "lights")
+
+
+def parse_controls(value: Any, limits: Limits) -> Controls:
+    """Check a control state from the page (every key required except materials and lights)."""
+    state = _table("controls", value)
+    unknown = [k for k in state if k not in CONTROL_KEYS]
+    if unknown:
+        raise _fail(unknown[0], state[unknown[0]], f"unknown control; known: {', '.join(CONTROL_KEYS)}")
+    missing = [k for k in CONTROL_KEYS[:11] if k not in state]
+    if missing:
+        raise ControlError(f"controls: missing {', '.join(missing)}")
+    tonemap = state["tonemap"]
+    if tonemap not in TONEMAPS:
+        raise _fail("tonemap", tonemap, f"must be one of {', '.join(TONEMAPS)}")
+    samples = state["samples"]
+    if isinstance(samples, bool) or not isinstance(samples, int) or not 1 <= samples <= MAX_SAMPLES:
+        raise _fail("samples", samples, f"must be an integer within [1, {MAX_SAMPLES}]")
+    if max(limits.width, limits.height) * samples > 16384:
+        raise _fail("samples", samples, f"{limits.width}x{limits.height} × {samples} exceeds the raster limit 16384")
+    return Controls(
+        azimuth=_number("azimuth", state["azimuth"], -MAX_AZIMUTH, MAX_AZIMUTH),
+        elevation=_number("elevation", state["elevation"], -MAX_ELEVATION, MAX_ELEVATION),
+        distance=_number("distance", state["distance"], *limits.distance),
+        model_a=_model("model_a", state["model_a"]),
+        model_b=_model("model_b", state["model_b"]),
+        split=_boolean("split", state["split"]),
+        diff=_boolean("diff", state["diff"]),
+        exposure=_number("exposure", state["exposure"], *EXPOSURE_RANGE),
+        tonemap=tonemap,
+        samples=samples,
+        specular_aa=_boolean("specular_aa", state["specular_aa"]),
+        materials=_materials(state.get("materials", {}), limits),
+        lights=_lights(state.get("lights", {}), limits),
+    )

@@ -1,0 +1,252 @@
+"""The viewer's server (aiohttp): the page, its static files and one WebSocket per page.
+
+Protocol. The page sends JSON text messages: `{"type": "state", "seq": n, "controls":
+{...}}` with its whole control state at every change, `{"type": "save", "name": ...,
+"controls": {...}}`, `{"type": "oracle", "controls": {...}}` and `{"type": "bye"}`. The
+server answers `hello` (registry, scene values, starting controls) once, `error`
+(a one-line message; nothing is rendered), `saved`, `oracle`, and frames as one binary
+message each: a little-endian uint32 n, n bytes of JSON header (seq, size, views,
+timings, statistics), then the views' RGBA8 pixels one after the other.
+
+Latest state wins: a state that arrives while a frame renders replaces any state still
+waiting, so the next frame is always of the newest controls and frames never queue.
+Save and oracle requests are never dropped; they run between frames.
+
+Safety. Bound to 127.0.0.1 on a free port unless --host says otherwise; on any other
+address every request needs the random token of the printed URL. Requests whose Host
+is not the server's own address (DNS rebinding) and WebSockets opened by another
+origin's page are refused. The server stops when its last page has been closed for
+LINGER_S seconds, or on Ctrl-C / SIGTERM.
+"""
+from __future__ import annotations
+
+import asyncio
+import ipaddress
+import json
+import secrets
+import signal
+import struct
+import sys
+import time
+import traceback
+from concurrent.futures import ThreadPoolExecutor
+from importlib import resources
+from typing import Any, Callable
+
+from aiohttp import WSMsgType, web
+
+from clshade.errors import ClshadeError
+from clshade.view.controls import MAX_MESSAGE_BYTES, ControlError, parse_controls, parse_message
+from clshade.view.session import ViewFrame, ViewSession
+
+#: Seconds the server waits after its last page closed before it stops (a reload reconnects within it).
+LINGER_S = 3.0
+#: The files of the page (clshade/view/static), by URL path; nothing else is served.
+STATIC = {"/": ("index.html", "text/html"), "/view.js": ("view.js", "text/javascript"),
+          "/view.css": ("view.css", "text/css")}
+LOOPBACK_NAMES = ("localhost",)
+
+
+def is_loopback(host: str) -> bool:
+    if host in LOOPBACK_NAMES:
+        return True
+    try:
+        return ipaddress.ip_address(host.strip("[]")).is_loopback
+    except ValueError:
+        return False
+
+
+def pack_frame(frame: ViewFrame, seq: int, extra: dict[str, Any]) -> bytes:
+    """One binary frame message (see the module docstring)."""
+    names = list(frame.views)
+    header = dict(type="frame", seq=seq, width=frame.width, height=frame.height, views=names, models=frame.models,
+                  stats=frame.stats, stages={k: v * 1e3 for k, v in frame.stages.items()},
+                  diff_scale=frame.diff_scale, reshade_only=frame.reshade_only, **extra)
+    text = json.dumps(header).encode()
+    return b"".join([struct.pack("<I", len(text)), text, *(frame.views[n].tobytes() for n in names)])
+
+
+class Page:
+    """One connected page: its pending state (latest wins), its jobs and its render loop."""
+
+    def __init__(self, server: "ViewServer", ws: web.WebSocketResponse) -> None:
+        self.server, self.ws = server, ws
+        self.pending: tuple[int, Any, float] | None = None
+        self.jobs: list[tuple[str, int, Any, Any]] = []
+        self.wake = asyncio.Event()
+        self.skipped = 0
+
+    async def send_json(self, data: dict) -> None:
+        if not self.ws.closed:
+            await self.ws.send_str(json.dumps(data))
+
+    async def error(self, seq: Any, message: str) -> None:
+        await self.send_json(dict(type="error", seq=seq if isinstance(seq, int) else None, message=message))
+
+    async def receive(self, text: str) -> None:
+        """Check one message; queue what it asks for, or answer with an error."""
+        seq = None
+        try:
+            message = parse_message(text)
+            seq = message.get("seq")
+            if seq is not None and (isinstance(seq, bool) or not isinstance(seq, int) or not 0 <= seq < 2 ** 53):
+                raise ControlError(f"seq = {json.dumps(seq)[:40]}: must be a non-negative integer")
+            kind = message.get("type")
+            limits = self.server.session.limits
+            if kind == "state":
+                controls = parse_controls(message.get("controls"), limits)
+                if self.pending is not None:
+                    self.skipped += 1               # superseded before it was rendered
+                self.pending = (seq or 0, controls, time.perf_counter())
+            elif kind in ("save", "oracle"):
+                controls = parse_controls(message.get("controls"), limits)
+                self.jobs.append((kind, seq or 0, controls, message.get("name")))
+            elif kind == "bye":
+                await self.ws.close()
+                return
+            else:
+                raise ControlError(f"type = {json.dumps(kind)[:40]}: expected state, save, oracle or bye")
+            self.wake.set()
+        except ClshadeError as exc:
+            await self.error(seq, str(exc))
+
+    async def run(self) -> None:
+        """Render the newest state, then the next; run jobs in between."""
+        while not self.ws.closed:
+            await self.wake.wait()
+            self.wake.clear()
+            while self.jobs:
+                kind, seq, controls, name = self.jobs.pop(0)
+                call = (lambda c=controls, n=name: self.server.session.save(c, n)) if kind == "save" \
+                    else (lambda c=controls: self.server.session.oracle(c))
+                result = await self.server.call(call, self, seq)
+                if result is not None:
+                    await self.send_json(dict(result, seq=seq))
+            if self.pending is not None:
+                seq, controls, received = self.pending
+                self.pending = None
+                frame = await self.server.call(lambda c=controls: self.server.session.render(c), self, seq)
+                if frame is None or self.ws.closed:
+                    continue
+                t0 = time.perf_counter()
+                data = pack_frame(frame, seq, dict(skipped=self.skipped))
+                pack_ms = (time.perf_counter() - t0) * 1e3
+                await self.ws.send_bytes(data)
+                # Timing of the frame just sent, for the page's stage split (known only after sending).
+                await self.send_json(dict(type="sent", seq=seq, pack_ms=pack_ms, bytes=len(data),
+                                          server_ms=(time.perf_counter() - received) * 1e3))
+
+
+class ViewServer:
+    def __init__(self, session: ViewSession, host: str = "127.0.0.1", port: int = 0, linger: float | None = LINGER_S,
+                 log: Callable[[str], None] | None = None) -> None:
+        self.session, self.host, self.port, self.linger = session, host, port, linger
+        self.token = None if is_loopback(host) else secrets.token_urlsafe(16)
+        self.executor = ThreadPoolExecutor(1, thread_name_prefix="clshade-view")
+        self.pages: set[Page] = set()
+        self.stopped: asyncio.Event | None = None
+        self.url = ""
+        self.log = log or (lambda text: print(text, file=sys.stderr, flush=True))
+        self._linger_task: asyncio.Task | None = None
+
+    # ------------------------------------------------------------ rendering off the event loop
+
+    async def call(self, fn, page: Page, seq: int):
+        """Run `fn` on the render thread; a ClshadeError goes to the page, anything else is
+        logged here and reported to the page in one line."""
+        try:
+            return await asyncio.get_running_loop().run_in_executor(self.executor, fn)
+        except ClshadeError as exc:
+            await page.error(seq, str(exc))
+        except Exception as exc:  # noqa: BLE001 — a bug must not stop the server
+            self.log("clshade view: internal error\n" + traceback.format_exc())
+            await page.error(seq, f"internal error: {type(exc).__name__}: {exc}"[:300])
+        return None
+
+    # ------------------------------------------------------------ HTTP
+
+    @web.middleware
+    async def guard(self, request: web.Request, handler):
+        host = request.host.rsplit(":", 1)[0].strip("[]") if request.host else ""
+        if self.token is None and not is_loopback(host):
+            return web.Response(status=403, text="clshade view: this server answers on its loopback address only")
+        if self.token is not None and not secrets.compare_digest(request.query.get("token", ""), self.token):
+            return web.Response(status=403, text="clshade view: the URL's token is missing or wrong")
+        return await handler(request)
+
+    async def static(self, request: web.Request) -> web.StreamResponse:
+        name, content_type = STATIC[request.path]
+        body = resources.files("clshade.view").joinpath("static", name).read_bytes()
+        return web.Response(body=body, content_type=content_type, headers={"Cache-Control": "no-store"})
+
+    async def websocket(self, request: web.Request) -> web.StreamResponse:
+        origin = request.headers.get("Origin")
+        if origin is not None and origin != f"{request.scheme}://{request.host}":
+            return web.Response(status=403, text="clshade view: WebSocket from another origin")
+        ws = web.WebSocketResponse(max_msg_size=MAX_MESSAGE_BYTES)
+        await ws.prepare(request)
+        page = Page(self, ws)
+        self.pages.add(page)
+        if self._linger_task is not None:
+            self._linger_task.cancel()
+        task = asyncio.create_task(page.run())
+        try:
+            await page.send_json(self.session.hello())
+            async for message in ws:
+                if message.type == WSMsgType.TEXT:
+                    await page.receive(message.data)
+                elif message.type == WSMsgType.BINARY:
+                    await page.error(None, "message: binary messages are not accepted; send JSON text")
+        finally:
+            task.cancel()
+            page.wake.set()
+            self.pages.discard(page)
+            if not self.pages and self.linger is not None and self.stopped is not None:
+                self._linger_task = asyncio.create_task(self._stop_after(self.linger))
+        return ws
+
+    async def _stop_after(self, seconds: float) -> None:
+        await asyncio.sleep(seconds)
+        if not self.pages:
+            self.log("clshade view: the page was closed; stopping")
+            self.stopped.set()
+
+    def app(self) -> web.Application:
+        app = web.Application(middlewares=[self.guard], client_max_size=MAX_MESSAGE_BYTES)
+        for path in STATIC:
+            app.router.add_get(path, self.static)
+        app.router.add_get("/ws", self.websocket)
+        return app
+
+    # ------------------------------------------------------------ lifetime
+
+    async def start(self) -> web.AppRunner:
+        """Listen; sets self.url (with the token when there is one)."""
+        self.stopped = asyncio.Event()
+        runner = web.AppRunner(self.app(), access_log=None, handle_signals=False)
+        await runner.setup()
+        site = web.TCPSite(runner, self.host, self.port, shutdown_timeout=1.0)
+        await site.start()
+        port = runner.addresses[0][1]
+        shown = f"[{self.host}]" if ":" in self.host else self.host
+        self.url = f"http://{shown}:{port}/" + (f"?token={self.token}" if self.token else "")
+        return runner
+
+    async def serve(self, ready: Callable[[str], None] | None = None) -> None:
+        """Serve until stopped (last page closed, Ctrl-C, SIGTERM), then close cleanly."""
+        runner = await self.start()
+        loop = asyncio.get_running_loop()
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            try:
+                loop.add_signal_handler(sig, self.stopped.set)
+            except (NotImplementedError, RuntimeError, ValueError):   # not the main thread, or no signals
+                pass
+        if ready is not None:
+            ready(self.url)
+        try:
+            await self.stopped.wait()
+        finally:
+            for page in list(self.pages):
+                await page.ws.close()
+            await runner.cleanup()
+            self.executor.shutdown(wait=True, cancel_futures=True)

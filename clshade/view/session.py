@@ -1,0 +1,384 @@
+"""The frames of `clshade view`: the page's controls → scene → the real pipeline
+(clshade.pipeline's stages: geometry → rasterize → G-buffer → shading kernel) → 8-bit
+frames, with every stage's result kept and reused while its inputs stay the same.
+
+What a change costs, by what it changes:
+
+- camera (orbit, zoom) or samples: rasterize, G-buffer, upload, shade;
+- a material's roughness: the roughness plane of that material's pixels is written
+  again (no raster; a material with textures rebuilds its G-buffer from the kept raster);
+- shininess, kd, ks, ka, lights: the material or light table is uploaded again; shade;
+- model, exposure, tone map: shade (or only the display transform) on the same G-buffer.
+
+Device times come from clshade.bench.run (the same dispatch timing and frame statistics
+as `clshade bench`), the error from the same float64 oracle (clshade.verify.reference).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import re
+import tempfile
+import tomllib
+from collections import deque
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from clshade.bench.run import _timed as timed_dispatch
+from clshade.bench.run import compared_pixels, frame_stats, grazing_pixels, relative_error
+from clshade.compare import difference
+from clshade.device.display import Display
+from clshade.device.runtime import get_runtime
+from clshade.device.shade import Shader, scene_features
+from clshade.errors import ClshadeError
+from clshade.models import Model, lobes, presets
+from clshade.pipeline import Timings
+from clshade.render.gbuffer import GBuffer, build_gbuffer, material_table
+from clshade.render.image import check_output_path, to_display, write_encoded
+from clshade.render.meshes import build_geometry
+from clshade.render.raster import rasterize
+from clshade.render.samples import supersampled
+from clshade.render.scene import MAX_RESOLUTION, Scene, load_scene, parse_scene
+from clshade.render.shadows import build_shadow_maps
+from clshade.verify import reference
+from clshade.view.controls import Controls, Limits
+from clshade.view.document import applied, dumps, relocated
+
+#: Frames of each model kept for its statistics (avg FPS, 1 % low): about two seconds of dragging.
+HISTORY = 120
+#: Names "save" accepts: one file name stem in the output folder, no path.
+SAVE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
+#: Per-pixel G-buffer channels a material fills from its own values (G-buffer rebuilt or patched).
+CHANNEL_FIELDS = ("roughness", "metallic")
+
+
+@dataclass(frozen=True)
+class Orbit:
+    """The orbit camera: about the scene camera's target and up axis, azimuth 0 and the
+    scene camera's elevation and distance at the start."""
+    target: np.ndarray
+    up: np.ndarray
+    east: np.ndarray          # horizontal unit vector towards the scene camera (azimuth 0)
+    north: np.ndarray         # up × east
+    elevation: float          # degrees, of the scene camera
+    distance: float
+
+    @classmethod
+    def of(cls, camera) -> "Orbit":
+        target = np.asarray(camera.target, float)
+        up = np.asarray(camera.up, float) / np.linalg.norm(camera.up)
+        offset = np.asarray(camera.position, float) - target
+        distance = float(np.linalg.norm(offset))
+        height = float(offset @ up)
+        flat = offset - height * up          # the scene parser refuses a view parallel to up: never zero
+        east = flat / np.linalg.norm(flat)
+        return cls(target, up, east, np.cross(up, east),
+                   math.degrees(math.asin(max(-1.0, min(1.0, height / distance)))), distance)
+
+    def position(self, azimuth: float, elevation: float, distance: float) -> np.ndarray:
+        a, e = math.radians(azimuth), math.radians(elevation)
+        ring = math.cos(a) * self.east + math.sin(a) * self.north
+        return self.target + distance * (math.cos(e) * ring + math.sin(e) * self.up)
+
+
+@dataclass
+class ViewFrame:
+    """One frame for the page: RGBA8 views ('a', and 'b' / 'diff' when asked), timings."""
+    width: int
+    height: int
+    views: dict[str, np.ndarray]
+    stages: Timings
+    stats: dict[str, dict[str, float]]          # model id → frame_stats of its recent frames
+    models: dict[str, str]                      # view → model id
+    diff_scale: float | None = None
+    reshade_only: bool = False
+
+
+@dataclass
+class _Kept:
+    """The last result of a stage and the key of the inputs it was made from."""
+    key: object = None
+    value: object = None
+    extra: dict = field(default_factory=dict)
+
+
+def _geometry_key(scene: Scene) -> tuple:
+    """What build_geometry reads of the materials (textures and their factors, culling, emission)."""
+    return tuple((name, m.double_sided, tuple(sorted((k, str(p)) for k, p in m.textures.items())), m.emissive,
+                  (m.base_color, m.roughness, m.metallic, m.normal_scale, m.uv_scale) if m.textures else None)
+                 for name, m in scene.materials.items())
+
+
+def _lights_key(scene: Scene) -> tuple:
+    return tuple((l.kind, tuple(l.color), None if l.direction is None else tuple(l.direction),
+                  None if l.position is None else tuple(l.position), l.inner_angle, l.outer_angle, l.shadows)
+                 for l in scene.lights)
+
+
+def _channel_values(scene: Scene) -> np.ndarray:
+    """(materials, CHANNEL_FIELDS) float32: the per-pixel values each material writes."""
+    return np.array([[getattr(m, f) for f in CHANNEL_FIELDS] for m in scene.materials.values()],
+                    np.float32).reshape(-1, len(CHANNEL_FIELDS))
+
+
+def patched_gbuffer(gbuffer: GBuffer, pixels: np.ndarray, old: np.ndarray, new: np.ndarray,
+                    table: np.ndarray) -> GBuffer:
+    """`gbuffer` for changed material values, without the raster: the roughness / metallic
+    planes rewritten on the covered `pixels` of each material whose value changed (as
+    build_gbuffer writes them for an untextured scene), and the new material table. Planes
+    that did not change are shared, not copied."""
+    planes = {name: gbuffer.plane(name) for name in gbuffer.channels}
+    material = planes["material"][0][pixels]
+    for column, name in enumerate(CHANNEL_FIELDS):
+        changed = np.flatnonzero(old[:, column] != new[:, column])
+        if not len(changed):
+            continue
+        plane = planes[name].copy()
+        for index in changed:
+            plane[0][pixels[material == index]] = new[index, column]
+        planes[name] = plane
+    return GBuffer.from_planes(gbuffer.width, gbuffer.height, planes, table, gbuffer.coverage,
+                               gbuffer.nonfinite_pixels, unit_normals=gbuffer.unit_normals)
+
+
+class ViewSession:
+    """One scene explored in the viewer: its document, the kept stages and each model's recent times."""
+
+    def __init__(self, scene_path: str | Path, out_dir: str | Path, width: int | None = None,
+                 height: int | None = None, device: str | None = None) -> None:
+        self.base_scene = load_scene(scene_path)
+        self.path = Path(scene_path).resolve()
+        self.base_doc = tomllib.loads(self.path.read_text(encoding="utf-8"))
+        for name, value in (("--width", width), ("--height", height)):
+            if value is not None and not 1 <= value <= MAX_RESOLUTION:
+                raise ClshadeError(f"{name} = {value}: must be within [1, {MAX_RESOLUTION}]")
+        camera = self.base_scene.camera.with_size(width, height)
+        self.width, self.height = camera.width, camera.height
+        self.out_dir = Path(out_dir).resolve()
+        if not self.out_dir.is_dir():
+            raise ClshadeError(f"{out_dir}: output folder does not exist")
+        self.orbit = Orbit.of(camera)
+        self.limits = Limits.of(self.base_scene, self.orbit.distance, self.width, self.height)
+        self.runtime = get_runtime(device)
+        self.display = Display(self.runtime)
+        self.history: dict[str, deque] = {}
+        self._geometry, self._raster, self._shadows = _Kept(), _Kept(), _Kept()
+        self._gbuffer, self._shader = _Kept(), _Kept()
+        self.last: dict[str, object] = {}
+
+    # ------------------------------------------------------------ what the page starts from
+
+    def initial_controls(self) -> dict:
+        s = self.base_scene
+        other = "phong" if s.model != "phong" else "ggx_correlated"
+        return dict(azimuth=0.0, elevation=self.orbit.elevation, distance=self.orbit.distance, model_a=s.model,
+                    model_b=other, split=False, diff=False, exposure=s.exposure, tonemap=s.tonemap,
+                    samples=s.samples, specular_aa=s.specular_aa, materials={}, lights={})
+
+    def hello(self) -> dict:
+        """The registry, the scene's editable values and the starting controls, for the page."""
+        s = self.base_scene
+        return dict(
+            type="hello", scene=self.path.name, width=self.width, height=self.height,
+            presets=[dict(id=k, name=m.label, diffuse=m.diffuse, specular=m.specular)
+                     for k, m in zip(_preset_ids(), presets())],
+            lobes=[dict(id=l.id, name=l.name, kind=l.kind, params=[dict(name=p.name, min=p.low, max=p.high,
+                                                                        default=p.default, text=p.description)
+                                                                   for p in l.params]) for l in lobes().values()],
+            params={k: dict(min=lo, max=hi, default=d) for k, (lo, hi, d) in self.limits.params.items()},
+            materials={name: _material_values(s.materials[name]) for name in self.limits.materials},
+            lights=[dict(kind=l.kind, direction=None if l.direction is None else [float(x) for x in l.direction])
+                    for l in s.lights],
+            distance=list(self.limits.distance), controls=self.initial_controls(),
+            orbit=dict(east=self.orbit.east.tolist(), north=self.orbit.north.tolist(), up=self.orbit.up.tolist()))
+
+    def scene(self, controls: Controls) -> tuple[Scene, dict]:
+        """The scene the controls describe, through the scene parser (its checks and messages)."""
+        position = self.orbit.position(controls.azimuth, controls.elevation, controls.distance)
+        doc = applied(self.base_doc, controls, position, self.width, self.height)
+        return parse_scene(dumps(doc), self.path), doc
+
+    # ------------------------------------------------------------ the stages, kept
+
+    def _stage(self, kept: _Kept, key, make, timings: Timings, name: str):
+        if kept.key != key or kept.value is None:
+            with timings.stage(name):
+                kept.value = make()
+            kept.key = key
+        return kept.value
+
+    def frame_state(self, controls: Controls, timings: Timings):
+        """(scene, geometry, camera, fragments, shadows, gbuffer, shader) for the controls."""
+        with timings.stage("scene"):
+            scene, _ = self.scene(controls)
+        geometry = self._stage(self._geometry, _geometry_key(scene), lambda: build_geometry(scene), timings,
+                               "geometry")
+        camera = supersampled(scene.camera, scene.samples)
+        raster_key = (id(geometry), tuple(camera.position), camera.width, camera.height)
+        fragments = self._stage(self._raster, raster_key, lambda: rasterize(
+            geometry.vertices, geometry.faces, camera.view_matrix(), camera.projection_matrix(), camera.width,
+            camera.height, cull_backfaces=geometry.cull), timings, "rasterize")
+        shadows = None
+        if scene.shadow_lights:
+            shadows = self._stage(self._shadows, (id(geometry), _lights_key(scene), scene.shadow_map_size,
+                                                  scene.shadow_pcf), lambda: build_shadow_maps(scene, geometry),
+                                  timings, "shadow maps")
+        gbuffer = self._gbuffer_for(scene, geometry, fragments, camera, timings)
+        shader_key = (id(gbuffer), _lights_key(scene), id(shadows), scene.background, scene.ambient, scene.samples)
+        shader = self._stage(self._shader, shader_key, lambda: Shader(self.runtime, gbuffer, scene, camera, shadows),
+                             timings, "upload")
+        return scene, geometry, camera, fragments, shadows, gbuffer, shader
+
+    def _gbuffer_for(self, scene: Scene, geometry, fragments, camera, timings: Timings) -> GBuffer:
+        """The kept G-buffer when only table values changed (new table), patched planes when a
+        per-pixel material value changed in an untextured scene, else built from the kept raster."""
+        kept = self._gbuffer
+        values = _channel_values(scene)
+        table = material_table(scene)
+        same_raster = kept.extra.get("fragments") is fragments
+        if same_raster and np.array_equal(kept.extra["table"], table) and np.array_equal(kept.extra["values"], values):
+            return kept.value
+        if same_raster and geometry.face_texture is None and kept.extra["values"].shape == values.shape:
+            with timings.stage("g-buffer patch"):
+                gbuffer = patched_gbuffer(kept.value, fragments.pixels, kept.extra["values"], values, table)
+        else:
+            with timings.stage("g-buffer"):
+                gbuffer = build_gbuffer(scene, geometry, fragments, camera)
+        kept.value, kept.extra = gbuffer, dict(fragments=fragments, table=table, values=values)
+        return gbuffer
+
+    # ------------------------------------------------------------ frames
+
+    def render(self, controls: Controls) -> ViewFrame:
+        timings = Timings()
+        model_a, model_b = controls.models()
+        scene, geometry, camera, fragments, shadows, gbuffer, shader = self.frame_state(controls, timings)
+        features = scene_features(scene, geometry=geometry)
+        shown = {"a": model_a}
+        if controls.split or controls.diff:
+            shown["b"] = model_b
+        views: dict[str, np.ndarray] = {}
+        radiance = shader.resolver.out if shader.resolver is not None else shader.out
+        for view, model in shown.items():
+            with timings.stage("kernel build"):
+                dispatch = shader.prepare(model, features)
+            with timings.stage("shade"):
+                device_ms, host_ms = timed_dispatch(shader, dispatch)
+            self.history.setdefault(model.id, deque(maxlen=HISTORY)).append((device_ms, host_ms))
+            with timings.stage("display"):
+                event, out = self.display.enqueue(radiance, self.width * self.height, scene.tonemap, scene.exposure)
+                event.wait()
+            with timings.stage("read back"):
+                views[view] = self.display.read(out, self.height, self.width)
+        scale = None
+        if controls.diff:
+            with timings.stage("difference"):
+                views["diff"], scale = difference_rgba(views["a"], views["b"])
+        self.last = dict(scene=scene, gbuffer=gbuffer, shader=shader, camera=camera, shadows=shadows,
+                         features=features, models=shown)
+        stats = {}
+        for model in shown.values():
+            times = np.array(self.history[model.id])
+            stats[model.id] = frame_stats(times[:, 0], times[:, 1]) | dict(frames=len(times))
+        return ViewFrame(self.width, self.height, views, timings, stats,
+                         {k: m.id for k, m in shown.items()}, scale,
+                         reshade_only=not any(s in timings for s in ("rasterize", "g-buffer")))
+
+    def oracle(self, controls: Controls) -> dict:
+        """For the current view, per shown model: the error against the float64 frame oracle
+        (as `clshade bench` measures it) and the raw radiance's NaN / Inf / negative counts
+        before any clamp (as `clshade check stability` counts them)."""
+        self.render(controls)
+        last = self.last
+        gbuffer, shader, scene, camera = last["gbuffer"], last["shader"], last["scene"], last["camera"]
+        features = last["features"]
+        idx = compared_pixels(gbuffer, camera)
+        visibility = (reference.visibility(gbuffer, scene, last["shadows"], camera) if features.shadows else None)
+        covered = gbuffer.coverage.ravel()
+        out = dict(type="oracle", covered_samples=int(covered.sum()), grazing_samples=grazing_pixels(gbuffer, camera),
+                   nonfinite_inputs=int(gbuffer.nonfinite_pixels), models={})
+        for view, model in last["models"].items():
+            shader.render(model, features)
+            L = reference.radiance(gbuffer, scene, model, visibility=visibility, camera=camera)
+            worst, mean = relative_error(shader.read_samples(), idx, L.reshape(-1, 3)[idx])
+            shader.render(model, dataclasses.replace(features, raw_radiance=True))
+            raw = shader.read_samples()[..., :3].reshape(-1, 3)[covered]
+            out["models"][view] = dict(model=model.id, max_rel_error=worst, mean_rel_error=mean,
+                                       nan=int(np.isnan(raw).sum()), inf=int(np.isinf(raw).sum()),
+                                       negative=int((raw < 0).sum()))
+        return out
+
+    # ------------------------------------------------------------ save
+
+    def save(self, controls: Controls, name: str) -> dict:
+        """Write NAME.toml (the current view as a scene), NAME.png and NAME.exr of model A (and
+        NAME_b.png of model B when the split shows it) into the output folder; `clshade render
+        NAME.toml -o NAME.png` writes the same pixels."""
+        if not isinstance(name, str) or not SAVE_NAME.match(name):
+            raise ClshadeError(f"save name {str(name)[:70]!r}: use 1 to 64 letters, digits, '_', '-' or '.', "
+                               f"starting with a letter or digit")
+        scene, doc = self.scene(controls)
+        files = {suffix: self.out_dir / f"{name}{suffix}" for suffix in (".toml", ".png", ".exr")}
+        protected = [p.resolve() for p in scene.inputs()]
+        for path in files.values():
+            if path.resolve() in protected:
+                raise ClshadeError(f"{path}: refusing to overwrite an input of the scene")
+        for suffix in (".png", ".exr"):
+            check_output_path(files[suffix], protected)
+        text = dumps(relocated(doc, self.path.parent, self.out_dir))
+        parse_scene(text, files[".toml"])             # what `clshade render` will read: it must load
+        self.render(controls)
+        shader, last = self.last["shader"], self.last
+        commands = []
+        for view, model in last["models"].items():
+            shader.render(model, last["features"])
+            image = shader.read()
+            suffix = "" if view == "a" else "_b"
+            png = self.out_dir / f"{name}{suffix}.png"
+            write_encoded(png, to_display(image, scene.tonemap, scene.exposure), protected)
+            model_flag = "" if view == "a" else f" -m '{controls.model_b}'"
+            commands.append(f"clshade render {files['.toml'].name}{model_flag} -o {png.name}")
+            if view == "a":
+                write_encoded(files[".exr"], image.astype(np.float32), protected)
+                commands.append(f"clshade render {files['.toml'].name} -o {files['.exr'].name}")
+        _write_text(files[".toml"], text)
+        return dict(type="saved", folder=str(self.out_dir),
+                    files=sorted(p.name for p in self.out_dir.glob(f"{name}*") if p.name.startswith(name + ".")
+                                 or p.name.startswith(name + "_b.")),
+                    commands=commands)
+
+
+def _preset_ids() -> list[str]:
+    from clshade.models import PRESETS
+    return list(PRESETS)
+
+
+def _material_values(m) -> dict[str, float]:
+    """The lobe parameters as the material gives them (derived shininess and kd included)."""
+    constants = m.constants()
+    return dict(roughness=m.roughness, metallic=m.metallic, shininess=constants["shininess"], kd=constants["kd"],
+                ks=constants["ks"], ka=constants["ka"])
+
+
+def difference_rgba(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, float]:
+    """|A − B| of the displayed values, false colour (clshade.compare.difference), as RGBA8, and its scale."""
+    colour, scale = difference(a[..., :3].astype(np.float32) / 255.0, b[..., :3].astype(np.float32) / 255.0)
+    rgba = np.empty(a.shape, np.uint8)
+    rgba[..., :3] = np.round(colour * 255.0)
+    rgba[..., 3] = 255
+    return rgba, scale
+
+
+def _write_text(path: Path, text: str) -> None:
+    """Write atomically (a temporary file in the folder, then a rename)."""
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)

@@ -1,0 +1,365 @@
+"""`clshade view` without a browser: control checks, the scene document, the G-buffer
+patch, the device display transform, save ↔ `clshade render`, the server's guards and
+its latest-state-wins loop."""
+from __future__ import annotations
+
+import asyncio
+import copy
+import dataclasses
+import json
+import tomllib
+
+import numpy as np
+import pytest
+
+from clshade.cli import main
+from clshade.device.display import Display, thresholds
+from clshade.device.variants import Variant
+from clshade.errors import ClshadeError
+from clshade.models import resolve
+from clshade.render.gbuffer import build_gbuffer
+from clshade.render.image import read_image, to_display
+from clshade.resources import scenes_dir
+from clshade.view.controls import ControlError, parse_controls, parse_message
+from clshade.view.document import dumps
+from clshade.view.session import ViewSession
+
+ROBOT = scenes_dir() / "robot.toml"
+W, H = 96, 64
+
+
+@pytest.fixture(scope="module")
+def session(tmp_path_factory):
+    return ViewSession(ROBOT, tmp_path_factory.mktemp("view-out"), W, H)
+
+
+def controls(session, **changes):
+    return dict(session.initial_controls(), **changes)
+
+
+# ---------------------------------------------------------------- controls
+
+
+def test_initial_controls_pass(session):
+    c = parse_controls(controls(session), session.limits)
+    assert c.model_a == "ggx_correlated" and not c.split
+
+
+BAD = [
+    ("exposure", 65.0, "exposure"), ("exposure", "1", "must be a number"), ("elevation", 90.0, "elevation"),
+    ("distance", 0.0, "distance"), ("model_a", "ggx_corelated", "did you mean 'ggx_correlated'"),
+    ("model_b", "lambert+phong+blinn_phong", "two specular lobes"), ("model_a", "", "model name"),
+    ("model_a", "ggx_correlated@schlik", "unknown Fresnel"),
+    ("tonemap", "filmic", "tonemap"), ("samples", 0, "samples"), ("samples", True, "samples"),
+    ("samples", 9, "samples"), ("split", 1, "true or false"),
+    ("materials", {"chrome": {"roughness": 0.2}}, "no such material"),
+    ("materials", {"steel": {"metalness": 0.2}}, "not a lobe parameter"),
+    ("materials", {"steel": {"roughness": 1.5}}, "materials.steel.roughness"),
+    ("materials", {"steel": {"roughness": None}}, "must be a number"),
+    ("lights", {"3": {"scale": 1.0}}, "no such light"), ("lights", {"-1": {"scale": 1.0}}, "no such light"),
+    ("lights", {"1": {"direction": [0, -1, 0]}}, "point light has no direction"),
+    ("lights", {"0": {"direction": [0, 0, 0]}}, "zero vector"),
+    ("lights", {"0": {"direction": [0, -1]}}, "3 numbers"),
+    ("lights", {"0": {"scale": -1}}, "lights.0.scale"), ("lights", {"0": {"colour": 1}}, "unknown key"),
+    ("zoom", 1.0, "unknown control"),
+]
+
+
+@pytest.mark.parametrize("key,value,why", BAD, ids=[f"{k}={v!r}"[:40] for k, v, _ in BAD])
+def test_bad_controls_are_refused_with_the_key(session, key, value, why):
+    with pytest.raises(ControlError, match=None) as info:
+        parse_controls(controls(session, **{key: value}), session.limits)
+    assert why in str(info.value)
+
+
+def test_missing_control_is_refused(session):
+    state = controls(session)
+    del state["exposure"]
+    with pytest.raises(ControlError, match="missing exposure"):
+        parse_controls(state, session.limits)
+
+
+@pytest.mark.parametrize("text,why", [
+    ('{"type": "state", "controls": {"exposure": NaN}}', "NaN"),
+    ('{"exposure": Infinity}', "Infinity"), ("{not json", "not JSON"), ("[1, 2]", "JSON object"),
+    ("\"x\"" + " " * 70000, "longer than"),
+])
+def test_bad_messages_are_refused(text, why):
+    with pytest.raises(ControlError, match=why):
+        parse_message(text)
+
+
+def test_good_values_pass_at_the_limits(session):
+    lo, hi = session.limits.distance
+    c = parse_controls(controls(session, distance=hi, elevation=-89.0, exposure=-64.0,
+                                materials={"steel": {"roughness": 0.0, "shininess": 1e6}},
+                                lights={"0": {"direction": [1, -1, 0], "scale": 0.0}}), session.limits)
+    assert c.distance == hi and c.materials == (("steel", (("roughness", 0.0), ("shininess", 1e6))),)
+
+
+# ---------------------------------------------------------------- the scene document
+
+
+@pytest.mark.parametrize("path", sorted(scenes_dir().glob("*.toml")), ids=lambda p: p.name)
+def test_document_round_trips(path):
+    doc = tomllib.loads(path.read_text(encoding="utf-8"))
+    assert tomllib.loads(dumps(doc)) == doc
+
+
+def test_document_round_trips_awkward_values():
+    doc = {"a b": {"c": [1e-300, 0.1, -0.0, 2 ** 62]}, "s": "q\"\\\n\t\u0001é",
+           "objects": [{"material": {"roughness": 0.30000000000000004}, "name": "x"}, {"t": True}]}
+    assert tomllib.loads(dumps(doc)) == doc
+    with pytest.raises(ClshadeError):
+        dumps({"x": float("nan")})
+
+
+def test_controls_reach_the_scene(session):
+    c = parse_controls(controls(session, azimuth=30.0, exposure=1.5, tonemap="reinhard", model_a="burley",
+                                materials={"gold": {"roughness": 0.05}},
+                                lights={"0": {"direction": [0.0, -1.0, 0.0], "scale": 2.0}}), session.limits)
+    scene, _ = session.scene(c)
+    base = session.base_scene
+    assert scene.exposure == 1.5 and scene.tonemap == "reinhard" and scene.model == "burley"
+    assert scene.materials["gold"].roughness == 0.05 and scene.materials["steel"] == base.materials["steel"]
+    np.testing.assert_array_equal(scene.lights[0].direction, [0.0, -1.0, 0.0])
+    np.testing.assert_array_equal(scene.lights[0].color, 2.0 * base.lights[0].color)
+    np.testing.assert_array_equal(scene.lights[1].color, base.lights[1].color)
+    # azimuth turns the camera about the target at the same distance and height
+    offset, offset0 = scene.camera.position - scene.camera.target, base.camera.position - base.camera.target
+    assert np.linalg.norm(offset) == pytest.approx(np.linalg.norm(offset0))
+    assert offset[1] == pytest.approx(offset0[1])
+    cos = offset[[0, 2]] @ offset0[[0, 2]] / np.linalg.norm(offset[[0, 2]]) / np.linalg.norm(offset0[[0, 2]])
+    assert cos == pytest.approx(np.cos(np.radians(30.0)))
+
+
+# ---------------------------------------------------------------- stages
+
+
+def test_patched_gbuffer_equals_a_rebuilt_one(session):
+    start = parse_controls(controls(session), session.limits)
+    session.render(start)
+    changed = parse_controls(controls(session, materials={"steel": {"roughness": 0.05}, "gold": {"ks": 0.2}}),
+                             session.limits)
+    frame = session.render(changed)
+    assert frame.reshade_only and "g-buffer patch" in frame.stages and "rasterize" not in frame.stages
+    last = session.last
+    rebuilt = build_gbuffer(last["scene"], session._geometry.value, session._raster.value, last["camera"])
+    for name in rebuilt.channels:
+        np.testing.assert_array_equal(last["gbuffer"].channels[name], rebuilt.channels[name], err_msg=name)
+    np.testing.assert_array_equal(last["gbuffer"].materials, rebuilt.materials)
+    assert (last["gbuffer"].channels["roughness"] == np.float32(0.05)).any()
+
+
+def test_orbit_rasterises_and_exposure_does_not(session):
+    session.render(parse_controls(controls(session), session.limits))
+    moved = session.render(parse_controls(controls(session, azimuth=5.0), session.limits))
+    assert "rasterize" in moved.stages and not moved.reshade_only
+    brighter = session.render(parse_controls(controls(session, azimuth=5.0, exposure=1.0), session.limits))
+    assert brighter.reshade_only and "rasterize" not in brighter.stages
+    assert brighter.views["a"][..., :3].astype(int).sum() > moved.views["a"][..., :3].astype(int).sum()
+
+
+def test_split_and_difference_views(session):
+    one = session.render(parse_controls(controls(session, model_b="lambert"), session.limits))
+    assert list(one.views) == ["a"]
+    both = session.render(parse_controls(controls(session, model_b="lambert", split=True, diff=True),
+                                         session.limits))
+    assert list(both.views) == ["a", "b", "diff"] and both.models == {"a": "lambert+ggx_correlated", "b": "lambert"}
+    a, b = both.views["a"][..., :3].astype(int), both.views["b"][..., :3].astype(int)
+    assert (a != b).any()
+    assert both.diff_scale == pytest.approx(np.abs(a - b).max() / 255.0)
+    same = (a == b).all(axis=-1)
+    np.testing.assert_array_equal(both.views["diff"][same], both.views["diff"][same][:1].repeat(same.sum(), 0))
+    for model in both.models.values():
+        assert both.stats[model]["frames"] >= 1 and both.stats[model]["mean_ms"] > 0
+
+
+def test_only_read_columns_are_baked():
+    """A material constant the model does not read (shininess for GGX) does not make a new kernel."""
+    from clshade.device.variants import Features
+    table = np.zeros((1, 4, 4), np.float32)
+    table[0, 0] = [0.7, 0.3, 1.0, 32.0]
+    other = table.copy()
+    other[0, 0, 3] = 900.0
+    ggx, phong = resolve("ggx_correlated"), resolve("phong")
+    assert Variant.build(ggx, Features(), table).key == Variant.build(ggx, Features(), other).key
+    assert Variant.build(phong, Features(), table).key != Variant.build(phong, Features(), other).key
+
+
+# ---------------------------------------------------------------- the display transform
+
+
+@pytest.mark.parametrize("method,exposure", [("aces", 0.0), ("reinhard", 2.25), ("none", -3.5), ("aces", 64.0)])
+def test_device_display_equals_to_display(session, method, exposure):
+    rng = np.random.default_rng(7)
+    special = [np.nan, np.inf, -np.inf, 0.0, -0.0, -1.0, 1e-45, 1e-38, 3.4e38, 1e30]
+    values = np.concatenate([rng.exponential(0.6, 4 * 4000), rng.uniform(0, 50, 4 * 1000), special * 4])
+    values = np.resize(values.astype(np.float32), 4 * 5010)
+    # every level's threshold and the float just below it
+    t = thresholds(method, exposure)
+    edges = t[np.isfinite(t)]
+    values = np.concatenate([values, edges, np.nextafter(edges, np.float32(0))]).astype(np.float32)
+    values = np.concatenate([values, np.zeros(-len(values) % 4, np.float32)])
+    image = values.astype(np.float32).reshape(-1, 1, 4)
+    display = Display(session.runtime)
+    buf = session.runtime.to_device(np.ascontiguousarray(image))
+    event, out = display.enqueue(buf, len(image), method, exposure)
+    event.wait()
+    got = display.read(out, len(image), 1)
+    np.testing.assert_array_equal(got[..., :3], to_display(image, method, exposure))
+    assert (got[..., 3] == 255).all()
+
+
+# ---------------------------------------------------------------- save ↔ clshade render
+
+
+def test_saved_view_renders_bit_for_bit(session, tmp_path, monkeypatch):
+    c = parse_controls(controls(session, azimuth=-40.0, elevation=35.0, distance=6.0, exposure=0.75,
+                                tonemap="reinhard", model_a="oren_nayar+ggx_correlated@conductor",
+                                model_b="blinn_phong", split=True,
+                                materials={"paint_red": {"roughness": 0.12, "ks": 0.5}},
+                                lights={"0": {"direction": [0.3, -1.0, 0.2], "scale": 1.7}, "1": {"scale": 0.5}}),
+                       session.limits)
+    frame = session.render(c)
+    result = session.save(c, "snap")
+    out = session.out_dir
+    assert {"snap.toml", "snap.png", "snap.exr", "snap_b.png"} <= set(result["files"])
+    np.testing.assert_array_equal(np.round(read_image(out / "snap.png") * 255).astype(np.uint8),
+                                  frame.views["a"][..., :3])
+    monkeypatch.chdir(out)
+    assert main(["render", "snap.toml", "-o", str(tmp_path / "again.png")]) == 0
+    assert main(["render", "snap.toml", "-o", str(tmp_path / "again.exr")]) == 0
+    assert main(["render", "snap.toml", "-m", "blinn_phong", "-o", str(tmp_path / "again_b.png")]) == 0
+    for mine, theirs in (("snap.png", "again.png"), ("snap.exr", "again.exr"), ("snap_b.png", "again_b.png")):
+        a, b = read_image(out / mine), read_image(tmp_path / theirs)
+        assert a.shape == b.shape and np.array_equal(a, b, equal_nan=True), mine
+
+
+@pytest.mark.parametrize("name", ["../up", "a/b", ".hidden", "", "x" * 65, "robot", None])
+def test_save_names_stay_in_the_output_folder(tmp_path, name):
+    (tmp_path / "robot.toml").write_text(ROBOT.read_text(encoding="utf-8"), encoding="utf-8")
+    s = ViewSession(tmp_path / "robot.toml", tmp_path, 16, 16)
+    with pytest.raises(ClshadeError):
+        s.save(parse_controls(s.initial_controls(), s.limits), name)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["robot.toml"]
+
+
+# ---------------------------------------------------------------- the server
+
+
+class FakeSocket:
+    closed = False
+
+    def __init__(self):
+        self.sent: list = []
+
+    async def send_str(self, text):
+        self.sent.append(json.loads(text))
+
+    async def send_bytes(self, data):
+        self.sent.append(data)
+
+    async def close(self):
+        self.closed = True
+
+
+class SlowSession:
+    """Records what it renders; each frame takes a while, so states pile up meanwhile."""
+
+    def __init__(self, real):
+        self.limits, self.rendered = real.limits, []
+        self.real = real
+
+    def render(self, c):
+        import time
+        time.sleep(0.05)
+        self.rendered.append(c.exposure)
+        return self.real.render(dataclasses.replace(c, exposure=0.0))
+
+
+def test_latest_state_wins(session):
+    from clshade.view.server import Page, ViewServer
+    slow = SlowSession(session)
+    server = ViewServer(slow, log=lambda text: None)
+
+    async def scenario():
+        ws = FakeSocket()
+        page = Page(server, ws)
+        task = asyncio.create_task(page.run())
+        for k in range(6):
+            await page.receive(json.dumps(dict(type="state", seq=k + 1, controls=controls(session, exposure=float(k)))))
+            await asyncio.sleep(0.01 if k else 0.0)
+        await asyncio.sleep(0.4)
+        ws.closed = True
+        page.wake.set()
+        await task
+        return ws, page
+
+    ws, page = asyncio.run(scenario())
+    server.executor.shutdown()
+    frames = [json.loads(m[4:4 + int.from_bytes(m[:4], "little")]) for m in ws.sent if isinstance(m, bytes)]
+    assert slow.rendered[-1] == 5.0 and frames[-1]["seq"] == 6          # the newest state is shown
+    assert len(slow.rendered) < 6 and page.skipped == 6 - len(slow.rendered)   # stale ones were dropped
+    assert slow.rendered == sorted(slow.rendered)                       # never an older state after a newer
+
+
+def test_bad_messages_answer_an_error_and_the_page_goes_on(session):
+    from clshade.view.server import Page, ViewServer
+    server = ViewServer(session, log=lambda text: None)
+
+    async def scenario():
+        ws = FakeSocket()
+        page = Page(server, ws)
+        for text in ["{oops", '{"type": "state", "seq": 3, "controls": {"exposure": NaN}}',
+                     json.dumps(dict(type="state", seq=4, controls=controls(session, model_a="nope"))),
+                     json.dumps(dict(type="state", seq=5, controls=controls(session, exposure=1e9))),
+                     json.dumps(dict(type="state", seq=-1, controls=controls(session))),
+                     json.dumps(dict(type="warp", seq=6))]:
+            await page.receive(text)
+        assert page.pending is None and not page.jobs
+        await page.receive(json.dumps(dict(type="state", seq=7, controls=controls(session))))
+        assert page.pending is not None and page.pending[0] == 7
+        return ws
+
+    ws = asyncio.run(scenario())
+    server.executor.shutdown()
+    errors = [m for m in ws.sent if isinstance(m, dict) and m["type"] == "error"]
+    assert [e["seq"] for e in errors] == [None, None, 4, 5, -1, 6]
+    assert "not JSON" in errors[0]["message"] and "NaN" in errors[1]["message"]
+    assert "model_a" in errors[2]["message"] and "exposure" in errors[3]["message"]
+    assert all("Traceback" not in e["message"] for e in errors)
+
+
+def test_http_guards(session):
+    """Loopback only by default; another Host (DNS rebinding) and another origin's WebSocket are refused;
+    on another address the token is required."""
+    from aiohttp.test_utils import TestClient, TestServer
+    from clshade.view.server import ViewServer
+
+    async def scenario():
+        out = {}
+        local = ViewServer(session, log=lambda text: None)
+        async with TestClient(TestServer(local.app(), host="127.0.0.1")) as client:
+            out["page"] = (await client.get("/")).status
+            out["script"] = (await client.get("/view.js")).status
+            out["other"] = (await client.get("/../pyproject.toml")).status
+            out["rebinding"] = (await client.get("/", headers={"Host": "evil.example:80"})).status
+            out["origin"] = (await client.get("/ws", headers={"Origin": "http://evil.example"})).status
+            ws = await client.ws_connect("/ws")
+            hello = await ws.receive_json(timeout=30)
+            out["hello"] = hello["type"]
+            await ws.close()
+        remote = ViewServer(session, host="0.0.0.0", log=lambda text: None)
+        assert remote.token and len(remote.token) >= 20
+        async with TestClient(TestServer(remote.app(), host="127.0.0.1")) as client:
+            out["no token"] = (await client.get("/")).status
+            out["bad token"] = (await client.get("/?token=x")).status
+            out["token"] = (await client.get(f"/?token={remote.token}")).status
+        local.executor.shutdown()
+        remote.executor.shutdown()
+        return out
+
+    out = asyncio.run(scenario())
+    assert out == {"page": 200, "script": 200, "other": 404, "rebinding": 403, "origin": 403, "hello": "hello",
+                   "no token": 403, "bad token": 403, "token": 200}
