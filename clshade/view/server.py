@@ -223,9 +223,9 @@ class ViewServer:
     async def start(self) -> web.AppRunner:
         """Listen; sets self.url (with the token when there is one)."""
         self.stopped = asyncio.Event()
-        runner = web.AppRunner(self.app(), access_log=None, handle_signals=False)
+        runner = web.AppRunner(self.app(), access_log=None, handle_signals=False, shutdown_timeout=1.0)
         await runner.setup()
-        site = web.TCPSite(runner, self.host, self.port, shutdown_timeout=1.0)
+        site = web.TCPSite(runner, self.host, self.port)
         await site.start()
         port = runner.addresses[0][1]
         shown = f"[{self.host}]" if ":" in self.host else self.host

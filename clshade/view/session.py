@@ -29,7 +29,7 @@ import numpy as np
 
 from clshade.bench.run import _timed as timed_dispatch
 from clshade.bench.run import compared_pixels, frame_stats, grazing_pixels, relative_error
-from clshade.compare import difference
+from clshade.compare import difference, false_colour
 from clshade.device.display import Display
 from clshade.device.runtime import get_runtime
 from clshade.device.shade import Shader, scene_features
@@ -51,6 +51,8 @@ from clshade.view.document import applied, dumps, relocated
 HISTORY = 120
 #: Names "save" accepts: one file name stem in the output folder, no path.
 SAVE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
+#: Colours of the difference view's scale bar on the page.
+RAMP_STEPS = 160
 #: Per-pixel G-buffer channels a material fills from its own values (G-buffer rebuilt or patched).
 CHANNEL_FIELDS = ("roughness", "metallic")
 
@@ -193,6 +195,7 @@ class ViewSession:
             lights=[dict(kind=l.kind, direction=None if l.direction is None else [float(x) for x in l.direction])
                     for l in s.lights],
             distance=list(self.limits.distance), controls=self.initial_controls(),
+            ramp=np.round(false_colour(np.linspace(0.0, 1.0, RAMP_STEPS)) * 255).astype(int).tolist(),
             orbit=dict(east=self.orbit.east.tolist(), north=self.orbit.north.tolist(), up=self.orbit.up.tolist()))
 
     def scene(self, controls: Controls) -> tuple[Scene, dict]:

@@ -227,6 +227,8 @@ function start(m) {
   hello = m;
   controls = structuredClone(m.controls);
   $("scene").textContent = `${m.scene} · ${m.width}×${m.height}`;
+  const ramp = $("ramp").getContext("2d");
+  m.ramp.forEach((rgb, i) => { ramp.fillStyle = `rgb(${rgb.join(",")})`; ramp.fillRect(i, 0, 1, 10); });
   canvas.width = m.width; canvas.height = m.height;
   const list = $("models");
   for (const p of m.presets) list.append(new Option(p.name, p.id));
@@ -305,7 +307,15 @@ window.clshadeView = {
   get controls() { return controls; }, get lastFrame() { return lastFrame; }, records, latencies,
   set(patch) { Object.assign(controls, patch); return update(); },
   send(message) { send(message); },
-  frameFor(s) { return new Promise((resolve) => waiters.push([s, resolve])); },
+  sendRaw(text) { ws.send(text); },
+  lastSeq() { return seq; },
+  view(name) { return views[name].data; },
+  frameFor(s) {
+    return new Promise((resolve) => {
+      if (lastFrame && lastFrame.seq >= s) resolve({seq: lastFrame.seq, latency: records.at(-1).latency});
+      else waiters.push([s, resolve]);
+    });
+  },
   setDivider(x) { divider = x; draw(); },
   canvasPNG() { return canvas.toDataURL("image/png"); },
   error() { return $("error").textContent; },

@@ -1,0 +1,187 @@
+"""`clshade view` end to end in headless Chromium (Debian's chromium + chromium-driver,
+driven by Selenium): load, orbit, switch models, move a slider, split, difference, save;
+the canvas equals `clshade render` of the saved scene; bad inputs show an error and the
+page goes on. Skipped, with the reason, where no browser is installed (.ci/install-browser
+installs one). CLSHADE_VIEW_SCREENSHOT=path also saves a screenshot of the page there."""
+from __future__ import annotations
+
+import base64
+import io
+import json
+import os
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from clshade.cli import main
+from clshade.render.image import read_image
+from clshade.resources import scenes_dir
+from clshade.view.session import ViewSession
+from view_helpers import Running
+
+CHROMIUM = os.environ.get("CLSHADE_CHROMIUM", "/usr/bin/chromium")
+CHROMEDRIVER = os.environ.get("CLSHADE_CHROMEDRIVER", "/usr/bin/chromedriver")
+FLAGS = ("--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+         "--disable-background-networking", "--disable-component-update", "--disable-sync",
+         "--disable-dev-shm-usage", "--force-device-scale-factor=1", "--window-size=1240,820")
+W, H = 480, 270
+WAIT_S = 60
+
+selenium = pytest.importorskip("selenium", reason="the browser tests need selenium (pip install 'clshade[test]')")
+if not (Path(CHROMIUM).exists() and Path(CHROMEDRIVER).exists()):
+    pytest.skip(f"no browser: {CHROMIUM} and {CHROMEDRIVER} are needed (apt-get install chromium chromium-driver; "
+                f".ci/install-browser)", allow_module_level=True)
+
+
+@pytest.fixture(scope="module")
+def browser(tmp_path_factory):
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+    options = webdriver.ChromeOptions()
+    options.binary_location = CHROMIUM
+    for flag in FLAGS:
+        options.add_argument(flag)
+    options.add_argument(f"--user-data-dir={tmp_path_factory.mktemp('chromium-profile')}")
+    driver = webdriver.Chrome(service=Service(CHROMEDRIVER), options=options)
+    driver.set_script_timeout(WAIT_S)
+    yield driver
+    driver.quit()
+
+
+@pytest.fixture(scope="module")
+def served(tmp_path_factory):
+    out = tmp_path_factory.mktemp("view-saved")
+    session = ViewSession(scenes_dir() / "robot.toml", out, W, H)
+    with Running(session) as url:
+        yield url, out
+
+
+def js(driver, script, *args):
+    return driver.execute_script(script, *args)
+
+
+def until(driver, script):
+    """Run an async script body (`done` is its callback) and return what it passes."""
+    return driver.execute_async_script("const done = arguments[arguments.length - 1];\n" + script)
+
+
+def next_frame(driver, seq=None):
+    """Wait for the frame of `seq` (default: the newest state sent)."""
+    return until(driver, f"window.clshadeView.frameFor({seq if seq is not None else 'window.clshadeView.lastSeq()'}).then(done);")
+
+
+def canvas(driver) -> np.ndarray:
+    url = js(driver, "return window.clshadeView.canvasPNG();")
+    from PIL import Image
+    return np.asarray(Image.open(io.BytesIO(base64.b64decode(url.split(",", 1)[1]))).convert("RGB"))
+
+
+def test_viewer_end_to_end(browser, served, tmp_path, monkeypatch):
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.by import By
+    url, out = served
+    browser.get(url)
+    until(browser, "const wait = () => window.clshadeView && window.clshadeView.lastFrame ? done(true) "
+                   ": setTimeout(wait, 20); wait();")
+    first = js(browser, "return window.clshadeView.lastFrame;")
+    assert first["width"] == W and first["height"] == H and first["views"] == ["a"]
+    assert not first["reshade_only"]
+    start = canvas(browser)
+    assert start.shape == (H, W, 3) and start.std() > 5          # a picture, not a blank canvas
+
+    # orbit: a real drag on the canvas re-rasterises
+    frame_el = browser.find_element(By.ID, "frame")
+    ActionChains(browser).move_to_element_with_offset(frame_el, -60, 0).click_and_hold() \
+        .move_by_offset(40, 10).move_by_offset(40, 10).release().perform()
+    orbited = next_frame(browser)
+    header = js(browser, "return window.clshadeView.lastFrame;")
+    assert js(browser, "return window.clshadeView.controls.azimuth;") < -20
+    assert "rasterize" in header["stages"] and orbited["latency"] > 0
+    moved = canvas(browser)
+    assert (moved != start).any(axis=-1).mean() > 0.05
+
+    # switch model A through its input
+    box = browser.find_element(By.ID, "model_a")
+    box.clear()
+    box.send_keys("burley")
+    js(browser, "document.getElementById('model_a').dispatchEvent(new Event('change'));")
+    next_frame(browser)
+    header = js(browser, "return window.clshadeView.lastFrame;")
+    assert header["models"]["a"] == "burley" and header["reshade_only"]
+
+    # a material slider (built from the lobes' declared parameters) re-shades only
+    js(browser, "const m = document.getElementById('material'); m.value = 'paint_red';"
+                "m.dispatchEvent(new Event('change'));")
+    assert js(browser, "return !!document.getElementById('param_roughness');")
+    js(browser, "const s = document.getElementById('param_roughness'); s.value = 150;"
+                "s.dispatchEvent(new Event('input'));")
+    next_frame(browser)
+    header = js(browser, "return window.clshadeView.lastFrame;")
+    assert header["reshade_only"] and "rasterize" not in header["stages"]
+    assert 0.1 < js(browser, "return window.clshadeView.controls.materials.paint_red.roughness;") < 0.2
+
+    # split: A left of the divider, B right of it, both on the same G-buffer
+    browser.find_element(By.ID, "split").click()
+    next_frame(browser)
+    header = js(browser, "return window.clshadeView.lastFrame;")
+    assert header["views"] == ["a", "b"] and header["reshade_only"]
+    assert set(header["stats"]) == {"burley", "lambert+phong"}
+    js(browser, "window.clshadeView.setDivider(0.25);")
+    split = canvas(browser)
+    a, b = (js(browser, f"return Array.from(window.clshadeView.view('{v}'));") for v in "ab")
+    a = np.array(a, np.uint8).reshape(H, W, 4)[..., :3]
+    b = np.array(b, np.uint8).reshape(H, W, 4)[..., :3]
+    x = round(0.25 * W)
+    np.testing.assert_array_equal(split[:, :x], a[:, :x])
+    np.testing.assert_array_equal(split[:, x + 1:], b[:, x + 1:])
+    assert (split[:, x] == 255).all()                                   # the divider line
+
+    # the difference view, one click away, with its scale
+    browser.find_element(By.ID, "diff").click()
+    next_frame(browser)
+    header = js(browser, "return window.clshadeView.lastFrame;")
+    assert header["views"] == ["a", "b", "diff"] and header["diff_scale"] > 0
+    assert js(browser, "return !document.getElementById('legend').hidden;")
+    if os.environ.get("CLSHADE_VIEW_SCREENSHOT"):
+        browser.find_element(By.ID, "diff").click()
+        next_frame(browser)
+        browser.find_element(By.ID, "oracle").click()
+        until(browser, "const wait = () => document.querySelectorAll('#truth tr').length > 2 ? done(true) "
+                       ": setTimeout(wait, 50); wait();")
+        js(browser, "window.scrollTo(0, 0);")
+        browser.save_screenshot(os.environ["CLSHADE_VIEW_SCREENSHOT"])
+        browser.find_element(By.ID, "diff").click()
+        next_frame(browser)
+
+    # bad inputs: an error in the page, and the page goes on
+    bad = ["{not json", '{"type": "state", "seq": 900, "controls": {"exposure": NaN}}',
+           json.dumps({"type": "state", "seq": 901, "controls": {"exposure": 1}})]
+    for text in bad:
+        js(browser, "window.clshadeView.sendRaw(arguments[0]);", text)
+    js(browser, "window.clshadeView.set({model_b: 'no_such_model'});")
+    until(browser, "const wait = () => /model_b/.test(window.clshadeView.error()) ? done(true) "
+                   ": setTimeout(wait, 20); wait();")
+    assert "did you mean" in js(browser, "return window.clshadeView.error();") or \
+        "unknown" in js(browser, "return window.clshadeView.error();")
+    js(browser, "window.clshadeView.set({model_b: 'phong', exposure: 1e9});")
+    until(browser, "const wait = () => /exposure/.test(window.clshadeView.error()) ? done(true) "
+                   ": setTimeout(wait, 20); wait();")
+    # diff off, split on; save; the canvas left of the divider is model A of the saved scene
+    js(browser, "window.clshadeView.set({exposure: 0.5, diff: false});")
+    next_frame(browser)
+    assert js(browser, "return window.clshadeView.error();") == ""
+    js(browser, "window.clshadeView.setDivider(1.0);")
+    shown = canvas(browser)
+    js(browser, "document.getElementById('save_name').value = 'e2e';")
+    browser.find_element(By.ID, "save").click()
+    until(browser, "const wait = () => /e2e.toml/.test(document.getElementById('saved').textContent) ? done(true) "
+                   ": setTimeout(wait, 20); wait();")
+    monkeypatch.chdir(out)
+    assert main(["render", "e2e.toml", "-o", str(tmp_path / "cli.png")]) == 0
+    rendered = np.round(read_image(tmp_path / "cli.png") * 255).astype(np.uint8)
+    np.testing.assert_array_equal(shown[:, :W - 1], rendered[:, :W - 1])     # the last column is the divider
+    np.testing.assert_array_equal(read_image(out / "e2e.png"), read_image(tmp_path / "cli.png"))
+    assert main(["render", "e2e.toml", "-m", "phong", "-o", str(tmp_path / "cli_b.png")]) == 0
+    np.testing.assert_array_equal(read_image(out / "e2e_b.png"), read_image(tmp_path / "cli_b.png"))
