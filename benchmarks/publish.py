@@ -392,6 +392,57 @@ def render_raster(data: dict[str, Any]) -> str:
 
 
 
+# ------------------------------------------------------------------ the live viewer
+
+
+def render_view(doc: dict[str, Any]) -> str:
+    """benchmarks/results/view.md from view.json (benchmarks/view_bench.py)."""
+    k, t, m = doc["kinds"], doc["targets"], doc["machine"]
+
+    def ms(x: float | None) -> str:
+        return "–" if x is None else f"{x:.1f}"
+
+    names = {"reshade": "re-shade (roughness slider)", "orbit": "orbit (1° steps)",
+             "drag": f"drag (orbit inputs at {doc['drag_hz']:.0f} Hz)"}
+    lines = [
+        "# Live viewer: updates per second and input-to-frame latency",
+        "",
+        f"Measured by `python benchmarks/view_bench.py` on {doc['date']}, commit {doc['commit']}, device "
+        f"`{doc['device']}`, {m['cpu']} ({m['cores']} cores, load {m['load_average_at_start'][0]:.1f} at start); "
+        f"{doc['scene']} at {doc['width']}x{doc['height']} in headless Chromium; rendered by "
+        "`benchmarks/publish.py`.",
+        "",
+        f"| step | rate /s (median of {doc['repeats']} blocks) | target | latency median ms | p95 ms | "
+        "server ms | transfer + browser ms | draw ms | frames |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    target = {"reshade": t["reshade_per_s"], "orbit": t["orbit_fps"], "drag": None}
+    for kind in ("reshade", "orbit", "drag"):
+        e = k[kind]
+        goal = "–" if target[kind] is None else (f"≥ {target[kind]:.0f} " +
+                                                 ("met" if e["rate_per_s_median"] >= target[kind] else "**not met**"))
+        lines.append(f"| {names[kind]} | {e['rate_per_s_median']:.1f} | {goal} | {ms(e['latency_ms']['median'])} | "
+                     f"{ms(e['latency_ms']['p95'])} | {ms(e['server_ms_median'])} | "
+                     f"{ms(e['transfer_and_browser_ms_median'])} | {ms(e['draw_ms_median'])} | {e['frames']} |")
+    drag = k["drag"]
+    lines += ["", f"Drag: {drag['inputs_sent']} inputs sent, {drag['frames']} frames drawn, "
+                  f"{drag['states_skipped']} stale states skipped by the server (latest state wins).",
+              "", "Where the server's time goes (median ms per frame of each stage, over the frames that ran it):", "",
+              "| stage | " + " | ".join(names[x] for x in ("reshade", "orbit", "drag")) + " |",
+              "|---|---:|---:|---:|"]
+    stages = list(dict.fromkeys(s for x in ("orbit", "reshade", "drag") for s in k[x]["stage_ms_median"]))
+    for s in stages:
+        lines.append(f"| {s} | " + " | ".join(ms(k[x]["stage_ms_median"].get(s)) for x in ("reshade", "orbit", "drag"))
+                     + " |")
+    lines.append(f"| pack (header + raw RGBA, {k['orbit']['bytes_per_frame'] / 1e6:.1f} MB) | "
+                 + " | ".join(ms(k[x]["pack_ms_median"]) for x in ("reshade", "orbit", "drag")) + " |")
+    lines += ["", "Latency: from the page's input (control state sent) to the frame drawn on its canvas "
+                  "(putImageData returned; compositing to the screen not included). Server ms: from the state's "
+                  "arrival to the frame sent (waiting, rendering, packing, sending). Frames travel as raw RGBA "
+                  "(no encoding: the canvas must equal `clshade render`'s PNG, which lossy JPEG would not)."]
+    return "\n".join(lines) + "\n"
+
+
 # ------------------------------------------------------------------ mutants, floor bias
 
 
@@ -484,6 +535,8 @@ def renderings() -> dict[Path, Callable[[str], str]]:
     for name, render in (("effects", render_effects), ("raster", render_raster)):
         if (RESULTS / f"{name}.json").exists():
             out[RESULTS / f"{name}.md"] = (lambda r, j: lambda text: r(load(j)))(render, RESULTS / f"{name}.json")
+    if (RESULTS / "view.json").exists():
+        out[RESULTS / "view.md"] = lambda text: render_view(load(RESULTS / "view.json"))
     if REPORT_JSON.exists():
         out[ROOT / "benchmarks" / "REPORT.md"] = lambda text: render_report(load(REPORT_JSON))
     if RUNTIMES_JSON.exists():

@@ -19,7 +19,7 @@ from clshade.cli import main
 from clshade.render.image import read_image
 from clshade.resources import scenes_dir
 from clshade.view.session import ViewSession
-from view_helpers import Running
+from clshade.view.server import ServerThread
 
 CHROMIUM = os.environ.get("CLSHADE_CHROMIUM", "/usr/bin/chromium")
 CHROMEDRIVER = os.environ.get("CLSHADE_CHROMEDRIVER", "/usr/bin/chromedriver")
@@ -54,7 +54,7 @@ def browser(tmp_path_factory):
 def served(tmp_path_factory):
     out = tmp_path_factory.mktemp("view-saved")
     session = ViewSession(scenes_dir() / "robot.toml", out, W, H)
-    with Running(session) as url:
+    with ServerThread(session) as url:
         yield url, out
 
 

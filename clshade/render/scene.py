@@ -478,6 +478,13 @@ def parse_scene(text: str, file: Path | str = "<scene>") -> Scene:
             lines = text.split("\n")
             message += f" (line {len(lines)}, column {len(lines[-1]) + 1})"
         raise ClshadeError(f"{file}: malformed TOML: {message}") from exc
+    return scene_from_data(data, file)
+
+
+def scene_from_data(data: dict[str, Any], file: Path | str = "<scene>") -> Scene:
+    """Validate a scene from its parsed TOML tables (what tomllib returns; `clshade view`
+    edits them and parses each edit without writing TOML text in between)."""
+    file = Path(file) if not isinstance(file, Path) else file
     top = _Reader(file, data, "")
     cam = _Reader(file, top.raw("camera", None) or _missing(file, "camera"), "camera")
     camera = Camera(

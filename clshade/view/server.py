@@ -21,6 +21,8 @@ LINGER_S seconds, or on Ctrl-C / SIGTERM.
 from __future__ import annotations
 
 import asyncio
+import queue
+import threading
 import ipaddress
 import json
 import secrets
@@ -250,3 +252,28 @@ class ViewServer:
                 await page.ws.close()
             await runner.cleanup()
             self.executor.shutdown(wait=True, cancel_futures=True)
+
+
+class ServerThread:
+    """`with ServerThread(session) as url:` serves on a thread of its own (tests, benchmarks)."""
+
+    def __init__(self, session: ViewSession, linger: float | None = None, host: str = "127.0.0.1") -> None:
+        self.server = ViewServer(session, host=host, linger=linger, log=lambda text: None)
+        self.loop: asyncio.AbstractEventLoop | None = None
+        self.thread = threading.Thread(target=self._run, daemon=True)
+        self._url: queue.Queue = queue.Queue()
+
+    def _run(self) -> None:
+        async def main() -> None:
+            self.loop = asyncio.get_running_loop()
+            await self.server.serve(self._url.put)
+        asyncio.run(main())
+
+    def __enter__(self) -> str:
+        self.thread.start()
+        return self._url.get(timeout=120)
+
+    def __exit__(self, *exc) -> None:
+        if self.loop is not None and self.thread.is_alive():
+            self.loop.call_soon_threadsafe(self.server.stopped.set)
+        self.thread.join(timeout=30)

@@ -44,6 +44,7 @@ function draw() {
 }
 
 function onFrame(buffer) {
+  const received = performance.now();
   const n = new DataView(buffer).getUint32(0, true);
   const header = JSON.parse(new TextDecoder().decode(new Uint8Array(buffer, 4, n)));
   const w = header.width, h = header.height, size = w * h * 4;
@@ -59,7 +60,8 @@ function onFrame(buffer) {
   for (const k of sentAt.keys()) if (k <= header.seq) sentAt.delete(k);
   if (latency !== null) { latencies.push(latency); if (latencies.length > 120) latencies.shift(); }
   lastFrame = header;
-  records.push({seq: header.seq, latency, displayed: now, stages: header.stages, reshade_only: header.reshade_only});
+  records.push({seq: header.seq, latency, displayed: now, draw_ms: now - received, bytes: buffer.byteLength,
+                stages: header.stages, reshade_only: header.reshade_only});
   if (records.length > 1000) records.shift();
   if ($("error").dataset.seq && +$("error").dataset.seq < header.seq) showError("");
   showCost(header);
@@ -96,6 +98,10 @@ ws.onmessage = (event) => {
   else if (m.type === "error") { showError(m.message); $("error").dataset.seq = m.seq ?? seq; }
   else if (m.type === "saved") $("saved").textContent = `wrote ${m.files.join(", ")} in ${m.folder}\n` + m.commands.join("\n");
   else if (m.type === "oracle") showOracle(m);
+  else if (m.type === "sent") {
+    const r = records.findLast((x) => x.seq === m.seq);
+    if (r) Object.assign(r, {server_ms: m.server_ms, pack_ms: m.pack_ms});
+  }
 };
 ws.onopen = () => { $("status").textContent = "connected"; };
 ws.onclose = () => { $("status").textContent = "disconnected (the server stopped)"; };
