@@ -139,7 +139,8 @@ def test_controls_reach_the_scene(session):
 def test_patched_gbuffer_equals_a_rebuilt_one(session):
     start = parse_controls(controls(session), session.limits)
     session.render(start)
-    changed = parse_controls(controls(session, materials={"steel": {"roughness": 0.05}, "gold": {"ks": 0.2}}),
+    changed = parse_controls(controls(session, materials={"paint_red": {"roughness": 0.9},
+                                                          "steel": {"roughness": 0.05}, "gold": {"ks": 0.2}}),
                              session.limits)
     frame = session.render(changed)
     assert frame.reshade_only and "g-buffer patch" in frame.stages and "rasterize" not in frame.stages
@@ -163,6 +164,8 @@ def test_orbit_rasterises_and_exposure_does_not(session):
 def test_split_and_difference_views(session):
     one = session.render(parse_controls(controls(session, model_b="lambert"), session.limits))
     assert list(one.views) == ["a"]
+    split = session.render(parse_controls(controls(session, model_b="lambert", split=True), session.limits))
+    assert list(split.views) == ["a", "b"] and split.diff_scale is None
     both = session.render(parse_controls(controls(session, model_b="lambert", split=True, diff=True),
                                          session.limits))
     assert list(both.views) == ["a", "b", "diff"] and both.models == {"a": "lambert+ggx_correlated", "b": "lambert"}

@@ -2,7 +2,9 @@
 driven by Selenium): load, orbit, switch models, move a slider, split, difference, save;
 the canvas equals `clshade render` of the saved scene; bad inputs show an error and the
 page goes on. Skipped, with the reason, where no browser is installed (.ci/install-browser
-installs one). CLSHADE_VIEW_SCREENSHOT=path also saves a screenshot of the page there."""
+installs one). CLSHADE_VIEW_SCREENSHOT=path also saves a screenshot of the page there.
+The page under test is clshade.view.static.view.js (benchmarks/mutants.py runs this file first
+for its mutants)."""
 from __future__ import annotations
 
 import base64
