@@ -395,47 +395,60 @@ def render_raster(data: dict[str, Any]) -> str:
 # ------------------------------------------------------------------ the live viewer
 
 
-def render_view(doc: dict[str, Any]) -> str:
-    """benchmarks/results/view.md from view.json (benchmarks/view_bench.py)."""
-    k, t, m = doc["kinds"], doc["targets"], doc["machine"]
+_VIEW_STEPS = ("reshade", "orbit", "drag")
 
-    def ms(x: float | None) -> str:
-        return "–" if x is None else f"{x:.1f}"
 
+def _ms(x: float | None) -> str:
+    return "–" if x is None else f"{x:.1f}"
+
+
+def view_table(doc: dict[str, Any]) -> list[str]:
+    """The viewer's rates and latencies (view.json), one row per kind of step, with the targets."""
+    k, t = doc["kinds"], doc["targets"]
     names = {"reshade": "re-shade (roughness slider)", "orbit": "orbit (1° steps)",
              "drag": f"drag (orbit inputs at {doc['drag_hz']:.0f} Hz)"}
+    target = {"reshade": t["reshade_per_s"], "orbit": t["orbit_fps"], "drag": None}
+    lines = [f"| step | frames/s (median of {doc['repeats']} blocks) | target | latency median ms | p95 ms | "
+             "server ms | transfer + browser ms | draw ms | frames |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for kind in _VIEW_STEPS:
+        e = k[kind]
+        goal = "–" if target[kind] is None else (f"≥ {target[kind]:.0f} " +
+                                                 ("met" if e["rate_per_s_median"] >= target[kind] else "**not met**"))
+        lines.append(f"| {names[kind]} | {e['rate_per_s_median']:.1f} | {goal} | {_ms(e['latency_ms']['median'])} | "
+                     f"{_ms(e['latency_ms']['p95'])} | {_ms(e['server_ms_median'])} | "
+                     f"{_ms(e['transfer_and_browser_ms_median'])} | {_ms(e['draw_ms_median'])} | {e['frames']} |")
+    m = doc["machine"]
+    lines += ["", f"*From benchmarks/results/view.json (`python benchmarks/view_bench.py`, {doc['date']}, commit "
+                  f"{doc['commit']}, {doc['scene']} at {doc['width']}x{doc['height']}, headless Chromium, device "
+                  f"`{doc['device'].split(' [')[0]}`, {m['cores']} cores, load {m['load_average_at_start'][0]:.1f} "
+                  f"at start).*"]
+    return lines
+
+
+def render_view(doc: dict[str, Any]) -> str:
+    """benchmarks/results/view.md from view.json (benchmarks/view_bench.py)."""
+    k, m = doc["kinds"], doc["machine"]
     lines = [
-        "# Live viewer: updates per second and input-to-frame latency",
+        "# Live viewer: frames per second and input-to-frame latency",
         "",
         f"Measured by `python benchmarks/view_bench.py` on {doc['date']}, commit {doc['commit']}, device "
         f"`{doc['device']}`, {m['cpu']} ({m['cores']} cores, load {m['load_average_at_start'][0]:.1f} at start); "
         f"{doc['scene']} at {doc['width']}x{doc['height']} in headless Chromium; rendered by "
         "`benchmarks/publish.py`.",
         "",
-        f"| step | rate /s (median of {doc['repeats']} blocks) | target | latency median ms | p95 ms | "
-        "server ms | transfer + browser ms | draw ms | frames |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
+        *view_table(doc)[:-2],
     ]
-    target = {"reshade": t["reshade_per_s"], "orbit": t["orbit_fps"], "drag": None}
-    for kind in ("reshade", "orbit", "drag"):
-        e = k[kind]
-        goal = "–" if target[kind] is None else (f"≥ {target[kind]:.0f} " +
-                                                 ("met" if e["rate_per_s_median"] >= target[kind] else "**not met**"))
-        lines.append(f"| {names[kind]} | {e['rate_per_s_median']:.1f} | {goal} | {ms(e['latency_ms']['median'])} | "
-                     f"{ms(e['latency_ms']['p95'])} | {ms(e['server_ms_median'])} | "
-                     f"{ms(e['transfer_and_browser_ms_median'])} | {ms(e['draw_ms_median'])} | {e['frames']} |")
     drag = k["drag"]
     lines += ["", f"Drag: {drag['inputs_sent']} inputs sent, {drag['frames']} frames drawn, "
                   f"{drag['states_skipped']} stale states skipped by the server (latest state wins).",
               "", "Where the server's time goes (median ms per frame of each stage, over the frames that ran it):", "",
-              "| stage | " + " | ".join(names[x] for x in ("reshade", "orbit", "drag")) + " |",
-              "|---|---:|---:|---:|"]
+              "| stage | re-shade | orbit | drag |", "|---|---:|---:|---:|"]
     stages = list(dict.fromkeys(s for x in ("orbit", "reshade", "drag") for s in k[x]["stage_ms_median"]))
     for s in stages:
-        lines.append(f"| {s} | " + " | ".join(ms(k[x]["stage_ms_median"].get(s)) for x in ("reshade", "orbit", "drag"))
-                     + " |")
+        lines.append(f"| {s} | " + " | ".join(_ms(k[x]["stage_ms_median"].get(s)) for x in _VIEW_STEPS) + " |")
     lines.append(f"| pack (header + raw RGBA, {k['orbit']['bytes_per_frame'] / 1e6:.1f} MB) | "
-                 + " | ".join(ms(k[x]["pack_ms_median"]) for x in ("reshade", "orbit", "drag")) + " |")
+                 + " | ".join(_ms(k[x]["pack_ms_median"]) for x in _VIEW_STEPS) + " |")
     lines += ["", "Latency: from the page's input (control state sent) to the frame drawn on its canvas "
                   "(putImageData returned; compositing to the screen not included). Server ms: from the state's "
                   "arrival to the frame sent (waiting, rendering, packing, sending). Frames travel as raw RGBA "
@@ -527,7 +540,10 @@ def renderings() -> dict[Path, Callable[[str], str]]:
     def render_readme(text: str) -> str:
         bench = load(BENCH_JSON)
         text = replace_region(text, "bench-table", readme_bench_table(bench), readme)
-        return replace_region(text, "bench-targets", "\n".join(target_rows(bench)), readme)
+        text = replace_region(text, "bench-targets", "\n".join(target_rows(bench)), readme)
+        if (RESULTS / "view.json").exists():
+            text = replace_region(text, "view-table", "\n".join(view_table(load(RESULTS / "view.json"))), readme)
+        return text
 
     out[readme] = render_readme
     if (RESULTS / "accuracy.json").exists():
