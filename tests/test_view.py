@@ -366,3 +366,36 @@ def test_http_guards(session):
     out = asyncio.run(scenario())
     assert out == {"page": 200, "script": 200, "other": 404, "rebinding": 403, "origin": 403, "hello": "hello",
                    "no token": 403, "bad token": 403, "token": 200}
+
+
+def test_closing_the_last_page_stops_the_server(session):
+    import aiohttp
+    from clshade.view.server import ServerThread
+    running = ServerThread(session, linger=0.2)
+
+    async def visit(url):
+        async with aiohttp.ClientSession() as http:
+            async with http.ws_connect(url + "ws") as ws:
+                assert (await ws.receive_json(timeout=30))["type"] == "hello"
+
+    with running as url:
+        asyncio.run(visit(url))
+        running.thread.join(timeout=20)
+        assert not running.thread.is_alive()          # stopped by itself, 0.2 s after the page left
+
+
+def test_ctrl_c_stops_the_command_cleanly(tmp_path):
+    import signal
+    import subprocess
+    import sys
+    proc = subprocess.Popen([sys.executable, "-m", "clshade", "view", str(ROBOT), "--no-browser", "--width", "32",
+                             "--height", "32", "-o", str(tmp_path)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
+    try:
+        line = proc.stdout.readline()
+        assert line.startswith("clshade view: serving http://127.0.0.1:"), line + proc.stderr.read()
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=30)
+    finally:
+        proc.kill()
+    assert proc.returncode == 0 and "stopped" in out and "Traceback" not in err

@@ -126,21 +126,28 @@ def _channel_values(scene: Scene) -> np.ndarray:
                     np.float32).reshape(-1, len(CHANNEL_FIELDS))
 
 
-def patched_gbuffer(gbuffer: GBuffer, pixels: np.ndarray, old: np.ndarray, new: np.ndarray,
+def material_pixels(gbuffer: GBuffer, pixels: np.ndarray, count: int) -> list[np.ndarray]:
+    """The covered `pixels` of each of `count` materials (made once per raster)."""
+    material = gbuffer.plane("material")[0][pixels]
+    order = np.argsort(material, kind="stable")
+    bounds = np.searchsorted(material[order], np.arange(count + 1))
+    return [pixels[order[bounds[i]:bounds[i + 1]]] for i in range(count)]
+
+
+def patched_gbuffer(gbuffer: GBuffer, groups: list[np.ndarray], old: np.ndarray, new: np.ndarray,
                     table: np.ndarray) -> GBuffer:
     """`gbuffer` for changed material values, without the raster: the roughness / metallic
-    planes rewritten on the covered `pixels` of each material whose value changed (as
-    build_gbuffer writes them for an untextured scene), and the new material table. Planes
-    that did not change are shared, not copied."""
+    planes rewritten on the covered pixels of each material whose value changed (`groups`:
+    material_pixels; as build_gbuffer writes them for an untextured scene), and the new
+    material table. Planes that did not change are shared, not copied."""
     planes = {name: gbuffer.plane(name) for name in gbuffer.channels}
-    material = planes["material"][0][pixels]
     for column, name in enumerate(CHANNEL_FIELDS):
         changed = np.flatnonzero(old[:, column] != new[:, column])
         if not len(changed):
             continue
         plane = planes[name].copy()
         for index in changed:
-            plane[0][pixels[material == index]] = new[index, column]
+            plane[0][groups[index]] = new[index, column]
         planes[name] = plane
     return GBuffer.from_planes(gbuffer.width, gbuffer.height, planes, table, gbuffer.coverage,
                                gbuffer.nonfinite_pixels, unit_normals=gbuffer.unit_normals)
@@ -245,13 +252,16 @@ class ViewSession:
         same_raster = kept.extra.get("fragments") is fragments
         if same_raster and np.array_equal(kept.extra["table"], table) and np.array_equal(kept.extra["values"], values):
             return kept.value
+        groups = kept.extra.get("groups") if same_raster else None
         if same_raster and geometry.face_texture is None and kept.extra["values"].shape == values.shape:
             with timings.stage("g-buffer patch"):
-                gbuffer = patched_gbuffer(kept.value, fragments.pixels, kept.extra["values"], values, table)
+                if groups is None:
+                    groups = material_pixels(kept.value, fragments.pixels, len(values))
+                gbuffer = patched_gbuffer(kept.value, groups, kept.extra["values"], values, table)
         else:
             with timings.stage("g-buffer"):
                 gbuffer = build_gbuffer(scene, geometry, fragments, camera)
-        kept.value, kept.extra = gbuffer, dict(fragments=fragments, table=table, values=values)
+        kept.value, kept.extra = gbuffer, dict(fragments=fragments, table=table, values=values, groups=groups)
         return gbuffer
 
     # ------------------------------------------------------------ frames
