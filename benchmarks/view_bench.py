@@ -47,11 +47,6 @@ SCENE = ROOT / "scenes" / "robot.toml"
 WIDTH, HEIGHT = 960, 540
 TARGETS = {"reshade_per_s": 60.0, "orbit_fps": 30.0}
 DRAG_HZ = 60.0
-CHROMIUM, CHROMEDRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
-FLAGS = ("--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-         "--disable-background-networking", "--disable-component-update", "--disable-sync",
-         "--disable-dev-shm-usage", "--force-device-scale-factor=1", "--window-size=1700,900")
-
 # One closed-loop block in the page: `steps` changes, each awaited until drawn.
 CLOSED_LOOP = """
 const [kind, steps, done] = arguments;
@@ -87,19 +82,6 @@ done({seconds: elapsed, sent, records: v.records.slice(first)});
 """
 
 
-def _browser(profile: str):
-    from selenium import webdriver
-    from selenium.webdriver.chrome.service import Service
-    options = webdriver.ChromeOptions()
-    options.binary_location = CHROMIUM
-    for flag in FLAGS:
-        options.add_argument(flag)
-    options.add_argument(f"--user-data-dir={profile}")
-    driver = webdriver.Chrome(service=Service(CHROMEDRIVER), options=options)
-    driver.set_script_timeout(600)
-    return driver
-
-
 def _run(driver, script: str, *args):
     return driver.execute_async_script(f"(async () => {{ {script} }})();", *args)
 
@@ -129,6 +111,7 @@ def _summary(records: list[dict]) -> dict:
 
 
 def measure(frames: int, repeats: int, drag_seconds: float) -> dict:
+    from clshade.view import headless
     from clshade.view.server import ServerThread
     from clshade.view.session import ViewSession
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True,
@@ -136,7 +119,7 @@ def measure(frames: int, repeats: int, drag_seconds: float) -> dict:
     with tempfile.TemporaryDirectory(prefix="view-bench-") as tmp:
         session = ViewSession(SCENE, tmp, WIDTH, HEIGHT)
         with ServerThread(session) as url:
-            driver = _browser(str(Path(tmp) / "profile"))
+            driver = headless.chromium(Path(tmp) / "profile", 1700, 900, 600)
             try:
                 driver.get(url)
                 driver.execute_async_script("const done = arguments[0]; const wait = () => window.clshadeView "
@@ -153,7 +136,7 @@ def measure(frames: int, repeats: int, drag_seconds: float) -> dict:
         device = session.runtime.info.description
     out: dict = dict(commit=commit, device=device, scene="scenes/robot.toml", width=WIDTH, height=HEIGHT,
                      frames_per_block=frames, repeats=repeats, drag_hz=DRAG_HZ, drag_seconds=drag_seconds,
-                     targets=TARGETS, browser=CHROMIUM, kinds={})
+                     targets=TARGETS, browser=headless.CHROMIUM, kinds={})
     for kind, runs in blocks.items():
         records = [r for b in runs for r in b["records"]]
         rates = [len(b["records"]) / b["seconds"] for b in runs]

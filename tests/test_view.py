@@ -4,7 +4,6 @@ its latest-state-wins loop."""
 from __future__ import annotations
 
 import asyncio
-import copy
 import dataclasses
 import json
 import tomllib

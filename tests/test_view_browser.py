@@ -11,8 +11,6 @@ import base64
 import io
 import json
 import os
-import shutil
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,34 +18,21 @@ import pytest
 from clshade.cli import main
 from clshade.render.image import read_image
 from clshade.resources import scenes_dir
-from clshade.view.session import ViewSession
+from clshade.view import headless
 from clshade.view.server import ServerThread
+from clshade.view.session import ViewSession
 
-CHROMIUM = os.environ.get("CLSHADE_CHROMIUM", "/usr/bin/chromium")
-CHROMEDRIVER = os.environ.get("CLSHADE_CHROMEDRIVER", "/usr/bin/chromedriver")
-FLAGS = ("--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-         "--disable-background-networking", "--disable-component-update", "--disable-sync",
-         "--disable-dev-shm-usage", "--force-device-scale-factor=1", "--window-size=1240,820")
 W, H = 480, 270
 WAIT_S = 60
 
-selenium = pytest.importorskip("selenium", reason="the browser tests need selenium (pip install 'clshade[test]')")
-if not (Path(CHROMIUM).exists() and Path(CHROMEDRIVER).exists()):
-    pytest.skip(f"no browser: {CHROMIUM} and {CHROMEDRIVER} are needed (apt-get install chromium chromium-driver; "
-                f".ci/install-browser)", allow_module_level=True)
+reason = headless.missing()
+if reason:
+    pytest.skip(reason, allow_module_level=True)
 
 
 @pytest.fixture(scope="module")
 def browser(tmp_path_factory):
-    from selenium import webdriver
-    from selenium.webdriver.chrome.service import Service
-    options = webdriver.ChromeOptions()
-    options.binary_location = CHROMIUM
-    for flag in FLAGS:
-        options.add_argument(flag)
-    options.add_argument(f"--user-data-dir={tmp_path_factory.mktemp('chromium-profile')}")
-    driver = webdriver.Chrome(service=Service(CHROMEDRIVER), options=options)
-    driver.set_script_timeout(WAIT_S)
+    driver = headless.chromium(tmp_path_factory.mktemp("chromium-profile"), 1240, 820, WAIT_S)
     yield driver
     driver.quit()
 

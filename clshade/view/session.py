@@ -34,7 +34,7 @@ from clshade.device.display import Display
 from clshade.device.runtime import get_runtime
 from clshade.device.shade import Shader, scene_features
 from clshade.errors import ClshadeError
-from clshade.models import Model, lobes, presets
+from clshade.models import lobes, presets
 from clshade.pipeline import Timings
 from clshade.render.gbuffer import GBuffer, build_gbuffer, material_table
 from clshade.render.image import check_output_path, to_display, write_encoded
