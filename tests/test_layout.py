@@ -2,7 +2,7 @@
 
 Stages, lowest first (README "Layout"):
     base (errors, resources) → models (the registry) → render/ → device/ → pipeline
-    → verify/ → bench/, compare → cli
+    → verify/ → bench/, compare, view/ → cli
 Every import in every module, at top level or inside a function, is checked.
 """
 from __future__ import annotations
@@ -21,7 +21,7 @@ RANK = {
     "clshade.device": 3,
     "clshade.pipeline": 4,
     "clshade.verify": 5,
-    "clshade.bench": 6, "clshade.compare": 6, "clshade.report": 6,
+    "clshade.bench": 6, "clshade.compare": 6, "clshade.report": 6, "clshade.view": 6,
     "clshade.cli": 7, "clshade.__main__": 7,
 }
 

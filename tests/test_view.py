@@ -216,8 +216,10 @@ def test_device_display_equals_to_display(session, method, exposure):
 # ---------------------------------------------------------------- save ↔ clshade render
 
 
-def test_saved_view_renders_bit_for_bit(session, tmp_path, monkeypatch):
+@pytest.mark.parametrize("samples,specular_aa", [(1, False), (2, True)])
+def test_saved_view_renders_bit_for_bit(session, tmp_path, monkeypatch, samples, specular_aa):
     c = parse_controls(controls(session, azimuth=-40.0, elevation=35.0, distance=6.0, exposure=0.75,
+                                samples=samples, specular_aa=specular_aa,
                                 tonemap="reinhard", model_a="oren_nayar+ggx_correlated@conductor",
                                 model_b="blinn_phong", split=True,
                                 materials={"paint_red": {"roughness": 0.12, "ks": 0.5}},

@@ -277,7 +277,7 @@ class ViewSession:
         views: dict[str, np.ndarray] = {}
         radiance = shader.resolver.out if shader.resolver is not None else shader.out
         for view, model in shown.items():
-            with timings.stage("kernel build"):
+            with timings.stage("variant"):          # the kernel for (model, features): built once, then looked up
                 dispatch = shader.prepare(model, features)
             with timings.stage("shade"):
                 device_ms, host_ms = timed_dispatch(shader, dispatch)
