@@ -449,6 +449,9 @@ def render_view(doc: dict[str, Any]) -> str:
         lines.append(f"| {s} | " + " | ".join(_ms(k[x]["stage_ms_median"].get(s)) for x in _VIEW_STEPS) + " |")
     lines.append(f"| pack (header + raw RGBA, {k['orbit']['bytes_per_frame'] / 1e6:.1f} MB) | "
                  + " | ".join(_ms(k[x]["pack_ms_median"]) for x in _VIEW_STEPS) + " |")
+    if all("render_ms_median" in k[x] for x in _VIEW_STEPS):
+        lines.append("| **render, whole** (render thread, stages above and the rest) | "
+                     + " | ".join(_ms(k[x]["render_ms_median"]) for x in _VIEW_STEPS) + " |")
     lines += ["", "Latency: from the page's input (control state sent) to the frame drawn on its canvas "
                   "(putImageData returned; compositing to the screen not included). Server ms: from the state's "
                   "arrival to the frame sent (waiting, rendering, packing, sending). Frames travel as raw RGBA "

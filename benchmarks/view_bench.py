@@ -105,6 +105,7 @@ def _summary(records: list[dict]) -> dict:
                 transfer_and_browser_ms_median=_pct(paired, 50),
                 draw_ms_median=_pct([r["draw_ms"] for r in records], 50),
                 pack_ms_median=_pct([r["pack_ms"] for r in records if r.get("pack_ms") is not None], 50),
+                render_ms_median=_pct([r["render_ms"] for r in records if r.get("render_ms") is not None], 50),
                 bytes_per_frame=int(statistics.median(r["bytes"] for r in records)) if records else None,
                 stage_ms_median={k: float(np.median(v)) for k, v in stages.items()},
                 stage_frames={k: len(v) for k, v in stages.items()})

@@ -127,7 +127,9 @@ class Page:
             if self.pending is not None:
                 seq, controls, received = self.pending
                 self.pending = None
+                started = time.perf_counter()
                 frame = await self.server.call(lambda c=controls: self.server.session.render(c), self, seq)
+                render_ms = (time.perf_counter() - started) * 1e3
                 if frame is None or self.ws.closed:
                     continue
                 t0 = time.perf_counter()
@@ -135,7 +137,7 @@ class Page:
                 pack_ms = (time.perf_counter() - t0) * 1e3
                 await self.ws.send_bytes(data)
                 # Timing of the frame just sent, for the page's stage split (known only after sending).
-                await self.send_json(dict(type="sent", seq=seq, pack_ms=pack_ms, bytes=len(data),
+                await self.send_json(dict(type="sent", seq=seq, pack_ms=pack_ms, bytes=len(data), render_ms=render_ms,
                                           server_ms=(time.perf_counter() - received) * 1e3))
 
 

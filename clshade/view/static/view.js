@@ -100,7 +100,7 @@ ws.onmessage = (event) => {
   else if (m.type === "oracle") showOracle(m);
   else if (m.type === "sent") {
     const r = records.findLast((x) => x.seq === m.seq);
-    if (r) Object.assign(r, {server_ms: m.server_ms, pack_ms: m.pack_ms});
+    if (r) Object.assign(r, {server_ms: m.server_ms, pack_ms: m.pack_ms, render_ms: m.render_ms});
   }
 };
 ws.onopen = () => { $("status").textContent = "connected"; };
