@@ -143,9 +143,14 @@ class Variant:
         table = np.asarray(material_table, np.float32).reshape(-1, 4, 4)
         baked = None
         if len(table) and np.all(table[:, mask] == table[0][mask]):
-            # Only the entries the model reads: a change of another (shininess for GGX) is
-            # the same kernel, not a new build (the live viewer's sliders).
-            baked = tuple(float(x) for x in np.where(mask, table[0], 0.0).ravel())
+            row = table[0].copy()
+            if "shininess" not in uses:
+                # The exponent derived from roughness (Material.exponent), read by the empirical lobes
+                # only: a roughness edit is then the same kernel, not a new build (the live viewer's
+                # sliders). The other entries stay: the kernel reads some the mask leaves out (the
+                # k_d + k_s workflow's F0 from ior in the ambient term).
+                row[0, 3] = 0.0
+            baked = tuple(float(x) for x in row.ravel())
         elif len(table):
             channels.append("material")
         else:
