@@ -187,7 +187,9 @@ class ViewServer:
         origin = request.headers.get("Origin")
         if origin is not None and origin != f"{request.scheme}://{request.host}":
             return web.Response(status=403, text="clshade view: WebSocket from another origin")
-        ws = web.WebSocketResponse(max_msg_size=MAX_MESSAGE_BYTES)
+        # No permessage-deflate: zlib over 2 MB of pixels per frame would cost more CPU time than the
+        # render on a 2-core machine, and the loopback link does not need it.
+        ws = web.WebSocketResponse(max_msg_size=MAX_MESSAGE_BYTES, compress=False)
         await ws.prepare(request)
         page = Page(self, ws)
         self.pages.add(page)
