@@ -9,6 +9,7 @@ shader names.
 """
 from __future__ import annotations
 
+import os
 import re
 from dataclasses import dataclass, field, replace
 from functools import lru_cache
@@ -24,21 +25,36 @@ NONE = "none"
 
 @dataclass(frozen=True)
 class Param:
-    """One lobe parameter as declared in its kernel file: `name | min | max | default | text`."""
+    """One lobe parameter as declared in its kernel file: `name | min | max | default | text`.
+    A BRDF Explorer file's parameters are Params too (`kind` float, color or bool; a colour's
+    default is its grey level, its `value` the RGB triple compiled in)."""
     name: str
     low: float
     high: float
     default: float
     description: str
+    kind: str = "float"
+    value: tuple[float, ...] = ()
+
+
+# Where a lobe comes from: shipped in kernels/models/, a user's .cl file, a BRDF Explorer .brdf file.
+BUILT_IN, USER, BRDF_FILE = "built-in", "user", "brdf"
+
+# The inputs a lobe may declare in `uses:` (Surface fields, the Fresnel term, and the
+# Geometry's vectors: `vectors` = n, l, v; `tangents` = the tangent frame x, y too).
+USES = frozenset({"roughness", "metallic", "fresnel", "shininess", "kd", "ks", "ka", "ior", "f90", "eta", "k",
+                  "vectors", "tangents"})
+# Uses that are Geometry options, not material inputs (compiled in: GEOMETRY_VECTORS, GEOMETRY_TANGENTS).
+GEOMETRY_USES = frozenset({"vectors", "tangents"})
 
 
 @dataclass(frozen=True)
 class Lobe:
-    """A diffuse or specular lobe, read from kernels/models/<id>.cl."""
+    """A diffuse or specular lobe, read from kernels/models/<id>.cl or a user's lobe file."""
     id: str
     name: str
     kind: str          # "diffuse" or "specular"
-    family: str        # "diffuse", "empirical" or "microfacet"
+    family: str        # "diffuse", "empirical" or "microfacet" (built-in); any word for a user's lobe
     formula: str
     source: str
     params: tuple[Param, ...]
@@ -46,53 +62,145 @@ class Lobe:
     notes: tuple[str, ...]
     deviations: tuple[str, ...]
     path: Path
+    origin: str = BUILT_IN
+    code: str = ""     # the OpenCL C that clshade.device.variants assembles (with its #line marker)
+
+    @property
+    def is_users(self) -> bool:
+        return self.origin != BUILT_IN
 
 
 _HEADER = re.compile(r"/\*!\s*clshade-model(.*?)\*/", re.S)
+# The function a lobe file defines, by kind (compose.h calls it).
+LOBE_FUNCTIONS = {"diffuse": ("real", "diffuse_lobe"), "specular": ("vec3", "specular_lobe")}
+ID_PATTERN = re.compile(r"[a-z][a-z0-9_]*")
 
 
-def _parse_lobe(path: Path) -> Lobe:
-    match = _HEADER.search(path.read_text(encoding="utf-8"))
+def _parse_lobe(path: Path, origin: str = BUILT_IN, label: str | None = None) -> Lobe:
+    """A lobe file's header and code; errors name the file and the header line (`path:line: ...`)."""
+    text = path.read_text(encoding="utf-8")
+    where = label or str(path)
+    match = _HEADER.search(text)
     if not match:
-        raise ClshadeError(f"{path}: no '/*! clshade-model' header block")
+        raise ClshadeError(f"{where}:1: no '/*! clshade-model' header block")
+    first = text.count("\n", 0, match.start(1)) + 1
     single: dict[str, str] = {}
-    multi: dict[str, list[str]] = {"param": [], "note": [], "deviation": []}
-    for raw in match.group(1).splitlines():
+    lines: dict[str, int] = {}
+    multi: dict[str, list[tuple[str, int]]] = {"param": [], "note": [], "deviation": []}
+    for offset, raw in enumerate(match.group(1).splitlines()):
         line = raw.strip().lstrip("*").strip()
+        at = first + offset
         if not line:
             continue
         key, sep, value = line.partition(":")
         if not sep:
-            raise ClshadeError(f"{path}: header line {line!r} is not 'key: value'")
+            raise ClshadeError(f"{where}:{at}: header line {line!r} is not 'key: value'")
         key, value = key.strip(), value.strip()
+        lines[key] = at
         if key in multi:
-            multi[key].append(value)
+            multi[key].append((value, at))
         else:
             single[key] = value
+    end = text.count("\n", 0, match.end()) + 1
     required = ("id", "name", "kind", "family", "formula", "source")
     missing = [k for k in required if k not in single]
     if missing:
-        raise ClshadeError(f"{path}: header lacks {', '.join(missing)}")
+        raise ClshadeError(f"{where}:{end}: header lacks {', '.join(missing)}")
     if single["id"] != path.stem:
-        raise ClshadeError(f"{path}: id = {single['id']!r} differs from the file name")
+        raise ClshadeError(f"{where}:{lines['id']}: id = {single['id']!r} differs from the file name")
+    if not ID_PATTERN.fullmatch(single["id"]):
+        raise ClshadeError(f"{where}:{lines['id']}: id = {single['id']!r} must be lower-case letters, digits and _")
+    if single["kind"] not in LOBE_FUNCTIONS:
+        raise ClshadeError(f"{where}:{lines['kind']}: kind = {single['kind']!r} must be diffuse or specular")
     params = []
-    for text in multi["param"]:
-        cells = [c.strip() for c in text.split("|")]
-        if len(cells) != 5:
-            raise ClshadeError(f"{path}: param {text!r} is not 'name | min | max | default | text'")
-        params.append(Param(cells[0], float(cells[1]), float(cells[2]), float(cells[3]), cells[4]))
+    for value, at in multi["param"]:
+        cells = [c.strip() for c in value.split("|")]
+        try:
+            if len(cells) != 5:
+                raise ValueError
+            params.append(Param(cells[0], float(cells[1]), float(cells[2]), float(cells[3]), cells[4]))
+        except ValueError:
+            raise ClshadeError(f"{where}:{at}: param {value!r} is not 'name | min | max | default | text'") from None
     uses = frozenset(u.strip() for u in single.get("uses", "-").split(",") if u.strip() not in ("", "-"))
+    unknown = sorted(uses - USES)
+    if unknown:
+        raise ClshadeError(f"{where}:{lines['uses']}: uses {', '.join(unknown)}: not an input of a lobe "
+                           f"(known: {', '.join(sorted(USES))})")
+    ctype, function = LOBE_FUNCTIONS[single["kind"]]
+    body = text[match.end():]
+    if not re.search(rf"\b{ctype}\s+{function}\s*\(", body):
+        raise ClshadeError(f"{where}:{end}: kind: {single['kind']} needs a function "
+                           f"'INLINE {ctype} {function}(const Geometry g, const Surface s)' after the header")
+    name = f"models/{path.name}" if origin == BUILT_IN else str(path)
     return Lobe(id=single["id"], name=single["name"], kind=single["kind"], family=single["family"],
                 formula=single["formula"], source=single["source"], params=tuple(params), uses=uses,
-                notes=tuple(multi["note"]), deviations=tuple(multi["deviation"]), path=path)
+                notes=tuple(v for v, _ in multi["note"]), deviations=tuple(v for v, _ in multi["deviation"]),
+                path=path, origin=origin, code=f'#line 1 "{name}"\n{text}\n')
+
+
+# ------------------------------------------------------------ the user's lobes
+
+#: Folders (or files) of the user's lobes, separated by os.pathsep.
+LOBES_ENV = "CLSHADE_LOBES"
+_user_paths: list[Path] = []             # added by add_lobes() (--lobes, a scene's render.lobes, -m FILE)
+_param_values: dict[str, str] = {}      # --param NAME=VALUE for .brdf parameters
+
+
+def add_lobes(path: str | Path) -> list[str]:
+    """Register a folder of lobe files (*.cl, *.brdf) or one such file; returns their ids."""
+    path = Path(path).expanduser().resolve()
+    if not path.exists():
+        raise ClshadeError(f"{path}: no such lobe file or folder")
+    if path.is_file() and path.suffix not in (".cl", ".brdf"):
+        raise ClshadeError(f"{path}: a lobe file ends in .cl (clshade's format) or .brdf (BRDF Explorer)")
+    if path not in _user_paths:
+        _user_paths.append(path)
+        lobes.cache_clear()
+    return [l.id for l in lobes().values() if l.path == path or l.path.parent == path]
+
+
+def set_params(values: dict[str, str]) -> None:
+    """Values of .brdf parameters (`--param NAME=VALUE`), applied to every .brdf lobe that has NAME."""
+    if values != _param_values:
+        _param_values.clear()
+        _param_values.update(values)
+        lobes.cache_clear()
+
+
+def reset_user_lobes() -> None:
+    """Forget the lobes and parameter values added in this process (not $CLSHADE_LOBES)."""
+    _user_paths.clear()
+    _param_values.clear()
+    lobes.cache_clear()
+
+
+def _user_files() -> list[Path]:
+    paths = [Path(p).expanduser().resolve() for p in os.environ.get(LOBES_ENV, "").split(os.pathsep) if p.strip()]
+    files: list[Path] = []
+    for path in [*paths, *_user_paths]:
+        if path.is_dir():
+            found = sorted([*path.glob("*.cl"), *path.glob("*.brdf")])
+        elif path.is_file():
+            found = [path]
+        else:
+            raise ClshadeError(f"{path}: no such lobe folder ({LOBES_ENV}, --lobes or render.lobes)")
+        files += [f for f in found if f not in files]
+    return files
 
 
 @lru_cache(maxsize=None)
 def lobes() -> dict[str, Lobe]:
-    """Every lobe in kernels/models/, by id."""
+    """Every lobe by id: kernels/models/ first, then the user's (CLSHADE_LOBES, add_lobes)."""
+    from clshade.brdf_explorer import load_brdf
     found = {}
     for path in sorted((kernels_dir() / "models").glob("*.cl")):
         lobe = _parse_lobe(path)
+        found[lobe.id] = lobe
+    for path in _user_files():
+        lobe = load_brdf(path, _param_values) if path.suffix == ".brdf" else _parse_lobe(path, USER)
+        if lobe.id in found or lobe.id in PRESETS:
+            other = found[lobe.id].path if lobe.id in found else "a preset"
+            raise ClshadeError(f"{path}: lobe id {lobe.id!r} is taken by {other}; rename the file")
         found[lobe.id] = lobe
     return found
 
@@ -204,6 +312,13 @@ def resolve(spec: str, fresnel: str | None = None, workflow: str | None = None) 
     """Parse a model spec: a preset (`ggx_correlated`), a pair (`oren_nayar+ggx_correlated`),
     a single lobe (`burley`), optionally `@fresnel` and `/workflow` suffixes."""
     text = spec.strip()
+    files = _lobe_path(text)
+    if files is not None:
+        ids = add_lobes(files)
+        if len(ids) != 1:
+            raise ClshadeError(f"model {spec!r}: a folder of {len(ids)} lobes names several models; "
+                               f"use it where a list of models is accepted")
+        text = ids[0]
     if "/" in text:
         text, _, wf = text.partition("/")
         workflow = workflow or wf
@@ -243,6 +358,18 @@ def resolve(spec: str, fresnel: str | None = None, workflow: str | None = None) 
     return model.with_options(fresnel, workflow)
 
 
+def _lobe_path(text: str) -> Path | None:
+    """The lobe file (.cl, .brdf) or folder a model spec names, or None for an id."""
+    path = Path(text).expanduser()
+    if path.suffix in (".cl", ".brdf"):
+        if not path.is_file():
+            raise ClshadeError(f"model {text!r}: no such lobe file")
+        return path
+    if ("/" in text or os.sep in text) and path.is_dir():
+        return path
+    return None
+
+
 def _unknown(spec: str, part: str) -> ClshadeError:
     import difflib
     choices = list(PRESETS) + list(lobes())
@@ -256,7 +383,13 @@ def resolve_many(spec: str, fresnel: str | None = None, workflow: str | None = N
     out: list[Model] = []
     for item in [s for s in spec.split(",") if s.strip()]:
         key = item.strip().lower()
-        if key == "all":
+        files = _lobe_path(item.strip())
+        if files is not None and files.is_dir():
+            ids = add_lobes(files)
+            if not ids:
+                raise ClshadeError(f"model {item.strip()!r}: the folder holds no *.cl or *.brdf lobe")
+            out += [resolve(i, fresnel, workflow) for i in ids]
+        elif key == "all":
             out += [m.with_options(fresnel, workflow) for m in presets()]
         elif key in GROUPS:
             out += [preset(p).with_options(fresnel, workflow) for p in GROUPS[key]]

@@ -37,6 +37,12 @@ typedef struct {
     real vh;      /* v·h = l·h in [0, 1]                                    */
     real lv;      /* l·v                                                    */
     real rv;      /* r·v, r = 2(n·l)n − l, the Phong mirror direction       */
+#ifdef GEOMETRY_VECTORS
+    vec3 n, l, v; /* the unit vectors themselves: lobes that declare `uses: vectors` */
+#endif
+#ifdef GEOMETRY_TANGENTS
+    vec3 x, y;    /* tangent frame (x, y, n) right-handed: `uses: tangents`  */
+#endif
 } Geometry;
 
 /* The per-material constants of one pixel (a row of the material table, or
@@ -92,9 +98,29 @@ INLINE vec3 unit_or(vec3 x, vec3 fallback) {
 /* Lanes where the light is above the surface's horizon (n·l > 0). */
 INLINE mask faces_light(vec3 n, vec3 l) { return v3dot(n, l) > 0.0f; }
 
+#ifdef GEOMETRY_TANGENTS
+/* A tangent frame of unit n, continuous except across n.z = 0's sign change:
+ * Duff et al., "Building an Orthonormal Basis, Revisited", JCGT 6(1), 2017
+ * (the same as clshade.verify.reference._orthonormal_basis). Branch-free:
+ * the sign is a lane-wise select. */
+INLINE void tangent_frame(vec3 n, vec3* x, vec3* y) {
+    real sign = n.z >= 0.0f ? (real)(1.0f) : (real)(-1.0f);
+    real a = -1.0f / (sign + n.z);
+    real b = n.x * n.y * a;
+    *x = v3(1.0f + sign * n.x * n.x * a, sign * b, -sign * n.x);
+    *y = v3(b, sign + n.y * n.y * a, -n.y);
+}
+#endif
+
 /* n, l, v unit length. */
 INLINE Geometry make_geometry(vec3 n, vec3 l, vec3 v) {
     Geometry g;
+#ifdef GEOMETRY_VECTORS
+    g.n = n; g.l = l; g.v = v;
+#endif
+#ifdef GEOMETRY_TANGENTS
+    tangent_frame(n, &g.x, &g.y);
+#endif
     real nv_raw = v3dot(n, v);
     g.nl_raw = v3dot(n, l);
     g.nl = fmax(g.nl_raw, MIN_N_DOT_L);

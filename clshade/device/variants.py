@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from clshade.models import NONE, Model
+from clshade.models import BRDF_FILE, NONE, Model
 from clshade.resources import kernels_dir
 
 # The per-material constants (surface.h, MATERIAL_STRIDE float4 per material).
@@ -174,7 +174,7 @@ class Variant:
         # The normals' contract is the G-buffer's, not a scene effect: the general kernel shares it.
         unit = {"UNIT_NORMALS": "1"} if self.unit_normals else {}
         if f.general:
-            return {"GENERAL": "1", **effects, **aa, **unit, "HAS_DIFFUSE": str(int(m.diffuse != NONE)),
+            return {"GENERAL": "1", **effects, **aa, **unit, **geometry_defines(m), "HAS_DIFFUSE": str(int(m.diffuse != NONE)),
                     "HAS_SPECULAR": str(int(m.specular != NONE)),
                     "SPECULAR_FRESNEL": str(int(m.uses_fresnel)),
                     "FRESNEL": FRESNEL_DEFINES[m.fresnel], "WORKFLOW": WORKFLOW_DEFINES[m.workflow], **raw}
@@ -192,6 +192,7 @@ class Variant:
             "FRESNEL": FRESNEL_DEFINES[m.fresnel],
             "WORKFLOW": WORKFLOW_DEFINES[m.workflow],
         }
+        d.update(geometry_defines(m))
         for name, value in f.uniform:
             if name in m.uses:
                 d[UNIFORM_DEFINES[name]] = _c_float(value)
@@ -232,6 +233,17 @@ class Variant:
         return (self.model.id, self.features, self.channels, self.baked_material, self.unit_normals, self.options())
 
 
+def geometry_defines(model: Model) -> dict[str, str]:
+    """The Geometry's optional members the model's lobes read (surface.h)."""
+    uses = model.uses
+    d = {}
+    if "vectors" in uses or "tangents" in uses:
+        d["GEOMETRY_VECTORS"] = "1"
+    if "tangents" in uses:
+        d["GEOMETRY_TANGENTS"] = "1"
+    return d
+
+
 def _read(name: str) -> str:
     path = kernels_dir() / name
     return f'#line 1 "{name}"\n' + path.read_text(encoding="utf-8") + "\n"
@@ -244,8 +256,8 @@ def assemble(model: Model, defines: dict[str, str], entry: str, headers: tuple[s
     the entry file."""
     head = "".join(f"#define {k} {v}\n" for k, v in defines.items())
     parts = [head, _read("simd.h"), _read("brdf.h"), _read("surface.h")]
-    for lobe in (model.diffuse, model.specular):
-        if lobe != NONE:
-            parts.append(_read(f"models/{lobe}.cl"))
+    if any(lobe.origin == BRDF_FILE for lobe in model.lobes):
+        parts.append(_read("glsl.h"))      # the GLSL built-ins of translated shaders
+    parts += [lobe.code for lobe in model.lobes]
     parts += [_read("compose.h"), *(_read(h) for h in headers), _read(entry)]
     return "".join(parts)
