@@ -120,7 +120,47 @@ def build_parser() -> argparse.ArgumentParser:
     checks = check.add_subparsers(dest="check", metavar="CHECK")
     checks.required = True
     _add_checks(checks)
+    for name, command in sub.choices.items():
+        if name not in ("check", "devices"):
+            _add_lobe_options(command)
+    for command in checks.choices.values():
+        _add_lobe_options(command)
     return parser
+
+
+def _add_lobe_options(p: argparse.ArgumentParser) -> None:
+    """--lobes and --param: the user's lobes (docs/user-lobes.md)."""
+    p.add_argument("--lobes", action="append", metavar="DIR", default=[],
+                   help="a folder (or file) of your own lobes, *.cl and *.brdf; repeatable "
+                        "(also $CLSHADE_LOBES and the scene key render.lobes)")
+    p.add_argument("--param", action="append", metavar="NAME=VALUE", default=[],
+                   help="a parameter of a .brdf lobe (float, bool 0/1, colour R,G,B); repeatable")
+
+
+def _apply_lobe_options(args: argparse.Namespace) -> None:
+    """Register --lobes folders, the lobe files -m names, and --param values before the command runs."""
+    from clshade import models
+    values = {}
+    for item in getattr(args, "param", []):
+        name, sep, value = item.partition("=")
+        if not sep or not name.strip():
+            raise ClshadeError(f"--param {item!r}: expected NAME=VALUE")
+        values[name.strip()] = value.strip()
+    models.set_params(values)
+    for folder in getattr(args, "lobes", []):
+        models.add_lobes(folder)
+    if values:
+        declared = {p.name for l in models.lobes().values() if l.origin == models.BRDF_FILE for p in l.params}
+        for spec in (getattr(args, "model", None), getattr(args, "models", None)):
+            for item in (spec or "").split(","):
+                path = models._lobe_path(item.strip()) if item.strip() else None
+                if path is not None:
+                    for lobe_id in models.add_lobes(path):
+                        declared |= {p.name for p in models.lobes()[lobe_id].params}
+        unknown = sorted(set(values) - declared)
+        if unknown and declared:
+            raise ClshadeError(f"--param {unknown[0]}: no .brdf lobe in use has that parameter "
+                               f"(theirs: {', '.join(sorted(declared))})")
 
 
 def _add_compare(sub: argparse._SubParsersAction) -> None:
@@ -236,6 +276,8 @@ def _add_checks(checks: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.add_argument("--device", metavar="D", help="OpenCL device (see `clshade devices`)")
     p.add_argument("--quick", action="store_true", help="the reduced sweep of `clshade models` (a few seconds)")
+    p.add_argument("--model", metavar="M", help="restrict to these models (comma-separated; default: every preset "
+                   "and each of your lobes)")
     p.set_defaults(func=cmd_plausibility)
 
     p = checks.add_parser("stability", help="torture grid: raw NaN/Inf/negative counts before any clamp, "
@@ -384,6 +426,7 @@ def cmd_models(args: argparse.Namespace) -> int:
                         for m in presets()],
             "lobes": [{"id": l.id, "name": l.name, "kind": l.kind, "family": l.family, "formula": l.formula,
                        "source": l.source, "uses": sorted(l.uses), "notes": list(l.notes),
+                       "origin": l.origin, "path": str(l.path) if l.is_users else None,
                        "deviations": list(l.deviations),
                        "params": [{"name": p.name, "min": p.low, "max": p.high, "default": p.default,
                                    "description": p.description} for p in l.params]}
@@ -399,11 +442,23 @@ def cmd_models(args: argparse.Namespace) -> int:
     print("\nLobes (combine as diffuse+specular, e.g. oren_nayar+ggx_correlated; append @dielectric or "
           "@conductor for exact Fresnel):")
     for l in lobes().values():
-        params = ", ".join(f"{p.name} [{p.low:g}, {p.high:g}] = {p.default:g}" for p in l.params) or "no parameters"
+        params = ", ".join(_param_text(p) for p in l.params) or "no parameters"
         print(f"  {l.id:24s} {l.kind:8s} {l.family:10s} {l.formula}")
         print(f"  {'':24s} params: {params}")
         print(f"  {'':24s} source: {l.source}")
+        if l.is_users:
+            print(f"  {'':24s} yours: {l.path} ({'BRDF Explorer file' if l.origin == 'brdf' else 'lobe file'})")
     return 0
+
+
+def _param_text(p) -> str:
+    """One parameter for `clshade models`: range and default, and the value compiled in where set."""
+    if p.kind == "color":
+        return f"{p.name} (colour) = {','.join(f'{c:g}' for c in p.value)}"
+    if p.kind == "bool":
+        return f"{p.name} (bool) = {int(p.value[0])}"
+    text = f"{p.name} [{p.low:g}, {p.high:g}] = {p.default:g}"
+    return text + (f" (set to {p.value[0]:g})" if p.value and p.value[0] != p.default else "")
 
 
 def cmd_devices(args: argparse.Namespace) -> int:
@@ -620,9 +675,11 @@ def cmd_plausibility(args: argparse.Namespace) -> int:
     import json
     from dataclasses import asdict
     from clshade.verify import plausibility as P
+    from clshade.models import resolve_many
     sweep = P.QUICK if args.quick else P.Sweep()
+    chosen = resolve_many(args.model) if args.model else None
     with progress_bar("plausibility", "preset") as progress:
-        verdicts = P.evaluate_presets(sweep, args.device, progress=progress)
+        verdicts = P.evaluate_presets(sweep, args.device, models=chosen, progress=progress)
     if args.json:
         print(json.dumps({"energy_tol": P.ENERGY_TOL, "reciprocity_tol": P.RECIPROCITY_TOL,
                           "sweep": asdict(sweep), "presets": [v.as_dict() for v in verdicts]},
@@ -771,6 +828,7 @@ def _main(argv: list[str] | None, after_parse=None) -> int:
         after_parse()
     try:
         with diagnostics.warnings_captured():
+            _apply_lobe_options(args)
             status = int(args.func(args) or 0)
         sys.stdout.flush()      # a closed pipe shows here, inside the handler, not at exit
         return status

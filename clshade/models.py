@@ -189,13 +189,20 @@ def _user_files() -> list[Path]:
 
 
 @lru_cache(maxsize=None)
-def lobes() -> dict[str, Lobe]:
-    """Every lobe by id: kernels/models/ first, then the user's (CLSHADE_LOBES, add_lobes)."""
-    from clshade.brdf_explorer import load_brdf
+def builtin_lobes() -> dict[str, Lobe]:
+    """The lobes clshade ships (kernels/models/*.cl), by id."""
     found = {}
     for path in sorted((kernels_dir() / "models").glob("*.cl")):
         lobe = _parse_lobe(path)
         found[lobe.id] = lobe
+    return found
+
+
+@lru_cache(maxsize=None)
+def lobes() -> dict[str, Lobe]:
+    """Every lobe by id: kernels/models/ first, then the user's (CLSHADE_LOBES, add_lobes)."""
+    from clshade.brdf_explorer import load_brdf
+    found = dict(builtin_lobes())
     for path in _user_files():
         lobe = load_brdf(path, _param_values) if path.suffix == ".brdf" else _parse_lobe(path, USER)
         if lobe.id in found or lobe.id in PRESETS:
@@ -207,6 +214,11 @@ def lobes() -> dict[str, Lobe]:
 
 def diffuse_lobes() -> list[str]:
     return [k for k, v in lobes().items() if v.kind == "diffuse"]
+
+
+def user_models() -> list["Model"]:
+    """One model per lobe of the user's (each lobe alone, as `-m ID` resolves it)."""
+    return [resolve(k) for k, v in lobes().items() if v.is_users]
 
 
 def specular_lobes() -> list[str]:
@@ -255,6 +267,12 @@ class Model:
         if "fresnel" in used:
             used |= {"dielectric": {"ior"}, "conductor": {"eta", "k"}, "schlick": {"f90"}}[self.fresnel]
         return frozenset(used)
+
+    @property
+    def is_users(self) -> bool:
+        """Some lobe is the user's: no Python formula; the float64 reference is the lobe's
+        double-precision device build (clshade.verify.reference.device_f64)."""
+        return any(lobe.is_users for lobe in self.lobes)
 
     @property
     def uses_fresnel(self) -> bool:

@@ -73,6 +73,9 @@ INLINE real safe_sqrt(real x) { return sqrt(fmax(x, 0.0f)); }
  * Library, 1984–2000): error ≤ 2 ulp of ln m, measured against float64 by
  * tests/test_terms.py through Fs_Phong and Fs_BlinnPhong. */
 INLINE real log2_lanes(real x) {
+#ifdef REAL_DOUBLE
+    return log2(x);     /* the double build: the library's, to double precision */
+#else
     mask bits = as_mask(x);
     mask e = ((bits >> 23) & 0xff) - 127;
     real m = as_real((bits & 0x007fffff) | 0x3f800000);
@@ -90,6 +93,7 @@ INLINE real log2_lanes(real x) {
     real p = (c01 + c23 * z) + (c45 + c67 * z) * z2 + 7.0376836292e-2f * (z2 * z2);
     real ln_m = f + (p * f * z - 0.5f * z);
     return ln_m * 1.44269504089f + convert_real(e);
+#endif
 }
 
 /* eˣ in straight-line lane-wise code, for x ≤ 88 (0 below −87, where eˣ is
@@ -100,6 +104,9 @@ INLINE real log2_lanes(real x) {
  * exponent bits: ≤ 2 ulp, measured against float64 by tests/test_terms.py
  * through D_Beckmann. */
 INLINE real exp_lanes(real x) {
+#ifdef REAL_DOUBLE
+    return exp(x);
+#else
     real c = clamp(x, -87.0f, 88.0f);
     mask k = convert_mask_rte(c * 1.44269504089f);
     real kf = convert_real(k);
@@ -109,6 +116,7 @@ INLINE real exp_lanes(real x) {
            + (1.3981999507e-3f + 1.9875691500e-4f * r) * (z * z);
     real y = (p * z + r) + 1.0f;
     return x < -87.0f ? (real)(0.0f) : y * as_real((k + 127) << 23);
+#endif
 }
 
 /* Smallest exponent exp2_lanes() returns 2ˣ for: below it 2ˣ < 2⁻¹²⁶ (FLT_MIN)
@@ -122,6 +130,9 @@ INLINE real exp_lanes(real x) {
  * Cephes exp2f (S. Moshier), scaled by 2ᵏ built in the exponent bits: ≤ 2 ulp,
  * measured against float64 by tests/test_terms.py through Fs_Phong. */
 INLINE real exp2_lanes(real x) {
+#ifdef REAL_DOUBLE
+    return exp2(x);
+#else
     real c = clamp(x, MIN_EXP2_ARG, 127.0f);
     mask k = convert_mask_rte(c);
     real r = c - convert_real(k);
@@ -131,6 +142,7 @@ INLINE real exp2_lanes(real x) {
            + (1.339887440266574e-3f + 1.535336188319500e-4f * r) * (z * z);
     real y = r * p + 1.0f;
     return x < MIN_EXP2_ARG ? (real)(0.0f) : y * as_real((k + 127) << 23);
+#endif
 }
 
 /* xⁿ for a runtime exponent, without pow() (≈190 ns per call on PoCL):

@@ -8,21 +8,28 @@
  *                p[i]              float4 (roughness, metallic, -, -)
  *                m[4i .. 4i+3]     the material constants (see surface.h)
  * Built with SIMD = 1 (simd.h): one sample per work-item.
- * Output f[i] = (f.rgb, n·l > 0 ? 1 : 0): f is 0 when l is below the horizon.
+ * Output f[i] = (f.rgb, n·l > 0 ? 1 : 0): f is 0 when l is below the horizon;
+ * double4 in the double build (REAL_DOUBLE, simd.h), float4 otherwise.
  */
+#ifdef REAL_DOUBLE
+typedef double4 out4;
+#else
+typedef float4 out4;
+#endif
+
 __kernel void eval_brdf(const uint count,
     __global const float4* n, __global const float4* l, __global const float4* v,
     __global const float4* base, __global const float4* p, __global const float4* m,
-    __global float4* f)
+    __global out4* f)
 {
     uint i = get_global_id(0);
     if (i >= count) return;
     vec3 vv = unit_or(v3c(v[i].xyz), v3(0.0f, 0.0f, 1.0f));
     vec3 nn = unit_or(v3c(n[i].xyz), vv);
     vec3 ll = unit_or(v3c(l[i].xyz), v3s(0.0f));
-    Surface s = make_surface(v3c(fmax(base[i].xyz, 0.0f)), saturate(p[i].x), saturate(p[i].y),
+    Surface s = make_surface(v3max(v3c(base[i].xyz), 0.0f), saturate(p[i].x), saturate(p[i].y),
                              material_uniform(m[4 * i], m[4 * i + 1], m[4 * i + 2], m[4 * i + 3]));
     Geometry g = make_geometry(nn, ll, vv);
     vec3 fr = brdf(g, s);
-    f[i] = g.nl_raw > 0.0f ? (float4)(fr.x, fr.y, fr.z, 1.0f) : (float4)(0.0f);
+    f[i] = g.nl_raw > 0.0f ? (out4)(fr.x, fr.y, fr.z, 1.0f) : (out4)(0.0f);
 }

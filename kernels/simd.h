@@ -34,7 +34,30 @@
  * Phong with material_gather (A/B in one process, 2026-11-23). */
 #define INLINE __attribute__((always_inline)) inline
 
-#if SIMD == 1
+/* REAL_DOUBLE (SIMD 1 only: the evaluation kernel eval.cl): real is double, the
+ * double-precision build of a lobe that its float32 build is measured against
+ * (clshade.device.evaluate, `double=True`; devices with cl_khr_fp64). */
+#if defined(REAL_DOUBLE) && SIMD != 1
+#error "REAL_DOUBLE needs SIMD 1"
+#endif
+#ifdef REAL_DOUBLE
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+#endif
+
+#if SIMD == 1 && defined(REAL_DOUBLE)
+typedef double real;
+typedef int mask;
+typedef uint uindex;
+#define as_mask as_int
+#define convert_real convert_double
+#define convert_uindex convert_uint
+#define convert_mask_rte convert_int_rte
+#define convert_mask_sat convert_int_sat
+#define LANE_IOTA 0u
+#define VLOAD(i, p) ((p)[i])
+#define VLOAD_HALF(i, p) vload_half((i), (p))
+#define VLOAD_UCHAR(i, p) ((uint)(p)[i])
+#elif SIMD == 1
 typedef float real;
 typedef int mask;
 typedef uint uindex;
@@ -188,6 +211,8 @@ OVL double clshade_rsqrt(double x) { return 1.0 / clshade_sqrt(x); }
 #define CLSHADE_CAT2_(a, b) a##b
 #define CLSHADE_CAT2(a, b) CLSHADE_CAT2_(a, b)
 CLSHADE_FABS_FLOOR(float, int, __builtin_floorf(x))
+OVL double clshade_fabs(double x) { return __builtin_fabs(x); }
+OVL double clshade_floor(double x) { return __builtin_floor(x); }
 CLSHADE_FABS_FLOOR(float4, int4, __builtin_ia32_roundps(x, 9))
 CLSHADE_FABS_FLOOR(float8, int8, __builtin_ia32_roundps256(x, 9))
 #if SIMD == 16
@@ -210,7 +235,7 @@ CLSHADE_FABS_FLOOR(float16, int16, ((float16)(__builtin_ia32_roundps256(x.lo, 9)
 
 #if SIMD == 1
 #undef convert_real
-#define convert_real(x) ((float)(x))
+#define convert_real(x) ((real)(x))
 #elif SIMD == 4 || SIMD == 8 || SIMD == 16
 #undef clamp
 #define clamp(x, lo, hi) clshade_clamp((x), (lo), (hi))
@@ -326,6 +351,21 @@ INLINE real gather(__global const float* p, mask idx) {
         r.s[j] = p[k.s[j]];
     return r.v;
 }
+
+/* The double build: OpenCL's fmax(double, float) is ambiguous (the double and the
+ * doublen-with-scalar overloads), and the kernels mix real operands with float
+ * constants everywhere. One double overload each: float arguments convert. */
+#ifdef REAL_DOUBLE
+INLINE double clshade_dfmax(double a, double b) { return fmax(a, b); }
+INLINE double clshade_dfmin(double a, double b) { return fmin(a, b); }
+INLINE double clshade_dclamp(double x, double lo, double hi) { return fmin(fmax(x, lo), hi); }
+#undef fmax
+#undef fmin
+#undef clamp
+#define fmax(a, b) clshade_dfmax((a), (b))
+#define fmin(a, b) clshade_dfmin((a), (b))
+#define clamp(x, lo, hi) clshade_dclamp((x), (lo), (hi))
+#endif
 
 /* The start of a sum of vec3 terms. −0 is the identity of IEEE addition
  * (x + (−0) = x for every x, −0 and NaN included), so the compiler drops the

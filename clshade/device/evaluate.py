@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from clshade.errors import ClshadeError
 from clshade.models import Model
 from clshade.device.runtime import Runtime, get_runtime
 from clshade.render.scene import GOLD_ETA, GOLD_K
@@ -48,13 +49,23 @@ def _f4(x: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(np.concatenate([x, np.zeros((len(x), 1), np.float32)], axis=1))
 
 
+def has_fp64(runtime: Runtime) -> bool:
+    """Whether the device computes in double precision (cl_khr_fp64)."""
+    return "cl_khr_fp64" in runtime.device.extensions.split()
+
+
 def eval_brdf(model: Model, samples: Samples, runtime: Runtime | None = None,
-              fast_math: bool = False) -> np.ndarray:
-    """f (N, 3) float32 on the device; rows whose l is below the horizon are 0."""
+              fast_math: bool = False, double: bool = False) -> np.ndarray:
+    """f (N, 3) on the device, float32; float64 from the double-precision build of the same
+    source with `double` (kernels/simd.h REAL_DOUBLE). Rows whose l is below the horizon are 0."""
     rt = runtime or get_runtime()
     cl = rt.cl
-    variant = Variant(model, Features(fast_math=fast_math), ("depth", "normal", "base"), None)
-    kernel = rt.kernel(variant.source("eval.cl"), "eval_brdf", variant.options(), label=f"{model.id} (eval)")
+    if double and not has_fp64(rt):
+        raise ClshadeError(f"{rt.info.description} has no double precision (cl_khr_fp64): "
+                           f"no float64 build of {model.id}")
+    variant = Variant(model, Features(fast_math=fast_math, double=double), ("depth", "normal", "base"), None)
+    kernel = rt.kernel(variant.source("eval.cl"), "eval_brdf", variant.options(),
+                       label=f"{model.id} (eval{', float64' if double else ''})")
     count = len(samples)
     params = np.zeros((count, 4), np.float32)
     params[:, 0] = samples.roughness
@@ -62,9 +73,10 @@ def eval_brdf(model: Model, samples: Samples, runtime: Runtime | None = None,
     bufs = [rt.to_device(_f4(a)) for a in (samples.n, samples.l, samples.v, samples.base)]
     bufs.append(rt.to_device(params))
     bufs.append(rt.to_device(np.ascontiguousarray(samples.materials, np.float32).reshape(-1, 4)))
-    out = rt.empty(count * 16)
+    dtype = np.float64 if double else np.float32
+    out = rt.empty(count * 4 * np.dtype(dtype).itemsize)
     kernel.set_args(np.uint32(count), *bufs, out)
     cl.enqueue_nd_range_kernel(rt.queue, kernel, (rt.global_size(count),), (rt.local_size,)).wait()
-    result = np.empty((count, 4), np.float32)
+    result = np.empty((count, 4), dtype)
     cl.enqueue_copy(rt.queue, result, out)
     return result[:, :3]

@@ -61,6 +61,7 @@ class Features:
     # (channel, value) of one-component surface channels with one value over the whole scene
     # (clshade.render.gbuffer.uniform_channels): compiled in, not read per pixel (not by the general kernel)
     uniform: tuple[tuple[str, float], ...] = ()
+    double: bool = False           # real = double (REAL_DOUBLE): the evaluation kernel's float64 build only
 
     @property
     def num_lights(self) -> int:
@@ -193,6 +194,8 @@ class Variant:
             "WORKFLOW": WORKFLOW_DEFINES[m.workflow],
         }
         d.update(geometry_defines(m))
+        if f.double:
+            d["REAL_DOUBLE"] = "1"
         for name, value in f.uniform:
             if name in m.uses:
                 d[UNIFORM_DEFINES[name]] = _c_float(value)

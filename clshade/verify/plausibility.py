@@ -30,7 +30,8 @@ import numpy as np
 
 from clshade.device.evaluate import Samples, constant_materials, eval_brdf
 from clshade.verify import quadrature
-from clshade.models import NONE, Model, lobes, presets
+from clshade.brdf_explorer import FAMILY as BRDF_FAMILY
+from clshade.models import NONE, Model, lobes, presets, user_models
 from clshade.device.runtime import Runtime, get_runtime
 
 # Albedo may exceed 1 by this much and still count as conserving energy: the
@@ -124,6 +125,8 @@ def _settings(model: Model, sweep: Sweep, *, lobe_only: bool) -> list[Setting]:
     """The sweep for a model: its roughness or shininess grid; lobe_only puts the
     specular lobe at F = 1 (metallic 1) or k_s = 1."""
     specular = model.specular
+    if specular != NONE and lobes()[specular].family == BRDF_FAMILY:
+        return [Setting()]          # a .brdf file's parameters are compiled in: one setting
     if specular != NONE and lobes()[specular].family == "empirical":
         kd, ks = (0.0, 1.0) if lobe_only else (0.7, 0.3)
         return [Setting(shininess=s, kd=kd, ks=ks) for s in sweep.shininess]
@@ -280,7 +283,7 @@ def evaluate_presets(sweep: Sweep = Sweep(), device: str | None = None,
         return cache[model.id]
 
     out = []
-    todo = list(models or presets())
+    todo = list(models or presets() + user_models())
     for model in todo:
         parts = {lobe.id: lobe_measurement(lobe.id, model) for lobe in model.lobes}
         if model.diffuse != NONE and model.specular != NONE:

@@ -68,7 +68,7 @@ from typing import Callable, Iterator, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from clshade.models import NONE, Model, diffuse_lobes, lobes
+from clshade.models import NONE, Model, builtin_lobes
 from clshade.render.gbuffer import GBuffer
 from clshade.render.scene import Camera, Scene
 from clshade.render.shadows import ShadowMaps, shadow_visibility as _map_visibility
@@ -136,9 +136,9 @@ INV_PI: float = 1.0 / math.pi
 
 # Lobe families from the one registry (clshade.models, read from kernels/models/*.cl);
 # this module holds the float64 formula of each lobe, not the list of lobes.
-DIFFUSE_MODELS: tuple[str, ...] = (*diffuse_lobes(), NONE)
-MICROFACET_MODELS: tuple[str, ...] = tuple(k for k, v in lobes().items() if v.family == "microfacet")
-EMPIRICAL_MODELS: tuple[str, ...] = tuple(k for k, v in lobes().items() if v.family == "empirical")
+DIFFUSE_MODELS: tuple[str, ...] = (*(k for k, v in builtin_lobes().items() if v.kind == "diffuse"), NONE)
+MICROFACET_MODELS: tuple[str, ...] = tuple(k for k, v in builtin_lobes().items() if v.family == "microfacet")
+EMPIRICAL_MODELS: tuple[str, ...] = tuple(k for k, v in builtin_lobes().items() if v.family == "empirical")
 SPECULAR_MODELS: tuple[str, ...] = EMPIRICAL_MODELS + MICROFACET_MODELS + ("none",)
 
 _ERR = dict(divide="ignore", invalid="ignore", over="ignore", under="ignore")
@@ -913,6 +913,17 @@ def ambient(model: Model, px: Pixels, A: ArrayLike) -> Array:
     return (ka[:, None] * _f(A)) * out
 
 
+def device_f64(model: Model, n: ArrayLike, l: ArrayLike, v: ArrayLike, base: ArrayLike, roughness: ArrayLike,
+               metallic: ArrayLike, material: ArrayLike) -> Array:
+    """f of a model with a user's lobe, which has no formula here: its double-precision build
+    on the device (clshade.device.evaluate, the same source as the float32 kernel in
+    float64), at the float32-rounded inputs the kernel sees. (K, 3) float64."""
+    from clshade.device.evaluate import Samples, eval_brdf
+    f4 = lambda x: np.ascontiguousarray(np.asarray(x, np.float32))   # noqa: E731
+    samples = Samples(f4(n), f4(l), f4(v), f4(base), f4(roughness), f4(metallic), f4(material))
+    return eval_brdf(model, samples, double=True)
+
+
 def radiance(
     gbuffer: GBuffer,
     scene: Scene,
@@ -960,7 +971,11 @@ def radiance(
                 continue
             sub = {k: (a[lit] if isinstance(a, np.ndarray) and a.ndim and len(a) == len(px.index) else a)
                    for k, a in args.items()}
-            f = brdf(model.diffuse, model.specular, px.n[lit], l[lit], px.v[lit], **sub)
+            if model.is_users:
+                f = _f(device_f64(model, px.n[lit], l[lit], px.v[lit], px.base[lit], px.roughness[lit],
+                                  px.metallic[lit], px.material[lit]))
+            else:
+                f = brdf(model.diffuse, model.specular, px.n[lit], l[lit], px.v[lit], **sub)
             with np.errstate(**_ERR):
                 L[lit] += f * (E[lit] * nl[lit][:, None])
         if any(a > 0 for a in scene.ambient):

@@ -44,7 +44,7 @@ import numpy as np
 
 from clshade.device.evaluate import Samples, eval_brdf
 from clshade.device.runtime import Runtime, get_runtime
-from clshade.models import FRESNELS, Model, presets
+from clshade.models import FRESNELS, Model, presets, user_models
 from clshade.resources import constant
 from clshade.verify import reference as R
 from clshade.verify.torture import (COSINE_GRID, IOR_GRID, LIGHT_INTENSITIES, NORMAL_SCALES, ROUGHNESS_GRID,
@@ -75,6 +75,8 @@ def reference_f(model: Model, s: Samples, alpha_floor: float = MIN_ALPHA) -> np.
     """float64 f of the float32-rounded inputs: the frame oracle's composition
     (reference.surface_args + reference.brdf), true cosines, any Fresnel and f90."""
     n, l, v = _f32(s.n), _f32(s.l), _f32(s.v)
+    if model.is_users:       # no formula in Python: the lobe's own float64 build
+        return R.device_f64(model, n, l, v, s.base, s.roughness, s.metallic, s.materials)
     args = R.surface_args(model, _f32(s.base), _f32(s.roughness), _f32(s.metallic), _f32(s.materials), alpha_floor)
     with np.errstate(all="ignore"):
         return R.brdf(model.diffuse, model.specular, n, l, v, **args)
@@ -119,9 +121,9 @@ def _where(labels: dict[str, np.ndarray], i: int, extra: dict[str, Any] | None =
 
 
 def grid_models() -> list[Model]:
-    """Every preset; microfacet presets with each Fresnel."""
+    """Every preset, microfacet presets with each Fresnel; then each of the user's lobes."""
     out = []
-    for m in presets():
+    for m in presets() + user_models():
         out += [m.with_options(fresnel=f) for f in FRESNELS] if m.uses_fresnel else [m]
     return out
 
