@@ -298,8 +298,9 @@ class Bench:
         features = dataclasses.replace(scene_features(sc, geometry=geometry), half_gbuffer=half,
                                        fast_math=fast_math)
         vis = self.visibility(gb, sc) if features.shadows else None
+        # A user's lobe has no NumPy formula (its float64 reference is its own double build).
         return Case(label or model.id, model, features, self.shader(gb, sc), sc, gb,
-                    target=target, group=group, numpy=numpy, visibility=vis)
+                    target=target, group=group, numpy=numpy and not model.is_users, visibility=vis)
 
     def metal_gbuffer(self) -> GBuffer:
         """The G-buffer with every covered pixel a conductor: metallic 1, base colour the

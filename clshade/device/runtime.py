@@ -23,6 +23,7 @@ import numpy as np
 
 from clshade.cachedir import read_entry, user_cache_dir, write_entry
 from clshade.device import health
+from clshade.diagnostics import stderr_captured
 from clshade.errors import ClshadeError, first_error
 from clshade.render.arrays import PIXEL_PAD
 
@@ -40,6 +41,20 @@ def _cl():
     except ImportError as exc:  # pragma: no cover - depends on the install
         raise ClshadeError(f"pyopencl is not installed ({exc}); `pip install pyopencl`") from exc
     return cl
+
+
+_BUILD_ERROR = re.compile(r"error: (?P<file>/[^:\n]+):(?P<line>\d+):(?P<col>\d+)[^:\n]*: (?P<message>[^\n]+)")
+
+
+def _user_file_error(log: str) -> str | None:
+    """`file:line: message` of the first compiler error in a user's lobe file (named by its
+    absolute path in the #line markers; clshade's own files are named relative), or None."""
+    from clshade.models import lobes
+    users = {str(l.path) for l in lobes().values() if l.is_users}
+    for m in _BUILD_ERROR.finditer(log):
+        if m.group("file") in users:
+            return f"{m.group('file')}:{m.group('line')}: {m.group('message').strip()}"
+    return None
 
 
 @dataclass(frozen=True)
@@ -272,12 +287,16 @@ class Runtime:
         if program is None:
             program = self.cl.Program(self.context, source)
             try:
-                with warnings.catch_warnings():
+                # The compiler's own stderr ("1 error generated.") is kept for --debug (diagnostics).
+                with stderr_captured("OpenCL compiler"), warnings.catch_warnings():
                     warnings.simplefilter("ignore", self.cl.CompilerWarning)   # a non-empty log on success
                     program.build(options=list(options))
             except self.cl.RuntimeError as exc:
-                files = ", ".join(sorted(set(re.findall(r'#line 1 "([^"]+)"', source))))
                 log = str(exc).strip()
+                where = _user_file_error(log)
+                if where is not None:       # the user's lobe: one line, the compiler's own words
+                    raise ClshadeError(f"{where} (OpenCL C, building {label or name})", detail=log) from exc
+                files = ", ".join(sorted(set(re.findall(r'#line 1 "([^"]+)"', source))))
                 raise ClshadeError(f"kernel build failed for {label or name} (files: {files}; "
                                    f"options: {' '.join(options) or 'none'}) on {self.info.description}: "
                                    f"{first_error(log)} (the whole log: clshade --debug)", detail=log) from exc

@@ -19,7 +19,7 @@ import numpy as np
 from clshade import budget
 from clshade.budget import MAX_COORDINATE, MAX_LIGHTS
 from clshade.errors import ClshadeError, located
-from clshade.models import resolve
+from clshade.models import add_lobes, resolve
 from clshade.resources import scenes_dir
 from clshade.render.transforms import look_at, perspective, unit
 
@@ -511,7 +511,15 @@ def scene_from_data(data: dict[str, Any], file: Path | str = "<scene>") -> Scene
     ambient = rnd.vector("ambient", (0.0, 0.0, 0.0), 0.0, 1e6, allow_scalar=True)
     exposure = rnd.number("exposure", 0.0, *EXPOSURE_RANGE)
     tonemap = rnd.string("tonemap", "aces", TONEMAPS)
+    lobes_dir = rnd.string("lobes")
+    if lobes_dir is not None:       # the user's lobes, named relative to the scene file
+        folder = Path(lobes_dir) if Path(lobes_dir).is_absolute() else Path(file).parent / lobes_dir
+        if not folder.exists():
+            raise rnd.error("lobes", "no such folder")
+        add_lobes(folder)
     model = rnd.string("model", "ggx_correlated")
+    if Path(model).suffix in (".brdf", ".cl") and not Path(model).is_absolute():
+        model = str(Path(file).parent / model)     # a lobe file named relative to the scene
     try:
         resolve(model)
     except ClshadeError as exc:       # "model 'x': why" → "file: render.model = 'x': why"
