@@ -87,3 +87,247 @@ def test_param_override_changes_the_frame(frame, runtime):
     got = render(frame.scene, models.resolve(str(LOBES / "blinn_phong_brdf.brdf")), frame=frame, runtime=runtime).image
     want = render(frame.scene, models.resolve("blinn_phong"), frame=frame, runtime=runtime).image
     assert _relative_mismatch(got, want) > 1e-2
+
+
+# ------------------------------------------------------------------ the translator's semantics
+
+def _write_brdf(folder, name: str, shader: str, params: str = "") -> str:
+    path = folder / f"{name}.brdf"
+    path.write_text(f"analytic\n::begin parameters\n{params}\n::end parameters\n::begin shader\n{shader}\n::end shader\n",
+                    encoding="utf-8")
+    return str(path)
+
+
+def _directions(count: int = 64, seed: int = 3) -> np.ndarray:
+    """Unit directions in the upper hemisphere of n = +z (the eval kernel zeroes f below it)."""
+    rng = np.random.default_rng(seed)
+    d = rng.normal(size=(count, 3))
+    d[:, 2] = np.abs(d[:, 2]) + 0.05
+    return (d / np.linalg.norm(d, axis=1, keepdims=True)).astype(np.float32)
+
+
+def _eval(model, l: np.ndarray, double: bool = False) -> np.ndarray:
+    from clshade.device.evaluate import Samples, constant_materials, eval_brdf
+    k = len(l)
+    up = np.tile(np.array([[0.0, 0.0, 1.0]], np.float32), (k, 1))
+    s = Samples(up, l, up, np.ones((k, 3), np.float32), np.full(k, 0.5, np.float32), np.zeros(k, np.float32),
+                constant_materials(k))
+    return eval_brdf(model, s, double=double).astype(np.float64)
+
+
+EXPRESSIONS = """
+vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)
+{
+    float a = L.x;
+    float b = L.y;
+    float c = L.z;
+    float p = a + b * c - a / 2 * b + float(7 / 2);   // precedence; int-to-float; int division
+    vec3 s = L.zyx;
+    float t = s[0] * 10.0 + s.g - L.rgb.b;            // swizzles and constant indexing
+    return vec3(p, t, -a * -b + (a > b ? 1 : 2));     // ?: with int branches
+}
+"""
+
+CONTROL = """
+float helper(float x)
+{
+    if (x > 0.5)
+        return 2.0 * x;
+    return x * x;
+}
+
+vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)
+{
+    float x = abs(L.x);
+    float acc = 0.0;
+    for (int i = 0; i < 3; i++)
+        acc += x;
+    if (x < 0.2) {
+        acc = -1.0;
+    } else if (x < 0.4)
+        acc = -2.0;
+    if (L.y > 0.6)
+        return vec3(7.0);
+    return vec3(acc, helper(x), mix(1.0, 3.0, x));
+}
+"""
+
+
+def test_translated_expressions_follow_glsl(tmp_path, runtime):
+    model = models.resolve(_write_brdf(tmp_path, "expressions", EXPRESSIONS))
+    l = _directions()
+    f = _eval(model, l)
+    a, b, c = (l[:, i].astype(np.float64) for i in range(3))
+    want = np.stack([a + b * c - a / 2 * b + 3.0, c * 10.0 + b - c, a * b + np.where(a > b, 1.0, 2.0)], axis=1)
+    np.testing.assert_allclose(f, want, rtol=1e-5, atol=1e-6)
+
+
+def test_translated_control_flow_is_per_pixel(tmp_path, runtime):
+    """if/else, an early return and a helper with two returns act lane by lane, loops run their count."""
+    model = models.resolve(_write_brdf(tmp_path, "control", CONTROL))
+    l = _directions(256)
+    f = _eval(model, l)
+    x, y = np.abs(l[:, 0].astype(np.float64)), l[:, 1].astype(np.float64)
+    acc = np.where(x < 0.2, -1.0, np.where(x < 0.4, -2.0, 3.0 * x))
+    want = np.stack([acc, np.where(x > 0.5, 2.0 * x, x * x), 1.0 + 2.0 * x], axis=1)
+    want[y > 0.6] = 7.0
+    assert (y > 0.6).any() and (x < 0.2).any() and ((x > 0.2) & (x < 0.4)).any() and (x > 0.5).any()
+    np.testing.assert_allclose(f, want, rtol=1e-5, atol=1e-6)
+
+
+def test_tangent_frame_reaches_only_lobes_that_read_it(tmp_path, runtime):
+    from clshade.device.variants import Features, Variant
+    from clshade.verify.reference import _orthonormal_basis
+    reads = models.resolve(_write_brdf(tmp_path, "frame", "vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) "
+                                                         "{ return X + 2.0 * Y; }"))
+    ignores = models.resolve(str(LOBES / "ggx_brdf.brdf"))
+    assert "GEOMETRY_TANGENTS" in Variant(reads, Features(), ("depth",)).defines()
+    assert "GEOMETRY_TANGENTS" not in Variant(ignores, Features(), ("depth",)).defines()
+    from clshade.device.evaluate import Samples, constant_materials, eval_brdf
+    n = _directions(32, seed=5)
+    k = len(n)
+    s = Samples(n, n, n, np.ones((k, 3), np.float32), np.full(k, 0.5, np.float32), np.zeros(k, np.float32),
+                constant_materials(k))
+    t, b = _orthonormal_basis(n.astype(np.float64))
+    np.testing.assert_allclose(eval_brdf(reads, s), t + 2.0 * b, atol=1e-5)
+
+
+# ------------------------------------------------------------------ errors name the file and the line
+
+@pytest.mark.parametrize("shader, line, message", [
+    ("vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)\n{\n    return vec3(1.0) +;\n}", 8, "syntax error"),
+    ("vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)\n{\n    return vec3(frobnicate(L.x));\n}", 8,
+     "unknown function 'frobnicate'"),
+    ("vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)\n{\n    vec4 c = vec4(1.0);\n    return c.rgb;\n}", 8,
+     "unsupported construct: type vec4"),
+    ("vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)\n{\n    while (true) { }\n    return L;\n}", 8,
+     "unsupported construct: while loop"),
+    ("float f(out float x) { x = 1.0; return x; }\nvec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) { return L; }",
+     6, "unsupported construct: out parameter"),
+    ("vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)\n{\n    return L * nope;\n}", 8, "unknown name 'nope'"),
+    ("vec3 shade(vec3 L) { return L; }", 6, "defines no 'vec3 BRDF"),
+])
+def test_brdf_errors_name_file_and_line(tmp_path, shader, line, message):
+    path = _write_brdf(tmp_path, "broken", shader)
+    with pytest.raises(models.ClshadeError) as info:
+        models.resolve(path)
+    text = str(info.value)
+    assert text.startswith(f"{path}:{line}: ") and message in text and "\n" not in text
+
+
+@pytest.mark.parametrize("header, message", [
+    ("id: bad_header\n * name Lobe without colon", ":3: header line 'name Lobe without colon' is not 'key: value'"),
+    ("id: bad_header\n * name: x\n * kind: diffuse\n * family: diffuse\n * formula: f\n * source: s\n * uses: sparkle",
+     ":8: uses sparkle: not an input of a lobe"),
+    ("id: bad_header\n * name: x\n * kind: specular\n * family: diffuse\n * formula: f\n * source: s",
+     "kind: specular needs a function 'INLINE vec3 specular_lobe"),
+])
+def test_cl_lobe_header_errors(tmp_path, header, message):
+    path = tmp_path / "bad_header.cl"
+    path.write_text(f"/*! clshade-model\n * {header}\n */\nINLINE real diffuse_lobe(const Geometry g, const Surface s) "
+                    "{ return 1.0f; }\n", encoding="utf-8")
+    with pytest.raises(models.ClshadeError) as info:
+        models.add_lobes(path)
+    assert str(info.value).startswith(str(path)) and message in str(info.value)
+
+
+def test_compile_error_is_one_line_with_the_compilers_message(tmp_path, runtime):
+    path = tmp_path / "no_member.cl"
+    path.write_text("/*! clshade-model\n * id: no_member\n * name: n\n * kind: diffuse\n * family: diffuse\n"
+                    " * formula: f\n * source: s\n */\nINLINE real diffuse_lobe(const Geometry g, const Surface s) {\n"
+                    "    return g.no_such_member;\n}\n", encoding="utf-8")
+    from clshade.device.evaluate import eval_brdf
+    with pytest.raises(models.ClshadeError) as info:
+        eval_brdf(models.resolve(str(path)), _samples_like(4), runtime)
+    assert str(info.value).startswith(f"{path}:10: no member named 'no_such_member'") and "\n" not in str(info.value)
+
+
+def _samples_like(k: int):
+    from clshade.device.evaluate import Samples, constant_materials
+    up = np.tile(np.array([[0.0, 0.0, 1.0]], np.float32), (k, 1))
+    return Samples(up, up, up, np.ones((k, 3), np.float32), np.full(k, 0.5, np.float32), np.zeros(k, np.float32),
+                   constant_materials(k))
+
+
+# ------------------------------------------------------------------ the same evidence as the built-ins
+
+def test_stability_check_finds_the_naive_ward_infinity(runtime, checkout):
+    """Ward's 1/√((n·l)(n·v)) overflows at n·v = 1e-40 without a floor; the shipped sample floors it."""
+    from clshade.verify import stability
+    grid = stability.geometry_grid()
+    naive = models.resolve(str(checkout / "tests" / "data" / "lobes" / "ward_naive.brdf"))
+    floored = models.resolve(str(LOBES / "ward.brdf"))
+    bad = stability.run_model(naive, grid, runtime, False, {})
+    good = stability.run_model(floored, grid, runtime, False, {})
+    assert bad.nonfinite > 0 and good.nonfinite == 0 and good.negative == 0
+    assert good.max_deviation_unclamped < 1e-4      # float32 against the lobe's own float64 build
+
+
+def test_double_build_agrees_with_the_python_oracle(runtime):
+    """The float64 device build of a built-in model equals clshade.verify.reference (the independent
+    formulas) to the rounding of the float constants the shared source holds (π as float: 4e-8)."""
+    from clshade.verify import accuracy as A
+    for spec in ("lambert", "burley", "blinn_phong", "ggx_correlated@conductor", "cook_torrance"):
+        model = models.resolve(spec)
+        case = A.model_case(model, 400, np.random.default_rng(2))
+        s = case.samples
+        n, l, v = (np.asarray(x, np.float64) for x in (s.n, s.l, s.v))
+        f64 = _eval_samples(model, s, double=True)
+        oracle = A.reference_brdf(model, n, l, v, case.reference)
+        err = A._rel_err(f64, oracle, 1e-9 * np.maximum(oracle.max(axis=1), 1e-30))
+        assert err.max() < 2e-7, spec
+
+
+def _eval_samples(model, s, double: bool) -> np.ndarray:
+    from clshade.device.evaluate import eval_brdf
+    return eval_brdf(model, s, double=double).astype(np.float64)
+
+
+# ------------------------------------------------------------------ the command line
+
+def _scene_with_lobes(tmp_path, model: str) -> str:
+    scene = SCENE.replace("[render]", f'[render]\nlobes = "{LOBES}"\nmodel = "{model}"').replace(
+        "width = 96", "width = 32").replace("height = 96", "height = 32")
+    path = tmp_path / "scene.toml"
+    path.write_text(scene, encoding="utf-8")
+    return str(path)
+
+
+def test_models_lists_the_users_lobes_with_their_paths(capsys, monkeypatch):
+    from clshade.cli import main
+    monkeypatch.setenv(models.LOBES_ENV, str(LOBES))
+    monkeypatch.setattr("clshade.verify.plausibility.physically_based", lambda **kw: {})
+    assert main(["models"]) == 0
+    out = capsys.readouterr().out
+    assert f"yours: {LOBES / 'ward.brdf'} (BRDF Explorer file)" in out
+    assert f"yours: {LOBES / 'lommel_seeliger.cl'} (lobe file)" in out
+    assert "alpha_x [0.01, 1] = 0.12" in out
+
+
+def test_scene_key_names_the_lobe_folder_and_param_overrides(capsys, tmp_path):
+    from clshade.cli import main
+    scene = _scene_with_lobes(tmp_path, "ward")
+    assert main(["render", scene, "-o", str(tmp_path / "w.png"), "--param", "alpha_x=0.3"]) == 0
+    assert "ward" in capsys.readouterr().out
+    assert models.lobes()["ward"].params[2].value == (0.3,)
+
+
+@pytest.mark.parametrize("argv_tail, message", [
+    (["--param", "no_such=1"], "--param no_such: no .brdf lobe in use has that parameter"),
+    (["--param", "alpha_x=7"], "--param alpha_x=7: outside [0.01, 1]"),
+    (["--param", "isotropic=maybe"], "--param isotropic: 'maybe' is not 0, 1, true or false"),
+])
+def test_bad_params_fail_in_one_line(capsys, tmp_path, argv_tail, message):
+    from clshade.cli import main
+    assert main(["render", str(SCENES / "red_ball.toml"), "-m", str(LOBES / "ward.brdf"),
+                 "-o", str(tmp_path / "x.png"), *argv_tail]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1
+
+
+def test_broken_brdf_on_the_command_line(capsys, tmp_path):
+    from clshade.cli import main
+    path = _write_brdf(tmp_path, "oops", "vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) { return L ** 2; }")
+    assert main(["render", str(SCENES / "red_ball.toml"), "-m", path, "-o", str(tmp_path / "x.png")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"clshade: error: {path}:6: syntax error") and err.count("\n") == 1
