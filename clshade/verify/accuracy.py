@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
@@ -397,19 +397,33 @@ def reference_brdf(model: Model, n: np.ndarray, l: np.ndarray, v: np.ndarray, re
     return R.brdf(model.diffuse, model.specular, n, l, v, **ref)
 
 
-def model_accuracy(model: Model, count: int = SAMPLES, seed: int = 1, runtime: Runtime | None = None) -> Accuracy:
-    """Compare eval_brdf (precise math) with reference.brdf on ≥ `count` random samples
-    inside the documented limits; the hard cases drawn outside them are reported apart."""
+# The float64 references a float32 lobe is measured against.
+ORACLE, FP64 = "oracle", "fp64"
+
+
+def model_accuracy(model: Model, count: int = SAMPLES, seed: int = 1, runtime: Runtime | None = None,
+                   reference: str | None = None) -> Accuracy:
+    """Compare eval_brdf (precise math) with a float64 reference on ≥ `count` random samples
+    inside the documented limits; the hard cases drawn outside them are reported apart.
+    `reference`: ORACLE (reference.brdf, the independent Python formulas; the default for
+    built-in models) or FP64 (the lobe's own double-precision device build; the only one a
+    user's lobe has)."""
+    reference = reference or (FP64 if model.is_users else ORACLE)
     microfacet = model.family == "microfacet"
     total = int(count * 1.2) if microfacet else count    # ~11 % fall below MIN_ALPHA_COSINE
     case = model_case(model, total, np.random.default_rng(seed))
     s = case.samples
     n, l, v = (np.asarray(x, np.float64) for x in (s.n, s.l, s.v))
     f = eval_brdf(model, s, runtime)
-    g = reference_brdf(model, n, l, v, case.reference)
     nn = R.normalize(n)[0]
     mirror = R.reflect(R.normalize(v)[0], nn)
-    peak = np.maximum(g.max(axis=1), reference_brdf(model, n, mirror, v, case.reference).max(axis=1))
+    if reference == FP64:
+        g = eval_brdf(model, s, runtime, double=True)
+        g_mirror = eval_brdf(model, replace(s, l=mirror.astype(np.float32)), runtime, double=True)
+    else:
+        g = reference_brdf(model, n, l, v, case.reference)
+        g_mirror = reference_brdf(model, n, mirror, v, case.reference)
+    peak = np.maximum(g.max(axis=1), g_mirror.max(axis=1))
     err = _rel_err(f, g, FLOOR_REL * peak)
     nl = np.sum(nn * R.normalize(l)[0], axis=1)
     nv = np.sum(nn * R.normalize(v)[0], axis=1)
@@ -425,3 +439,16 @@ def model_accuracy(model: Model, count: int = SAMPLES, seed: int = 1, runtime: R
                 f"shininess = {mat[0, 3]:.4g}, ior = {mat[1, 0]:.4g}: kernel {f[i].tolist()}, reference {g[i].tolist()}")
 
     return _summary(model.id, err, describe, inside)
+
+
+def oracle_agreement(model: Model, count: int = SAMPLES, seed: int = 1, runtime: Runtime | None = None) -> Accuracy:
+    """The double-precision device build of a built-in model against the Python oracle on the
+    samples of model_accuracy: where both float64 references exist, how far apart they are
+    (bounded by the float constants of the shared kernel source, e.g. π as a float)."""
+    case = model_case(model, count, np.random.default_rng(seed))
+    s = case.samples
+    n, l, v = (np.asarray(x, np.float64) for x in (s.n, s.l, s.v))
+    f = eval_brdf(model, s, runtime, double=True)
+    g = reference_brdf(model, n, l, v, case.reference)
+    err = _rel_err(f, g, FLOOR_REL * np.maximum(g.max(axis=1), np.finfo(np.float64).tiny))
+    return _summary(model.id, err, lambda i: f"device {f[i].tolist()}, oracle {g[i].tolist()}")

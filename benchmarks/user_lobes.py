@@ -1,0 +1,97 @@
+"""Time and check the sample user lobes (scenes/lobes/: BRDF Explorer files and a clshade-format
+lobe) beside built-in models, with the columns a built-in gets, and write
+benchmarks/results/user_lobes.json. JSON only: `python benchmarks/publish.py` renders
+benchmarks/results/user_lobes.md and the worked example of docs/user-lobes.md from it.
+
+Per model: device time per frame (mean over interleaved rounds), × copy kernel, × Lambert,
+the frame's max and mean relative error against its float64 frame (`clshade bench`'s
+columns); the float32 lobe against its float64 reference on the sampled hemisphere
+(clshade.verify.accuracy.model_accuracy: the Python oracle for built-ins, the lobe's own
+double-precision build for the user's) and, for built-ins, the double build against the oracle;
+plausibility (`clshade check plausibility --quick`); stability counts over the torture grid,
+both builds (`clshade check stability`).
+
+    python benchmarks/user_lobes.py [--frames N] && python benchmarks/publish.py
+"""
+from __future__ import annotations
+
+import argparse
+import datetime as _dt
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from clshade import models as M  # noqa: E402
+from clshade.bench.run import run_bench  # noqa: E402
+from clshade.device.runtime import get_runtime  # noqa: E402
+from clshade.verify import accuracy as A  # noqa: E402
+from clshade.verify import plausibility as P  # noqa: E402
+from clshade.verify import stability as S  # noqa: E402
+
+OUT = ROOT / "benchmarks" / "results" / "user_lobes.json"
+LOBES = ROOT / "scenes" / "lobes"
+SCENE = ROOT / "scenes" / "red_ball.toml"
+BUILT_INS = ("lambert", "blinn_phong", "ggx_correlated")
+USERS = ("lambert_brdf.brdf", "blinn_phong_brdf.brdf", "ggx_brdf.brdf", "ward.brdf", "lommel_seeliger.cl")
+ACCURACY_SAMPLES = 20000
+
+
+def head_commit() -> str | None:
+    proc = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "HEAD"], capture_output=True, text=True)
+    return proc.stdout.strip() if proc.returncode == 0 else None
+
+
+def measure(frames: int, width: int, height: int) -> dict:
+    rt = get_runtime()
+    chosen = [M.resolve(m) for m in BUILT_INS] + [M.resolve(str(LOBES / f)) for f in USERS]
+    bench = run_bench(SCENE, chosen, frames, 10, width=width, height=height, numpy_frames=0)
+    timed = {row["model"]: row for row in bench["models"]}
+    verdicts = {v.preset: v for v in P.evaluate_presets(P.QUICK, models=chosen)}
+    grid = S.geometry_grid()
+    rows = []
+    for model in chosen:
+        lobe = model.lobes[-1]
+        acc = A.model_accuracy(model, ACCURACY_SAMPLES, runtime=rt)
+        agree = None if model.is_users else A.oracle_agreement(model, ACCURACY_SAMPLES, runtime=rt)
+        grid_runs = [S.run_model(model, grid, rt, fm, {}) for fm in (False, True)]
+        t, v = timed[model.id], verdicts[model.id]
+        rows.append(dict(
+            model=model.id, origin=lobe.origin, file=str(lobe.path.relative_to(ROOT)) if lobe.is_users else None,
+            mean_ms=t["mean_ms"], copy_ratio=t["copy_ratio"], lambert_ratio=t["lambert_ratio"],
+            frame_max_rel_error=t["max_rel_error"], frame_mean_rel_error=t["mean_rel_error"],
+            reference=A.FP64 if model.is_users else A.ORACLE,
+            f32_max_rel_err=acc.max_rel_err, f32_median_rel_err=acc.median_rel_err, f32_samples=acc.samples,
+            fp64_vs_oracle=None if agree is None else agree.max_rel_err,
+            min_f=v.min_f, reciprocity=v.max_reciprocity_error, max_albedo=max(v.max_albedo, v.composed_albedo),
+            physically_based=v.physically_based,
+            grid_cases=sum(r.cases for r in grid_runs), grid_nonfinite=sum(r.nonfinite for r in grid_runs),
+            grid_negative=sum(r.negative for r in grid_runs)))
+    return dict(schema=1, created=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+                commit=head_commit(), device=rt.info.description,
+                command=f"python benchmarks/user_lobes.py --frames {frames} --width {width} --height {height}",
+                scene=str(SCENE.relative_to(ROOT)), width=width, height=height, frames=frames,
+                accuracy_samples=ACCURACY_SAMPLES, rows=rows)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--frames", type=int, default=200)
+    parser.add_argument("--width", type=int, default=512)
+    parser.add_argument("--height", type=int, default=512)
+    parser.add_argument("--out", default=str(OUT))
+    args = parser.parse_args()
+    start = time.perf_counter()
+    doc = measure(args.frames, args.width, args.height)
+    doc["seconds"] = round(time.perf_counter() - start, 1)
+    Path(args.out).write_text(json.dumps(doc, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
+    print(f"wrote {args.out} in {doc['seconds']} s; render with: python benchmarks/publish.py")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
