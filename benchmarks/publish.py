@@ -28,6 +28,7 @@ MUTANTS_JSON = RESULTS / "mutants.json"
 FLOOR_BIAS_JSON = RESULTS / "floor_bias.json"
 STABILITY_JSON = RESULTS / "stability.json"
 RUNTIMES_JSON = RESULTS / "runtimes.json"
+USER_LOBES_JSON = RESULTS / "user_lobes.json"
 GROUPS = ("diffuse", "empirical", "microfacet")
 
 
@@ -524,6 +525,57 @@ def stability_tables(doc: dict[str, Any]) -> str:
     return "\n".join(out)
 
 
+# ------------------------------------------------------------------ user lobes
+
+
+def user_lobes_table(doc: dict[str, Any]) -> str:
+    """The user lobes beside built-ins (benchmarks/user_lobes.py), every column a built-in gets."""
+    lines = ["| model | origin | ms/frame | × copy | × Lambert | frame max / mean rel err vs float64 | "
+             "f32 vs float64 max / median (reference) | float64 build vs oracle | min f | reciprocity err | "
+             "max albedo | physically based | grid NaN/Inf, negative (of evaluations) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in doc["rows"]:
+        origin = r["origin"] if r["file"] is None else f"{r['origin']}: `{r['file']}`"
+        oracle = "–" if r["fp64_vs_oracle"] is None else _e(r["fp64_vs_oracle"], ".1e")
+        lines.append(
+            f"| {r['model']} | {origin} | {r['mean_ms']:.3f} | {r['copy_ratio']:.2f} | {r['lambert_ratio']:.2f} | "
+            f"{_e(r['frame_max_rel_error'], '.1e')} / {_e(r['frame_mean_rel_error'], '.1e')} | "
+            f"{_e(r['f32_max_rel_err'], '.1e')} / {_e(r['f32_median_rel_err'], '.1e')} ({r['reference']}) | {oracle} | "
+            f"{r['min_f']:.3g} | {_e(r['reciprocity'], '.1e')} | {r['max_albedo']:.3f} | "
+            f"{'yes' if r['physically_based'] else 'no'} | {r['grid_nonfinite']}, {r['grid_negative']} "
+            f"({r['grid_cases']}) |")
+    commit = (doc.get("commit") or "unknown")[:10]
+    lines += ["", f"*{doc['scene']} at {doc['width']}×{doc['height']}, {doc['frames']} frames per model in "
+                  f"interleaved rounds; {doc['accuracy_samples']} hemisphere samples per model; device "
+                  f"{doc['device']}; commit {commit}; measured {doc['created']} by `{doc['command']}` "
+                  f"({doc['seconds']:.0f} s). Reference `oracle`: clshade.verify.reference (Python, float64); "
+                  f"`fp64`: the lobe's own double-precision device build.*"]
+    return "\n".join(lines)
+
+
+def render_user_lobes(doc: dict[str, Any]) -> str:
+    return ("# User lobes beside built-in models\n\nRendered by `python benchmarks/publish.py` from "
+            "benchmarks/results/user_lobes.json; what the columns mean: docs/user-lobes.md.\n\n"
+            + user_lobes_table(doc) + "\n")
+
+
+def user_lobes_example(doc: dict[str, Any]) -> str:
+    """docs/user-lobes.md's worked example: the Ward file's row and its built-in neighbours."""
+    rows = {r["model"]: r for r in doc["rows"]}
+    ward, lam = rows["ward"], rows["lambert"]
+    return (f"On {doc['device']} ({doc['scene']}, {doc['width']}×{doc['height']}, commit "
+            f"{(doc.get('commit') or 'unknown')[:10]}), `ward.brdf` shades a frame in {ward['mean_ms']:.3f} ms: "
+            f"{ward['lambert_ratio']:.2f}× Lambert ({lam['mean_ms']:.3f} ms) and {ward['copy_ratio']:.2f}× the copy "
+            f"kernel that only moves the G-buffer. Its float32 build is within {ward['f32_max_rel_err']:.1e} "
+            f"(max; median {ward['f32_median_rel_err']:.1e}) of its float64 build over "
+            f"{ward['f32_samples']} hemisphere samples, and the rendered frame within "
+            f"{ward['frame_max_rel_error']:.1e} of the float64 frame. It never goes negative (min f = "
+            f"{ward['min_f']:.3g}), is reciprocal to {ward['reciprocity']:.1e}, reflects at most "
+            f"{ward['max_albedo']:.3f} of the light, and gives {ward['grid_nonfinite']} NaN/Inf in "
+            f"{ward['grid_cases']} torture-grid evaluations. For the built-in models the double build agrees with "
+            f"the Python oracle to {max(r['fp64_vs_oracle'] for r in doc['rows'] if r['fp64_vs_oracle'] is not None):.1e}.")
+
+
 # ------------------------------------------------------------------ regions and files
 
 
@@ -567,6 +619,12 @@ def renderings() -> dict[Path, Callable[[str], str]]:
         for doc in (ROOT / "docs" / "stability.md", ROOT / "docs" / "models.md"):
             out[doc] = (lambda d: lambda text: replace_region(text, "floor-bias", floor_bias_table(load(FLOOR_BIAS_JSON)),
                                                               d))(doc)
+    if USER_LOBES_JSON.exists():
+        out[RESULTS / "user_lobes.md"] = lambda text: render_user_lobes(load(USER_LOBES_JSON))
+        guide = ROOT / "docs" / "user-lobes.md"
+        out[guide] = lambda text: replace_region(
+            replace_region(text, "user-lobes-example", user_lobes_example(load(USER_LOBES_JSON)), guide),
+            "user-lobes-table", user_lobes_table(load(USER_LOBES_JSON)), guide)
     if STABILITY_JSON.exists():   # a second region of docs/stability.md: compose with the floor table
         stab = ROOT / "docs" / "stability.md"
         first = out.get(stab, lambda text: text)
