@@ -426,6 +426,35 @@ CATALOGUE: list[Mutant] = [
       "ctx.putImageData(views.b, 0, 0);", "viewer page: model B drawn over the whole frame, not right of the divider"),
     M("display_cross_strict", "kernels/display.cl", "return base[b] + (uchar)(x >= cross[b]);",
       "return base[b] + (uchar)(x > cross[b]);", "device display: a value exactly at a level's threshold one level low"),
+    # ---- user lobes: the GLSL translator (clshade/glsl.py), .brdf parameters, the tangent frame, the fp64 build
+    M("glsl_precedence", "clshade/glsl.py", '''("<", ">", "<=", ">="), ("+", "-"), ("*", "/", "%"))''',
+      '''("<", ">", "<=", ">="), ("*", "/", "%"), ("+", "-"))''', "GLSL: + and - bind tighter than * and /"),
+    M("glsl_swizzle", "clshade/glsl.py", '''return ["xyzw"[i] for i in idx]''', '''return ["xyzw"[i] for i in sorted(idx)]''',
+      "GLSL: a swizzle's components in xyz order (.zyx reads as .xyz)"),
+    M("glsl_int_division", "clshade/glsl.py", '''        if kind == "int":
+            lit = None''', '''        if kind == "int" and op != "/":
+            lit = None''', "GLSL: int / int divides as floats (7 / 2 = 3.5, not 3)"),
+    M("glsl_int_literal", "clshade/glsl.py", '''                return Value("float", f"G_LIT({_float_text(v.literal)})", v.literal)''',
+      '''                return Value("float", f"G_LIT({_float_text(str(int(v.literal) + 0.5))})", v.literal)''',
+      "GLSL: an int literal converted to float is off by one half"),
+    M("glsl_else_mask", "clshade/glsl.py", '''self.out.append(f"{pad}mask x_else{k} = {outer}!({cond.code});")''',
+      '''self.out.append(f"{pad}mask x_else{k} = {outer}({cond.code});")''', "GLSL: the else branch acts where the if did"),
+    M("glsl_return_not_done", "clshade/glsl.py", '''self.out.append(f"{pad}x_done = x_done || {p};")''',
+      '''self.out.append(f"{pad}x_done = x_done;")''', "GLSL: an early return does not stop later statements"),
+    M("glsl_ternary_swapped", "clshade/glsl.py", '''            return Value(kind, self.select(kind, c.code, self.coerce(a, kind, n.line).code,
+                                           self.coerce(b, kind, n.line).code))''', '''            return Value(kind, self.select(kind, c.code, self.coerce(b, kind, n.line).code,
+                                           self.coerce(a, kind, n.line).code))''', "GLSL: ?: returns the other branch"),
+    M("glsl_pow_products", "clshade/glsl.py", '''{1: f"({code[0]})", 2: f"sq({code[0]})", 3: f"g1_pow3({code[0]})",''',
+      '''{1: f"({code[0]})", 2: f"sq({code[0]})", 3: f"sq({code[0]})",''', "GLSL: pow(x, 3.0) expanded as x²"),
+    M("glsl_mix_order", "kernels/glsl.h", "INLINE real g1_mix(real a, real b, real t) { return a + (b - a) * t; }",
+      "INLINE real g1_mix(real a, real b, real t) { return b + (a - b) * t; }", "GLSL mix(a, b, t) weights t on a"),
+    M("tangent_frame_sign", "kernels/surface.h", "    *y = v3(b, sign + n.y * n.y * a, -n.y);",
+      "    *y = v3(b, sign + n.y * n.y * a, n.y);", "tangent frame: the bitangent's z flipped (not orthonormal)"),
+    M("brdf_param_ignored", "clshade/brdf_explorer.py",
+      '''            value = float(parse_value("float", values[name], f"--param {name}")) if name in values else default''',
+      '''            value = default''', "--param NAME=VALUE ignored for float parameters"),
+    M("double_build_float", "kernels/simd.h", "#if SIMD == 1 && defined(REAL_DOUBLE)\ntypedef double real;",
+      "#if SIMD == 1 && defined(REAL_DOUBLE)\ntypedef float real;", "the double-precision build computes in float32"),
 ]
 
 
