@@ -15,20 +15,31 @@ towards the light L and the viewer V, the normal N and the tangent frame X, Y,
 without the cosine. Lines starting with `#` outside the blocks are comments.
 
 The shader is translated by clshade.glsl into a specular lobe of family
-`brdf` (compose.h then adds nothing: f = the file's BRDF). Its parameters are
-compiled in: the file's defaults, replaced by `--param NAME=VALUE`. The lobe
+`brdf` (compose.h then adds nothing: f = the file's BRDF). A parameter named
+like a material key (MATERIAL_KEYS: base_color, roughness, shininess, ior,
+f90) is that key, read per pixel; the others are compiled in: the file's
+defaults, replaced by `--param NAME=VALUE` (which also fixes a material-key
+parameter to one value). The lobe
 reads the Geometry's vectors (n, l, v) and, only when the shader reads X or Y,
 its tangent frame.
 """
 from __future__ import annotations
 
 import re
+from dataclasses import replace
 from pathlib import Path
 
 from clshade.errors import ClshadeError
 from clshade.glsl import translate
 
 FAMILY = "brdf"
+
+# Parameters named like a material key (scenes/README.md) read that key per pixel from the
+# Surface (kernels/surface.h) — the scene's materials and textures set them and `clshade sweep`
+# varies roughness — unless `--param` fixes them: name → (type, Surface member, `uses:` entry).
+MATERIAL_KEYS = {"base_color": ("color", "s.base", None), "roughness": ("float", "s.roughness", "roughness"),
+                 "shininess": ("float", "s.shininess", "shininess"), "ior": ("float", "s.ior", "ior"),
+                 "f90": ("float", "s.f90", "f90")}
 
 
 def lobe_id(path: Path) -> str:
@@ -142,6 +153,13 @@ def load_brdf(path: Path, values: dict[str, str]):
         if sum(p.name == name for p in params) > 1:
             raise ClshadeError(f"{path}:{at}: parameter {name!r} is declared twice")
 
+    uses = {"vectors"}
+    for i, p in enumerate(params):
+        key = MATERIAL_KEYS.get(p.name)
+        if key is not None and key[0] == p.kind and p.name not in values:
+            compiled[p.name] = ("vec3" if p.kind == "color" else "float", f"({key[1]})")
+            uses |= {key[2]} - {None}
+            params[i] = replace(p, value=(), description=f"the material key {p.name}, per pixel ({path.name})")
     s_first, s_lines = blocks["shader"]
     tr = translate("\n".join(s_lines), path, compiled, first_line=s_first)
     tangents = bool(tr.reads & {"X", "Y"})
@@ -149,12 +167,12 @@ def load_brdf(path: Path, values: dict[str, str]):
     code = (f'#line 1 "{path}"\n{tr.code}'
             f'#line {s_first} "{path}"\n'
             f"INLINE vec3 specular_lobe(const Geometry g, const Surface s) {{\n"
-            f"    return u_BRDF(g.l, g.v, g.n, {frame});\n}}\n")
+            f"    return u_BRDF(g.l, g.v, g.n, {frame}, s);\n}}\n")
     ident = lobe_id(path)
     return Lobe(id=ident, name=path.stem, kind="specular", family=FAMILY,
                 formula=f"f = BRDF(L, V, N, X, Y) of {path.name} (BRDF Explorer shader, translated)",
                 source=str(path), params=tuple(params),
-                uses=frozenset({"vectors", "tangents"} if tangents else {"vectors"}),
+                uses=frozenset(uses | ({"tangents"} if tangents else set())),
                 notes=(), deviations=(), path=path, origin=BRDF_FILE, code=code)
 
 

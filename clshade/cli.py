@@ -453,6 +453,8 @@ def cmd_models(args: argparse.Namespace) -> int:
 
 def _param_text(p) -> str:
     """One parameter for `clshade models`: range and default, and the value compiled in where set."""
+    if p.kind in ("float", "color") and not p.value and p.description.startswith("the material key"):
+        return f"{p.name} = the material key (per pixel)"
     if p.kind == "color":
         return f"{p.name} (colour) = {','.join(f'{c:g}' for c in p.value)}"
     if p.kind == "bool":

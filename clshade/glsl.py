@@ -605,6 +605,7 @@ class Emitter:
         for ptype, pname in fn.params:
             self.scopes[0][pname] = Symbol(ptype, PREFIX + pname, True)
             args.append(f"{CTYPE[ptype]} {PREFIX}{pname}")
+        args.append("const Surface s")      # the pixel's Surface: parameters that are material keys read it
         self.current = fn
         self.line(fn.line)
         self.out.append(f"INLINE {CTYPE[fn.type]} {PREFIX}{fn.name}({', '.join(args)}) {{")
@@ -932,7 +933,7 @@ class Emitter:
             if len(args) != len(fn.params):
                 raise self.error(n.line, f"{name}() takes {len(fn.params)} arguments, got {len(args)}")
             code = [self.coerce(a, t, n.line).code for a, (t, _) in zip(args, fn.params)]
-            return Value(fn.type, f"{PREFIX}{name}({', '.join(code)})")
+            return Value(fn.type, f"{PREFIX}{name}({', '.join([*code, 's'])})")
         if name in COMPONENTWISE or (name == "atan" and len(args) == 2):
             return self.componentwise(name, args, n.line)
         if name in GEOMETRIC:
@@ -1053,7 +1054,8 @@ class Translation:
 
 
 def translate(text: str, path: str | Path, params: dict[str, tuple[str, str]], first_line: int = 1) -> Translation:
-    """OpenCL C defining `u_BRDF(L, V, N, X, Y)` for the GLSL shader `text`."""
+    """OpenCL C defining `u_BRDF(L, V, N, X, Y, s)` for the GLSL shader `text` (every translated
+    function takes the pixel's Surface `s` last: `params` values may read it)."""
     path = str(path)
     emitter = Emitter(parse(text, path, first_line), path, params)
     code = emitter.emit()
