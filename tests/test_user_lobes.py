@@ -137,8 +137,8 @@ vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)
     float c = L.z;
     float p = a + b * c - a / 2 * b + float(7 / 2);   // precedence; int-to-float; int division
     vec3 s = L.zyx;
-    float t = s[0] * 10.0 + s.g - L.rgb.b;            // swizzles and constant indexing
-    return vec3(p, t, -a * -b + (a > b ? 1 : 2));     // ?: with int branches
+    float t = s[0] * 10.0 + s.g - L.rgb.b + pow(c, 3.0);   // swizzles, constant indexing; x³ as products
+    return vec3(p, t, -a * -b + (a > b ? 1 : 2) + pow(c, 2.5));   // ?: with int branches
 }
 """
 
@@ -172,7 +172,8 @@ def test_translated_expressions_follow_glsl(tmp_path, runtime):
     l = _directions()
     f = _eval(model, l)
     a, b, c = (l[:, i].astype(np.float64) for i in range(3))
-    want = np.stack([a + b * c - a / 2 * b + 3.0, c * 10.0 + b - c, a * b + np.where(a > b, 1.0, 2.0)], axis=1)
+    want = np.stack([a + b * c - a / 2 * b + 3.0, c * 10.0 + b - c + c ** 3,
+                     a * b + np.where(a > b, 1.0, 2.0) + c ** 2.5], axis=1)
     np.testing.assert_allclose(f, want, rtol=1e-5, atol=1e-6)
 
 
