@@ -209,6 +209,30 @@ def test_tangent_frame_reaches_only_lobes_that_read_it(tmp_path, runtime):
 
 # ------------------------------------------------------------------ errors name the file and the line
 
+def test_translation_reports_what_brdf_reads():
+    """clshade.glsl.translate: X/Y read through a helper count; a parameter of the file is a #define."""
+    import clshade.glsl
+    shader = ("float aniso(vec3 t) { return t.x; }\n"
+              "vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) { return vec3(aniso(Y)) * k; }")
+    tr = clshade.glsl.translate(shader, "t.brdf", {"k": ("float", "G_LIT(2.0)")})
+    assert tr.reads == {"Y"} and "#define u_k G_LIT(2.0)" in tr.code
+
+
+def test_brdf_parameter_lines(tmp_path):
+    """clshade.brdf_explorer: float/color/bool lines, defaults, --param values, material keys."""
+    import clshade.brdf_explorer
+    path = tmp_path / "p.brdf"
+    path.write_text("analytic\n::begin parameters\nfloat n 1 100 10\ncolor tint 1 0.5 0\nbool on 1\n"
+                    "float roughness 0 1 0.2\n::end parameters\n::begin shader\n"
+                    "vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) { return tint * n * roughness; }\n"
+                    "::end shader\n", encoding="utf-8")
+    lobe = clshade.brdf_explorer.load_brdf(path, {"n": "20", "tint": "0.25"})
+    by_name = {p.name: p for p in lobe.params}
+    assert by_name["n"].value == (20.0,) and by_name["n"].default == 10.0
+    assert by_name["tint"].value == (0.25, 0.25, 0.25) and by_name["on"].value == (1.0,)
+    assert by_name["roughness"].value == () and "roughness" in lobe.uses     # the material key, per pixel
+    assert "#define u_roughness (s.roughness)" in lobe.code
+
 @pytest.mark.parametrize("shader, line, message", [
     ("vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)\n{\n    return vec3(1.0) +;\n}", 8, "syntax error"),
     ("vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)\n{\n    return vec3(frobnicate(L.x));\n}", 8,
