@@ -14,7 +14,7 @@ import numpy as np
 from clshade.errors import ClshadeError
 from clshade.render.image import display, srgb_decode
 from clshade.models import GROUPS, Model
-from clshade.pipeline import Frame, prepare_frame
+from clshade.pipeline import Frame, prepare_frame, reads_tangents
 from clshade.device.runtime import Runtime, get_runtime
 from clshade.render.scene import Scene, load_scene
 from clshade.device.shade import Shader, scene_features
@@ -134,7 +134,7 @@ def compare_sheet(scene: Scene | str | Path, models: list[Model], *, width: int 
                   height: int | None = None, reference: Model | None = None, runtime: Runtime | None = None,
                   device: str | None = None, progress=None) -> tuple[np.ndarray, list[Tile]]:
     """The contact sheet (H, W, 3) display floats, and the shaded tiles; `progress(done, total)` per model."""
-    frame = prepare_frame(scene, width, height)
+    frame = prepare_frame(scene, width, height, tangents=reads_tangents(models + ([reference] if reference else [])))
     rt = runtime or get_runtime(device)
     tiles = shade_all(frame, models, rt, progress=progress)
     rows = []
@@ -166,7 +166,7 @@ def sweep_sheet(scene: Scene | str | Path, models: list[Model], roughness: tuple
     columns = []
     for r in roughness:
         mats = {k: dataclasses.replace(m, roughness=r) for k, m in scene.materials.items()}
-        frame = prepare_frame(dataclasses.replace(scene, materials=mats), size, size)
+        frame = prepare_frame(dataclasses.replace(scene, materials=mats), size, size, tangents=reads_tangents(models))
         columns.append((r, frame, shade_all(frame, models, rt, repeats=1)))
         if progress is not None:
             progress(len(columns), len(roughness))

@@ -55,9 +55,14 @@ class Frame:
     timings: Timings = field(default_factory=Timings)
 
 
+def reads_tangents(models: list[Model]) -> bool:
+    """Whether some model's lobe reads the tangent frame: the G-buffer then carries the mesh tangents."""
+    return any("tangents" in m.uses for m in models)
+
+
 def prepare_frame(scene: Scene | str | Path, width: int | None = None, height: int | None = None,
                   timings: Timings | None = None, samples: int | None = None,
-                  geometry: Geometry | None = None) -> Frame:
+                  geometry: Geometry | None = None, tangents: bool = False) -> Frame:
     """Load (if needed), build geometry, rasterise and write the G-buffer. With N×N
     `samples` per pixel (default: the scene's `[render] samples`) the raster is
     N·W × N·H (clshade/render/samples.py) and the frame's scene carries N, so that
@@ -81,7 +86,7 @@ def prepare_frame(scene: Scene | str | Path, width: int | None = None, height: i
         fragments = rasterize(geometry.vertices, geometry.faces, camera.view_matrix(), camera.projection_matrix(),
                               camera.width, camera.height, cull_backfaces=geometry.cull)
     with timings.stage("g-buffer"):
-        gbuffer = build_gbuffer(scene, geometry, fragments, camera)
+        gbuffer = build_gbuffer(scene, geometry, fragments, camera, tangents)
     shadows = None
     if scene.shadow_lights:
         with timings.stage("shadow maps"):
@@ -105,7 +110,7 @@ def render(scene: Scene | str | Path, model: Model, *, width: int | None = None,
     """Render one model; the returned Render keeps the frame and shader for reuse.
     `general` renders with the general kernel (same result, slower)."""
     timings = Timings()
-    frame = frame or prepare_frame(scene, width, height, timings)
+    frame = frame or prepare_frame(scene, width, height, timings, tangents=reads_tangents([model]))
     with timings.stage("opencl setup"):
         rt = runtime or get_runtime(device)
         shader = Shader(rt, frame.gbuffer, frame.scene, frame.camera, frame.shadows)
@@ -183,7 +188,7 @@ def render_streamed(scene: Scene, model: Model, on_band, *, width: int | None = 
             fragments = rasterize(geometry.vertices, geometry.faces, cam.view_matrix(), cam.projection_matrix(),
                                   cam.width, cam.height, cull_backfaces=geometry.cull)
         with timings.stage("g-buffer"):
-            gbuffer = build_gbuffer(scene, geometry, fragments, cam)
+            gbuffer = build_gbuffer(scene, geometry, fragments, cam, reads_tangents([model]))
         del fragments
         covered += int(gbuffer.coverage.sum())
         nonfinite += gbuffer.nonfinite_pixels

@@ -45,6 +45,9 @@ INLINE vec3 shade_light_lit(vec3 n, vec3 v, vec3 l, vec3 E, const Surface s) {
     if (!ANY(faces_light(n, l)))
         return v3s((real)(0.0f));
     Geometry g = make_geometry(n, l, v);
+#ifdef GEOMETRY_TANGENTS
+    surface_frame(&g, n, s);
+#endif
     vec3 e = v3scale(E, fmax(g.nl_raw, 0.0f));
     vec3 lo = v3mul(brdf(g, s), e);
     return v3select(g.nl_raw > 0.0f, lo, v3s((real)(0.0f)));

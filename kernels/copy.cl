@@ -18,6 +18,9 @@ __kernel void copy(const uint npix, const uint plane,
 #if HAS_OCCLUSION
     , __global const float* occlusion
 #endif
+#if HAS_TANGENT
+    , __global const float* tangent
+#endif
 #if HAS_MATERIAL
     , __global const uchar* material
 #endif
@@ -50,6 +53,9 @@ __kernel void copy(const uint npix, const uint plane,
 #endif
 #if HAS_OCCLUSION
         w += VLOAD(i, occlusion);
+#endif
+#if HAS_TANGENT
+        acc = v3add(acc, load3f(i, tangent, plane));
 #endif
 #if HAS_MATERIAL
         w += convert_real(VLOAD_UCHAR(i, material));

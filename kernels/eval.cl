@@ -7,6 +7,8 @@
  *                base[i]           float4 (rgb)
  *                p[i]              float4 (roughness, metallic, -, -)
  *                m[4i .. 4i+3]     the material constants (see surface.h)
+ *                t[i]              float4 (xyz: the surface's tangent, 0 = none; read by
+ *                                  lobes that use the tangent frame, surface.h)
  * Built with SIMD = 1 (simd.h): one sample per work-item.
  * Output f[i] = (f.rgb, n·l > 0 ? 1 : 0): f is 0 when l is below the horizon;
  * double4 in the double build (REAL_DOUBLE, simd.h), float4 otherwise.
@@ -20,7 +22,7 @@ typedef float4 out4;
 __kernel void eval_brdf(const uint count,
     __global const float4* n, __global const float4* l, __global const float4* v,
     __global const float4* base, __global const float4* p, __global const float4* m,
-    __global out4* f)
+    __global const float4* t, __global out4* f)
 {
     uint i = get_global_id(0);
     if (i >= count) return;
@@ -30,6 +32,10 @@ __kernel void eval_brdf(const uint count,
     Surface s = make_surface(v3max(v3c(base[i].xyz), 0.0f), saturate(p[i].x), saturate(p[i].y),
                              material_uniform(m[4 * i], m[4 * i + 1], m[4 * i + 2], m[4 * i + 3]));
     Geometry g = make_geometry(nn, ll, vv);
+#ifdef GEOMETRY_TANGENTS
+    s.tangent = v3c(t[i].xyz);
+    surface_frame(&g, nn, s);
+#endif
     vec3 fr = brdf(g, s);
     f[i] = g.nl_raw > 0.0f ? (out4)(fr.x, fr.y, fr.z, 1.0f) : (out4)(0.0f);
 }

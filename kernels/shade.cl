@@ -16,6 +16,9 @@
  *   MAT_M0..MAT_M3                 the material constants when HAS_MATERIAL is 0
  *   HAS_AMBIENT                    constant ambient radiance
  *   HAS_EMISSIVE                   per-pixel emitted radiance, added unlit
+ *   HAS_TANGENT                    per-pixel mesh tangent, for a lobe that reads the tangent
+ *                                  frame (GEOMETRY_TANGENTS, surface.h); without it the frame
+ *                                  is built from the normal
  *   HAS_OCCLUSION                  per-pixel ambient occlusion multiplying the ambient term
  *                                  (both compile-time in the general kernel too)
  *   HALF_GBUFFER                   normal and base colour stored as half floats
@@ -43,6 +46,7 @@
  *   metallic  float
  *   emissive  3 planes of float: emitted radiance (HAS_EMISSIVE)
  *   occlusion float   ambient occlusion in [0, 1] (HAS_OCCLUSION)
+ *   tangent   3 planes of float: the interpolated mesh tangent (HAS_TANGENT)
  *   material  uchar   index into the material table (MATERIAL_STRIDE float4)
  * Lights (__constant float4, directional first, then point, then spot):
  *   directional: (direction of travel, 0), (irradiance RGB, 0)
@@ -70,6 +74,9 @@
 #endif
 #ifndef HAS_OCCLUSION
 #define HAS_OCCLUSION 0
+#endif
+#ifndef HAS_TANGENT
+#define HAS_TANGENT 0
 #endif
 #ifndef ROUGHNESS_VALUE
 #define ROUGHNESS_VALUE 1.0f
@@ -169,6 +176,9 @@ __kernel void shade(
 #if HAS_OCCLUSION
     , __global const float* occlusion
 #endif
+#if HAS_TANGENT
+    , __global const float* tangent
+#endif
 #if HAS_MATERIAL
     , __global const uchar* material, __constant float4* materials
 #endif
@@ -249,6 +259,10 @@ __kernel void shade(
         Surface s = make_surface(b, r, m, material_gather(VLOAD_UCHAR(i, material), covered, materials));
 #else
         Surface s = make_surface(b, r, m, material_uniform(MAT_M0, MAT_M1, MAT_M2, MAT_M3));
+#endif
+
+#if HAS_TANGENT
+        s.tangent = load3f(i, tangent, plane);     /* the mesh's tangent (surface_frame orthonormalises it) */
 #endif
 
 #ifdef SPECULAR_AA

@@ -64,6 +64,9 @@ typedef struct {
     real shininess;      /* Phong/Blinn–Phong exponent n ≥ 0                */
     real ior;            /* dielectric IOR (exact Fresnel)                  */
     real f90;            /* Schlick reflectance at grazing                  */
+#ifdef GEOMETRY_TANGENTS
+    vec3 tangent;        /* the mesh's tangent from the G-buffer, or 0      */
+#endif
 } Surface;
 
 /* One material, the same in every lane (a table row or the baked constants). */
@@ -159,6 +162,9 @@ INLINE Surface make_surface(vec3 base, real roughness, real metallic, const Mate
     s.shininess = m.shininess;
     s.ior = m.ior;
     s.f90 = m.f90;
+#ifdef GEOMETRY_TANGENTS
+    s.tangent = v3s((real)(0.0f));     /* none: surface_frame keeps the normal's frame */
+#endif
     s.eta = m.eta;
     s.k = m.k;
 #if WORKFLOW == WORKFLOW_METALLIC
@@ -183,6 +189,19 @@ INLINE Surface make_surface(vec3 base, real roughness, real metallic, const Mate
 #endif
     return s;
 }
+
+#ifdef GEOMETRY_TANGENTS
+/* The tangent frame a lobe sees: the surface's tangent made orthogonal to n
+ * (Gram–Schmidt) and y = n × x, where it has one (the G-buffer's mesh tangent:
+ * UVs); elsewhere (a zero tangent, or one along n) make_geometry's frame of n.
+ * Lane-wise selects, no branch. */
+INLINE void surface_frame(Geometry* g, vec3 n, const Surface s) {
+    vec3 t = v3sub(s.tangent, v3scale(n, v3dot(n, s.tangent)));
+    mask ok = unit_in_place(&t);
+    g->x = v3select(ok, t, g->x);
+    g->y = v3select(ok, v3cross(n, t), g->y);
+}
+#endif
 
 /* The Fresnel term chosen at compile time, at incidence cosine c. */
 INLINE vec3 fresnel_cos(real c, const Surface s) {

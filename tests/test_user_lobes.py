@@ -370,3 +370,27 @@ def test_broken_brdf_on_the_command_line(capsys, tmp_path):
     assert main(["render", str(SCENES / "red_ball.toml"), "-m", path, "-o", str(tmp_path / "x.png")]) == 2
     err = capsys.readouterr().err
     assert err.startswith(f"clshade: error: {path}:6: syntax error") and err.count("\n") == 1
+
+
+def test_gbuffer_tangents_reach_an_anisotropic_lobe(runtime):
+    """On a textured scene (meshes with UVs) the G-buffer carries the mesh tangents for Ward, and the frame
+    equals its float64 frame computed with those tangents; shaded with the normal's frame instead, it does not."""
+    import dataclasses
+    from clshade.device.shade import Shader
+    from clshade.verify import reference as R
+    ward = models.resolve(str(LOBES / "ward.brdf"))
+    done = render(SCENES / "textured.toml", ward, width=120, height=75, runtime=runtime)
+    gb, fr = done.frame.gbuffer, done.frame
+    assert "tangent" in gb.channels and "tangent" in done.shader.variant(ward, done.features).channels
+    assert "tangent" not in render(fr.scene, models.resolve("ggx_correlated"), frame=fr,
+                                   runtime=runtime).shader.variant(models.resolve("ggx_correlated"), done.features).channels
+    want = R.radiance(gb, fr.scene, ward, camera=fr.camera, shadows=fr.shadows)
+    px = R.pixels(gb, fr.camera)
+    keep = np.sum(px.n * px.v, axis=1) > 0.05
+    got = done.image[..., :3].reshape(-1, 3)[px.index[keep]].astype(np.float64)
+    ref = want.reshape(-1, 3)[px.index[keep]]
+    assert np.max(np.abs(got - ref) / np.maximum(ref, 1e-3)) < 1e-3
+    normal_frame = dataclasses.replace(gb, channels={k: v for k, v in gb.channels.items() if k != "tangent"})
+    plain = Shader(runtime, normal_frame, fr.scene, fr.camera, fr.shadows).render(ward, done.features)
+    other = plain[..., :3].reshape(-1, 3)[px.index[keep]].astype(np.float64)
+    assert np.max(np.abs(other - ref) / np.maximum(ref, 1e-3)) > 1e-2

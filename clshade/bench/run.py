@@ -33,7 +33,7 @@ from clshade.device.shade import Shader, scene_features
 from clshade.device.variants import Features
 from clshade.errors import ClshadeError
 from clshade.models import Model, resolve
-from clshade.pipeline import Frame, prepare_frame
+from clshade.pipeline import Frame, prepare_frame, reads_tangents
 from clshade.render.gbuffer import GBuffer
 from clshade.render.scene import Light, Scene, load_scene
 from clshade.resources import constant
@@ -264,11 +264,11 @@ class Bench:
 
     @classmethod
     def prepare(cls, scene: Scene | str | Path, width: int | None = None, height: int | None = None,
-                lights: int | None = None, device: str | None = None) -> "Bench":
+                lights: int | None = None, device: str | None = None, tangents: bool = False) -> "Bench":
         scene = scene if isinstance(scene, Scene) else load_scene(scene)
         if lights is not None:
             scene = with_lights(scene, lights)
-        frame = prepare_frame(scene, width, height)
+        frame = prepare_frame(scene, width, height, tangents=tangents)
         return cls(frame, get_runtime(device), scene_features(frame.scene, geometry=frame.geometry), device)
 
     def shader(self, gbuffer: GBuffer | None = None, scene: Scene | None = None) -> Shader:
@@ -392,7 +392,7 @@ def run_bench(scene: Scene | str | Path, models: list[Model], frames: int, warmu
         raise ClshadeError(f"--frames = {frames}, --warmup = {warmup}: need frames ≥ 1, warmup ≥ 0")
     for m in models:
         reference.check_model(m)
-    bench = Bench.prepare(scene, width, height, lights, device)
+    bench = Bench.prepare(scene, width, height, lights, device, tangents=reads_tangents(models))
     cases = [bench.case(m, label=m.label) for m in models]
     rungs = ladder_cases(bench) if ladder else []
     copy_ms = run_cases(cases + rungs, frames, warmup, progress, numpy_frames)

@@ -28,6 +28,7 @@ class Samples:
     roughness: np.ndarray         # (N,)
     metallic: np.ndarray          # (N,)
     materials: np.ndarray         # (N, 4, 4) material constants (gbuffer.material_row)
+    tangent: np.ndarray | None = None   # (N, 3) the surface's tangent (the G-buffer's); None: the normal's frame
 
     def __len__(self) -> int:
         return len(self.n)
@@ -73,6 +74,8 @@ def eval_brdf(model: Model, samples: Samples, runtime: Runtime | None = None,
     bufs = [rt.to_device(_f4(a)) for a in (samples.n, samples.l, samples.v, samples.base)]
     bufs.append(rt.to_device(params))
     bufs.append(rt.to_device(np.ascontiguousarray(samples.materials, np.float32).reshape(-1, 4)))
+    tangent = samples.tangent if samples.tangent is not None else np.zeros((count, 3), np.float32)
+    bufs.append(rt.to_device(_f4(tangent)))
     dtype = np.float64 if double else np.float32
     out = rt.empty(count * 4 * np.dtype(dtype).itemsize)
     kernel.set_args(np.uint32(count), *bufs, out)

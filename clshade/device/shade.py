@@ -156,7 +156,7 @@ class Shader:
         return self._buffers[key]
 
     def variant(self, model: Model, features: Features) -> Variant:
-        return Variant.build(model, features, self.gb.materials, self.gb.unit_normals)
+        return Variant.build(model, features, self.gb.materials, self.gb.unit_normals, "tangent" in self.gb.channels)
 
     def prepare(self, model: Model, features: Features, entry: str = "shade") -> Dispatch:
         """Build (once) and bind the kernel for (model, features); `entry` is shade or copy."""

@@ -124,12 +124,14 @@ class Variant:
 
     @classmethod
     def build(cls, model: Model, features: Features, material_table: np.ndarray,
-              unit_normals: bool = False) -> "Variant":
+              unit_normals: bool = False, tangents: bool = False) -> "Variant":
         """Choose channels: roughness/metallic when the model reads them and the scene does
         not give them one value everywhere (Features.uniform: then compiled in); the material id
         channel only when the materials differ in a constant the model reads (otherwise
         those constants are compiled in)."""
         extra = (("emissive",) if features.emissive else ()) + (("occlusion",) if features.occlusion else ())
+        # The G-buffer's tangents (`tangents`: it has them) only for a lobe that reads the frame.
+        extra += ("tangent",) if tangents and "tangents" in model.uses else ()
         # Half-float normals are unit only to half precision: normalised again in the kernel.
         unit = unit_normals and not features.half_gbuffer
         if features.general:
@@ -169,7 +171,8 @@ class Variant:
 
     def defines(self) -> dict[str, str]:
         f, m = self.features, self.model
-        effects = {"HAS_EMISSIVE": str(int(f.emissive)), "HAS_OCCLUSION": str(int(f.occlusion))}
+        effects = {"HAS_EMISSIVE": str(int(f.emissive)), "HAS_OCCLUSION": str(int(f.occlusion)),
+                   "HAS_TANGENT": str(int("tangent" in self.channels))}
         raw = {"RAW_RADIANCE": "1"} if f.raw_radiance else {}
         aa = {"SPECULAR_AA": "1"} if self.specular_aa else {}
         # The normals' contract is the G-buffer's, not a scene effect: the general kernel shares it.

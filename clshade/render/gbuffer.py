@@ -41,6 +41,9 @@ CHANNELS: dict[str, tuple[type, int]] = {
     # Present only when the scene has them (Features.emissive / Features.occlusion):
     "emissive": (np.float32, 3),     # emitted radiance, added unlit
     "occlusion": (np.float32, 1),    # ambient occlusion in [0, 1], multiplies the ambient term
+    # Present only when asked for (a lobe reads the tangent frame) and the geometry has tangents
+    # (UVs: textured meshes): the interpolated mesh tangent ∂P/∂u, not yet orthogonal to n.
+    "tangent": (np.float32, 3),
 }
 
 
@@ -272,7 +275,7 @@ def uniform_channels(geometry: Geometry, mats: list) -> tuple[tuple[str, float],
     return tuple(out)
 
 
-def _face_planes(geometry: Geometry, mats: list) -> dict[str, np.ndarray]:
+def _face_planes(geometry: Geometry, mats: list, tangents: bool = False) -> dict[str, np.ndarray]:
     """Per-face lookup tables, one contiguous (F,) plane each: the corners' normal components
     (``n{corner}{axis}``) and the face material's values. Gathering one plane by triangle id
     is several times faster than gathering interleaved rows (F is small next to the pixels)."""
@@ -292,13 +295,21 @@ def _face_planes(geometry: Geometry, mats: list) -> dict[str, np.ndarray]:
         emissive_of = np.array([m.emissive for m in mats], np.float32).reshape(-1, 3)
         for d in range(3):
             planes[f"emissive{d}"] = np.ascontiguousarray(emissive_of[mid, d])
+    if tangents:
+        corner_tangents = geometry.tangents[geometry.faces][:, :, :3]
+        for c in range(3):
+            for d in range(3):
+                planes[f"t{c}{d}"] = np.ascontiguousarray(corner_tangents[:, c, d])
     return planes
 
 
-def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments, camera: Camera | None = None) -> GBuffer:
+def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments, camera: Camera | None = None,
+                  tangents: bool = False) -> GBuffer:
     """Interpolate normals and look up material values for every covered pixel; where a
     face has a texture set, sample its textures (trilinear, see textures.py). `camera`
     (default: the scene's, at the fragments' size) gives the UV screen derivatives.
+    `tangents` (a lobe reads the tangent frame) adds the interpolated mesh tangents where the
+    geometry has them (UVs); without them the kernel builds a frame from the normal.
     Channels are written as planes (the device layout); the untextured work runs in
     chunks of covered pixels on the worker threads (clshade.render.arrays.run_chunked),
     each chunk writing only its own pixels."""
@@ -307,13 +318,14 @@ def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments, camera
     pix = fragments.pixels                                 # covered pixels (integer gathers/scatters)
     mats = list(scene.materials.values())
 
+    tangents = tangents and geometry.tangents is not None
     names = [name for name in CHANNELS if (name != "emissive" or geometry.has_emission)
-             and (name != "occlusion" or geometry.has_occlusion)]
+             and (name != "occlusion" or geometry.has_occlusion) and (name != "tangent" or tangents)]
     planes = {name: aligned_zeros((CHANNELS[name][1], padded(n)), CHANNELS[name][0]) for name in names}
     depth = planes["depth"][0]                             # 0 where empty
     finite = np.ones(len(pix), bool)
     if len(pix):
-        face = _face_planes(geometry, mats)
+        face = _face_planes(geometry, mats, tangents)
 
         def shade_inputs(part: slice) -> None:
             p = pix[part]
@@ -342,6 +354,9 @@ def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments, camera
                 planes["base"][d][p] = np.take(face[f"base{d}"], tri)
                 if "emissive" in planes:
                     planes["emissive"][d][p] = np.take(face[f"emissive{d}"], tri)
+                if "tangent" in planes:
+                    planes["tangent"][d][p] = (np.take(face[f"t0{d}"], tri) * b[0] + np.take(face[f"t1{d}"], tri) * b[1]
+                                               + np.take(face[f"t2{d}"], tri) * b[2])
             finite[part] = ok
             for name in ("roughness", "metallic", "material"):
                 planes[name][0][p] = np.take(face[name], tri)
@@ -363,7 +378,7 @@ def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments, camera
     cov[pix] = True
     bad = pix[~finite]
     if len(bad):
-        for name in ("depth", "normal", "base", "emissive"):
+        for name in ("depth", "normal", "base", "emissive", "tangent"):
             if name in planes:
                 planes[name][:, bad] = 0.0
         cov[bad] = False

@@ -801,6 +801,7 @@ class Pixels:
     roughness: Array          # (K,) in [0, 1]
     metallic: Array           # (K,) in [0, 1]
     material: Array           # (K, 4, 4) the pixel's row of the material table (surface.h layout)
+    tangent: Array | None = None   # (K, 3) the G-buffer's mesh tangent, where it carries one
 
 
 def pixels(gbuffer: GBuffer, camera: Camera) -> Pixels:
@@ -825,7 +826,7 @@ def pixels(gbuffer: GBuffer, camera: Camera) -> Pixels:
         else np.zeros((len(index), 4, 4), np.float32)
     return Pixels(index, _f(P), n, v, np.maximum(_f(ch["base"].reshape(-1, 3)[index]), 0.0),
                   np.clip(_f(ch["roughness"][index]), 0.0, 1.0), np.clip(_f(ch["metallic"][index]), 0.0, 1.0),
-                  _f(rows))
+                  _f(rows), _f(ch["tangent"].reshape(-1, 3)[index]) if "tangent" in ch else None)
 
 
 def spot_cone(cos_axis: ArrayLike, cos_outer: float, cos_inner: float) -> Array:
@@ -914,13 +915,14 @@ def ambient(model: Model, px: Pixels, A: ArrayLike) -> Array:
 
 
 def device_f64(model: Model, n: ArrayLike, l: ArrayLike, v: ArrayLike, base: ArrayLike, roughness: ArrayLike,
-               metallic: ArrayLike, material: ArrayLike) -> Array:
+               metallic: ArrayLike, material: ArrayLike, tangent: ArrayLike | None = None) -> Array:
     """f of a model with a user's lobe, which has no formula here: its double-precision build
     on the device (clshade.device.evaluate, the same source as the float32 kernel in
     float64), at the float32-rounded inputs the kernel sees. (K, 3) float64."""
     from clshade.device.evaluate import Samples, eval_brdf
     f4 = lambda x: np.ascontiguousarray(np.asarray(x, np.float32))   # noqa: E731
-    samples = Samples(f4(n), f4(l), f4(v), f4(base), f4(roughness), f4(metallic), f4(material))
+    samples = Samples(f4(n), f4(l), f4(v), f4(base), f4(roughness), f4(metallic), f4(material),
+                      None if tangent is None else f4(tangent))
     return eval_brdf(model, samples, double=True)
 
 
@@ -973,7 +975,8 @@ def radiance(
                    for k, a in args.items()}
             if model.is_users:
                 f = _f(device_f64(model, px.n[lit], l[lit], px.v[lit], px.base[lit], px.roughness[lit],
-                                  px.metallic[lit], px.material[lit]))
+                                  px.metallic[lit], px.material[lit],
+                                  None if px.tangent is None else px.tangent[lit]))
             else:
                 f = brdf(model.diffuse, model.specular, px.n[lit], l[lit], px.v[lit], **sub)
             with np.errstate(**_ERR):
