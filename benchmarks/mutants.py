@@ -453,6 +453,11 @@ CATALOGUE: list[Mutant] = [
     M("brdf_param_ignored", "clshade/brdf_explorer.py",
       '''            value = float(parse_value("float", values[name], f"--param {name}")) if name in values else default''',
       '''            value = default''', "--param NAME=VALUE ignored for float parameters"),
+    M("surface_frame_crossed", "kernels/surface.h", "    g->x = v3select(ok, t, g->x);",
+      "    g->x = v3select(ok, v3cross(n, t), g->x);", "G-buffer tangent frame: x = y = n × t"),
+    M("tangent_channel_dropped", "clshade/device/variants.py",
+      '''        extra += ("tangent",) if tangents and "tangents" in model.uses else ()''',
+      '''        extra += ()''', "the G-buffer's tangents never reach a lobe that reads the frame"),
     M("double_build_float", "kernels/simd.h", "#if SIMD == 1 && defined(REAL_DOUBLE)\ntypedef double real;",
       "#if SIMD == 1 && defined(REAL_DOUBLE)\ntypedef float real;", "the double-precision build computes in float32"),
 ]

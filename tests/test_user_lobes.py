@@ -191,6 +191,7 @@ def test_translated_control_flow_is_per_pixel(tmp_path, runtime):
 
 
 def test_tangent_frame_reaches_only_lobes_that_read_it(tmp_path, runtime):
+    import dataclasses
     from clshade.device.variants import Features, Variant
     from clshade.verify.reference import _orthonormal_basis
     reads = models.resolve(_write_brdf(tmp_path, "frame", "vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) "
@@ -205,6 +206,14 @@ def test_tangent_frame_reaches_only_lobes_that_read_it(tmp_path, runtime):
                 constant_materials(k))
     t, b = _orthonormal_basis(n.astype(np.float64))
     np.testing.assert_allclose(eval_brdf(reads, s), t + 2.0 * b, atol=1e-5)
+    # A surface tangent (the G-buffer's): x = its part orthogonal to n, normalised; y = n × x.
+    tangent = np.random.default_rng(7).normal(size=(k, 3)).astype(np.float32)
+    nn = n.astype(np.float64)
+    x = tangent - nn * np.sum(nn * tangent, axis=1, keepdims=True)
+    x /= np.linalg.norm(x, axis=1, keepdims=True)
+    y = np.cross(nn, x)
+    got = eval_brdf(reads, dataclasses.replace(s, tangent=tangent))
+    np.testing.assert_allclose(got, x + 2.0 * y, atol=1e-5)
 
 
 # ------------------------------------------------------------------ errors name the file and the line
