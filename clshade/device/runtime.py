@@ -43,7 +43,10 @@ def _cl():
     return cl
 
 
-_BUILD_ERROR = re.compile(r"error: (?P<file>/[^:\n]+):(?P<line>\d+):(?P<col>\d+)[^:\n]*: (?P<message>[^\n]+)")
+# A compiler error naming a file by absolute path (a user's lobe), as PoCL's clang writes it
+# ("error: /path:11:31: message") and as clang-based compilers write it ("/path:11:31: error: message").
+_BUILD_ERROR = re.compile(r"(?:error: (?P<file>/[^:\n]+):(?P<line>\d+):\d+[^:\n]*: (?P<message>[^\n]+))"
+                          r"|(?:(?P<file2>/[^:\n]+):(?P<line2>\d+):\d+: error: (?P<message2>[^\n]+))")
 
 
 def _user_file_error(log: str) -> str | None:
@@ -52,8 +55,10 @@ def _user_file_error(log: str) -> str | None:
     from clshade.models import lobes
     users = {str(l.path) for l in lobes().values() if l.is_users}
     for m in _BUILD_ERROR.finditer(log):
-        if m.group("file") in users:
-            return f"{m.group('file')}:{m.group('line')}: {m.group('message').strip()}"
+        file, line, message = (m.group("file"), m.group("line"), m.group("message")) if m.group("file") \
+            else (m.group("file2"), m.group("line2"), m.group("message2"))
+        if file in users:
+            return f"{file}:{line}: {message.strip()}"
     return None
 
 
