@@ -458,8 +458,8 @@ CATALOGUE: list[Mutant] = [
     M("tangent_channel_dropped", "clshade/device/variants.py",
       '''        extra += ("tangent",) if tangents and "tangents" in model.uses else ()''',
       '''        extra += ()''', "the G-buffer's tangents never reach a lobe that reads the frame"),
-    M("double_build_float", "kernels/simd.h", "#if SIMD == 1 && defined(REAL_DOUBLE)\ntypedef double real;",
-      "#if SIMD == 1 && defined(REAL_DOUBLE)\ntypedef float real;", "the double-precision build computes in float32"),
+    M("double_build_float", "kernels/simd.h", "#ifdef REAL_DOUBLE\ntypedef double real;",
+      "#ifdef REAL_DOUBLE\ntypedef float real;", "the double-precision build computes in float32"),
 ]
 
 

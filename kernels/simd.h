@@ -44,26 +44,18 @@
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
 #endif
 
-#if SIMD == 1 && defined(REAL_DOUBLE)
-typedef double real;
-typedef int mask;
-typedef uint uindex;
-#define as_mask as_int
+#if SIMD == 1
+#ifdef REAL_DOUBLE
+typedef double real;     /* (no as_real: the float bit tricks of brdf.h are not built) */
 #define convert_real convert_double
-#define convert_uindex convert_uint
-#define convert_mask_rte convert_int_rte
-#define convert_mask_sat convert_int_sat
-#define LANE_IOTA 0u
-#define VLOAD(i, p) ((p)[i])
-#define VLOAD_HALF(i, p) vload_half((i), (p))
-#define VLOAD_UCHAR(i, p) ((uint)(p)[i])
-#elif SIMD == 1
+#else
 typedef float real;
+#define as_real as_float
+#define convert_real convert_float
+#endif
 typedef int mask;
 typedef uint uindex;
-#define as_real as_float
 #define as_mask as_int
-#define convert_real convert_float
 #define convert_uindex convert_uint
 #define convert_mask_rte convert_int_rte
 #define convert_mask_sat convert_int_sat

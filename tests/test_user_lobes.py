@@ -121,12 +121,9 @@ def _directions(count: int = 64, seed: int = 3) -> np.ndarray:
 
 
 def _eval(model, l: np.ndarray, double: bool = False) -> np.ndarray:
-    from clshade.device.evaluate import Samples, constant_materials, eval_brdf
-    k = len(l)
-    up = np.tile(np.array([[0.0, 0.0, 1.0]], np.float32), (k, 1))
-    s = Samples(up, l, up, np.ones((k, 3), np.float32), np.full(k, 0.5, np.float32), np.zeros(k, np.float32),
-                constant_materials(k))
-    return eval_brdf(model, s, double=double).astype(np.float64)
+    """f at n = v = +z for the light directions l."""
+    from clshade.device.evaluate import eval_brdf
+    return eval_brdf(model, _samples_like(len(l), l=l), double=double).astype(np.float64)
 
 
 EXPRESSIONS = """
@@ -199,11 +196,10 @@ def test_tangent_frame_reaches_only_lobes_that_read_it(tmp_path, runtime):
     ignores = models.resolve(str(LOBES / "ggx_brdf.brdf"))
     assert "GEOMETRY_TANGENTS" in Variant(reads, Features(), ("depth",)).defines()
     assert "GEOMETRY_TANGENTS" not in Variant(ignores, Features(), ("depth",)).defines()
-    from clshade.device.evaluate import Samples, constant_materials, eval_brdf
+    from clshade.device.evaluate import eval_brdf
     n = _directions(32, seed=5)
     k = len(n)
-    s = Samples(n, n, n, np.ones((k, 3), np.float32), np.full(k, 0.5, np.float32), np.zeros(k, np.float32),
-                constant_materials(k))
+    s = _samples_like(k, n=n)
     t, b = _orthonormal_basis(n.astype(np.float64))
     np.testing.assert_allclose(eval_brdf(reads, s), t + 2.0 * b, atol=1e-5)
     # A surface tangent (the G-buffer's): x = its part orthogonal to n, normalised; y = n × x.
@@ -290,11 +286,12 @@ def test_compile_error_is_one_line_with_the_compilers_message(tmp_path, runtime)
     assert str(info.value).startswith(f"{path}:10: no member named 'no_such_member'") and "\n" not in str(info.value)
 
 
-def _samples_like(k: int):
+def _samples_like(k: int, l: np.ndarray | None = None, n: np.ndarray | None = None):
+    """K samples with n = v = +z (or n for all three), l = +z (or the given l), white, r = 0.5."""
     from clshade.device.evaluate import Samples, constant_materials
-    up = np.tile(np.array([[0.0, 0.0, 1.0]], np.float32), (k, 1))
-    return Samples(up, up, up, np.ones((k, 3), np.float32), np.full(k, 0.5, np.float32), np.zeros(k, np.float32),
-                   constant_materials(k))
+    up = np.tile(np.array([[0.0, 0.0, 1.0]], np.float32), (k, 1)) if n is None else n
+    return Samples(up, up if l is None else l, up, np.ones((k, 3), np.float32), np.full(k, 0.5, np.float32),
+                   np.zeros(k, np.float32), constant_materials(k))
 
 
 # ------------------------------------------------------------------ the same evidence as the built-ins
