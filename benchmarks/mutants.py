@@ -505,12 +505,14 @@ def snapshot(dest: Path) -> None:
 
 
 def test_order(root: Path, mutant: Mutant) -> list[str]:
-    """Test files that name the mutated module first (they are the likeliest to fail, and -x stops there),
-    then the rest in the usual order: the same suite, a shorter run for a killed mutant."""
+    """Test files that name the mutated module (or kernel file: `glsl.h`) first (they are the likeliest to
+    fail, and -x stops there), then the rest in the usual order: the same suite, a shorter run for a killed
+    mutant."""
     files = sorted((root / "tests").glob("test_*.py"))
     module = mutant.file.removesuffix(".py").replace("/", ".")       # clshade.render.image
-    first = [] if mutant.file.startswith("kernels/") else \
-        [f for f in files if module in f.read_text(encoding="utf-8")]
+    if mutant.file.startswith("kernels/"):
+        module = mutant.file.removeprefix("kernels/")                 # glsl.h, models/phong.cl
+    first = [f for f in files if module in f.read_text(encoding="utf-8")]
     return [str(f.relative_to(root)) for f in first + [f for f in files if f not in first]]
 
 

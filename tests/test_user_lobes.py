@@ -1,5 +1,8 @@
 """User lobes: clshade-format .cl files and BRDF Explorer .brdf files through the one registry.
 
+Kernel side: the translated shaders' built-ins (kernels/glsl.h), the tangent frame of surface.h, the
+double-precision build of simd.h (REAL_DOUBLE).
+
 The .brdf files of scenes/lobes/ that restate a built-in model (Lambert, Blinn–Phong, GGX) must render
 the same frame as the built-in to 1e-4 relative on every covered pixel: a wrong translation (operator
 precedence, a swizzle, an implicit conversion, a lost branch) changes those pixels.
