@@ -403,3 +403,11 @@ def test_gbuffer_tangents_reach_an_anisotropic_lobe(runtime):
     plain = Shader(runtime, normal_frame, fr.scene, fr.camera, fr.shadows).render(ward, done.features)
     other = plain[..., :3].reshape(-1, 3)[px.index[keep]].astype(np.float64)
     assert np.max(np.abs(other - ref) / np.maximum(ref, 1e-3)) > 1e-2
+
+
+def test_aa_splits_a_model_without_diffuse_lobe():
+    """`clshade aa` compares a highlight with the diffuse lobe alone: a .brdf file has none (black)."""
+    from clshade.bench.aa import diffuse_model
+    ward = models.resolve(str(LOBES / "ward.brdf"))
+    alone = diffuse_model(ward)
+    assert alone.diffuse == models.NONE and alone.specular == models.NONE

@@ -76,7 +76,10 @@ ZOOM = 10
 
 
 def diffuse_model(model: Model) -> Model:
-    """The model's diffuse lobe alone, in the model's workflow."""
+    """The model's diffuse lobe alone, in the model's workflow (no lobe: black but for the ambient term,
+    for a model without one: a lone specular lobe, a BRDF Explorer file)."""
+    if model.diffuse == NONE:
+        return dataclasses.replace(model, specular=NONE)
     return resolve(model.diffuse, None, model.workflow)
 
 
