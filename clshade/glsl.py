@@ -507,14 +507,12 @@ ZERO = {"float": "((real)(0.0f))", "int": "0", "bool": "G_FALSE", "vec2": "v2s((
 SWIZZLE_SETS = ("xyzw", "rgba", "stpq")
 PREFIX = "u_"
 
-# GLSL built-ins applied component-wise: name → arity. A scalar call uses the
-# OpenCL function of the same name unless glsl.h defines g1_<name>.
+# GLSL built-ins applied component-wise: name → arity; glsl.h defines g1_<name> (real),
+# g2_<name> and g3_<name>.
 COMPONENTWISE = {"abs": 1, "sign": 1, "floor": 1, "ceil": 1, "fract": 1, "sqrt": 1, "inversesqrt": 1,
                  "exp": 1, "exp2": 1, "log": 1, "log2": 1, "sin": 1, "cos": 1, "tan": 1, "asin": 1,
                  "acos": 1, "atan": 1, "sinh": 1, "cosh": 1, "tanh": 1, "radians": 1, "degrees": 1,
                  "mod": 2, "min": 2, "max": 2, "pow": 2, "step": 2, "clamp": 3, "mix": 3, "smoothstep": 3}
-OPENCL_SCALAR = {"floor", "ceil", "sqrt", "exp", "exp2", "log", "log2", "sin", "cos", "tan", "asin", "acos",
-                 "atan", "sinh", "cosh", "tanh"}
 GEOMETRIC = {"dot", "length", "distance", "normalize", "cross", "reflect"}
 
 
@@ -999,8 +997,7 @@ class Emitter:
                 k = _small_int(args[1].literal)
                 return Value("float", {1: f"({code[0]})", 2: f"sq({code[0]})", 3: f"g1_pow3({code[0]})",
                                        4: f"g1_pow4({code[0]})", 5: f"pow5({code[0]})"}[k])
-            fn = name if name in OPENCL_SCALAR else f"g1_{name}"
-            return Value("float", f"{fn}({', '.join(code)})")
+            return Value("float", f"g1_{name}({', '.join(code)})")
         return Value(kind, f"g{d}_{name}({', '.join(code)})")
 
     def geometric(self, name: str, args: list[Value], line: int) -> Value:

@@ -22,7 +22,54 @@ typedef struct { real x, y; } vec2;
 INLINE vec2 v2(real x, real y) { vec2 r; r.x = x; r.y = y; return r; }
 INLINE vec2 v2s(real s) { return v2(s, s); }
 
+/* ---- transcendental functions, lane by lane ------------------------------
+ * exp, exp2, log, log2 are brdf.h's straight-line lane-wise versions (≤ 2 ulp; exp
+ * saturates at e^88 instead of overflowing, log of x ≤ 0 is finite where GLSL
+ * leaves it undefined); the double build calls the library. The others call the
+ * library's scalar function once per lane: a vector argument to a library call
+ * is what pip's PoCL 3.0 cannot pass at SIMD 16 (simd.h), and these are rare in
+ * BRDFs. */
+#ifdef REAL_DOUBLE
+INLINE real g1_exp(real x) { return exp(x); }
+INLINE real g1_exp2(real x) { return exp2(x); }
+INLINE real g1_log(real x) { return log(x); }
+INLINE real g1_log2(real x) { return log2(x); }
+#else
+INLINE real g1_exp(real x) { return exp_lanes(x); }
+INLINE real g1_exp2(real x) { return exp2_lanes(x); }
+INLINE real g1_log(real x) { return log2_lanes(x) * 0.693147180559945f; }
+INLINE real g1_log2(real x) { return log2_lanes(x); }
+#endif
+
+#if SIMD == 1
+#define G_PER_LANE1(NAME, F) INLINE real g1_##NAME(real x) { return F(x); }
+#define G_PER_LANE2(NAME, F) INLINE real g1_##NAME(real x, real y) { return F(x, y); }
+#else
+#define G_PER_LANE1(NAME, F) INLINE real g1_##NAME(real x) { \
+        real_lanes a = {x}; \
+        for (int j = 0; j < SIMD; ++j) a.s[j] = F(a.s[j]); \
+        return a.v; }
+#define G_PER_LANE2(NAME, F) INLINE real g1_##NAME(real x, real y) { \
+        real_lanes a = {x}, b = {y}; \
+        for (int j = 0; j < SIMD; ++j) a.s[j] = F(a.s[j], b.s[j]); \
+        return a.v; }
+#endif
+G_PER_LANE1(sin, sin)
+G_PER_LANE1(cos, cos)
+G_PER_LANE1(tan, tan)
+G_PER_LANE1(asin, asin)
+G_PER_LANE1(acos, acos)
+G_PER_LANE1(atan, atan)
+G_PER_LANE1(sinh, sinh)
+G_PER_LANE1(cosh, cosh)
+G_PER_LANE1(tanh, tanh)
+G_PER_LANE2(atan2, atan2)
+
 /* ---- scalar built-ins without an OpenCL namesake ------------------------ */
+
+INLINE real g1_floor(real x) { return floor(x); }
+INLINE real g1_ceil(real x) { return -floor(-x); }
+INLINE real g1_sqrt(real x) { return sqrt(x); }
 
 INLINE real g1_fract(real x) { return x - floor(x); }
 INLINE real g1_mod(real x, real y) { return x - y * floor(x / y); }
@@ -40,7 +87,6 @@ INLINE real g1_abs(real x) { return fabs(x); }
 INLINE real g1_min(real a, real b) { return fmin(a, b); }
 INLINE real g1_max(real a, real b) { return fmax(a, b); }
 INLINE real g1_clamp(real x, real lo, real hi) { return fmin(fmax(x, lo), hi); }
-INLINE real g1_atan2(real y, real x) { return atan2(y, x); }
 /* Integer powers as products (pow() costs ≈190 ns per call on PoCL). */
 INLINE real g1_pow3(real x) { return x * x * x; }
 INLINE real g1_pow4(real x) { real x2 = x * x; return x2 * x2; }
@@ -88,24 +134,24 @@ G_MAP1(neg, G_NEG)
 
 G_MAP1(abs, g1_abs)
 G_MAP1(sign, g1_sign)
-G_MAP1(floor, floor)
-G_MAP1(ceil, ceil)
+G_MAP1(floor, g1_floor)
+G_MAP1(ceil, g1_ceil)
 G_MAP1(fract, g1_fract)
-G_MAP1(sqrt, sqrt)
+G_MAP1(sqrt, g1_sqrt)
 G_MAP1(inversesqrt, g1_inversesqrt)
-G_MAP1(exp, exp)
-G_MAP1(exp2, exp2)
-G_MAP1(log, log)
-G_MAP1(log2, log2)
-G_MAP1(sin, sin)
-G_MAP1(cos, cos)
-G_MAP1(tan, tan)
-G_MAP1(asin, asin)
-G_MAP1(acos, acos)
-G_MAP1(atan, atan)
-G_MAP1(sinh, sinh)
-G_MAP1(cosh, cosh)
-G_MAP1(tanh, tanh)
+G_MAP1(exp, g1_exp)
+G_MAP1(exp2, g1_exp2)
+G_MAP1(log, g1_log)
+G_MAP1(log2, g1_log2)
+G_MAP1(sin, g1_sin)
+G_MAP1(cos, g1_cos)
+G_MAP1(tan, g1_tan)
+G_MAP1(asin, g1_asin)
+G_MAP1(acos, g1_acos)
+G_MAP1(atan, g1_atan)
+G_MAP1(sinh, g1_sinh)
+G_MAP1(cosh, g1_cosh)
+G_MAP1(tanh, g1_tanh)
 G_MAP1(radians, g1_radians)
 G_MAP1(degrees, g1_degrees)
 G_MAP2(mod, g1_mod)

@@ -162,7 +162,7 @@ vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)
         acc = -2.0;
     if (L.y > 0.6)
         return vec3(7.0);
-    return vec3(acc, helper(x), mix(1.0, 3.0, x));
+    return vec3(acc, helper(x), mix(1.0, 3.0, x) + sin(x) + exp(-x) + log(1.0 + x) + atan(L.y, x));
 }
 """
 
@@ -184,7 +184,8 @@ def test_translated_control_flow_is_per_pixel(tmp_path, runtime):
     f = _eval(model, l)
     x, y = np.abs(l[:, 0].astype(np.float64)), l[:, 1].astype(np.float64)
     acc = np.where(x < 0.2, -1.0, np.where(x < 0.4, -2.0, 3.0 * x))
-    want = np.stack([acc, np.where(x > 0.5, 2.0 * x, x * x), 1.0 + 2.0 * x], axis=1)
+    want = np.stack([acc, np.where(x > 0.5, 2.0 * x, x * x),
+                     1.0 + 2.0 * x + np.sin(x) + np.exp(-x) + np.log1p(x) + np.arctan2(y, x)], axis=1)
     want[y > 0.6] = 7.0
     assert (y > 0.6).any() and (x < 0.2).any() and ((x > 0.2) & (x < 0.4)).any() and (x > 0.5).any()
     np.testing.assert_allclose(f, want, rtol=1e-5, atol=1e-6)
