@@ -25,6 +25,7 @@ discarded lane by lane.
 """
 from __future__ import annotations
 
+import operator
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -173,6 +174,11 @@ class If(Node):
     cond: Node
     then: list[Node]
     other: list[Node] | None
+
+
+@dataclass
+class Block(Node):
+    body: list[Node]      # `{ … }` inside a function (or `;`: empty)
 
 
 @dataclass
@@ -351,9 +357,9 @@ class Parser:
         tok = self.tok
         self._refuse_word(tok)
         if tok.text == "{":
-            return If(tok.line, Num(tok.line, "1", True), self.block(), None)    # a plain block
+            return Block(tok.line, self.block())
         if self.accept(";"):
-            return Decl(tok.line, "float", [], False)
+            return Block(tok.line, [])
         if self.accept("if"):
             self.expect("(")
             cond = self.expression()
@@ -409,8 +415,6 @@ class Parser:
             op = self.tok
             self.i += 1
             return Assign(op.line, op.text, left, self.expression())
-        if self.tok.text == ",":
-            return left
         return left
 
     def ternary(self) -> Node:
@@ -514,6 +518,8 @@ COMPONENTWISE = {"abs": 1, "sign": 1, "floor": 1, "ceil": 1, "fract": 1, "sqrt":
                  "acos": 1, "atan": 1, "sinh": 1, "cosh": 1, "tanh": 1, "radians": 1, "degrees": 1,
                  "mod": 2, "min": 2, "max": 2, "pow": 2, "step": 2, "clamp": 3, "mix": 3, "smoothstep": 3}
 GEOMETRIC = {"dot", "length", "distance", "normalize", "cross", "reflect"}
+# Constant int expressions folded to literals (a constant index `v[N - 1]`, an exponent).
+INT_FOLD = {"+": operator.add, "-": operator.sub, "*": operator.mul}
 
 
 @dataclass
@@ -543,6 +549,8 @@ class Emitter:
         self.scopes: list[dict[str, Symbol]] = []
         self.counter = 0
         self.params = params
+        self.current: Function | None = None
+        self.predicated = False
         self.reads: set[str] = set()       # names of BRDF()'s parameters the shader reads (L V N X Y)
 
     def error(self, line: int, message: str) -> TranslateError:
@@ -636,9 +644,11 @@ class Emitter:
 
     def statement(self, s: Node, pred: str | None, depth: int) -> None:
         pad = "    " * depth
-        if isinstance(s, Decl):
-            if s.const and not s.names:
-                return
+        if isinstance(s, Block):
+            self.out.append(f"{pad}{{")
+            self.block(s.body, pred, depth + 1)
+            self.out.append(f"{pad}}}")
+        elif isinstance(s, Decl):
             for name, init, line in s.names:
                 if name in self.scopes[-1]:
                     raise self.error(line, f"{name!r} is declared twice in one block")
@@ -664,11 +674,6 @@ class Emitter:
                 self.out.append(f"{pad}x_ret = {self.select(fn.type, p, value.code, 'x_ret')};")
                 self.out.append(f"{pad}x_done = x_done || {p};")
         elif isinstance(s, If):
-            if isinstance(s.cond, Num):     # a plain { block }
-                self.out.append(f"{pad}{{")
-                self.block(s.then, pred, depth + 1)
-                self.out.append(f"{pad}}}")
-                return
             cond = self.expr(s.cond)
             if cond.type != "bool":
                 raise self.error(s.line, f"if condition is {cond.type}, not bool")
@@ -777,7 +782,8 @@ class Emitter:
             if n.id in ("true", "false"):
                 return Value("bool", "G_TRUE" if n.id == "true" else "G_FALSE")
             sym = self.lookup(n.id, n.line)
-            if self.scopes and self.current.name == "BRDF" and n.id in "LVNXY" and sym is self.scopes[0].get(n.id):
+            if self.current is not None and self.current.name == "BRDF" and n.id in "LVNXY" \
+                    and sym is self.scopes[0].get(n.id):
                 self.reads.add(n.id)
             return Value(sym.type, sym.cname, str(self.const_ints[n.id]) if n.id in self.const_ints
                          and not any(n.id in s for s in self.scopes) else None)
@@ -903,8 +909,8 @@ class Emitter:
             raise self.error(line, f"arithmetic {op!r} on bools")
         if kind == "int":
             lit = None
-            if a.literal is not None and b.literal is not None and op in "+-*":
-                lit = str(eval(f"{int(a.literal)} {op} {int(b.literal)}"))    # noqa: S307 (two ints)
+            if a.literal is not None and b.literal is not None and op in INT_FOLD:
+                lit = str(INT_FOLD[op](int(a.literal), int(b.literal)))
             return Value("int", f"({a.code} {op} {b.code})", lit)
         if kind == "float":
             fa, fb = self.coerce(a, kind, line), self.coerce(b, kind, line)
@@ -1038,7 +1044,7 @@ def _count_returns(stmts: list[Node] | None) -> int:
             count += 1
         elif isinstance(s, If):
             count += _count_returns(s.then) + _count_returns(s.other)
-        elif isinstance(s, For):
+        elif isinstance(s, (For, Block)):
             count += _count_returns(s.body)
     return count
 
