@@ -21,14 +21,14 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from clshade.verify import accuracy as A  # noqa: E402
 from clshade.verify import plausibility as P
-from clshade.models import GROUPS, lobes, presets  # noqa: E402
+from clshade.models import GROUPS, builtin_lobes, presets  # noqa: E402
 
 
 def lobe_sections() -> list[str]:
     out: list[str] = []
     for kind in ("diffuse", "specular"):
         out += [f"## {kind.capitalize()} lobes", ""]
-        for lobe in (l for l in lobes().values() if l.kind == kind):
+        for lobe in (l for l in builtin_lobes().values() if l.kind == kind):
             out += [f"### {lobe.name} (`{lobe.id}`, {lobe.family})", "",
                     "| | |", "|---|---|", f"| formula | {lobe.formula} |", f"| source | {lobe.source} |",
                     f"| inputs | {', '.join(sorted(lobe.uses)) or '–'} |",
