@@ -316,7 +316,7 @@ def test_double_build_agrees_with_the_python_oracle(runtime):
     """The float64 device build of a built-in model equals clshade.verify.reference (the independent
     formulas) to the rounding of the float constants the shared source holds (π as float: 4e-8)."""
     from clshade.verify import accuracy as A
-    for spec in ("lambert", "burley", "blinn_phong", "ggx_correlated@conductor", "cook_torrance"):
+    for spec in ("blinn_phong", "ggx_correlated@conductor", "cook_torrance"):   # pow, the conductor, exp
         model = models.resolve(spec)
         case = A.model_case(model, 400, np.random.default_rng(2))
         s = case.samples
