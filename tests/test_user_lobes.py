@@ -412,3 +412,22 @@ def test_aa_splits_a_model_without_diffuse_lobe():
     ward = models.resolve(str(LOBES / "ward.brdf"))
     alone = diffuse_model(ward)
     assert alone.diffuse == models.NONE and alone.specular == models.NONE
+
+
+def test_a_folder_names_every_lobe_in_it():
+    chosen = models.resolve_many(f"lambert,{LOBES}/")
+    ids = [m.id for m in chosen]
+    assert ids[0] == "lambert" and {"ward", "ggx_brdf", "lommel_seeliger", "lambert_brdf"} <= set(ids)
+    assert all(m.is_users for m in chosen[1:])
+
+
+def test_bench_gives_a_user_lobe_the_built_ins_columns(runtime):
+    """Time, × copy, × Lambert and the error against its float64 frame (its own double build); no NumPy
+    formula exists for it, so that column stays empty."""
+    from clshade.bench.run import run_bench
+    doc = run_bench(SCENES / "red_ball.toml", [models.resolve("lambert"), models.resolve(str(LOBES / "ward.brdf"))],
+                    3, 1, width=48, height=48, numpy_frames=1)
+    lam, ward = doc["models"]
+    for key in ("mean_ms", "copy_ratio", "lambert_ratio", "max_rel_error", "mean_rel_error"):
+        assert ward[key] is not None and np.isfinite(ward[key]), key
+    assert ward["max_rel_error"] < 1e-4 and ward["numpy_ms"] is None and lam["numpy_ms"] is not None
