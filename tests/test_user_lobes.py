@@ -431,3 +431,13 @@ def test_bench_gives_a_user_lobe_the_built_ins_columns(runtime):
     for key in ("mean_ms", "copy_ratio", "lambert_ratio", "max_rel_error", "mean_rel_error"):
         assert ward[key] is not None and np.isfinite(ward[key]), key
     assert ward["max_rel_error"] < 1e-4 and ward["numpy_ms"] is None and lam["numpy_ms"] is not None
+
+
+def test_checks_cover_the_users_lobes_by_default(monkeypatch):
+    """`clshade check stability` and `check plausibility` without --model: every preset, then each user lobe."""
+    from clshade.verify import stability
+    monkeypatch.setenv(models.LOBES_ENV, str(LOBES))
+    models.reset_user_lobes()
+    ids = [m.id for m in stability.grid_models()]
+    assert "lambert+ggx_correlated" in ids and {"ward", "lommel_seeliger", "ggx_brdf"} <= set(ids)
+    assert [m.id for m in models.user_models()] == [i for i in ids if models.resolve(i).is_users]
