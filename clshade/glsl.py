@@ -580,9 +580,18 @@ class Emitter:
         brdf = self.functions["BRDF"]
         if brdf.type != "vec3" or [t for t, _ in brdf.params] != ["vec3"] * 5:
             raise self.error(brdf.line, "BRDF must be 'vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)'")
+        # Prototypes first: GLSL lets a function call one defined further down after a prototype.
+        for fn in self.functions.values():
+            if fn.type != "void":
+                self.out.append(f"INLINE {CTYPE[fn.type]} {PREFIX}{fn.name}({', '.join(self._signature(fn))});")
         for fn in self.functions.values():
             self.function(fn)
         return "\n".join(self.out) + "\n"
+
+    @staticmethod
+    def _signature(fn: Function) -> list[str]:
+        """The C parameters of a translated function: its own, then the pixel's Surface."""
+        return [f"{CTYPE[t]} {PREFIX}{n}" for t, n in fn.params] + ["const Surface s"]
 
     def line(self, line: int) -> None:
         self.out.append(f'#line {line} "{self.path}"')
@@ -607,14 +616,12 @@ class Emitter:
             raise self.error(fn.line, f"unsupported construct: void function {fn.name!r} (a function must return a value)")
         self.scopes = [{}]
         self.counter = 0
-        args = []
         for ptype, pname in fn.params:
             self.scopes[0][pname] = Symbol(ptype, PREFIX + pname, True)
-            args.append(f"{CTYPE[ptype]} {PREFIX}{pname}")
-        args.append("const Surface s")      # the pixel's Surface: parameters that are material keys read it
         self.current = fn
         self.line(fn.line)
-        self.out.append(f"INLINE {CTYPE[fn.type]} {PREFIX}{fn.name}({', '.join(args)}) {{")
+        # The pixel's Surface goes last: parameters that are material keys read it.
+        self.out.append(f"INLINE {CTYPE[fn.type]} {PREFIX}{fn.name}({', '.join(self._signature(fn))}) {{")
         # A body whose one return is its last statement is emitted as written; any
         # other return is if-converted (module docstring).
         returns = _count_returns(fn.body)

@@ -143,12 +143,7 @@ vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)
 """
 
 CONTROL = """
-float helper(float x)
-{
-    if (x > 0.5)
-        return 2.0 * x;
-    return x * x;
-}
+float helper(float x);      // a prototype: defined after BRDF, as GLSL allows
 
 vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)
 {
@@ -163,6 +158,13 @@ vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)
     if (L.y > 0.6)
         return vec3(7.0);
     return vec3(acc, helper(x), mix(1.0, 3.0, x) + sin(x) + exp(-x) + log(1.0 + x) + atan(L.y, x));
+}
+
+float helper(float x)
+{
+    if (x > 0.5)
+        return 2.0 * x;
+    return x * x;
 }
 """
 
