@@ -260,7 +260,7 @@ class Model:
             used |= lobe.uses
         if self.workflow == "kdks":
             used |= {"kd", "ks", "ka"}
-            if "fresnel" in used and self.fresnel == "schlick":
+            if self.specular != NONE:   # F0 = ((ior − 1)/(ior + 1))²: Schlick's F and the ambient's k_s·F0 (compose.h)
                 used.add("ior")
         else:
             used.add("metallic")

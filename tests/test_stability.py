@@ -57,3 +57,31 @@ def test_json_reports_raw_counts_saturation_and_distinct_inputs() -> None:
     # per build, distinct inputs are fewer than the evaluations of both builds (normal scales coincide)
     assert 0 < rep["distinct_inputs"]["precise"] < rep["cases"] / 2
     assert all(s["deviation_pixels"] > 0 and s["max_deviation"] < stability.PRECISE_TOLERANCE for s in rep["shading"])
+
+
+def test_kdks_reads_each_materials_ior_under_every_fresnel(runtime) -> None:
+    """k_d + k_s = 1: F0 = ((ior − 1)/(ior + 1))² enters the ambient term (k_s·F0) whatever the
+    Fresnel, so materials that differ only in IOR must not share one compiled-in IOR (the
+    conductor variant baked the first material's: found by the shaded grid's IOR 1.5 and 3)."""
+    import numpy as np
+
+    from clshade.device.shade import Shader, scene_features
+    from clshade.render.gbuffer import GBuffer, material_table
+    from clshade.render.scene import Camera, Material, Scene
+    from clshade.verify import reference as R
+
+    w, h = 4, 2
+    npix = w * h
+    channels = {"depth": np.full(npix, 1.0, np.float32), "normal": np.tile([0, 0, 1.0], npix).astype(np.float32),
+                "base": np.full(3 * npix, 0.5, np.float32), "roughness": np.full(npix, 0.5, np.float32),
+                "metallic": np.zeros(npix, np.float32), "material": np.repeat([0, 1], w).astype(np.uint8)}
+    camera = Camera(position=np.array([0.0, 0.0, 1.0]), target=np.zeros(3), up=np.array([0.0, 1.0, 0.0]),
+                    fov=10.0, width=w, height=h)
+    scene = Scene(path=None, camera=camera, lights=(), objects=(), ambient=(1.0, 1.0, 1.0),
+                  materials={"a": Material("a", ior=1.5), "b": Material("b", ior=3.0)})
+    gb = GBuffer(w, h, channels, material_table(scene), np.ones((h, w), bool))
+    for fresnel in ("schlick", "dielectric", "conductor"):
+        model = resolve(f"ggx_correlated@{fresnel}/kdks")
+        got = Shader(runtime, gb, scene, camera).render(model, scene_features(scene))[..., :3]
+        want = R.radiance(gb, scene, model, camera=camera).reshape(h, w, 3)
+        assert np.allclose(got, want, rtol=1e-5), (fresnel, got[:, 0], want[:, 0])
