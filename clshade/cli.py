@@ -694,16 +694,14 @@ def cmd_plausibility(args: argparse.Namespace) -> int:
 
 def cmd_stability(args: argparse.Namespace) -> int:
     import json
-    from clshade.models import FRESNELS, resolve_many
+    from clshade.models import resolve_many
     from clshade.report import stability_text
     from clshade.verify import stability
     models = None
     if args.model is not None:
         if not args.model.replace(",", "").strip():
             raise ClshadeError(f"--model = {args.model!r}: no model given; `clshade models` lists them")
-        models = []
-        for m in resolve_many(args.model):
-            models += [m.with_options(fresnel=f) for f in FRESNELS] if m.uses_fresnel else [m]
+        models = [v for m in resolve_many(args.model) for v in stability.variants_of(m)]
     with progress_bar("stability", "step") as progress:
         rep = stability.run(models, device=args.device, progress=progress)
     if args.json:

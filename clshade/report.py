@@ -214,7 +214,13 @@ def stability_text(rep) -> str:
                   markdown(["model", "check", "max relative step", "where"],
                            [[c["model"], c["check"], f"{c['max_relative_step']:.3g}", c["where"]]
                             for c in rep.continuity])]
-    lines += ["", f"{'OK' if rep.ok else 'FAILED'} in {rep.seconds:.1f} s"]
+    terms = rep.terms()
+    if terms:
+        lines += ["", "raw terms in the counting build (kernels/count.h), before any clamp; every model and build:",
+                  markdown(["term", *next(iter(terms.values()))], [[t, *c.values()] for t, c in terms.items()])]
+    failures = rep.failures()
+    lines += [""] + [f"  FAIL {f}" for f in failures]
+    lines += [f"{'OK' if not failures else 'FAILED'} in {rep.seconds:.1f} s"]
     return "\n".join(lines)
 
 

@@ -246,20 +246,22 @@ INLINE vec3 F_Schlick(real vh, vec3 f0, real f90) {
 /* Exact unpolarised Fresnel reflectance of a dielectric with relative IOR η
  * (Cook & Torrance 1982; Walter et al. 2007, eq. 22):
  * g = √(η² − 1 + c²), F = ½ ((g−c)/(g+c))² (1 + ((c(g+c)−1)/(c(g−c)+1))²),
- * total internal reflection (g² < 0) → 1. */
-INLINE real F_Dielectric(real c, real eta) {
+ * total internal reflection (g² < 0) → 1. Unclamped: rounding may leave [0, 1] by
+ * a few ulp; F_Dielectric saturates (the counting build checks the value before). */
+INLINE real F_Dielectric_unclamped(real c, real eta) {
     real g2 = eta * eta - 1.0f + c * c;
     real g = safe_sqrt(g2);
     real a = (g - c) / (g + c + 1.0e-30f);
     real b = (c * (g + c) - 1.0f) / (c * (g - c) + 1.0f);
     real f = 0.5f * a * a * (1.0f + b * b);
-    return g2 < 0.0f ? (real)(1.0f) : saturate(f);
+    return g2 < 0.0f ? (real)(1.0f) : f;
 }
+INLINE real F_Dielectric(real c, real eta) { return saturate(F_Dielectric_unclamped(c, eta)); }
 
 /* Exact unpolarised Fresnel reflectance of a conductor with complex IOR
  * η + ik, one channel (Lagarde 2013, "Memo on Fresnel equations"; pbrt).
- * a² + b² = √((η²−k²−s²)² + 4η²k²), s² = 1 − c². */
-INLINE real fresnel_conductor_channel(real c, real eta, real k) {
+ * a² + b² = √((η²−k²−s²)² + 4η²k²), s² = 1 − c². Unclamped, as F_Dielectric_unclamped. */
+INLINE real fresnel_conductor_channel_unclamped(real c, real eta, real k) {
     real c2 = c * c;
     real s2 = 1.0f - c2;
     /* t0 = η² − k² − s², summed as (η² − k² − 1) + c² so that an index-matched
@@ -282,13 +284,16 @@ INLINE real fresnel_conductor_channel(real c, real eta, real k) {
     real t3 = c2 * a2b2 + s2 * s2;
     real t4 = t2 * s2;
     real rp = rs * (t3 - t4) / (t3 + t4);
-    return clamp(0.5f * (rp + rs), 0.0f, 1.0f);
+    return 0.5f * (rp + rs);
 }
 
-/* The conductor per RGB channel. */
-INLINE vec3 F_Conductor(real c, vec3 eta, vec3 k) {
-    return v3(fresnel_conductor_channel(c, eta.x, k.x), fresnel_conductor_channel(c, eta.y, k.y), fresnel_conductor_channel(c, eta.z, k.z));
+/* The conductor per RGB channel, unclamped and clamped to [0, 1]. */
+INLINE vec3 F_Conductor_unclamped(real c, vec3 eta, vec3 k) {
+    return v3(fresnel_conductor_channel_unclamped(c, eta.x, k.x), fresnel_conductor_channel_unclamped(c, eta.y, k.y),
+              fresnel_conductor_channel_unclamped(c, eta.z, k.z));
 }
+INLINE vec3 v3saturate(vec3 x) { return v3(saturate(x.x), saturate(x.y), saturate(x.z)); }
+INLINE vec3 F_Conductor(real c, vec3 eta, vec3 k) { return v3saturate(F_Conductor_unclamped(c, eta, k)); }
 
 /* ---- diffuse ------------------------------------------------------------- */
 

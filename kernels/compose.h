@@ -27,9 +27,9 @@ INLINE vec3 brdf(const Geometry g, const Surface s) {
     f = v3add(f, v3mul(v3scale(kd, diffuse_lobe(g, s)), s.diffuse_color));
 #endif
 #if HAS_SPECULAR
-    f = v3add(f, v3scale(specular_lobe(g, s), s.ks));
+    f = v3add(f, v3scale(RAW3(s, TERM_SPECULAR, specular_lobe(g, s), UNBOUNDED), s.ks));
 #endif
-    return f;
+    return RAW3(s, TERM_BRDF, f, UNBOUNDED);
 }
 
 /* Radiance reflected towards v from one light of irradiance E arriving from l
@@ -49,7 +49,7 @@ INLINE vec3 shade_light_lit(vec3 n, vec3 v, vec3 l, vec3 E, const Surface s) {
     surface_frame(&g, n, s);
 #endif
     vec3 e = v3scale(E, fmax(g.nl_raw, 0.0f));
-    vec3 lo = v3mul(brdf(g, s), e);
+    vec3 lo = RAW3(s, TERM_LIGHT, v3mul(brdf(g, s), e), UNBOUNDED);
     return v3select(g.nl_raw > 0.0f, lo, v3s((real)(0.0f)));
 }
 
@@ -80,7 +80,7 @@ INLINE vec3 ambient_term(vec3 A, const Surface s) {
 #if HAS_SPECULAR
     r = v3add(r, v3scale(s.f0, s.ks));
 #endif
-    return v3mul(v3scale(A, s.ka), r);
+    return RAW3(s, TERM_AMBIENT, v3mul(v3scale(A, s.ka), r), UNBOUNDED);
 }
 
 #endif

@@ -22,7 +22,11 @@ typedef float4 out4;
 __kernel void eval_brdf(const uint count,
     __global const float4* n, __global const float4* l, __global const float4* v,
     __global const float4* base, __global const float4* p, __global const float4* m,
-    __global const float4* t, __global out4* f)
+    __global const float4* t, __global out4* f
+#ifdef COUNT_TERMS
+    , __global uint* term_counts   /* count.h: TERMS × CHECKS counters */
+#endif
+    )
 {
     uint i = get_global_id(0);
     if (i >= count) return;
@@ -31,6 +35,7 @@ __kernel void eval_brdf(const uint count,
     vec3 ll = unit_or(v3c(l[i].xyz), v3s(0.0f));
     Surface s = make_surface(v3max(v3c(base[i].xyz), 0.0f), saturate(p[i].x), saturate(p[i].y),
                              material_uniform(m[4 * i], m[4 * i + 1], m[4 * i + 2], m[4 * i + 3]));
+    COUNT_INTO(s, term_counts);
     Geometry g = make_geometry(nn, ll, vv);
 #ifdef GEOMETRY_TANGENTS
     s.tangent = v3c(t[i].xyz);

@@ -199,7 +199,11 @@ __kernel void shade(
 #endif
 #endif
     , const float4 background,
-    __global float4* out)
+    __global float4* out
+#ifdef COUNT_TERMS
+    , __global uint* term_counts   /* count.h: TERMS × CHECKS counters */
+#endif
+    )
 {
     size_t i = get_global_id(0);
     if (SIMD * i >= npix) return;
@@ -260,6 +264,7 @@ __kernel void shade(
 #else
         Surface s = make_surface(b, r, m, material_uniform(MAT_M0, MAT_M1, MAT_M2, MAT_M3));
 #endif
+        COUNT_INTO(s, term_counts);
 
 #if HAS_TANGENT
         s.tangent = load3f(i, tangent, plane);     /* the mesh's tangent (surface_frame orthonormalises it) */
@@ -353,6 +358,7 @@ __kernel void shade(
 #if HAS_EMISSIVE
         L = v3add(L, v3max(load3f(i, emissive, plane), 0.0f));
 #endif
+        L = RAW3(s, TERM_RADIANCE, L, UNBOUNDED);   /* count.h: before the clamp */
 #ifndef RAW_RADIANCE
         L = v3min(L, MAX_RADIANCE);   /* fmin: also turns a NaN into MAX_RADIANCE */
 #endif

@@ -67,6 +67,7 @@ typedef struct {
 #ifdef GEOMETRY_TANGENTS
     vec3 tangent;        /* the mesh's tangent from the G-buffer, or 0      */
 #endif
+    COUNTERS_FIELD       /* the counting build's term counters (count.h)    */
 } Surface;
 
 /* One material, the same in every lane (a table row or the baked constants). */
@@ -203,14 +204,15 @@ INLINE void surface_frame(Geometry* g, vec3 n, const Surface s) {
 }
 #endif
 
-/* The Fresnel term chosen at compile time, at incidence cosine c. */
+/* The Fresnel term chosen at compile time, at incidence cosine c; the exact
+ * Fresnels' raw value is counted before it is clamped to [0, 1]. */
 INLINE vec3 fresnel_cos(real c, const Surface s) {
 #if FRESNEL == FRESNEL_DIELECTRIC
-    return v3s(F_Dielectric(c, s.ior));
+    return v3s(saturate(RAW(s, TERM_F, F_Dielectric_unclamped(c, s.ior), 1.0f)));
 #elif FRESNEL == FRESNEL_CONDUCTOR
-    return F_Conductor(c, s.eta, s.k);
+    return v3saturate(RAW3(s, TERM_F, F_Conductor_unclamped(c, s.eta, s.k), 1.0f));
 #else
-    return F_Schlick(c, s.f0, s.f90);
+    return RAW3(s, TERM_F, F_Schlick(c, s.f0, s.f90), 1.0f);
 #endif
 }
 

@@ -1,7 +1,8 @@
 """`clshade check stability` must see a bad term even where a clamp would hide it: a NaN,
 an Inf and a negative value forced into one term of a patched copy of the kernels
 (F_Dielectric's reflectance before its saturate, the conductor's before its clamp) each
-fail the check, counted on that term."""
+fail the check, counted on that term in the counting build of the shading kernel
+(kernels/count.h); a finite, in-range but wrong term fails it by its deviation from float64."""
 from __future__ import annotations
 
 import shutil
@@ -10,6 +11,7 @@ from pathlib import Path
 import pytest
 
 import clshade.device.variants as variants
+from clshade.device import counts
 from clshade.models import resolve
 from clshade.resources import kernels_dir
 from clshade.verify import stability
@@ -18,7 +20,7 @@ from clshade.verify import stability
 INJECTIONS = {
     "nan": ("brdf.h", "real f = 0.5f * a * a * (1.0f + b * b);", "real f = NAN;",
             "ggx_correlated@dielectric", "F", "nan"),
-    "inf": ("brdf.h", "return clamp(0.5f * (rp + rs), 0.0f, 1.0f);", "return clamp(INFINITY, 0.0f, 1.0f);",
+    "inf": ("brdf.h", "return 0.5f * (rp + rs);", "return INFINITY;",
             "ggx_correlated@conductor", "F", "inf"),
     "negative": ("brdf.h", "real f = 0.5f * a * a * (1.0f + b * b);", "real f = -0.5f * a * a * (1.0f + b * b);",
                  "cook_torrance@dielectric", "F", "negative"),
@@ -39,7 +41,26 @@ def patched_kernels(tmp_path: Path, monkeypatch, file: str, old: str, new: str) 
 def test_injected_term_fails_check_stability(kind: str, tmp_path: Path, monkeypatch) -> None:
     file, old, new, spec, term, count = INJECTIONS[kind]
     patched_kernels(tmp_path, monkeypatch, file, old, new)
-    rep = stability.run([resolve(spec)], fast_math=(False,), extras=False)
+    rep = stability.run([resolve(spec)], fast_math=(False,), extras=False, brdf=False)
     assert not rep.ok, f"a {kind} {term} term passed `check stability`"
     shaded = rep.shading[0].terms[term]
     assert shaded[count] > 0, f"shading pass: {term} {count} not counted: {shaded}"
+
+
+def test_wrong_but_finite_term_fails_by_its_deviation(tmp_path: Path, monkeypatch) -> None:
+    """Half the dielectric reflectance: finite, in [0, 1], so no counter sees it; the
+    shaded pixels' deviation from the float64 oracle fails the check."""
+    patched_kernels(tmp_path, monkeypatch, "brdf.h", "real f = 0.5f * a * a * (1.0f + b * b);",
+                    "real f = 0.25f * a * a * (1.0f + b * b);")
+    rep = stability.run([resolve("ggx_correlated@dielectric")], fast_math=(False,), extras=False, brdf=False)
+    assert not counts.failures(rep.terms()), counts.failures(rep.terms())
+    assert any("deviation from float64" in f for f in rep.failures()), rep.failures()
+
+
+def test_raw_inf_radiance_alone_fails_the_report() -> None:
+    """A raw +Inf pixel (overflow of the sum) fails the check as a NaN would: docs/stability.md
+    promises no Inf."""
+    shaded = stability.ShadeResult("lambert", False, pixels=10, inf=1, deviation_pixels=10)
+    rep = stability.Report([], [shaded], [], [], "device", 0.0)
+    assert not rep.ok and any("NaN/Inf" in f for f in rep.failures())
+    assert stability.Report([], [stability.ShadeResult("lambert", False, pixels=10)], [], [], "device", 0.0).ok

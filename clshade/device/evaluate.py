@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from clshade.device import counts
 from clshade.errors import ClshadeError
 from clshade.models import Model
 from clshade.device.runtime import Runtime, get_runtime
@@ -59,12 +60,25 @@ def eval_brdf(model: Model, samples: Samples, runtime: Runtime | None = None,
               fast_math: bool = False, double: bool = False) -> np.ndarray:
     """f (N, 3) on the device, float32; float64 from the double-precision build of the same
     source with `double` (kernels/simd.h REAL_DOUBLE). Rows whose l is below the horizon are 0."""
+    return _eval(model, samples, runtime or get_runtime(), fast_math, double, None)
+
+
+def eval_brdf_counted(model: Model, samples: Samples, runtime: Runtime | None = None,
+                      fast_math: bool = False) -> tuple[np.ndarray, dict[str, dict[str, int]]]:
+    """eval_brdf in the counting build (kernels/count.h, float32), with its term counters."""
     rt = runtime or get_runtime()
+    buffer = counts.zeros(rt)
+    f = _eval(model, samples, rt, fast_math, False, buffer)
+    return f, counts.read(rt, buffer)
+
+
+def _eval(model: Model, samples: Samples, rt: Runtime, fast_math: bool, double: bool, term_counts) -> np.ndarray:
     cl = rt.cl
     if double and not has_fp64(rt):
         raise ClshadeError(f"{rt.info.description} has no double precision (cl_khr_fp64): "
                            f"no float64 build of {model.id}")
-    variant = Variant(model, Features(fast_math=fast_math, double=double), ("depth", "normal", "base"), None)
+    features = Features(fast_math=fast_math, double=double, count_terms=term_counts is not None)
+    variant = Variant(model, features, ("depth", "normal", "base"), None)
     kernel = rt.kernel(variant.source("eval.cl"), "eval_brdf", variant.options(),
                        label=f"{model.id} (eval{', float64' if double else ''})")
     count = len(samples)
@@ -78,7 +92,7 @@ def eval_brdf(model: Model, samples: Samples, runtime: Runtime | None = None,
     bufs.append(rt.to_device(_f4(tangent)))
     dtype = np.float64 if double else np.float32
     out = rt.empty(count * 4 * np.dtype(dtype).itemsize)
-    kernel.set_args(np.uint32(count), *bufs, out)
+    kernel.set_args(np.uint32(count), *bufs, out, *([term_counts] if term_counts is not None else []))
     cl.enqueue_nd_range_kernel(rt.queue, kernel, (rt.global_size(count),), (rt.local_size,)).wait()
     result = np.empty((count, 4), dtype)
     cl.enqueue_copy(rt.queue, result, out)

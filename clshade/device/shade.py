@@ -7,11 +7,13 @@ from it), `render()` also reads the image back.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
+from clshade.device import counts
 from clshade.render.gbuffer import GBuffer, uniform_channels
 from clshade.render.meshes import Geometry
 from clshade.models import Model
@@ -134,6 +136,7 @@ class Shader:
         self.background = np.array([*scene.background, 0.0], np.float32)
         self.ambient = np.array([*scene.ambient, 0.0], np.float32)
         self._dispatches: dict[tuple, Dispatch] = {}
+        self.term_counts = counts.zeros(runtime)   # the counting build's counters (Features.count_terms)
         self.samples = scene.samples
         self.resolver = None
         if self.samples > 1:
@@ -161,7 +164,7 @@ class Shader:
     def prepare(self, model: Model, features: Features, entry: str = "shade") -> Dispatch:
         """Build (once) and bind the kernel for (model, features); `entry` is shade or copy."""
         variant = self.variant(model, features)
-        simd = self.rt.simd
+        simd = 1 if features.count_terms else self.rt.simd   # count.h counts one pixel per work-item
         key = (variant.key, entry, self.rt.info.spec, simd)
         if key in self._dispatches:
             return self._dispatches[key]
@@ -198,6 +201,8 @@ class Shader:
                     args.append(self.ambient)
         # Both entries write the background where no pixel is covered (copy.cl says why).
         args += [self.background, self.out]
+        if features.count_terms:
+            args.append(self.term_counts)
         kernel.set_args(*args)
         dispatch = Dispatch(variant, kernel, self.rt.global_size((n + simd - 1) // simd))
         self._dispatches[key] = dispatch
@@ -227,3 +232,10 @@ class Shader:
         dispatch = self.prepare(model, features)
         self.enqueue(dispatch).wait()
         return self.read()
+
+    def render_counted(self, model: Model, features: Features) -> tuple[np.ndarray, dict[str, dict[str, int]]]:
+        """render() in the counting build (kernels/count.h), with that frame's term counters."""
+        self.rt.cl.enqueue_fill_buffer(self.rt.queue, self.term_counts, np.uint32(0), 0,
+                                       self.term_counts.size).wait()
+        image = self.render(model, dataclasses.replace(features, count_terms=True))
+        return image, counts.read(self.rt, self.term_counts)

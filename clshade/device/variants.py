@@ -58,6 +58,7 @@ class Features:
     general: bool = False          # the general kernel; the fields above are its runtime switches
     raw_radiance: bool = False     # no MAX_RADIANCE clamp: NaN/Inf reach the output (stability check only)
     specular_aa: bool = False      # specular lobe widened by the normal's screen-space variance (compile-time)
+    count_terms: bool = False      # the counting build (kernels/count.h): raw terms counted, one pixel per work-item
     # (channel, value) of one-component surface channels with one value over the whole scene
     # (clshade.render.gbuffer.uniform_channels): compiled in, not read per pixel (not by the general kernel)
     uniform: tuple[tuple[str, float], ...] = ()
@@ -85,6 +86,8 @@ class Features:
                        + " (one value in the whole scene: compiled in, not read per pixel)")
         if self.raw_radiance:
             out.append("radiance: RAW (no MAX_RADIANCE clamp; NaN/Inf written as computed)")
+        if self.count_terms:
+            out.append("terms: COUNTED (kernels/count.h: NaN/Inf/negative/above-bound raw terms, SIMD 1)")
         out.append("output: exposure, tone map and sRGB encoding on the host (clshade/render/image.py)")
         return out
 
@@ -174,6 +177,8 @@ class Variant:
         effects = {"HAS_EMISSIVE": str(int(f.emissive)), "HAS_OCCLUSION": str(int(f.occlusion)),
                    "HAS_TANGENT": str(int("tangent" in self.channels))}
         raw = {"RAW_RADIANCE": "1"} if f.raw_radiance else {}
+        if f.count_terms:
+            raw["COUNT_TERMS"] = "1"
         aa = {"SPECULAR_AA": "1"} if self.specular_aa else {}
         # The normals' contract is the G-buffer's, not a scene effect: the general kernel shares it.
         unit = {"UNIT_NORMALS": "1"} if self.unit_normals else {}
@@ -257,11 +262,11 @@ def _read(name: str) -> str:
 
 def assemble(model: Model, defines: dict[str, str], entry: str, headers: tuple[str, ...] = ()) -> str:
     """Concatenate the kernel sources in dependency order, with #line markers so
-    that build errors name the file: defines, simd.h, brdf.h, surface.h, the diffuse and
+    that build errors name the file: defines, simd.h, brdf.h, count.h, surface.h, the diffuse and
     specular model files, compose.h, the `headers` (gbuffer.h, shadow.h), then
     the entry file."""
     head = "".join(f"#define {k} {v}\n" for k, v in defines.items())
-    parts = [head, _read("simd.h"), _read("brdf.h"), _read("surface.h")]
+    parts = [head, _read("simd.h"), _read("brdf.h"), _read("count.h"), _read("surface.h")]
     if any(lobe.origin == BRDF_FILE for lobe in model.lobes):
         parts.append(_read("glsl.h"))      # the GLSL built-ins of translated shaders
     parts += [lobe.code for lobe in model.lobes]

@@ -261,7 +261,9 @@ def _term_cases() -> dict[str, Callable[[np.random.Generator, int], TermCase]]:
         "V_CookTorrance": cook_torrance,
         "F_Schlick": schlick,
         "F_Dielectric": dielectric,
+        "F_Dielectric_unclamped": dielectric,     # the value the counting build checks (kernels/count.h)
         "F_Conductor": conductor,
+        "F_Conductor_unclamped": conductor,
         "Fd_Lambert": lambert,
         "Fd_Burley": burley,
         "Fd_OrenNayar": oren_nayar,

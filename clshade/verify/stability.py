@@ -1,14 +1,20 @@
 """The torture grid: hard inputs for every preset model, on the device, against
 the float64 reference — `clshade check stability`.
 
-Contract checked: every finite input gives a finite, non-negative output, in
-both the precise and the fast-math (-cl-fast-relaxed-math) builds, for the
-BRDF alone (kernels/eval.cl) and for whole pixels through the shading pass
+Contract checked (Report.failures; any one fails `clshade check stability`):
+every finite input gives a finite, non-negative output, in both the precise and
+the fast-math (-cl-fast-relaxed-math) builds, for the BRDF alone
+(kernels/eval.cl) and for whole pixels through the shading pass
 (kernels/shade.cl, a hand-made G-buffer, every light kind and ambient) with
-light intensities 0, 1e-30 and 1e30. The shaded pixels are counted on the raw
-radiance (built with -D RAW_RADIANCE: no MAX_RADIANCE clamp, whose fmin would
-turn a NaN into a number); pixels the clamp acts on are counted as saturated;
-the shipped build is checked finite as well. Cases are reported per build as
+light intensities 0, 1e-30 and 1e30; no term is NaN, ±Inf, negative or above
+its bound *before* any clamp (the counting build, kernels/count.h: every raw D,
+V, F, diffuse and empirical term, lobe, lobe sum, radiance per light, ambient
+term and pixel radiance, counted per term on the device); and the precise build
+stays within PRECISE_TOLERANCE of the float64 reference where no floor acts
+(BRDF) and at unit lights (shaded pixels). The shaded pixels are counted on the
+raw radiance (-D RAW_RADIANCE: no MAX_RADIANCE clamp, whose fmin would turn a
+NaN into a number); pixels the clamp acts on are counted as saturated; the
+shipped build is checked finite as well. Cases are reported per build as
 evaluations and as distinct inputs (after normalising the directions).
 
 Grid (clshade/verify/torture.py; every value is float32 on the device; the reference gets the same
@@ -42,9 +48,10 @@ from typing import Any
 
 import numpy as np
 
-from clshade.device.evaluate import Samples, eval_brdf
+from clshade.device import counts
+from clshade.device.evaluate import Samples, eval_brdf, eval_brdf_counted
 from clshade.device.runtime import Runtime, get_runtime
-from clshade.models import FRESNELS, Model, presets, user_models
+from clshade.models import FRESNELS, NONE, WORKFLOWS, Model, presets, user_models
 from clshade.resources import constant
 from clshade.verify import reference as R
 from clshade.verify.torture import (COSINE_GRID, IOR_GRID, LIGHT_INTENSITIES, NORMAL_SCALES, ROUGHNESS_GRID,
@@ -60,7 +67,8 @@ MAX_RADIANCE = constant("MAX_RADIANCE")
 # value that the reference itself rounds to ~0 carries no information.
 DEVIATION_FLOOR = 1e-3
 # Microfacet/diffuse lobes may only deviate by float32 rounding where no clamp
-# is active: the acceptance bound of the precise build (fast math is reported, not bounded).
+# is active: the acceptance bound of the precise build (fast math is reported, not bounded),
+# for the BRDF evaluations with no floor active and for the shaded pixels at unit lights.
 PRECISE_TOLERANCE = 1e-3
 
 
@@ -113,6 +121,7 @@ class ModelResult:
     max_deviation_unclamped: float = 0.0
     max_deviation_unclamped_at: dict[str, Any] = field(default_factory=dict)
     first_bad: dict[str, Any] = field(default_factory=dict)
+    terms: dict[str, dict[str, int]] = field(default_factory=dict)   # the counting build's raw terms (count.h)
 
 
 def _where(labels: dict[str, np.ndarray], i: int, extra: dict[str, Any] | None = None) -> dict[str, Any]:
@@ -120,23 +129,32 @@ def _where(labels: dict[str, np.ndarray], i: int, extra: dict[str, Any] | None =
     return {**out, **(extra or {})}
 
 
+def variants_of(model: Model) -> list[Model]:
+    """The model with each Fresnel (when a lobe uses one) and each workflow (empirical lobes:
+    their k_d + k_s = 1 workflow only, the one the reference defines for them; a user's lobe:
+    its own workflow)."""
+    fresnels = FRESNELS if model.uses_fresnel else (model.fresnel,)
+    workflows = (model.workflow,) if model.family == "empirical" or model.is_users else WORKFLOWS
+    return [model.with_options(fresnel=f, workflow=w) for w in workflows for f in fresnels]
+
+
 def grid_models() -> list[Model]:
-    """Every preset, microfacet presets with each Fresnel; then each of the user's lobes."""
-    out = []
-    for m in presets() + user_models():
-        out += [m.with_options(fresnel=f) for f in FRESNELS] if m.uses_fresnel else [m]
-    return out
+    """Every preset with every Fresnel and workflow it admits (variants_of); then each of the user's lobes."""
+    return [v for m in presets() + user_models() for v in variants_of(m)]
 
 
 def run_model(model: Model, grid: Grid, rt: Runtime, fast_math: bool,
               ref_cache: dict[str, np.ndarray]) -> ModelResult:
     """Evaluate the grid for one model on the device and compare with the reference."""
     samples, labels = build_samples(model, grid)
-    f = eval_brdf(model, samples, rt, fast_math=fast_math).astype(np.float64)
+    # The counting build of eval.cl: its f is the same composition, the counters ride along.
+    f, terms = eval_brdf_counted(model, samples, rt, fast_math=fast_math)
+    f = f.astype(np.float64)
     res = ModelResult(model.id, fast_math, cases=len(samples),
                       distinct_inputs=distinct_inputs(_unit32(samples.n), _unit32(samples.l), _unit32(samples.v),
                                                       samples.base, samples.roughness, samples.metallic,
-                                                      samples.materials.reshape(len(samples), -1)))
+                                                      samples.materials.reshape(len(samples), -1)),
+                      terms=terms)
     finite = np.isfinite(f).all(1)
     negative = (f < 0).any(1)
     res.nonfinite, res.negative = int((~finite).sum()), int(negative.sum())
@@ -180,6 +198,7 @@ class ShadeResult:
     max_radiance: float = 0.0      # largest finite raw radiance
     max_deviation: float = 0.0     # vs the float64 frame oracle, unit lights, n·l and n·v ≥ DEVIATION_COSINE
     deviation_pixels: int = 0
+    terms: dict[str, dict[str, int]] = field(default_factory=dict)   # the counting build's raw terms (count.h)
 
     @property
     def nonfinite(self) -> int:
@@ -191,70 +210,81 @@ class ShadeResult:
 DEVIATION_COSINE = 1e-3
 
 
+def shade_materials(model: Model) -> list[dict[str, float]]:
+    """The materials of the shaded grid: shininess 0 and 1e6 for the lobes that read it;
+    dielectric IOR 1.5 with Schlick's f90 = 1, and IOR 3 with f90 = 0 (both reach the exact
+    dielectric Fresnel with F > 0, and the kdks workflow's F0 > 0); gold for the conductor."""
+    shininess = (0.0, 1e6) if "shininess" in model.uses else (32.0,)
+    return [dict(shininess=s, ior=ior, f90=f90) for s in shininess for ior, f90 in ((1.5, 1.0), (3.0, 0.0))]
+
+
 def run_shade(model: Model, rt: Runtime, fast_math: bool) -> ShadeResult:
     """Render a hand-made G-buffer through the shading pass with 0, 1e-30 and 1e30 lights
     (four directional, a point light on the surface point, a far point light, a spot) and
-    ambient, in the raw build (counted) and the shipped build (checked finite); at unit
-    intensity the raw radiance is compared with the float64 frame oracle."""
+    ambient, every one of shade_materials() in its own band of rows (one material table, so
+    one program): in the counting build (count.h: raw terms and the raw radiance counted, no
+    MAX_RADIANCE clamp) and the shipped build (checked finite); at unit intensity the raw
+    radiance is compared with the float64 frame oracle."""
     import dataclasses
     from clshade.device.shade import Shader, scene_features
     from clshade.render.gbuffer import GBuffer, material_table
     from clshade.render.scene import Camera, Light, Material, Scene
 
     normals = shade_normals()
-    params = [(r, b, m) for r in (0.0, DENORMAL, 1e-4, 0.045, 0.5, 1.0) for b in (0.0, 1.0) for m in (0.0, 1.0)]
+    materials = shade_materials(model)
+    params = [(r, b, m, k) for k in range(len(materials))
+              for r in (0.0, DENORMAL, 1e-4, 0.045, 0.5, 1.0) for b in (0.0, 1.0) for m in (0.0, 1.0)]
     width, height = len(normals), len(params)
     n = np.tile(normals, (height, 1))
-    rough = np.repeat([p[0] for p in params], width).astype(np.float32)
-    base = np.repeat(np.repeat([p[1] for p in params], width)[:, None], 3, 1).astype(np.float32)
-    metal = np.repeat([p[2] for p in params], width).astype(np.float32)
+    rough, base_value, metal, material_id = (np.repeat([p[i] for p in params], width) for i in range(4))
+    rough, metal = rough.astype(np.float32), metal.astype(np.float32)
+    base = np.repeat(base_value[:, None], 3, 1).astype(np.float32)
     npix = width * height
     channels = {"depth": np.full(npix, 10.0, np.float32), "normal": n.astype(np.float32).reshape(-1),
                 "base": base.reshape(-1), "roughness": rough, "metallic": metal,
-                "material": np.zeros(npix, np.uint8)}
+                "material": material_id.astype(np.uint8)}
     # Camera 10 units up +z looking at the origin with a tiny field of view: v ≈ +z everywhere.
     camera = Camera(position=np.array([0.0, 0.0, 10.0]), target=np.zeros(3), up=np.array([0.0, 1.0, 0.0]),
                     fov=1e-3, width=width, height=height)
     res = ShadeResult(model.id, fast_math)
-    shininess_values = (0.0, 1e6) if "shininess" in model.uses else (32.0,)
-    res.distinct_inputs = distinct_inputs(_unit32(n), rough, base, metal) * len(shininess_values) * len(LIGHT_INTENSITIES)
+    res.distinct_inputs = distinct_inputs(_unit32(n), rough, base, metal, material_id) * len(LIGHT_INTENSITIES)
     directions = [np.array(d) / np.linalg.norm(d) for d in ([0, 0, -1.0], [0, 0, 1.0], [1.0, 0, 0], [-1.0, -1.0, -1.0])]
-    for shininess in shininess_values:
-        material = Material("m", shininess=shininess, ior=1.0 if shininess else 3.0, f90=0.0 if shininess else 1.0)
-        for e in LIGHT_INTENSITIES:
-            rgb = np.full(3, e)
-            # Light along −v, along v (l = −v), grazing and oblique; a point light on the
-            # surface point itself (MIN_LIGHT_DIST2) and one far away; a spot. All at once,
-            # so that 1e30 lights also overflow the sum (where MAX_RADIANCE clamps).
-            lights = tuple(Light("directional", rgb, direction=d) for d in directions) + (
-                Light("point", rgb, position=np.zeros(3)), Light("point", rgb, position=10.0 * directions[3]),
-                Light("spot", rgb, direction=directions[3], position=-5.0 * directions[3], inner_angle=0.0,
-                      outer_angle=90.0))
-            scene = Scene(path=None, camera=camera, lights=lights, materials={"m": material}, objects=(),
-                          ambient=(1.0, 1.0, 1.0))
-            gb = GBuffer(width, height, channels, material_table(scene), np.ones((height, width), bool))
-            shader = Shader(rt, gb, scene, camera)
-            features = scene_features(scene, fast_math=fast_math)
-            raw = shader.render(model, dataclasses.replace(features, raw_radiance=True))[..., :3].astype(np.float64)
-            shipped = shader.render(model, features)[..., :3]
-            res.pixels += npix
-            res.nan += int(np.isnan(raw).any(-1).sum())
-            res.inf += int((np.isinf(raw).any(-1) & ~np.isnan(raw).any(-1)).sum())
-            res.negative += int((raw < 0).any(-1).sum())
-            res.saturated += int((raw >= MAX_RADIANCE).any(-1).sum())
-            res.clamped_nonfinite += int((~np.isfinite(shipped).all(-1)).sum())
-            fin = raw[np.isfinite(raw)]
-            if fin.size:
-                res.max_radiance = max(res.max_radiance, float(fin.max()))
-        # Unit lights against the frame oracle, without the light on the surface (its direction
-        # is undefined there): the shaded path's accuracy, not only its finiteness.
-        unit = dataclasses.replace(scene, lights=tuple(dataclasses.replace(l, color=np.ones(3))
-                                                       for l in lights[:4] + lights[5:]))
-        lit = Shader(rt, gb, unit, camera).render(
-            model, dataclasses.replace(scene_features(unit, fast_math=fast_math), raw_radiance=True))
-        dev, count = _oracle_deviation(model, gb, unit, camera, lit[..., :3].astype(np.float64))
-        res.max_deviation = max(res.max_deviation, dev)
-        res.deviation_pixels += count
+    table = {f"m{k}": Material(f"m{k}", **constants) for k, constants in enumerate(materials)}
+    for e in LIGHT_INTENSITIES:
+        rgb = np.full(3, e)
+        # Light along −v, along v (l = −v), grazing and oblique; a point light on the
+        # surface point itself (MIN_LIGHT_DIST2) and one far away; a spot. All at once,
+        # so that 1e30 lights also overflow the sum (where MAX_RADIANCE clamps).
+        lights = tuple(Light("directional", rgb, direction=d) for d in directions) + (
+            Light("point", rgb, position=np.zeros(3)), Light("point", rgb, position=10.0 * directions[3]),
+            Light("spot", rgb, direction=directions[3], position=-5.0 * directions[3], inner_angle=0.0,
+                  outer_angle=90.0))
+        scene = Scene(path=None, camera=camera, lights=lights, materials=table, objects=(),
+                      ambient=(1.0, 1.0, 1.0))
+        gb = GBuffer(width, height, channels, material_table(scene), np.ones((height, width), bool))
+        shader = Shader(rt, gb, scene, camera)
+        features = scene_features(scene, fast_math=fast_math)
+        raw, terms = shader.render_counted(model, dataclasses.replace(features, raw_radiance=True))
+        raw = raw[..., :3].astype(np.float64)
+        res.terms = counts.add(res.terms, terms)
+        shipped = shader.render(model, features)[..., :3]
+        res.pixels += npix
+        res.nan += int(np.isnan(raw).any(-1).sum())
+        res.inf += int((np.isinf(raw).any(-1) & ~np.isnan(raw).any(-1)).sum())
+        res.negative += int((raw < 0).any(-1).sum())
+        res.saturated += int((raw >= MAX_RADIANCE).any(-1).sum())
+        res.clamped_nonfinite += int((~np.isfinite(shipped).all(-1)).sum())
+        fin = raw[np.isfinite(raw)]
+        if fin.size:
+            res.max_radiance = max(res.max_radiance, float(fin.max()))
+    # Unit lights against the frame oracle, without the light on the surface (its direction
+    # is undefined there): the shaded path's accuracy, not only its finiteness.
+    unit = dataclasses.replace(scene, lights=tuple(dataclasses.replace(l, color=np.ones(3))
+                                                   for l in lights[:4] + lights[5:]))
+    lit = Shader(rt, gb, unit, camera).render(
+        model, dataclasses.replace(scene_features(unit, fast_math=fast_math), raw_radiance=True))
+    res.max_deviation, res.deviation_pixels = _oracle_deviation(model, gb, unit, camera,
+                                                                lit[..., :3].astype(np.float64))
     return res
 
 
@@ -361,23 +391,47 @@ class Report:
 
     @property
     def nonfinite(self) -> int:
-        """NaN/Inf: BRDF evaluations plus raw shaded radiance NaN (+Inf is overflow, counted as saturated)."""
-        return sum(r.nonfinite for r in self.results) + sum(s.nan for s in self.shading) + \
+        """NaN/Inf: BRDF evaluations, raw shaded radiance (NaN and ±Inf) and the shipped build."""
+        return sum(r.nonfinite for r in self.results) + sum(s.nonfinite for s in self.shading) + \
             sum(s.clamped_nonfinite for s in self.shading)
 
     @property
     def negative(self) -> int:
         return sum(r.negative for r in self.results) + sum(s.negative for s in self.shading)
 
+    def terms(self) -> dict[str, dict[str, int]]:
+        """The counting build's raw-term counters summed over every model, build and pass."""
+        total: dict[str, dict[str, int]] = {}
+        for r in self.results + self.shading:
+            total = counts.add(total, r.terms)
+        return total
+
+    def failures(self) -> list[str]:
+        """Every broken part of the contract, one line each (empty: the check passes)."""
+        out = []
+        if self.nonfinite:
+            out.append(f"{self.nonfinite} NaN/Inf outputs (BRDF evaluations, raw shaded radiance, shipped build)")
+        if self.negative:
+            out.append(f"{self.negative} negative outputs")
+        for r in self.results + self.shading:
+            where = f"{r.model} ({'fast' if r.fast_math else 'precise'}, {'shaded' if isinstance(r, ShadeResult) else 'BRDF'})"
+            for term, bad in counts.failures(r.terms).items():
+                out.append(f"{where}: raw {term} " + ", ".join(f"{k} {v}" for k, v in bad.items()))
+            deviation = r.max_deviation if isinstance(r, ShadeResult) else r.max_deviation_unclamped
+            if not r.fast_math and not deviation <= PRECISE_TOLERANCE:
+                out.append(f"{where}: deviation from float64 {deviation:.3g} > {PRECISE_TOLERANCE:g}")
+        return out
+
     @property
     def ok(self) -> bool:
-        return self.nonfinite == 0 and self.negative == 0
+        return not self.failures()
 
     def as_dict(self) -> dict[str, Any]:
         from dataclasses import asdict
         shading = [{**asdict(s), "nonfinite": s.nonfinite} for s in self.shading]
-        return dict(ok=self.ok, cases=self.cases, builds=self.builds, distinct_inputs=self.distinct_inputs(),
-                    nonfinite=self.nonfinite, negative=self.negative,
+        return dict(ok=self.ok, failures=self.failures(), cases=self.cases, builds=self.builds,
+                    distinct_inputs=self.distinct_inputs(), nonfinite=self.nonfinite, negative=self.negative,
+                    raw_terms=self.terms(), precise_tolerance=PRECISE_TOLERANCE,
                     raw_radiance=dict(nan=sum(s.nan for s in self.shading), inf=sum(s.inf for s in self.shading),
                                       negative=sum(s.negative for s in self.shading),
                                       saturated_pixels=sum(s.saturated for s in self.shading),
@@ -392,6 +446,8 @@ class Report:
                         shininess=SHININESS_GRID, cosines=COSINE_GRID, ior=IOR_GRID,
                         light_intensities=LIGHT_INTENSITIES, normals=list(NORMAL_SCALES),
                         shaded_lights="4 directional, 2 point (one on the surface), 1 spot, ambient",
+                        shaded_materials="shininess 0 and 1e6 (lobes that read it) or 32; IOR 1.5 with f90 1, "
+                                         "IOR 3 with f90 0; gold conductor",
                         deviation="|f32 − f64| / max(|f64|, %g), reference alpha_floor = %g" % (DEVIATION_FLOOR, MIN_ALPHA)),
                     models=[asdict(r) for r in self.results], shading=shading,
                     clamps=self.clamps, continuity=self.continuity)
@@ -399,22 +455,26 @@ class Report:
 
 def run(models: list[Model] | None = None, device: str | None = None, runtime: Runtime | None = None,
         fast_math: tuple[bool, ...] = (False, True), shading: bool = True, extras: bool = True,
-        progress=None) -> Report:
-    """Run the whole grid (both builds), the shading pass, the clamp biases and the continuity checks;
-    `progress(done, total)` after each model × build (and after the extras)."""
+        brdf: bool = True, progress=None) -> Report:
+    """Run the whole grid (both builds), the shading pass, the clamp biases and the continuity checks
+    (`brdf`, `shading`, `extras` switch the parts off); `progress(done, total)` after each model × build
+    (and after the extras)."""
     start = time.perf_counter()
     rt = runtime or get_runtime(device)
     grid = geometry_grid()
     models = [R.check_model(m) for m in models] if models is not None else grid_models()
     results, shades, cache = [], [], {}
     total = len(models) * len(fast_math) + (1 if extras else 0)
+    done = 0
     for model in models:
         for fm in fast_math:
-            results.append(run_model(model, grid, rt, fm, cache))
+            if brdf:
+                results.append(run_model(model, grid, rt, fm, cache))
             if shading:
                 shades.append(run_shade(model, rt, fm))
+            done += 1
             if progress is not None:
-                progress(len(results), total)
+                progress(done, total)
     clamps = clamp_bias(rt) if extras else []
     cont = continuity(rt) if extras else []
     if progress is not None and extras:

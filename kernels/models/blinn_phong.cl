@@ -15,5 +15,5 @@
 INLINE vec3 specular_lobe(const Geometry g, const Surface s) {
     if (blinn_phong_lobe_is_zero(g.nh, s.shininess))  /* every lane's power underflows: skip it */
         return v3s((real)(0.0f));
-    return v3s(Fs_BlinnPhong(g.nh, s.shininess));
+    return v3s(RAW(s, TERM_FS, Fs_BlinnPhong(g.nh, s.shininess), 1.0f));
 }

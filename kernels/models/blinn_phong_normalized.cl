@@ -16,5 +16,5 @@ INLINE vec3 specular_lobe(const Geometry g, const Surface s) {
     if (blinn_phong_lobe_is_zero(g.nh, s.shininess))  /* every lane's power underflows: skip it */
         return v3s((real)(0.0f));
     real norm = (s.shininess + 8.0f) * (0.125f * CLSHADE_INV_PI);
-    return v3s(norm * Fs_BlinnPhong(g.nh, s.shininess));
+    return v3s(norm * RAW(s, TERM_FS, Fs_BlinnPhong(g.nh, s.shininess), 1.0f));
 }

@@ -10,5 +10,5 @@
  * note: Not energy conserving by design: albedo 1 − 1/42 at r = 0 and above 1 at r = 1 (retro-reflection).
  */
 INLINE real diffuse_lobe(const Geometry g, const Surface s) {
-    return Fd_Burley(g.nl, g.nv, g.vh, s.alpha);
+    return RAW(s, TERM_FD, Fd_Burley(g.nl, g.nv, g.vh, s.alpha), FD_BURLEY_BOUND);
 }

@@ -10,7 +10,7 @@
  * deviation: the Beckmann normalisation is 1/(π m² cos⁴θ) as in the paper's text; the study's appendix writes 1/(4m²cos⁴θ). The lobe divides by 4(n·l)(n·v); the appendix's `(F*G*D)/4*NdotL*NdotV` multiplies by them through operator precedence.
  */
 INLINE vec3 specular_lobe(const Geometry g, const Surface s) {
-    real D = D_Beckmann(g.nh, g.sin2_nh, s.alpha);
-    real V = V_CookTorrance(g.nl, g.nv, g.nh, g.vh);
+    real D = RAW(s, TERM_D, D_Beckmann(g.nh, g.sin2_nh, s.alpha), D_BECKMANN_BOUND(s.alpha));
+    real V = RAW(s, TERM_V, V_CookTorrance(g.nl, g.nv, g.nh, g.vh), V_BOUND(g.nl, g.nv));
     return v3scale(fresnel(g, s), D * V);
 }

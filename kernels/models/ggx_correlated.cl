@@ -10,6 +10,7 @@
  * note: with F = 1 and α = 1 the albedo at normal incidence is 1 − ln 2.
  */
 INLINE vec3 specular_lobe(const Geometry g, const Surface s) {
-    real DV = dv_product(D_GGX_q(g.nh, g.sin2_nh, s.alpha), V_SmithGGXCorrelated_q(g.nl, g.nv, s.alpha));
-    return v3scale(fresnel(g, s), DV);
+    quotient D = RAW_Q(s, TERM_D, D_GGX_q(g.nh, g.sin2_nh, s.alpha), D_GGX_BOUND(s.alpha));
+    quotient V = RAW_Q(s, TERM_V, V_SmithGGXCorrelated_q(g.nl, g.nv, s.alpha), V_BOUND(g.nl, g.nv));
+    return v3scale(fresnel(g, s), dv_product(D, V));
 }

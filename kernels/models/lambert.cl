@@ -9,5 +9,5 @@
  * note: Energy conserving with albedo exactly 1 for a white surface.
  */
 INLINE real diffuse_lobe(const Geometry g, const Surface s) {
-    return Fd_Lambert();
+    return RAW(s, TERM_FD, Fd_Lambert(), CLSHADE_INV_PI);
 }

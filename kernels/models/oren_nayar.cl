@@ -10,5 +10,5 @@
  * deviation: none from the study's A/B approximation; evaluated without trigonometry (see Fd_OrenNayar in brdf.h). σ = 0 is exactly Lambert.
  */
 INLINE real diffuse_lobe(const Geometry g, const Surface s) {
-    return Fd_OrenNayar(g.nl, g.nv, g.lv, s.roughness);
+    return RAW(s, TERM_FD, Fd_OrenNayar(g.nl, g.nv, g.lv, s.roughness), FD_OREN_NAYAR_BOUND(g.nl, g.nv));
 }

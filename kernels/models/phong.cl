@@ -15,5 +15,5 @@
 INLINE vec3 specular_lobe(const Geometry g, const Surface s) {
     if (phong_lobe_is_zero(g.rv, s.shininess))      /* every lane exactly 0: skip the power */
         return v3s((real)(0.0f));
-    return v3s(Fs_Phong(g.rv, s.shininess));
+    return v3s(RAW(s, TERM_FS, Fs_Phong(g.rv, s.shininess), 1.0f));
 }

@@ -16,5 +16,5 @@ INLINE vec3 specular_lobe(const Geometry g, const Surface s) {
     if (phong_lobe_is_zero(g.rv, s.shininess))      /* every lane exactly 0: skip the power */
         return v3s((real)(0.0f));
     real norm = (s.shininess + 2.0f) * (0.5f * CLSHADE_INV_PI);
-    return v3s(norm * Fs_Phong(g.rv, s.shininess));
+    return v3s(norm * RAW(s, TERM_FS, Fs_Phong(g.rv, s.shininess), 1.0f));
 }

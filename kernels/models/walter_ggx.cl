@@ -10,6 +10,7 @@
  * deviation: the study's appendix uses Schlick's G1 with k = α/2 and the same k as the metallic blend; here G1 is Walter's exact Smith G1 (the k = α/2 shortcut is the separate model ggx_smith_schlick).
  */
 INLINE vec3 specular_lobe(const Geometry g, const Surface s) {
-    real DV = dv_product(D_GGX_q(g.nh, g.sin2_nh, s.alpha), V_SmithGGXSeparable_q(g.nl, g.nv, s.alpha));
-    return v3scale(fresnel(g, s), DV);
+    quotient D = RAW_Q(s, TERM_D, D_GGX_q(g.nh, g.sin2_nh, s.alpha), D_GGX_BOUND(s.alpha));
+    quotient V = RAW_Q(s, TERM_V, V_SmithGGXSeparable_q(g.nl, g.nv, s.alpha), V_BOUND(g.nl, g.nv));
+    return v3scale(fresnel(g, s), dv_product(D, V));
 }
