@@ -106,16 +106,19 @@ def build_shadow_maps(scene: Scene, geometry: Geometry) -> ShadowMaps | None:
 
 
 def shadow_visibility(shadows: ShadowMaps, points: np.ndarray, normals: np.ndarray, *,
-                      offset: tuple[float, float] = (0.0, 0.0)) -> np.ndarray:
+                      offset: tuple[float, float] = (0.0, 0.0), normal_offset: float | None = None,
+                      bias: float | None = None) -> np.ndarray:
     """(num_lights, K) fraction of PCF taps that see each light from the points (K, 3)
     with unit shading normals (K, 3), in float64, as the lookup of kernels/shadow.h is
     documented: the point moves texel · (radius + SHADOW_NORMAL_OFFSET_TEXELS) along its
     normal, its light-view depth less texel · SHADOW_BIAS_TEXELS is compared with each
     of the (2·radius + 1)² map texels around its projection; taps outside the map, and
     points behind a spot's projection centre, are lit. Lights without a map: 1.
-    `offset` moves the projection by that many texels (x right, y down)."""
+    `offset` moves the projection by that many texels (x right, y down). `normal_offset` and
+    `bias` (texels) default to shadow.h's; the float64 oracle passes its own (verify.reference)."""
     radius = shadows.pcf // 2
-    normal_offset, bias = constant("SHADOW_NORMAL_OFFSET_TEXELS"), constant("SHADOW_BIAS_TEXELS")
+    normal_offset = constant("SHADOW_NORMAL_OFFSET_TEXELS") if normal_offset is None else normal_offset
+    bias = constant("SHADOW_BIAS_TEXELS") if bias is None else bias
     size = shadows.size
     P = np.asarray(points, np.float64)
     n = np.asarray(normals, np.float64)

@@ -68,12 +68,11 @@ from typing import Callable, Iterator, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from clshade.models import NONE, Model, builtin_lobes
+from clshade.models import NONE, Model
 from clshade.render.gbuffer import GBuffer
 from clshade.render.scene import Camera, Scene
 from clshade.render.shadows import ShadowMaps, shadow_visibility as _map_visibility
 from clshade.render.transforms import pixel_rays
-from clshade.resources import constant
 from clshade.verify.quadrature import hemisphere_rule
 
 __all__ = [
@@ -134,12 +133,41 @@ DIELECTRIC_F0: float = 0.04
 
 INV_PI: float = 1.0 / math.pi
 
-# Lobe families from the one registry (clshade.models, read from kernels/models/*.cl);
-# this module holds the float64 formula of each lobe, not the list of lobes.
-DIFFUSE_MODELS: tuple[str, ...] = (*(k for k, v in builtin_lobes().items() if v.kind == "diffuse"), NONE)
-MICROFACET_MODELS: tuple[str, ...] = tuple(k for k, v in builtin_lobes().items() if v.family == "microfacet")
-EMPIRICAL_MODELS: tuple[str, ...] = tuple(k for k, v in builtin_lobes().items() if v.family == "empirical")
+# ---- what the oracle states on its own (never read from kernels/) ----------
+# The kernels' documented constants and model composition, written here so that a
+# wrong value on the kernel side is not inherited by the truth it is checked against;
+# tests/test_oracle_constants.py compares each with the kernels' (and the model
+# registry's) and fails on any difference, so a change on one side shows.
+
+# shade.cl MIN_LIGHT_DIST2: a point or spot light's squared distance is floored here
+# (a light on the surface shades finitely).
+MIN_LIGHT_DIST2: float = 1e-8
+# brdf.h MIN_ALPHA: the documented floor of α = r² (roughness below 0.01 renders as
+# 0.01); radiance() applies it unless given another alpha_floor.
+MIN_ALPHA: float = 1e-4
+# shadow.h: the shadow lookup moves the point (PCF radius + SHADOW_NORMAL_OFFSET_TEXELS)
+# texels along its normal and compares its depth less SHADOW_BIAS_TEXELS texels.
+SHADOW_NORMAL_OFFSET_TEXELS: float = 1.0
+SHADOW_BIAS_TEXELS: float = 0.5
+
+# The lobes with a float64 formula here, by family (kernels/models/*.cl declare kind and
+# family), and the lobes whose f_s carries a Fresnel factor (their `uses: fresnel`).
+DIFFUSE_MODELS: tuple[str, ...] = ("burley", "lambert", "oren_nayar", NONE)
+MICROFACET_MODELS: tuple[str, ...] = ("cook_torrance", "ggx_correlated", "ggx_smith_schlick", "walter_ggx")
+EMPIRICAL_MODELS: tuple[str, ...] = ("blinn_phong", "blinn_phong_normalized", "phong", "phong_normalized")
 SPECULAR_MODELS: tuple[str, ...] = EMPIRICAL_MODELS + MICROFACET_MODELS + ("none",)
+FRESNEL_LOBES: frozenset[str] = frozenset(MICROFACET_MODELS)
+
+
+_SHADOW_OFFSETS = dict(normal_offset=SHADOW_NORMAL_OFFSET_TEXELS, bias=SHADOW_BIAS_TEXELS)
+
+
+def uses_fresnel(model: Model) -> bool:
+    """Whether the model's specular lobe carries F (its k_d then takes F's share): stated here
+    for the built-in lobes; a user's lobe by its own declaration (it has no formula here)."""
+    if model.is_users:
+        return model.uses_fresnel
+    return model.specular in FRESNEL_LOBES
 
 _ERR = dict(divide="ignore", invalid="ignore", over="ignore", under="ignore")
 
@@ -846,7 +874,7 @@ def light_rays(scene: Scene, px: Pixels) -> Iterator[tuple[int, Array, Array]]:
     per light, in scene order: directional E = irradiance; point and spot
     E = intensity / r**2 (r**2 floored at the kernels' MIN_LIGHT_DIST2, a light on the
     surface), spot times :func:`spot_cone`."""
-    min_d2 = constant("MIN_LIGHT_DIST2")
+    min_d2 = MIN_LIGHT_DIST2
     for i, light in enumerate(scene.lights):
         colour = _f(light.color)
         if light.kind == "directional":
@@ -907,7 +935,7 @@ def ambient(model: Model, px: Pixels, A: ArrayLike) -> Array:
     else:
         ka, ks = np.ones_like(px.roughness), np.ones_like(px.roughness)
         colour = px.base * (1.0 - px.metallic)[:, None]
-        diffuse = colour * (1.0 - f0) if model.specular != NONE and model.uses_fresnel else colour
+        diffuse = colour * (1.0 - f0) if uses_fresnel(model) else colour
     out = _f(np.zeros(px.base.shape))
     if model.diffuse != NONE:
         out = out + diffuse
@@ -956,14 +984,14 @@ def radiance(
     ``dtype=np.float32`` is the NumPy baseline: the same code in single precision.
     """
     camera = scene.camera if camera is None else camera
-    alpha_floor = constant("MIN_ALPHA") if alpha_floor is None else alpha_floor
+    alpha_floor = MIN_ALPHA if alpha_floor is None else alpha_floor
     h, w = gbuffer.height, gbuffer.width
     with precision(dtype):
         px = pixels(gbuffer, camera)
         if visibility is not None:
             vis = _f(visibility).reshape(len(scene.lights), -1)[:, px.index]
         else:   # looked up here (or unshadowed): the same as visibility(gbuffer, scene, shadows, camera)
-            vis = None if shadows is None else _f(_map_visibility(shadows, px.P, px.n))
+            vis = None if shadows is None else _f(_map_visibility(shadows, px.P, px.n, **_SHADOW_OFFSETS))
         args = surface_args(model, px.base, px.roughness, px.metallic, px.material, alpha_floor)
         L = _f(np.zeros((len(px.index), 3)))
         for i, l, E in light_rays(scene, px):
@@ -1007,5 +1035,5 @@ def visibility(gbuffer: GBuffer, scene: Scene, shadows: ShadowMaps | None, camer
     camera = scene.camera if camera is None else camera
     px = pixels(gbuffer, camera)
     out = np.ones((len(scene.lights), gbuffer.pixels))
-    out[:, px.index] = _map_visibility(shadows, px.P, px.n, offset=offset)
+    out[:, px.index] = _map_visibility(shadows, px.P, px.n, offset=offset, **_SHADOW_OFFSETS)
     return out.reshape(len(scene.lights), gbuffer.height, gbuffer.width)
