@@ -18,6 +18,7 @@ sys.path.insert(0, str(ROOT))
 
 from clshade.verify import accuracy as A  # noqa: E402
 from clshade.device.runtime import get_runtime  # noqa: E402
+from clshade.provenance import stamp  # noqa: E402
 
 OUT = ROOT / "benchmarks" / "results" / "accuracy.json"
 
@@ -49,6 +50,7 @@ def main() -> int:
     start = time.perf_counter()
     doc = measure(args.samples)
     doc["seconds"] = round(time.perf_counter() - start, 1)
+    doc = stamp(doc, doc["device"])
     Path(args.out).write_text(json.dumps(doc, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
     print(f"wrote {args.out} in {doc['seconds']} s; render docs/accuracy.md with: python benchmarks/publish.py")
     return 0

@@ -36,6 +36,7 @@ sys.path.insert(0, str(ROOT))
 from clshade import models  # noqa: E402
 from clshade.pipeline import Timings, prepare_frame  # noqa: E402
 from clshade.device.runtime import get_runtime  # noqa: E402
+from clshade.provenance import stamp  # noqa: E402
 from clshade.render.scene import parse_scene  # noqa: E402
 from clshade.device.shade import Shader, scene_features  # noqa: E402
 
@@ -200,6 +201,7 @@ def main(argv: list[str] | None = None) -> int:
         "build_s": round(build_s, 1), "total_s": round(time.perf_counter() - started, 1),
     }
     args.out.mkdir(parents=True, exist_ok=True)
+    result = stamp(result, get_runtime().info.description)
     (args.out / "effects.json").write_text(json.dumps(result, indent=2) + "\n")
     print(f"wrote {args.out / 'effects.json'}; render effects.md with: python benchmarks/publish.py")
     return 0

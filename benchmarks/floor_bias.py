@@ -16,6 +16,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from clshade.device.runtime import get_runtime  # noqa: E402
+from clshade.provenance import stamp  # noqa: E402
 from clshade.verify.bias import floor_bias  # noqa: E402
 
 OUT = ROOT / "benchmarks" / "results" / "floor_bias.json"
@@ -28,6 +29,7 @@ def main() -> int:
     doc = dict(schema=1, created=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
                command="python benchmarks/floor_bias.py", device=rt.info.device,
                seconds=round(time.perf_counter() - start, 1), floors=rows)
+    doc = stamp(doc, rt.info.description)
     OUT.write_text(json.dumps(doc, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
     print(f"wrote {OUT} in {doc['seconds']} s")
     return 0

@@ -29,6 +29,8 @@ from clshade.compare import compare_sheet, sweep_sheet, write_sheet  # noqa: E40
 from clshade.device.evaluate import Samples, constant_materials, eval_brdf  # noqa: E402
 from clshade.models import GROUPS, preset, resolve, resolve_many  # noqa: E402
 from clshade.resources import kernels_dir  # noqa: E402
+from clshade.device.runtime import get_runtime  # noqa: E402
+from clshade.provenance import stamp  # noqa: E402
 
 OUT = ROOT / "benchmarks"
 IMAGES = OUT / "report"
@@ -201,6 +203,7 @@ def main() -> int:
     doc["noise"] = dict(model=NOISE_MODEL, mean_ms=[next(r["mean_ms"] for r in rows if r["model"] == resolve(NOISE_MODEL).id)]
                         + [r["mean_ms"] for r in noise_rows])
     doc["seconds"] = round(time.perf_counter() - start, 1)
+    doc = stamp(doc, get_runtime().info.description)
     (IMAGES / "report.json").write_text(json.dumps(doc, indent=2, ensure_ascii=False, default=float), encoding="utf-8")
     print(f"wrote {IMAGES}/report.json and images in {time.perf_counter() - start:.0f} s; "
           "render benchmarks/REPORT.md with: python benchmarks/publish.py")

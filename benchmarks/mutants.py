@@ -28,6 +28,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+from clshade.provenance import stamp  # noqa: E402
 OUT = ROOT / "benchmarks" / "results" / "mutants.json"
 COPY_IGNORE = shutil.ignore_patterns(".venv", ".git", "__pycache__", "*.egg-info", "build", "dist",
                                      ".pytest_cache", ".hypothesis", "out")
@@ -631,6 +633,7 @@ def write_results(out: Path, results: list[dict], chosen: list[Mutant], previous
                killed=sum(r["status"] == "killed" for r in rows),
                survived=sum(r["status"] == "survived" for r in rows),
                not_run=sum(r["status"] == "not run" for r in rows), mutants=rows)
+    doc = stamp(doc)             # the suites ran on the host (PoCL CPU)
     out.write_text(json.dumps(doc, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
     return doc
 

@@ -40,6 +40,7 @@ try:
 except ImportError:  # running from a checkout without installing
     sys.path.insert(0, str(ROOT))
     from clshade.render.raster import rasterize
+from clshade.provenance import stamp  # noqa: E402
 from clshade.render.gbuffer import build_gbuffer  # noqa: E402
 from clshade.render.meshes import Geometry  # noqa: E402
 from clshade.render.scene import parse_scene  # noqa: E402
@@ -219,6 +220,7 @@ def main(argv=None) -> None:
     if not args.no_memory:
         data["memory"] = bench_memory(args.width, args.height)
     args.out.parent.mkdir(parents=True, exist_ok=True)
+    data = stamp(data)            # the NumPy rasterizer: measured on the host CPU
     args.out.write_text(json.dumps(data, indent=2) + "\n")
     print(f"wrote {args.out}; render the Markdown with: python benchmarks/publish.py")
 

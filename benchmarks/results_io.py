@@ -9,6 +9,8 @@ import time
 from pathlib import Path
 from typing import Callable
 
+from clshade.provenance import stamp
+
 
 def machine() -> dict:
     """CPU model, core count, memory, Python, device and the load average now."""
@@ -22,12 +24,14 @@ def machine() -> dict:
 
 
 def publish(out: Path, measure: Callable[[], dict], markdown: Callable[[dict], str], markdown_only: bool) -> dict:
-    """Measure (unless `markdown_only`: re-read `out`), write `out` (JSON, with date and machine)
+    """Measure (unless `markdown_only`: re-read `out`), write `out` (JSON, with date, machine and provenance)
     and the Markdown rendered from it beside it (.md)."""
     if markdown_only:
         doc = json.loads(out.read_text(encoding="utf-8"))
     else:
-        doc = {"date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "machine": machine(), **measure()}
+        host = machine()
+        doc = stamp({"date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "machine": host, **measure()},
+                    host["device"])
         out.write_text(json.dumps(doc, indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
     out.with_suffix(".md").write_text(markdown(doc), encoding="utf-8")
     print(f"wrote {out} and {out.with_suffix('.md')}")

@@ -646,6 +646,7 @@ def cmd_aa(args: argparse.Namespace) -> int:
     from clshade.models import resolve_many
     from clshade.outputs import write_text_atomic
     from clshade.render.scene import load_scene
+    from clshade.provenance import stamp
     from clshade.report import aa_markdown, plot_aa
     from clshade.resources import scenes_dir
     scene = args.scene or str(scenes_dir() / "aa_spheres.toml")
@@ -664,6 +665,7 @@ def cmd_aa(args: argparse.Namespace) -> int:
     doc["command"] = " ".join(["clshade aa", args.scene or "scenes/aa_spheres.toml",
                                *(f"--{k} {v}" for k, v in opts.items() if v is not None), "-o", args.output])
     prefix = Path(args.output)
+    doc = stamp(doc, doc["device"]["name"] if isinstance(doc.get("device"), dict) else None)
     write_text_atomic(prefix.with_name(prefix.name + ".json"), json.dumps(doc, indent=2, ensure_ascii=False))
     text = aa_markdown(doc)
     write_text_atomic(prefix.with_name(prefix.name + ".md"), text)

@@ -45,6 +45,7 @@ from typing import Callable
 
 import numpy as np
 
+from clshade.provenance import stamp
 from clshade import __version__
 from clshade.bench import bandwidth, frame as whole, peers as peer_mod
 from clshade.device.runtime import CACHED_STORES, INLINE_MATH, LIBRARY_MATH, NO_PREFETCH, Runtime, healthy_devices
@@ -584,6 +585,7 @@ def main(argv: list[str] | None = None) -> int:
     doc = run(a.scene, a.width, a.height, a.rounds, a.warmup, a.frame_scene, a.frame_frames,
               tuple(p for p in a.peers.split(",") if p))
     doc["command"] = "python -m clshade.bench.perf " + " ".join(argv if argv is not None else __import__("sys").argv[1:])
+    doc = stamp(doc)             # PoCL CPU and the NumPy/Numba/Dr.Jit peers: the host's CPU
     out.with_suffix(".json").write_text(json.dumps(doc, indent=2, ensure_ascii=False), encoding="utf-8")
     out.with_suffix(".md").write_text(markdown(doc), encoding="utf-8")
     print(markdown(doc))

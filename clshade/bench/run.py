@@ -27,6 +27,7 @@ from typing import Callable
 import numpy as np
 
 from clshade import __version__
+from clshade.provenance import stamp
 from clshade.bench.numpy_baseline import NUMPY_THREADS, shade_numpy
 from clshade.device.runtime import Runtime, get_runtime
 from clshade.device.shade import Shader, scene_features
@@ -360,7 +361,7 @@ def report(bench: Bench, rows: list[dict], frames: int, warmup: int, ladder: lis
            numpy_frames: int = NUMPY_FRAMES) -> dict:
     """The JSON document (docs/bench-schema.md)."""
     fr = bench.frame
-    return dict(schema=SCHEMA, clshade_version=__version__, created=time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+    return stamp(dict(schema=SCHEMA, clshade_version=__version__, created=time.strftime("%Y-%m-%dT%H:%M:%S%z"),
                 **machine_info(bench.runtime),
                 scene=str(fr.scene.path) if fr.scene.path else None, width=fr.camera.width // fr.scene.samples,
                 height=fr.camera.height // fr.scene.samples, samples=fr.scene.samples,
@@ -370,7 +371,7 @@ def report(bench: Bench, rows: list[dict], frames: int, warmup: int, ladder: lis
                 frames=frames, warmup=warmup, numpy_frames=numpy_frames, features=dataclasses.asdict(bench.features),
                 error_definition=f"|L - L_ref| / max(|L_ref|, {REL_ERROR_FLOOR:g} * peak(L_ref)), "
                                  "largest channel per covered pixel with n.v > MIN_N_DOT_V, L_ref float64 (clshade.verify.reference.radiance)",
-                models=rows, ladder=ladder or [])
+                models=rows, ladder=ladder or []), bench.runtime.info.description)
 
 
 

@@ -9,7 +9,7 @@ directional light of irradiance E = 1. The camera looks along −v with a field 
 view of 1e-20 degrees, so every pixel sees the same v (to ~1e-21) and n·l = l_z,
 n·v = v_z are exact in float32. The pixels differ in roughness and metallic. The
 float64 reference radiance is f₆₄ · max(n·l, 0) · E with f₆₄ from
-:func:`clshade.verify.stability.reference_f` on the same float32 inputs. For each
+:func:`clshade.verify.torture.reference_f` on the same float32 inputs. For each
 floor the cases are the inputs where it acts; the bias is the largest radiance
 error per unit irradiance |L₃₂ − L₆₄| / E there (and the relative error beside it).
 
@@ -32,7 +32,7 @@ from clshade.models import Model, preset, resolve
 from clshade.render.gbuffer import GBuffer, material_row
 from clshade.render.scene import Camera, Light, Material, Scene
 from clshade.verify import reference as R
-from clshade.verify.stability import reference_f
+from clshade.verify.torture import reference_f
 
 # Field of view of the measuring camera: every pixel's view ray is the camera axis to ~1e-21, far below the
 # smallest cosine measured (4e-16), while cam_right/cam_up (∝ tan(fov/2)) stay normal float32 numbers.

@@ -52,10 +52,13 @@ from clshade.device import counts
 from clshade.device.evaluate import Samples, eval_brdf, eval_brdf_counted
 from clshade.device.runtime import Runtime, get_runtime
 from clshade.models import FRESNELS, NONE, WORKFLOWS, Model, presets, user_models
+from clshade.provenance import stamp
 from clshade.resources import constant
 from clshade.verify import reference as R
+from clshade.verify.bias import floor_bias
 from clshade.verify.torture import (COSINE_GRID, IOR_GRID, LIGHT_INTENSITIES, NORMAL_SCALES, ROUGHNESS_GRID,
-                                    SHININESS_GRID, DENORMAL, Grid, _dirs, build_samples, geometry_grid, shade_normals)
+                                    SHININESS_GRID, DENORMAL, Grid, _dirs, _f32, build_samples, geometry_grid,
+                                    reference_f, shade_normals)
 
 # Values the kernel floors (kernels/brdf.h), read from there; used to label where a clamp is active.
 MIN_ALPHA = constant("MIN_ALPHA")
@@ -72,22 +75,7 @@ DEVIATION_FLOOR = 1e-3
 PRECISE_TOLERANCE = 1e-3
 
 
-# ------------------------------------------------------------- the reference
-
-
-def _f32(x: np.ndarray) -> np.ndarray:
-    return np.asarray(x, np.float32).astype(np.float64)
-
-
-def reference_f(model: Model, s: Samples, alpha_floor: float = MIN_ALPHA) -> np.ndarray:
-    """float64 f of the float32-rounded inputs: the frame oracle's composition
-    (reference.surface_args + reference.brdf), true cosines, any Fresnel and f90."""
-    n, l, v = _f32(s.n), _f32(s.l), _f32(s.v)
-    if model.is_users:       # no formula in Python: the lobe's own float64 build
-        return R.device_f64(model, n, l, v, s.base, s.roughness, s.metallic, s.materials)
-    args = R.surface_args(model, _f32(s.base), _f32(s.roughness), _f32(s.metallic), _f32(s.materials), alpha_floor)
-    with np.errstate(all="ignore"):
-        return R.brdf(model.diffuse, model.specular, n, l, v, **args)
+# ------------------------------------------------------------- the inputs
 
 
 def distinct_inputs(*columns: np.ndarray) -> int:
@@ -314,7 +302,6 @@ def _oracle_deviation(model: Model, gb, scene, camera, raw: np.ndarray) -> tuple
 def clamp_bias(rt: Runtime) -> list[dict[str, Any]]:
     """Bias of each named floor of brdf.h where it acts: the one measurement,
     clshade.verify.bias.floor_bias (through the shade kernel, precise build)."""
-    from clshade.verify.bias import floor_bias   # bias.py uses reference_f from this module
     return floor_bias(rt)
 
 
@@ -429,7 +416,7 @@ class Report:
     def as_dict(self) -> dict[str, Any]:
         from dataclasses import asdict
         shading = [{**asdict(s), "nonfinite": s.nonfinite} for s in self.shading]
-        return dict(ok=self.ok, failures=self.failures(), cases=self.cases, builds=self.builds,
+        return stamp(dict(ok=self.ok, failures=self.failures(), cases=self.cases, builds=self.builds,
                     distinct_inputs=self.distinct_inputs(), nonfinite=self.nonfinite, negative=self.negative,
                     raw_terms=self.terms(), precise_tolerance=PRECISE_TOLERANCE,
                     raw_radiance=dict(nan=sum(s.nan for s in self.shading), inf=sum(s.inf for s in self.shading),
@@ -450,7 +437,7 @@ class Report:
                                          "IOR 3 with f90 0; gold conductor",
                         deviation="|f32 − f64| / max(|f64|, %g), reference alpha_floor = %g" % (DEVIATION_FLOOR, MIN_ALPHA)),
                     models=[asdict(r) for r in self.results], shading=shading,
-                    clamps=self.clamps, continuity=self.continuity)
+                    clamps=self.clamps, continuity=self.continuity), self.device)
 
 
 def run(models: list[Model] | None = None, device: str | None = None, runtime: Runtime | None = None,

@@ -16,6 +16,7 @@ import numpy as np
 from clshade.device.evaluate import Samples
 from clshade.models import Model
 from clshade.render.scene import GOLD_ETA, GOLD_K
+from clshade.verify import reference as R
 
 ROUGHNESS_GRID: tuple[float, ...] = (0.0, 1e-8, 1e-4, 0.002, 0.045, 0.5, 1.0)
 SHININESS_GRID: tuple[float, ...] = (0.0, 1.0, 1e4, 1e6)
@@ -156,3 +157,21 @@ def shade_normals() -> np.ndarray:
     special = np.array([[0, 0, 1], [0, 0, -1], [1, 0, 0], [0, 1, 0], [1, 1, 1], [0, 0, 1e3], [0, 0, 1e-3],
                         [0, 0, 1e-39], [0, 0, 0], [DENORMAL, DENORMAL, 1.0], [1e-7, 0, 1], [1, 0, 1e-7]], float)
     return np.concatenate([sphere, special])
+
+
+# ------------------------------------------------ the reference of the grid
+
+
+def _f32(x: np.ndarray) -> np.ndarray:
+    return np.asarray(x, np.float32).astype(np.float64)
+
+
+def reference_f(model: Model, s: Samples, alpha_floor: float = R.MIN_ALPHA) -> np.ndarray:
+    """float64 f of the float32-rounded inputs: the frame oracle's composition
+    (reference.surface_args + reference.brdf), true cosines, any Fresnel and f90."""
+    n, l, v = _f32(s.n), _f32(s.l), _f32(s.v)
+    if model.is_users:       # no formula in Python: the lobe's own float64 build
+        return R.device_f64(model, n, l, v, s.base, s.roughness, s.metallic, s.materials)
+    args = R.surface_args(model, _f32(s.base), _f32(s.roughness), _f32(s.metallic), _f32(s.materials), alpha_floor)
+    with np.errstate(all="ignore"):
+        return R.brdf(model.diffuse, model.specular, n, l, v, **args)

@@ -1,0 +1,87 @@
+"""Is each published result measured on the code that produces it now?
+
+Every results JSON names the commit it was measured on (its "provenance", written by
+clshade.provenance.stamp; a file written before that existed counts as measured at the
+commit that last changed the file). A result is *stale* when a later commit changed the
+code that produced it: the kernels or its measuring module (PRODUCERS). tests/test_freshness.py
+fails on a stale result.
+
+    python benchmarks/freshness.py      # list every result: fresh, or the commits since
+"""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+RESULTS = Path("benchmarks") / "results"
+
+# results file → the code that produced it (paths relative to the repository root).
+PRODUCERS: dict[str, tuple[str, ...]] = {
+    "stability.json": ("kernels", "clshade/verify/stability.py", "clshade/verify/torture.py",
+                       "clshade/verify/bias.py", "clshade/device/evaluate.py", "clshade/device/counts.py"),
+    "floor_bias.json": ("kernels", "clshade/verify/bias.py", "benchmarks/floor_bias.py"),
+    "accuracy.json": ("kernels", "clshade/verify/accuracy.py", "benchmarks/accuracy_table.py"),
+    "bench_1080p.json": ("kernels", "clshade/bench/run.py", "benchmarks/run_bench.py"),
+    "perf_1080p.json": ("kernels", "clshade/bench/perf.py", "clshade/bench/bandwidth.py"),
+    "effects.json": ("kernels", "benchmarks/effects_bench.py"),
+    "aa.json": ("kernels", "clshade/bench/aa.py"),
+    "host_ab.json": ("benchmarks/host_ab.py",),
+    "memory.json": ("benchmarks/memory_bench.py",),
+    "startup.json": ("benchmarks/startup_bench.py",),
+    "raster.json": ("clshade/render/raster.py", "benchmarks/raster_bench.py"),
+    "mutants.json": ("benchmarks/mutants.py", "kernels", "clshade", "tests"),
+}
+
+
+def git(root: Path, *args: str) -> str | None:
+    proc = subprocess.run(["git", "-C", str(root), *args], capture_output=True, text=True)
+    return proc.stdout.strip() if proc.returncode == 0 else None
+
+
+def measured_commit(root: Path, result: Path) -> str | None:
+    """The commit the result names; else the commit that last changed the file; None if neither."""
+    doc = json.loads((root / result).read_text(encoding="utf-8"))
+    recorded = (doc.get("provenance") or {}).get("commit") if isinstance(doc, dict) else None
+    return recorded or git(root, "log", "-1", "--format=%H", "--", str(result)) or None
+
+
+def changes_since(root: Path, commit: str, code: tuple[str, ...]) -> list[str] | None:
+    """Commits after `commit` (up to HEAD) that changed `code`, newest first; None when `commit`
+    is not in this checkout's history (a shallow clone: unknown)."""
+    if git(root, "cat-file", "-e", f"{commit}^{{commit}}") is None:
+        return None
+    out = git(root, "rev-list", f"{commit}..HEAD", "--", *code)
+    return out.split() if out else []
+
+
+def staleness(root: Path = ROOT, producers: dict[str, tuple[str, ...]] = PRODUCERS,
+              results: Path = RESULTS) -> dict[str, list[str] | None]:
+    """Each existing result → the commits that changed its code since it was measured
+    ([] = fresh; None = unknown: no commit recorded or not in the history)."""
+    out: dict[str, list[str] | None] = {}
+    for name, code in producers.items():
+        if not (root / results / name).exists():
+            continue
+        commit = measured_commit(root, results / name)
+        out[name] = changes_since(root, commit, code) if commit else None
+    return out
+
+
+def main() -> int:
+    stale = 0
+    for name, since in staleness().items():
+        if since is None:
+            print(f"unknown  {name}")
+        elif since:
+            stale += 1
+            print(f"STALE    {name}: {len(since)} later commit(s) changed its code, newest {since[0][:10]}")
+        else:
+            print(f"fresh    {name}")
+    return 1 if stale else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
