@@ -2,10 +2,17 @@
 
 Each mutant of the catalogue is (file, exact original snippet, replacement, description). For every mutant
 the script copies the repository (its committed HEAD) to a temporary folder, applies the one edit (a snippet that is not found
-exactly once is an error: the catalogue must track the code), and runs the test suite there, fail-fast,
-with PYTHONPATH pointing at the copy: the copy's Python code and the copy's kernels are the ones used
-(the run checks that clshade.resources.kernels_dir() lies inside the copy; PoCL caches binaries by source,
-so a mutated kernel is compiled afresh). Killed = the suite failed; survived = it passed.
+exactly once is an error: the catalogue must track the code), and runs the whole test suite there (no fail-fast:
+every failing test is listed), with PYTHONPATH pointing at the copy: the copy's Python code and the copy's kernels
+are the ones used (the run checks that clshade.resources.kernels_dir() lies inside the copy; PoCL caches binaries
+by source, so a mutated kernel is compiled afresh).
+
+Each kill is classified (KILL_CLASSES) from its failing tests (benchmarks/mutant_plugin.py records them with
+their markers): *behavioural* when some failing test checks behaviour; else *compile error* (the mutated kernel
+does not build), *collection error*, *snapshot* (only tests marked `snapshot`: output compared with a committed
+file the same code wrote), *text* (only tests marked `text`: a string searched in source, docs or binaries) or
+*needs extra* (only tests marked `extra`, which run only where an optional package is installed). The headline
+counts behavioural kills only.
 
     python benchmarks/mutants.py [--jobs 2] [--only NAME,...] [--json benchmarks/results/mutants.json]
 
@@ -33,7 +40,7 @@ from clshade.provenance import stamp  # noqa: E402
 OUT = ROOT / "benchmarks" / "results" / "mutants.json"
 COPY_IGNORE = shutil.ignore_patterns(".venv", ".git", "__pycache__", "*.egg-info", "build", "dist",
                                      ".pytest_cache", ".hypothesis", "out")
-TEST_TIMEOUT_S = 900
+TEST_TIMEOUT_S = 1800     # the whole suite (no fail-fast), 2 at a time on 2 shared cores
 
 
 @dataclass(frozen=True)
@@ -552,14 +559,48 @@ def test_order(root: Path, mutant: Mutant) -> list[str]:
     return [str(f.relative_to(root)) for f in first + [f for f in files if f not in first]]
 
 
+KILL_CLASSES = ("behavioural", "compile error", "collection error", "snapshot", "text", "needs extra")
+
+
+def classify(failures: list[dict], returncode: int | None) -> str:
+    """The kill class of one mutant from its failing tests (mutant_plugin records), or
+    'survived' / 'timeout'."""
+    if returncode == -1:
+        return "timeout"
+    if not failures:
+        return "survived" if returncode in (0, 5) else "collection error"
+    def one(f: dict) -> str:
+        if f["when"] == "collect":
+            return "collection error"
+        if f["build_failed"]:
+            return "compile error"
+        for marker, cls in (("snapshot", "snapshot"), ("text", "text"), ("extra", "needs extra")):
+            if marker in f["markers"]:
+                return cls
+        return "behavioural"
+    found = {one(f) for f in failures}
+    return next(c for c in KILL_CLASSES if c in found)
+
+
+def installed_extras(python: str) -> dict[str, bool]:
+    """Which optional packages the suite's interpreter has (tests marked `extra` need them)."""
+    code = ("import importlib.util, json; print(json.dumps({m: importlib.util.find_spec(m) is not None "
+            "for m in ('matplotlib', 'numba', 'drjit')}))")
+    proc = subprocess.run([python, "-c", code], capture_output=True, text=True)
+    return json.loads(proc.stdout) if proc.returncode == 0 else {}
+
+
 def run_one(mutant: Mutant, python: str, base: Path) -> dict:
-    """Copy the snapshot `base`, apply the mutant, run the suite there fail-fast."""
+    """Copy the snapshot `base`, apply the mutant, run the whole suite there; every failing test
+    is recorded and the kill classified."""
     start = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix=f"mutant-{mutant.name}-") as tmp:
         copy = Path(tmp) / "repo"
         shutil.copytree(base, copy)
         apply(copy, mutant)
-        env = dict(os.environ, PYTHONPATH=str(copy), PYTHONDONTWRITEBYTECODE="1", CLSHADE_MUTANT=mutant.name)
+        report = Path(tmp) / "failures.json"
+        env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(copy), str(copy / "benchmarks")]),
+                   PYTHONDONTWRITEBYTECODE="1", CLSHADE_MUTANT=mutant.name, CLSHADE_MUTANT_REPORT=str(report))
         env.pop("CLSHADE_EXPECT_INSTALLED", None)
         where = subprocess.run([python, "-c", "import clshade.resources as r; print(r.kernels_dir())"],
                                cwd=copy, env=env, capture_output=True, text=True)
@@ -568,16 +609,17 @@ def run_one(mutant: Mutant, python: str, base: Path) -> dict:
             raise SystemExit(f"mutant {mutant.name}: the copy's kernels are not the ones used ({kernels!r} "
                              f"{where.stderr.strip()})")
         try:
-            proc = subprocess.run([python, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider",
+            proc = subprocess.run([python, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-p", "mutant_plugin",
                                    *test_order(copy, mutant)],
                                   cwd=copy, env=env, capture_output=True, text=True, timeout=TEST_TIMEOUT_S)
             rc, tail = proc.returncode, proc.stdout.strip().splitlines()
         except subprocess.TimeoutExpired:
             rc, tail = -1, ["timeout"]
-    failed = [line for line in tail if line.startswith("FAILED") or line.startswith("ERROR")]
+        failures = json.loads(report.read_text(encoding="utf-8")) if report.exists() else []
+    kill = classify(failures, rc)
     return dict(name=mutant.name, file=mutant.file, description=mutant.description,
-                status="killed" if rc not in (0, 5) else "survived", returncode=rc,
-                killed_by=failed[0].split(" - ")[0].removeprefix("FAILED ").removeprefix("ERROR ") if failed else "",
+                status="killed" if kill not in ("survived", "timeout") else kill, kill_class=kill, returncode=rc,
+                failing_tests=[dict(test=f["test"], kind=classify([f], 1)) for f in failures],
                 seconds=round(time.perf_counter() - start, 1), summary=tail[-1] if tail else "")
 
 
@@ -605,10 +647,13 @@ def main(argv: list[str] | None = None) -> int:
         for res in pool.map(lambda m: run_one(m, sys.executable, base), chosen):
             res["commit"] = commit
             results.append(res)
-            print(f"{res['status']:8s} {res['name']:24s} {res['seconds']:6.1f} s  {res['killed_by']}", flush=True)
+            first = res["failing_tests"][0]["test"] if res["failing_tests"] else ""
+            print(f"{res['kill_class']:16s} {res['name']:28s} {res['seconds']:6.1f} s  "
+                  f"{len(res['failing_tests'])} failing  {first}", flush=True)
             write_results(out, results, chosen, previous, commit, time.perf_counter() - start)
     doc = write_results(out, results, chosen, previous, commit, time.perf_counter() - start)
-    print(f"{doc['killed']}/{doc['total']} killed; wrote {out}")
+    print(f"{doc['behavioural']}/{doc['total']} killed by a behavioural test ({doc['killed']} killed in all: "
+          f"{doc['kill_classes']}); wrote {out}")
     return 0
 
 
@@ -618,7 +663,8 @@ def write_results(out: Path, results: list[dict], chosen: list[Mutant], previous
     run not measured yet are listed as 'not run'. A partial --only run updates its rows of the previous file."""
     done = {r["name"] for r in results}
     rows = results + [dict(name=m.name, file=m.file, description=m.description, status="not run", returncode=None,
-                           killed_by="", seconds=0.0, summary="", commit=None) for m in chosen if m.name not in done]
+                           kill_class="not run", failing_tests=[], seconds=0.0, summary="", commit=None)
+                      for m in chosen if m.name not in done]
     if previous:   # each row keeps its commit
         by_name = {r["name"]: {"commit": previous.get("commit"), **r} for r in previous["mutants"]}
         by_name.update({r["name"]: r for r in rows if r["status"] != "not run" or r["name"] not in by_name})
@@ -626,13 +672,19 @@ def write_results(out: Path, results: list[dict], chosen: list[Mutant], previous
     else:
         order = {m.name: i for i, m in enumerate(CATALOGUE)}
         rows.sort(key=lambda r: order[r["name"]])
-    doc = dict(schema=1, created=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+    doc = dict(schema=2, created=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
                machine=f"{platform.node()} {platform.machine()}", command="python benchmarks/mutants.py",
                commit=commit, commits=sorted({r.get("commit") or "" for r in rows if r.get("commit")}),
                seconds=round(seconds, 1), total=len(rows),
                killed=sum(r["status"] == "killed" for r in rows),
                survived=sum(r["status"] == "survived" for r in rows),
-               not_run=sum(r["status"] == "not run" for r in rows), mutants=rows)
+               not_run=sum(r["status"] == "not run" for r in rows),
+               # the headline: kills by a test of behaviour; rows of schema-1 runs (first failing test only,
+               # no class) are counted apart as unclassified
+               behavioural=sum(r.get("kill_class") == "behavioural" for r in rows),
+               kill_classes={c: sum(r.get("kill_class") == c for r in rows) for c in KILL_CLASSES},
+               unclassified=sum(r["status"] == "killed" and "kill_class" not in r for r in rows),
+               extras=installed_extras(sys.executable), mutants=rows)
     doc = stamp(doc)             # the suites ran on the host (PoCL CPU)
     out.write_text(json.dumps(doc, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
     return doc

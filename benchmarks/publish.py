@@ -464,20 +464,43 @@ def render_view(doc: dict[str, Any]) -> str:
 
 
 def render_mutants(doc: dict[str, Any]) -> str:
+    """mutants.md: the behavioural kills as the headline, every kill's class and failing tests."""
+    rows = doc["mutants"]
+    classes = doc.get("kill_classes") or {}
+    behavioural = sum(m.get("kill_class") == "behavioural" for m in rows)
+    unclassified = sum(m["status"] == "killed" and "kill_class" not in m for m in rows)
+    others = ", ".join(f"{n} {c}" for c, n in classes.items() if n and c != "behavioural")
+    commits = sorted({(m.get("commit") or doc.get("commit") or "")[:10] for m in rows if m["status"] != "not run"})
+    extras = doc.get("extras") or {}
     out = ["# Mutation testing", "",
-           f"Rendered by `python benchmarks/publish.py` from benchmarks/results/mutants.json (measured "
-           f"{doc['created']} (last update) on {doc['machine']} by `{doc['command']}`; the mutants' suites ran "
-           f"{sum(m['seconds'] for m in doc['mutants']):.0f} s in all, 2 at a time, on the shared machine): "
-           f"**{doc['killed']} of {doc['total']} mutants killed**, {doc['survived']} survived"
-           f"{', ' + str(doc['not_run']) + ' not run (the run was stopped)' if doc.get('not_run') else ''}. Each mutant is one "
-           "small semantic bug (catalogue in benchmarks/mutants.py) applied to a copy of the repository; the test "
-           "suite runs there fail-fast; killed = a test failed.", "",
-           "| mutant | file | bug | status | first failing test | commit |", "|---|---|---|---|---|---|"]
-    for m in doc["mutants"]:
-        status = {"killed": "killed", "survived": "**survived**"}.get(m["status"], m["status"])
+           f"Rendered by `python benchmarks/publish.py` from benchmarks/results/mutants.json (last update "
+           f"{doc['created']} on {doc['machine']} by `{doc['command']}`; the mutants' suites ran "
+           f"{sum(m['seconds'] for m in rows):.0f} s in all, 2 at a time, on the shared machine; rows measured on "
+           f"{len(commits)} commit(s): {', '.join(commits) or '–'}).", "",
+           f"**{behavioural} of {doc['total']} mutants killed by a behavioural test.** "
+           f"Killed otherwise: {others or 'none'}; {doc['survived']} survived"
+           f"{', ' + str(doc['not_run']) + ' not run' if doc.get('not_run') else ''}"
+           f"{'; ' + str(unclassified) + ' killed in an older run that recorded neither every failing test nor the kill class (unclassified: not counted above)' if unclassified else ''}. "
+           "Each mutant is one small semantic bug (catalogue in benchmarks/mutants.py) applied to a copy of the "
+           "repository; the whole suite runs there and every failing test is listed. A kill is behavioural when "
+           "some failing test checks behaviour; tests marked `snapshot` (output vs a committed file the same code "
+           "wrote), `text` (a string searched in source, docs or binaries) or `extra` (needs an optional package) "
+           "do not count, nor does a mutated kernel that fails to compile."
+           + (f" Optional packages present in the run: {', '.join(k for k, v in extras.items() if v) or 'none'}"
+              f"{'; absent: ' + ', '.join(k for k, v in extras.items() if not v) if not all(extras.values()) else ''}."
+              if extras else ""), "",
+           "| mutant | file | bug | kill | failing tests | commit |", "|---|---|---|---|---|---|"]
+    for m in rows:
+        kill = m.get("kill_class") or ("killed (unclassified)" if m["status"] == "killed" else m["status"])
+        kill = "**survived**" if kill == "survived" else kill
+        tests = m.get("failing_tests")
+        if tests is None:
+            shown = f"first: {m.get('killed_by') or '–'}"
+        else:
+            shown = f"{len(tests)}: " + "; ".join(f"{f['test']} ({f['kind']})" for f in tests[:3]) \
+                + (f"; … {len(tests) - 3} more" if len(tests) > 3 else "") if tests else "–"
         commit = (m.get("commit") or doc.get("commit") or "")[:10]
-        out.append(f"| {m['name']} | {m['file']} | {_cell(m['description'])} | {status} | {m['killed_by'] or '–'} | "
-                   f"{commit} |")
+        out.append(f"| {m['name']} | {m['file']} | {_cell(m['description'])} | {kill} | {_cell(shown)} | {commit} |")
     return "\n".join(out) + "\n"
 
 

@@ -375,6 +375,7 @@ def test_render_command_samples(tmp_path, capsys):
     assert "samples" in capsys.readouterr().err
 
 
+@pytest.mark.extra
 def test_aa_command_writes_its_results(tmp_path, capsys):
     pytest.importorskip("matplotlib", reason="clshade aa plots the ladder: the bench extra (pip install '.[bench]')")
     prefix = tmp_path / "aa"

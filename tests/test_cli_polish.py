@@ -129,6 +129,7 @@ def test_sweep_one_row_per_model_and_labels(runtime):
     assert model_title(models.resolve("lambert")) == "Lambert"
 
 
+@pytest.mark.text
 def test_readme_images_come_from_make_images():
     """Each README image's caption quotes the command docs/make_images.py runs for it."""
     import importlib.util
@@ -262,6 +263,7 @@ def test_image_output_that_is_a_folder_refused(capsys, tmp_path, command):
     assert "is a folder" in _error(capsys, argv)
 
 
+@pytest.mark.extra
 def test_low01_only_from_1000_frames(tmp_path):
     """Below 1000 frames the 0.1 % low is the slowest frame again: the table prints –, the plot has no bar."""
     pytest.importorskip("matplotlib")

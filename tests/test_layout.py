@@ -7,6 +7,8 @@ Every import in every module, at top level or inside a function, is checked.
 """
 from __future__ import annotations
 
+import pytest
+
 import ast
 from pathlib import Path
 
@@ -67,11 +69,13 @@ def imports(path: Path, me: str | None = None) -> list[tuple[int, str]]:
     return found
 
 
+@pytest.mark.text
 def test_every_module_has_a_stage() -> None:
     for path in PACKAGE.rglob("*.py"):
         rank(module_name(path))
 
 
+@pytest.mark.text
 def test_no_upward_imports() -> None:
     bad = []
     for path in sorted(PACKAGE.rglob("*.py")):

@@ -97,6 +97,7 @@ def test_opencl_fill_times_zeros_and_ones_and_checks_them(runtime, monkeypatch):
         bandwidth.opencl_fill(runtime, repeats=1, mib=1)
 
 
+@pytest.mark.snapshot
 def test_committed_perf_tables_are_rendered_from_their_json():
     """benchmarks/results/perf_1080p.md is perf.markdown() of the committed JSON, so no figure in it was
     typed by hand, and its fill line quotes each runtime's fill medians."""
@@ -187,6 +188,7 @@ def test_whole_frames_interleave_runtimes_and_judge_each(runtime):
     assert header.count("median ms") == 2 and "slow device" in header
 
 
+@pytest.mark.extra
 @pytest.mark.parametrize("uniform", [False, True])
 @pytest.mark.parametrize("name", ["numba", "drjit"])
 @pytest.mark.parametrize("model", ["lambert", "ggx_correlated", "phong"])

@@ -17,6 +17,7 @@ def publish(checkout):
     return module
 
 
+@pytest.mark.snapshot
 def test_every_published_file_equals_its_rendering(publish):
     stale = publish.stale()
     assert not stale, f"edited by hand or JSON changed without `python benchmarks/publish.py`: {stale}"
@@ -28,6 +29,7 @@ def _table_rows(text: str, start: str) -> list[list[str]]:
     return [[c.strip() for c in r] for r in rows[2:]]
 
 
+@pytest.mark.snapshot
 def test_readme_table_numbers_equal_the_json(publish, checkout):
     text = (checkout / "README.md").read_text(encoding="utf-8")
     region = text.split("<!-- publish:bench-table -->", 1)[1]

@@ -4,6 +4,7 @@ from __future__ import annotations
 import pytest
 
 
+@pytest.mark.extra
 def test_clustered_point_labels_do_not_overlap(tmp_path):
     pytest.importorskip("matplotlib", reason="plots need the bench extra (pip install '.[bench]')")
     import matplotlib

@@ -39,6 +39,7 @@ def documented_material_defaults() -> dict[str, object]:
     return out
 
 
+@pytest.mark.text
 def test_material_defaults_match_the_documentation():
     documented = documented_material_defaults()
     assert {"base_color", "roughness", "metallic", "ks", "ka", "ior", "f90"} <= set(documented)

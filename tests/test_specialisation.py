@@ -298,7 +298,7 @@ def test_streaming_stores_write_the_image_plain_stores_write(device_runtime, mon
 def test_prefetch_changes_no_pixel(device_runtime):
     """kernels/gbuffer.h's PREFETCH_AHEAD is a hint (x86): with it and without it
     (CLSHADE_NO_PREFETCH) the specialised and the general kernel write the same image,
-    bit for bit, and the switch reaches the shading and the copy kernel."""
+    bit for bit."""
     from clshade.device.runtime import NO_PREFETCH
     runtime = device_runtime
     frame = prepare_frame(parse_scene(SCENE))
@@ -310,8 +310,20 @@ def test_prefetch_changes_no_pixel(device_runtime):
         a, b = (sh.render(m, feats) for sh in shaders)
         assert (a[..., 3] == 1).any(), "the frame has covered pixels"
         np.testing.assert_array_equal(a, b)
-        # The hint is in the built programs (PoCL's binary is LLVM bitcode) exactly where it should
-        # be: the shading kernel and its copy kernel, which must make the same traffic.
+
+
+@pytest.mark.text
+def test_prefetch_hint_is_in_the_built_programs(runtime):
+    """The hint is in the built programs (PoCL's binary is LLVM bitcode) exactly where it should
+    be: the shading kernel and its copy kernel, which must make the same traffic. A search of
+    compiled code for a string: prefetching changes no pixel, so no behavioural test can see it."""
+    from clshade.device.runtime import NO_PREFETCH
+    frame = prepare_frame(parse_scene(SCENE))
+    features = scene_features(frame.scene, geometry=frame.geometry)
+    on, off = switch_pair(runtime, NO_PREFETCH, "prefetches", "an x86 CPU device prefetches the G-buffer ahead")
+    m = models.resolve("ggx_correlated")
+    for feats in (features, replace(features, general=True)):
+        shaders = [Shader(rt, frame.gbuffer, frame.scene, frame.camera, frame.shadows) for rt in (on, off)]
         for sh, rt in zip(shaders, (on, off)):
             for entry in ("shade",) if feats.general else ("shade", "copy"):
                 program = sh.prepare(m, feats, entry=entry).kernel.program
