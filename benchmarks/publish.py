@@ -1,8 +1,8 @@
 """Publish: render every published figure from the results JSON. Measures nothing.
 
 Generators (run_bench.py, make_report.py, mutants.py, floor_bias.py, ...) write JSON; this script turns the
-JSON into Markdown: benchmarks/REPORT.md (from benchmarks/report/report.json), benchmarks/results/mutants.md
-(from mutants.json), and the regions of README.md and docs/stability.md between
+JSON into Markdown: benchmarks/REPORT.md (from benchmarks/report/report.json), every benchmarks/results/*.md
+(from the .json beside it: mutants, aa, host_ab, memory, startup, …), and the regions of README.md and docs/stability.md between
 `<!-- publish:NAME -->` and `<!-- /publish:NAME -->` markers. tests/test_publish.py re-renders and
 compares, so a number edited by hand in a published table fails the suite.
 
@@ -523,14 +523,26 @@ def stability_tables(doc: dict[str, Any]) -> str:
     """docs/stability.md's results region from `clshade check stability --json` (stability.json)."""
     raw = doc["raw_radiance"]
     builds = ", ".join(f"{b}: {n:,}" for b, n in doc["distinct_inputs"].items())
-    out = [f"Device `{doc['device']}`; {doc['cases']:,} evaluations and shaded pixels over the builds "
-           f"({', '.join(doc['builds'])}); distinct inputs per build: {builds}.", "",
+    prov = doc.get("provenance") or {}
+    verdict = ("**Passed**" if doc["ok"] else "**Failed**: " + "; ".join(_cell(f) for f in doc.get("failures", []))) \
+        + (f" (tolerance of the precise build: {doc['precise_tolerance']:g})" if "precise_tolerance" in doc else "")
+    out = [f"Device `{doc['device']}`; commit {(prov.get('commit') or '')[:10] or 'not recorded'}"
+           f"{' (uncommitted changes)' if prov.get('dirty') else ''}; {doc['cases']:,} evaluations and shaded "
+           f"pixels over the builds ({', '.join(doc['builds'])}); distinct inputs per build: {builds}. {verdict}.", "",
            "| count (raw radiance, before the MAX_RADIANCE clamp) | value |", "|---|---|",
            f"| NaN | {raw['nan']} |", f"| Inf | {raw['inf']} |", f"| negative | {raw['negative']} |",
            f"| pixels reaching MAX_RADIANCE ({raw['max_radiance_clamp']:g}) | {raw['saturated_pixels']} |",
            f"| largest finite raw radiance | {raw['max_radiance']:.3g} |",
            f"| NaN/Inf in the shipped (clamped) build | {raw['clamped_build_nonfinite']} |",
-           f"| BRDF evaluations: NaN/Inf, negative | {doc['nonfinite']}, {doc['negative']} |", "",
+           f"| BRDF evaluations: NaN/Inf, negative | {doc['nonfinite']}, {doc['negative']} |", ""]
+    if doc.get("raw_terms"):
+        checks = list(next(iter(doc["raw_terms"].values())))
+        out += ["Raw terms in the counting build (kernels/count.h: each value checked where it is computed, "
+                "before any clamp), every model, build and pass:", "",
+                "| term | " + " | ".join(checks) + " |", "|---" * (len(checks) + 1) + "|"]
+        out += [f"| {t} | " + " | ".join(f"{c[k]:,}" for k in checks) + " |" for t, c in doc["raw_terms"].items()]
+        out += [""]
+    out += [
            "Largest deviation from the float64 reference, |f32 − f64| / max(|f64|, 0.001): BRDF evaluations "
            "(all inputs; cosines ≥ 1e-4 and no floor active) and shaded pixels against the frame oracle:", "",
            "| model | build | evaluations | distinct | max dev (all) | max dev (no floor) | shaded pixels | "
@@ -648,11 +660,33 @@ def renderings() -> dict[Path, Callable[[str], str]]:
         out[guide] = lambda text: replace_region(
             replace_region(text, "user-lobes-example", user_lobes_example(load(USER_LOBES_JSON)), guide),
             "user-lobes-table", user_lobes_table(load(USER_LOBES_JSON)), guide)
+    if (RESULTS / "perf_1080p.json").exists():
+        from clshade.bench import perf
+        out[RESULTS / "perf_1080p.md"] = lambda text: perf.markdown(load(RESULTS / "perf_1080p.json"))
+    if (RESULTS / "aa.json").exists():
+        from clshade.report import aa_markdown
+        out[RESULTS / "aa.md"] = lambda text: aa_markdown(load(RESULTS / "aa.json"))
+    for script in ("host_ab", "memory_bench", "startup_bench"):     # each script's own markdown(doc)
+        name = script.removesuffix("_bench")
+        if (RESULTS / f"{name}.json").exists():
+            out[RESULTS / f"{name}.md"] = (lambda s, j: lambda text: _script(s).markdown(load(j)))(
+                script, RESULTS / f"{name}.json")
     if STABILITY_JSON.exists():   # a second region of docs/stability.md: compose with the floor table
         stab = ROOT / "docs" / "stability.md"
         first = out.get(stab, lambda text: text)
         out[stab] = lambda text: replace_region(first(text), "stability", stability_tables(load(STABILITY_JSON)), stab)
     return out
+
+
+def _script(name: str):
+    """benchmarks/<name>.py as a module (the benchmark scripts render their own Markdown)."""
+    import importlib.util
+    if name not in sys.modules:
+        spec = importlib.util.spec_from_file_location(name, ROOT / "benchmarks" / f"{name}.py")
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module
+        spec.loader.exec_module(module)
+    return sys.modules[name]
 
 
 def stale() -> list[Path]:

@@ -72,3 +72,21 @@ def test_a_number_edited_by_hand_is_caught(publish, checkout, which):
     digit = text[i]
     edited = text[:i] + ("1" if digit != "1" else "2") + text[i + 1:]
     assert render(edited) != edited
+
+
+def test_every_results_markdown_is_rendered_by_publish(publish, checkout):
+    """No results table outside publish: each benchmarks/results/*.md is one of its renderings
+    (so test_every_published_file_equals_its_rendering covers it)."""
+    rendered = {p.resolve() for p in publish.renderings()}
+    tables = sorted((checkout / "benchmarks" / "results").glob("*.md"))
+    assert tables and not [p.name for p in tables if p.resolve() not in rendered]
+
+
+@pytest.mark.text
+@pytest.mark.parametrize("notes", ["docs/bench-notes.md", "docs/effects-notes.md"])
+def test_dated_notes_say_they_are_history(checkout, notes):
+    """Notes with hand-written measured figures say, before any figure, that they are dated history
+    no published table quotes (issue 25): current numbers come only from the rendered tables."""
+    text = (checkout / notes).read_text(encoding="utf-8")
+    head = text.split("\n\n", 2)[1]
+    assert head.startswith("> **Dated history — not a published result.**"), head[:120]

@@ -295,36 +295,36 @@ def test_streaming_stores_write_the_image_plain_stores_write(device_runtime, mon
         np.testing.assert_array_equal(a, b)
 
 
+def _prefetch_shaders(runtime):
+    """(features, [(shader with prefetch, its runtime), (shader without, its runtime)]) for the
+    specialised and the general kernel in turn, and the model."""
+    from clshade.device.runtime import NO_PREFETCH
+    frame = prepare_frame(parse_scene(SCENE))
+    features = scene_features(frame.scene, geometry=frame.geometry)
+    on, off = switch_pair(runtime, NO_PREFETCH, "prefetches", "an x86 CPU device prefetches the G-buffer ahead")
+    for feats in (features, replace(features, general=True)):
+        yield feats, [(Shader(rt, frame.gbuffer, frame.scene, frame.camera, frame.shadows), rt) for rt in (on, off)]
+
+
 def test_prefetch_changes_no_pixel(device_runtime):
     """kernels/gbuffer.h's PREFETCH_AHEAD is a hint (x86): with it and without it
     (CLSHADE_NO_PREFETCH) the specialised and the general kernel write the same image,
     bit for bit."""
-    from clshade.device.runtime import NO_PREFETCH
-    runtime = device_runtime
-    frame = prepare_frame(parse_scene(SCENE))
-    features = scene_features(frame.scene, geometry=frame.geometry)
-    on, off = switch_pair(runtime, NO_PREFETCH, "prefetches", "an x86 CPU device prefetches the G-buffer ahead")
     m = models.resolve("ggx_correlated")
-    for feats in (features, replace(features, general=True)):
-        shaders = [Shader(rt, frame.gbuffer, frame.scene, frame.camera, frame.shadows) for rt in (on, off)]
-        a, b = (sh.render(m, feats) for sh in shaders)
+    for feats, shaders in _prefetch_shaders(device_runtime):
+        a, b = (sh.render(m, feats) for sh, _ in shaders)
         assert (a[..., 3] == 1).any(), "the frame has covered pixels"
         np.testing.assert_array_equal(a, b)
 
 
 @pytest.mark.text
-def test_prefetch_hint_is_in_the_built_programs(runtime):
+def test_prefetch_hint_is_in_the_built_programs(device_runtime):
     """The hint is in the built programs (PoCL's binary is LLVM bitcode) exactly where it should
     be: the shading kernel and its copy kernel, which must make the same traffic. A search of
     compiled code for a string: prefetching changes no pixel, so no behavioural test can see it."""
-    from clshade.device.runtime import NO_PREFETCH
-    frame = prepare_frame(parse_scene(SCENE))
-    features = scene_features(frame.scene, geometry=frame.geometry)
-    on, off = switch_pair(runtime, NO_PREFETCH, "prefetches", "an x86 CPU device prefetches the G-buffer ahead")
     m = models.resolve("ggx_correlated")
-    for feats in (features, replace(features, general=True)):
-        shaders = [Shader(rt, frame.gbuffer, frame.scene, frame.camera, frame.shadows) for rt in (on, off)]
-        for sh, rt in zip(shaders, (on, off)):
+    for feats, shaders in _prefetch_shaders(device_runtime):
+        for sh, rt in shaders:
             for entry in ("shade",) if feats.general else ("shade", "copy"):
                 program = sh.prepare(m, feats, entry=entry).kernel.program
                 binary = b"".join(program.get_info(cl.program_info.BINARIES))
