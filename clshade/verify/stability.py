@@ -51,7 +51,7 @@ import numpy as np
 from clshade.device import counts
 from clshade.device.evaluate import Samples, eval_brdf, eval_brdf_counted
 from clshade.device.runtime import Runtime, get_runtime
-from clshade.models import FRESNELS, NONE, WORKFLOWS, Model, presets, user_models
+from clshade.models import FRESNELS, WORKFLOWS, Model, presets, user_models
 from clshade.provenance import stamp
 from clshade.resources import constant
 from clshade.verify import reference as R
