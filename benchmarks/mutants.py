@@ -662,13 +662,14 @@ def write_results(out: Path, results: list[dict], chosen: list[Mutant], previous
     """Write the results so far (after every mutant: a stopped run leaves what it measured); mutants of the
     run not measured yet are listed as 'not run'. A partial --only run updates its rows of the previous file."""
     done = {r["name"] for r in results}
-    rows = results + [dict(name=m.name, file=m.file, description=m.description, status="not run", returncode=None,
-                           kill_class="not run", failing_tests=[], seconds=0.0, summary="", commit=None)
-                      for m in chosen if m.name not in done]
-    if previous:   # each row keeps its commit
+    not_run = lambda m: dict(name=m.name, file=m.file, description=m.description, status="not run",  # noqa: E731
+                             returncode=None, kill_class="not run", failing_tests=[], seconds=0.0, summary="",
+                             commit=None)
+    rows = results + [not_run(m) for m in chosen if m.name not in done]
+    if previous:   # each row keeps its commit; a mutant new to the catalogue is listed as not run
         by_name = {r["name"]: {"commit": previous.get("commit"), **r} for r in previous["mutants"]}
         by_name.update({r["name"]: r for r in rows if r["status"] != "not run" or r["name"] not in by_name})
-        rows = [by_name[m.name] for m in CATALOGUE if m.name in by_name]
+        rows = [by_name.get(m.name) or not_run(m) for m in CATALOGUE]
     else:
         order = {m.name: i for i, m in enumerate(CATALOGUE)}
         rows.sort(key=lambda r: order[r["name"]])

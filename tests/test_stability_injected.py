@@ -45,6 +45,7 @@ def test_injected_term_fails_check_stability(kind: str, tmp_path: Path, monkeypa
     assert not rep.ok, f"a {kind} {term} term passed `check stability`"
     shaded = rep.shading[0].terms[term]
     assert shaded[count] > 0, f"shading pass: {term} {count} not counted: {shaded}"
+    assert any(f"raw {term} " in f and count in f for f in rep.failures()), rep.failures()
 
 
 def test_wrong_but_finite_term_fails_by_its_deviation(tmp_path: Path, monkeypatch) -> None:
@@ -64,3 +65,12 @@ def test_raw_inf_radiance_alone_fails_the_report() -> None:
     rep = stability.Report([], [shaded], [], [], "device", 0.0)
     assert not rep.ok and any("NaN/Inf" in f for f in rep.failures())
     assert stability.Report([], [stability.ShadeResult("lambert", False, pixels=10)], [], [], "device", 0.0).ok
+
+
+def test_raw_term_counts_alone_fail_the_report() -> None:
+    """A term counted NaN in the counting build fails the check even when every output is
+    finite and accurate (a clamp downstream hid it)."""
+    hidden = stability.ShadeResult("lambert", False, pixels=10, deviation_pixels=10,
+                                   terms={"F": {"evaluated": 10, "nan": 1, "inf": 0, "negative": 0, "above": 0}})
+    rep = stability.Report([], [hidden], [], [], "device", 0.0)
+    assert not rep.ok and rep.failures() == ["lambert (precise, shaded): raw F nan 1"]
