@@ -32,6 +32,7 @@ PRODUCERS: dict[str, tuple[str, ...]] = {
     "memory.json": ("benchmarks/memory_bench.py",),
     "startup.json": ("benchmarks/startup_bench.py",),
     "raster.json": ("clshade/render/raster.py", "benchmarks/raster_bench.py"),
+    "runtimes.json": ("kernels", "clshade/bench/runtimes.py", "clshade/device/health.py"),
     "mutants.json": ("benchmarks/mutants.py", "kernels", "clshade", "tests"),
 }
 

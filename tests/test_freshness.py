@@ -22,6 +22,8 @@ KNOWN_STALE = {
     "effects.json": "effects bench (benchmarks/effects_bench.py)",
     "aa.json": "anti-aliasing ladder (clshade aa)",
     "mutants.json": "mutation catalogue (benchmarks/mutants.py, hours on 2 cores)",
+    "raster.json": "rasterizer timings (benchmarks/raster_bench.py; its writer now stamps provenance)",
+    "runtimes.json": "every OpenCL runtime at 1080p (python -m clshade.bench.runtimes)",
 }
 
 

@@ -33,6 +33,7 @@ from clshade.device.runtime import RUNTIME_PREFERENCE, Runtime, choose_device, d
 from clshade.device.shade import Shader, scene_features
 from clshade.models import resolve
 from clshade.pipeline import prepare_frame
+from clshade.provenance import stamp
 from clshade.render.scene import load_scene
 from clshade.resources import scenes_dir
 from clshade.verify import reference
@@ -205,7 +206,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.render_only:
         doc = json.loads(out.with_suffix(".json").read_text(encoding="utf-8"))
     else:
-        doc = measure(args.scene, args.width, args.height, args.rounds, args.warmup)
+        doc = stamp(measure(args.scene, args.width, args.height, args.rounds, args.warmup))   # every runtime: the host
         out.with_suffix(".json").write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
     out.with_suffix(".md").write_text(markdown(doc), encoding="utf-8")
     print(f"wrote {out.with_suffix('.json')} and {out.with_suffix('.md')}")
