@@ -503,6 +503,15 @@ CATALOGUE: list[Mutant] = [
     M("oracle_fresnel_lobes", "clshade/verify/reference.py", "FRESNEL_LOBES: frozenset[str] = frozenset(MICROFACET_MODELS)",
       "FRESNEL_LOBES: frozenset[str] = frozenset(MICROFACET_MODELS[1:])",
       "oracle: Cook–Torrance's k_d no longer takes F's share"),
+    # ---- evidence tied to its code (benchmarks/freshness.py, publish.py, the kill classes above)
+    M("freshness_range_reversed", "benchmarks/freshness.py", 'out = git(root, "rev-list", f"{commit}..HEAD", "--", *code)',
+      'out = git(root, "rev-list", f"HEAD..{commit}", "--", *code)', "freshness: a later change to the code is not seen"),
+    M("publish_aa_unrendered", "benchmarks/publish.py",
+      '        out[RESULTS / "aa.md"] = lambda text: aa_markdown(load(RESULTS / "aa.json"))',
+      "        pass", "publish: aa.md left out of the renderings (a hand edit there goes unseen)"),
+    M("snapshot_kill_behavioural", "benchmarks/mutants.py",       # split: the catalogue must not contain it
+      '(("snap' 'shot", "snapshot"), ("text", "text"), ("extra", "needs extra"))',
+      '(("text", "text"), ("extra", "needs extra"))', "mutation score: a kill by a snapshot test counted as behavioural"),
 ]
 
 

@@ -40,3 +40,18 @@ def test_results_file_is_the_catalogue(mutants):
     doc = json.loads(mutants.OUT.read_text(encoding="utf-8"))
     assert [m["name"] for m in doc["mutants"]] == [m.name for m in mutants.CATALOGUE]
     assert doc["killed"] + doc["survived"] + doc.get("not_run", 0) == doc["total"] == len(doc["mutants"])
+
+
+def test_kill_classes(mutants):
+    """A kill is behavioural only when some failing test checks behaviour; tests marked snapshot,
+    text or extra, kernels that do not build and collection errors are counted apart."""
+    def f(markers=(), when="call", build_failed=False):
+        return dict(test="t", when=when, markers=list(markers), build_failed=build_failed, message="")
+    assert mutants.classify([], 0) == "survived" and mutants.classify([], -1) == "timeout"
+    assert mutants.classify([f(["snapshot"]), f()], 1) == "behavioural"
+    assert mutants.classify([f(["snapshot"]), f(["text"])], 1) == "snapshot"
+    assert mutants.classify([f(["text"])], 1) == "text"
+    assert mutants.classify([f(["extra"])], 1) == "needs extra"
+    assert mutants.classify([f(build_failed=True), f(["text"])], 1) == "compile error"
+    assert mutants.classify([f(when="collect")], 2) == "collection error"
+    assert mutants.classify([], 2) == "collection error"      # pytest failed before any test ran
