@@ -22,12 +22,12 @@ def _git(*args: str) -> str | None:
 
 
 def checkout_commit() -> tuple[str | None, bool]:
-    """(HEAD of the checkout clshade runs from, whether tracked files differ from it);
-    (None, False) for an install outside a git checkout."""
+    """(HEAD of the checkout clshade runs from, whether tracked files other than the results
+    themselves differ from it); (None, False) for an install outside a git checkout."""
     commit = _git("rev-parse", "HEAD")
     if commit is None:
         return None, False
-    return commit, bool(_git("status", "--porcelain", "--untracked-files=no"))
+    return commit, bool(_git("status", "--porcelain", "--untracked-files=no", "--", ".", ":!benchmarks/results"))
 
 
 def host_description() -> str:
