@@ -12,7 +12,8 @@ their markers): *behavioural* when some failing test checks behaviour; else *com
 does not build), *collection error*, *snapshot* (only tests marked `snapshot`: output compared with a committed
 file the same code wrote), *text* (only tests marked `text`: a string searched in source, docs or binaries) or
 *needs extra* (only tests marked `extra`, which run only where an optional package is installed). The headline
-counts behavioural kills only.
+counts behavioural kills only. The unmutated snapshot runs first (the baseline): a test failing there kills
+nothing, and is listed apart in each mutant's row.
 
     python benchmarks/mutants.py [--jobs 2] [--only NAME,...] [--json benchmarks/results/mutants.json]
 
@@ -599,14 +600,20 @@ def installed_extras(python: str) -> dict[str, bool]:
     return json.loads(proc.stdout) if proc.returncode == 0 else {}
 
 
-def run_one(mutant: Mutant, python: str, base: Path) -> dict:
+# The unmutated tree, run once like a mutant: tests failing there kill nothing.
+BASELINE = Mutant("(baseline)", "", "", "", "the snapshot itself, unmutated")
+
+
+def run_one(mutant: Mutant, python: str, base: Path, baseline: frozenset[str] = frozenset()) -> dict:
     """Copy the snapshot `base`, apply the mutant, run the whole suite there; every failing test
-    is recorded and the kill classified."""
+    is recorded, and the kill classified on the tests that pass on the unmutated tree (`baseline`:
+    the tests failing there, listed apart)."""
     start = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix=f"mutant-{mutant.name}-") as tmp:
         copy = Path(tmp) / "repo"
         shutil.copytree(base, copy)
-        apply(copy, mutant)
+        if mutant is not BASELINE:
+            apply(copy, mutant)
         report = Path(tmp) / "failures.json"
         env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(copy), str(copy / "benchmarks")]),
                    PYTHONDONTWRITEBYTECODE="1", CLSHADE_MUTANT=mutant.name, CLSHADE_MUTANT_REPORT=str(report))
@@ -625,10 +632,12 @@ def run_one(mutant: Mutant, python: str, base: Path) -> dict:
         except subprocess.TimeoutExpired:
             rc, tail = -1, ["timeout"]
         failures = json.loads(report.read_text(encoding="utf-8")) if report.exists() else []
-    kill = classify(failures, rc)
+    new = [f for f in failures if f["test"] not in baseline]
+    kill = classify(new, 0 if failures and not new else rc)
     return dict(name=mutant.name, file=mutant.file, description=mutant.description,
                 status="killed" if kill not in ("survived", "timeout") else kill, kill_class=kill, returncode=rc,
-                failing_tests=[dict(test=f["test"], kind=classify([f], 1)) for f in failures],
+                failing_tests=[dict(test=f["test"], kind=classify([f], 1)) for f in new],
+                failing_on_baseline_too=sorted({f["test"] for f in failures} - {f["test"] for f in new}),
                 seconds=round(time.perf_counter() - start, 1), summary=tail[-1] if tail else "")
 
 
@@ -652,22 +661,25 @@ def main(argv: list[str] | None = None) -> int:
     previous = json.loads(out.read_text(encoding="utf-8")) if out.exists() and args.only else None
     start = time.perf_counter()
     results: list[dict] = []
+    base_run = run_one(BASELINE, sys.executable, base)
+    baseline = frozenset(f["test"] for f in base_run["failing_tests"])
+    print(f"baseline (unmutated): {len(baseline)} failing {sorted(baseline)}", flush=True)
     with ThreadPoolExecutor(max_workers=max(1, min(args.jobs, 2))) as pool:
-        for res in pool.map(lambda m: run_one(m, sys.executable, base), chosen):
+        for res in pool.map(lambda m: run_one(m, sys.executable, base, baseline), chosen):
             res["commit"] = commit
             results.append(res)
             first = res["failing_tests"][0]["test"] if res["failing_tests"] else ""
             print(f"{res['kill_class']:16s} {res['name']:28s} {res['seconds']:6.1f} s  "
                   f"{len(res['failing_tests'])} failing  {first}", flush=True)
-            write_results(out, results, chosen, previous, commit, time.perf_counter() - start)
-    doc = write_results(out, results, chosen, previous, commit, time.perf_counter() - start)
+            write_results(out, results, chosen, previous, commit, time.perf_counter() - start, sorted(baseline))
+    doc = write_results(out, results, chosen, previous, commit, time.perf_counter() - start, sorted(baseline))
     print(f"{doc['behavioural']}/{doc['total']} killed by a behavioural test ({doc['killed']} killed in all: "
           f"{doc['kill_classes']}); wrote {out}")
     return 0
 
 
 def write_results(out: Path, results: list[dict], chosen: list[Mutant], previous: dict | None, commit: str | None,
-                  seconds: float) -> dict:
+                  seconds: float, baseline: list[str] | None = None) -> dict:
     """Write the results so far (after every mutant: a stopped run leaves what it measured); mutants of the
     run not measured yet are listed as 'not run'. A partial --only run updates its rows of the previous file."""
     done = {r["name"] for r in results}
@@ -694,8 +706,11 @@ def write_results(out: Path, results: list[dict], chosen: list[Mutant], previous
                behavioural=sum(r.get("kill_class") == "behavioural" for r in rows),
                kill_classes={c: sum(r.get("kill_class") == c for r in rows) for c in KILL_CLASSES},
                unclassified=sum(r["status"] == "killed" and "kill_class" not in r for r in rows),
-               extras=installed_extras(sys.executable), mutants=rows)
-    doc = stamp(doc)             # the suites ran on the host (PoCL CPU)
+               extras=installed_extras(sys.executable), baseline_failures=baseline, mutants=rows)
+    # Provenance: the commit the suites ran on — the earliest run's when rows of a previous file are kept
+    # (a partial run does not make the whole catalogue fresh); the snapshot is a clean `git archive`.
+    measured = ((previous.get("provenance") or {}).get("commit") or previous.get("commit")) if previous else commit
+    doc = stamp(doc, commit=measured)   # the suites ran on the host (PoCL CPU)
     out.write_text(json.dumps(doc, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
     return doc
 

@@ -40,13 +40,14 @@ def host_description() -> str:
     return "host CPU: " + (platform.processor() or platform.machine())
 
 
-def provenance(device: str | None = None) -> dict[str, Any]:
-    """{commit, dirty, device, measured_at (UTC, ISO 8601)}; `device` defaults to the host CPU."""
-    commit, dirty = checkout_commit()
+def provenance(device: str | None = None, commit: str | None = None) -> dict[str, Any]:
+    """{commit, dirty, device, measured_at (UTC, ISO 8601)}; `device` defaults to the host CPU;
+    `commit`: measured on that commit's clean snapshot, not on this checkout."""
+    commit, dirty = (commit, False) if commit else checkout_commit()
     return {"commit": commit, "dirty": dirty, "device": device or host_description(),
             "measured_at": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
 
 
-def stamp(doc: dict[str, Any], device: str | None = None) -> dict[str, Any]:
+def stamp(doc: dict[str, Any], device: str | None = None, commit: str | None = None) -> dict[str, Any]:
     """`doc` with its provenance (a new dict, "provenance" first)."""
-    return {"provenance": provenance(device), **{k: v for k, v in doc.items() if k != "provenance"}}
+    return {"provenance": provenance(device, commit), **{k: v for k, v in doc.items() if k != "provenance"}}
