@@ -74,3 +74,14 @@ def test_raw_term_counts_alone_fail_the_report() -> None:
                                    terms={"F": {"evaluated": 10, "nan": 1, "inf": 0, "negative": 0, "above": 0}})
     rep = stability.Report([], [hidden], [], [], "device", 0.0)
     assert not rep.ok and rep.failures() == ["lambert (precise, shaded): raw F nan 1"]
+
+
+def test_above_bound_fails_the_precise_build_only() -> None:
+    """A term above its bound fails the precise build; in a fast-math build (approximate rsqrt
+    and division) it is reported, not failed — NaN, Inf and negative fail both."""
+    def shaded(fast: bool, check: str):
+        row = {"evaluated": 10, "nan": 0, "inf": 0, "negative": 0, "above": 0, check: 1}
+        return stability.ShadeResult("lambert", fast, pixels=10, deviation_pixels=10, terms={"D": row})
+    report = lambda r: stability.Report([], [r], [], [], "device", 0.0)  # noqa: E731
+    assert not report(shaded(False, "above")).ok and report(shaded(True, "above")).ok
+    assert not report(shaded(True, "nan")).ok and not report(shaded(True, "negative")).ok
