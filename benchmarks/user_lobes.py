@@ -29,6 +29,7 @@ sys.path.insert(0, str(ROOT))
 from clshade import models as M  # noqa: E402
 from clshade.bench.run import run_bench  # noqa: E402
 from clshade.device.runtime import get_runtime  # noqa: E402
+from clshade.provenance import stamp  # noqa: E402
 from clshade.verify import accuracy as A  # noqa: E402
 from clshade.verify import plausibility as P  # noqa: E402
 from clshade.verify import stability as S  # noqa: E402
@@ -88,6 +89,7 @@ def main() -> int:
     start = time.perf_counter()
     doc = measure(args.frames, args.width, args.height)
     doc["seconds"] = round(time.perf_counter() - start, 1)
+    doc = stamp(doc, get_runtime().info.description)
     Path(args.out).write_text(json.dumps(doc, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
     print(f"wrote {args.out} in {doc['seconds']} s; render with: python benchmarks/publish.py")
     return 0
