@@ -179,8 +179,10 @@ def test_whole_frames_interleave_runtimes_and_judge_each(runtime):
     assert whole.merge_blocks([out, late])[0]["median_s"]["frame"] > out[0]["median_s"]["frame"]
     assert merged[0]["block_frame_s"] == [out[0]["median_s"]["frame"]] * 2
     assert all(r["device"] == runtime.info.description for r in out)
+    # The verdicts are judged on stated frame times, not on this machine's (timings are no test's business).
+    fast = dict(out[0], median_s=dict(out[0]["median_s"], frame=0.001))
     slow = dict(out[1], device="slow device", median_s=dict(out[1]["median_s"], frame=0.25))
-    doc = dict(runtimes=[], peers=[], stream=dict(anchor_gbs=1.0), whole_frames=[out[0], slow])
+    doc = dict(runtimes=[], peers=[], stream=dict(anchor_gbs=1.0), whole_frames=[fast, slow])
     frame_targets = [t for t in perf.targets(doc) if "whole frame" in t["target"]]
     assert [(t["runtime"], t["met"]) for t in frame_targets] == [(runtime.info.description, True), ("slow device", False)]
     assert "250 ms" not in frame_targets[1]["cause"] and "G-buffer" in frame_targets[1]["cause"]
