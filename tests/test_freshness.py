@@ -23,7 +23,6 @@ KNOWN_STALE = {
     "aa.json": "anti-aliasing ladder (clshade aa)",
     "mutants.json": "mutation catalogue (benchmarks/mutants.py, hours on 2 cores)",
     "raster.json": "rasterizer timings (benchmarks/raster_bench.py; its writer now stamps provenance)",
-    "runtimes.json": "every OpenCL runtime at 1080p (python -m clshade.bench.runtimes)",
     "user_lobes.json": "the sample user lobes beside the built-ins (benchmarks/user_lobes.py)",
     "view.json": "the live viewer in headless Chromium (benchmarks/view_bench.py)",
 }
