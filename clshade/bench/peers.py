@@ -392,7 +392,8 @@ PEERS: dict[str, Callable[..., Peer]] = {"numba": numba_peer, "drjit": drjit_pee
 # beyond 1e-4 once n > 1e-4·2²³/4 ≈ 210. Pixels with a larger exponent are
 # checked separately (their difference is reported, not hidden).
 WELL_CONDITIONED_EXPONENT = VERIFY_RTOL * 2.0 ** 23 / 4
-POWER_LOBES = ("phong", "blinn_phong")   # the peers' lobes with a runtime exponent (r·v)ⁿ, (n·h)ⁿ
+# the lobes with a runtime exponent (r·v)ⁿ, (n·h)ⁿ: the empirical ones, normalised or not
+POWER_LOBES = tuple(name for name, lobe in lobes().items() if lobe.family == "empirical")
 
 # A microfacet D near its peak (GGX: α²/(π(sin²θh + cos²θh·α²)²)) is as steep as its
 # width α: a direction error δ moves sin²θh by 2θh·δ, so D by up to 2δ/α relative (at

@@ -7,9 +7,13 @@ features) is dispatched `frames` times after `warmup`, interleaved in rounds
 noise hits every case alike. Per frame: device time from the event profile
 (end − start) and host time (enqueue → wait complete). The copy kernel of a
 case (kernels/copy.cl: the same channels read, the same float4 written) is the
-bandwidth floor; the NumPy baseline (numpy_baseline.py: the frame oracle in
-float32) is timed in the same rounds, on the same wall clock as the kernel's
-host time (enqueue → completion); the error is against the float64 frame oracle
+bandwidth floor. The NumPy baseline (numpy_baseline.py: what a NumPy user
+would write, specialised to the scene; checked against the kernel's image
+first) and the general reference in float32 (the frame oracle in float32) are
+timed in the same rounds, on the same wall clock as the kernel's host time
+(enqueue → completion), and beside them a minimal NumPy Lambert, the guard
+that marks the NumPy column suspect when the baseline's Lambert is more than
+SUSPECT_RATIO times slower. The error is against the float64 frame oracle
 (clshade.verify.reference.radiance) on the same G-buffer. The JSON schema is
 docs/bench-schema.md; Markdown, CSV and plots are clshade.report's.
 """
@@ -28,7 +32,9 @@ import numpy as np
 
 from clshade import __version__
 from clshade.provenance import stamp
-from clshade.bench.numpy_baseline import NUMPY_THREADS, shade_numpy
+from clshade.bench.numpy_baseline import (GUARD_FRAMES, NUMPY_THREADS, SUSPECT_RATIO, NumpyShader, Unsupported, minimal_lambert,
+                                          numpy_shader, shade_reference_f32, suspect)
+from clshade.bench.peers import VERIFY_RTOL, verify, well_conditioned
 from clshade.device.runtime import Runtime, get_runtime
 from clshade.device.shade import Shader, scene_features
 from clshade.device.variants import Features
@@ -48,8 +54,8 @@ OUTPUT_BYTES = 16            # one float4 written per pixel
 REL_ERROR_FLOOR = 1e-3
 MODEL_KEYS = ("model", "name", "mean_ms", "avg_fps", "low1_fps", "low01_fps", "median_ms", "p99_ms",
               "host_overhead_ms", "mpixel_per_s", "bytes_per_pixel", "mean_bytes_per_pixel", "lambert_ratio", "copy_ratio",
-              "copy_mean_ms", "wall_median_ms", "numpy_ms", "numpy_ratio", "numpy_frames", "max_rel_error",
-              "mean_rel_error", "frames")
+              "copy_mean_ms", "wall_median_ms", "numpy_ms", "numpy_ratio", "numpy_frames", "numpy_layout",
+              "numpy_check", "numpy_note", "reference_ms", "reference_ratio", "max_rel_error", "mean_rel_error", "frames")
 
 
 @dataclass
@@ -69,6 +75,28 @@ class Case:
     device_ms: list[float] = field(default_factory=list)
     host_ms: list[float] = field(default_factory=list)
     numpy_ms: list[float] = field(default_factory=list)
+    reference_ms: list[float] = field(default_factory=list)
+    baseline: NumpyShader | None = None    # the NumPy baseline, once checked against the kernel's image
+    numpy_check: float | None = None       # its largest relative difference from the kernel's image
+    numpy_note: str = ""                   # why there is no NumPy time
+
+
+@dataclass
+class Guard:
+    """The straw-man guard: the baseline's Lambert and a minimal NumPy Lambert on the same
+    G-buffer, timed in pairs (GUARD_FRAMES of them) spread over the same rounds as the NumPy
+    baselines."""
+    lambert: Callable[[], object]
+    minimal: Callable[[], object]
+    lambert_ms: list[float] = field(default_factory=list)
+    minimal_ms: list[float] = field(default_factory=list)
+
+    def summary(self) -> dict[str, object]:
+        """Medians, their ratio and whether it marks the NumPy column suspect (> SUSPECT_RATIO)."""
+        median = lambda t: float(np.median(t)) if t else None  # noqa: E731
+        ratio, bad = suspect(self.lambert_ms, self.minimal_ms)
+        return dict(baseline_lambert_ms=median(self.lambert_ms), minimal_lambert_ms=median(self.minimal_ms),
+                    ratio=ratio, limit=SUSPECT_RATIO, suspect=bad, frames=len(self.minimal_ms))
 
 
 def frame_stats(device_ms: np.ndarray, host_ms: np.ndarray) -> dict[str, float]:
@@ -141,12 +169,37 @@ def _timed(shader: Shader, dispatch) -> tuple[float, float]:
     return (event.profile.end - event.profile.start) * 1e-6, host
 
 
-def _numpy_wall(c: Case) -> float:
-    """Wall ms of one NumPy frame of the case."""
+def _wall(fn: Callable[[], object]) -> float:
+    """Wall ms of one call."""
     t0 = time.perf_counter()
-    shade_numpy(c.model, c.gbuffer, c.scene, c.shader.camera, c.features.half_gbuffer,
-                c.shader.shadows if c.features.shadows else None)
+    fn()
     return (time.perf_counter() - t0) * 1e3
+
+
+def _reference_frame(c: Case) -> None:
+    """One frame of the general reference in float32 (shadow lookups included when the case has them)."""
+    shade_reference_f32(c.model, c.gbuffer, c.scene, c.shader.camera, c.features.half_gbuffer,
+                        c.shader.shadows if c.features.shadows else None)
+
+
+def prepare_baseline(c: Case) -> None:
+    """Build the case's NumPy baseline and check it against the kernel's image (covered pixels,
+    VERIFY_RTOL relative, the pixels float32 implementations can agree on): a baseline that
+    differs is not timed, and the note says by how much."""
+    try:
+        shader = numpy_shader(c.model, c.gbuffer, c.scene, c.shader.camera, c.features)
+    except Unsupported as exc:
+        c.numpy_note = str(exc)
+        return
+    c.shader.render(c.model, c.features)
+    image = c.shader.read_samples()
+    covered = np.flatnonzero(c.gbuffer.coverage.ravel())
+    mine = np.concatenate([shader.run(), np.ones((c.gbuffer.pixels, 1), np.float32)], axis=1)
+    c.numpy_check = verify(mine, image, covered[well_conditioned(c.model, c.gbuffer, covered)])
+    if c.numpy_check <= VERIFY_RTOL:
+        c.baseline = shader
+    else:
+        c.numpy_note = f"differs from the kernel's image by {c.numpy_check:.1e} > {VERIFY_RTOL:g}: not timed"
 
 
 def numpy_schedule(frames: int, numpy_frames: int) -> list[int]:
@@ -159,32 +212,48 @@ def numpy_schedule(frames: int, numpy_frames: int) -> list[int]:
 
 
 def run_cases(cases: list[Case], frames: int, warmup: int, progress: Callable[[int, int], None] | None = None,
-              numpy_frames: int = NUMPY_FRAMES) -> dict[tuple, list[float]]:
-    """Time every case, its copy kernel and (cases with `numpy`) its NumPy baseline,
-    interleaved in the same rounds; fills case.device_ms / host_ms / numpy_ms and returns
-    copy device times per copy key (shader, channels, half). `progress(done, total)` is
-    called after each round."""
+              numpy_frames: int = NUMPY_FRAMES, guard: Guard | None = None) -> dict[tuple, list[float]]:
+    """Time every case, its copy kernel and (cases with `numpy`) its NumPy baseline and the
+    general reference in float32, interleaved in the same rounds, with the `guard`'s two
+    Lambert frames in every round that runs NumPy; fills case.device_ms / host_ms / numpy_ms /
+    reference_ms and the guard's lists, and returns copy device times per copy key (shader,
+    channels, half). `progress(done, total)` is called after each round."""
     shade = [c.shader.prepare(c.model, c.features) for c in cases]
+    for c in cases:
+        if c.numpy:
+            prepare_baseline(c)
     copies: dict[tuple, tuple[Shader, object]] = {}
     for c, d in zip(cases, shade):
         key = (id(c.shader), d.variant.channels, c.features.half_gbuffer)
         copies.setdefault(key, (c.shader, c.shader.prepare(c.model, c.features, entry="copy")))
     copy_ms: dict[tuple, list[float]] = {k: [] for k in copies}
+    numpy_runs = any(c.numpy for c in cases)
     for w in range(warmup):
         for c, d in zip(cases, shade):
             _timed(c.shader, d)
             if c.numpy and w == 0:
-                _numpy_wall(c)
+                _reference_frame(c)
+                if c.baseline is not None:
+                    c.baseline.run()
+        if guard is not None and numpy_runs and w == 0:
+            guard.lambert(), guard.minimal()
         for shader, d in copies.values():
             _timed(shader, d)
-    schedule = numpy_schedule(frames, numpy_frames)
+    schedule, guard_schedule = numpy_schedule(frames, numpy_frames), numpy_schedule(frames, GUARD_FRAMES)
     for r in range(frames):
         for c, d in zip(cases, shade):
             dev, host = _timed(c.shader, d)
             c.device_ms.append(dev)
             c.host_ms.append(host)
             if c.numpy:
-                c.numpy_ms += [_numpy_wall(c) for _ in range(schedule[r])]
+                for _ in range(schedule[r]):
+                    if c.baseline is not None:
+                        c.numpy_ms.append(_wall(c.baseline.run))
+                    c.reference_ms.append(_wall(lambda: _reference_frame(c)))
+        if guard is not None and numpy_runs:
+            for _ in range(guard_schedule[r]):
+                guard.lambert_ms.append(_wall(guard.lambert))
+                guard.minimal_ms.append(_wall(guard.minimal))
         for key, (shader, d) in copies.items():
             copy_ms[key].append(_timed(shader, d)[0])
         if progress is not None:
@@ -215,12 +284,13 @@ def summarize(cases: list[Case], copy_ms: dict[tuple, list[float]], error: bool 
         row["wall_median_ms"] = float(np.median(c.host_ms))
         if c.model.id == "lambert" and not (c.features.fast_math or c.features.half_gbuffer) and lambert_ms is None:
             lambert_ms = stats["mean_ms"]
-        if c.numpy and c.numpy_ms:
-            row["numpy_ms"] = float(np.median(c.numpy_ms))
-            row["numpy_ratio"] = row["numpy_ms"] / row["wall_median_ms"]
-            row["numpy_frames"] = len(c.numpy_ms)
-        else:
-            row["numpy_ms"] = row["numpy_ratio"] = row["numpy_frames"] = None
+        numpy_ms = float(np.median(c.numpy_ms)) if c.numpy_ms else None
+        reference_ms = float(np.median(c.reference_ms)) if c.reference_ms else None
+        row.update(numpy_ms=numpy_ms, numpy_ratio=numpy_ms / row["wall_median_ms"] if numpy_ms else None,
+                   numpy_frames=len(c.numpy_ms) if c.numpy_ms else None,
+                   numpy_layout=c.baseline.layout if c.baseline else None, numpy_check=c.numpy_check,
+                   numpy_note=c.numpy_note or None, reference_ms=reference_ms,
+                   reference_ratio=reference_ms / row["wall_median_ms"] if reference_ms else None)
         if error:
             c.shader.render(c.model, c.features)
             target = c.target or c.model
@@ -303,6 +373,15 @@ class Bench:
         return Case(label or model.id, model, features, self.shader(gb, sc), sc, gb,
                     target=target, group=group, numpy=numpy and not model.is_users, visibility=vis)
 
+    def guard(self) -> Guard | None:
+        """The straw-man guard on the frame (None where the baseline has no Lambert for the scene)."""
+        fr = self.frame
+        try:
+            lambert = numpy_shader(resolve("lambert"), fr.gbuffer, fr.scene, fr.camera, self.features)
+        except Unsupported:
+            return None
+        return Guard(lambert.run, minimal_lambert(fr.gbuffer, fr.scene))
+
     def metal_gbuffer(self) -> GBuffer:
         """The G-buffer with every covered pixel a conductor: metallic 1, base colour the
         normal-incidence reflectance of the first material's η + ik (Schlick's F0)."""
@@ -358,7 +437,7 @@ def machine_info(runtime: Runtime) -> dict[str, object]:
 
 
 def report(bench: Bench, rows: list[dict], frames: int, warmup: int, ladder: list[dict] | None = None,
-           numpy_frames: int = NUMPY_FRAMES) -> dict:
+           numpy_frames: int = NUMPY_FRAMES, guard: Guard | None = None) -> dict:
     """The JSON document (docs/bench-schema.md)."""
     fr = bench.frame
     return stamp(dict(schema=SCHEMA, clshade_version=__version__, created=time.strftime("%Y-%m-%dT%H:%M:%S%z"),
@@ -371,6 +450,7 @@ def report(bench: Bench, rows: list[dict], frames: int, warmup: int, ladder: lis
                 frames=frames, warmup=warmup, numpy_frames=numpy_frames, features=dataclasses.asdict(bench.features),
                 error_definition=f"|L - L_ref| / max(|L_ref|, {REL_ERROR_FLOOR:g} * peak(L_ref)), "
                                  "largest channel per covered pixel with n.v > MIN_N_DOT_V, L_ref float64 (clshade.verify.reference.radiance)",
+                numpy_guard=guard.summary() if guard is not None else None,
                 models=rows, ladder=ladder or []), bench.runtime.info.description)
 
 
@@ -396,8 +476,9 @@ def run_bench(scene: Scene | str | Path, models: list[Model], frames: int, warmu
     bench = Bench.prepare(scene, width, height, lights, device, tangents=reads_tangents(models))
     cases = [bench.case(m, label=m.label) for m in models]
     rungs = ladder_cases(bench) if ladder else []
-    copy_ms = run_cases(cases + rungs, frames, warmup, progress, numpy_frames)
+    guard = bench.guard() if numpy_frames > 0 else None
+    copy_ms = run_cases(cases + rungs, frames, warmup, progress, numpy_frames, guard)
     rows = summarize(cases, copy_ms)
     ladder_rows = summarize(rungs, copy_ms) if rungs else []
     mark_pareto(ladder_rows)
-    return report(bench, rows, frames, warmup, ladder_rows, numpy_frames)
+    return report(bench, rows, frames, warmup, ladder_rows, numpy_frames, guard)
