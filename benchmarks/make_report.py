@@ -175,7 +175,8 @@ def main() -> int:
     cases = [bench.case(m, label=m.label) for m in models]
     noise = [bench.case(resolve(NOISE_MODEL), label=f"{NOISE_MODEL} #{k + 2}", numpy=False)
              for k in range(NOISE_REPEATS - 1)]
-    copy_ms = run_cases(cases + noise, args.frames, args.warmup)
+    guard = bench.guard()
+    copy_ms = run_cases(cases + noise, args.frames, args.warmup, guard=guard)
     rows = summarize(cases, copy_ms)
     noise_rows = summarize(noise, copy_ms, error=False)
     ladder = ladder_cases(bench)
@@ -184,7 +185,7 @@ def main() -> int:
     title = f"sphere_grid {args.width}x{args.height}, 1 light, {rt.info.device}"
     plot_fps(rows, IMAGES / "fps.png", title)
     plot_ladder(ladder_rows, IMAGES / "accuracy_vs_time.png", title)
-    doc = report(bench, rows, args.frames, args.warmup, ladder_rows)
+    doc = report(bench, rows, args.frames, args.warmup, ladder_rows, guard=guard)
 
     # Plausibility and the claims.
     verdicts = P.evaluate_presets(P.Sweep(), None)

@@ -16,6 +16,7 @@ from clshade.tables import cell, markdown, write_csv
 BENCH_CSV_FIRST = ("model", "name", "mean_ms", "avg_fps", "low1_fps", "low01_fps", "median_ms", "p99_ms",
                    "host_overhead_ms", "mpixel_per_s", "bytes_per_pixel", "mean_bytes_per_pixel", "lambert_ratio",
                    "copy_ratio", "copy_mean_ms", "wall_median_ms", "numpy_ms", "numpy_ratio", "numpy_frames",
+                   "reference_ms", "reference_ratio",
                    "max_rel_error", "mean_rel_error", "frames")
 
 
@@ -28,11 +29,30 @@ def low01_fps(row: dict) -> float | None:
 
 
 def numpy_header(doc: dict | None = None) -> str:
-    """The × NumPy column's header: the clock and the thread count of each side."""
+    """The × NumPy column's header: the clock and the thread count of each side, and the
+    straw-man guard's verdict when it marks the column suspect."""
     if doc is None:
         return "× NumPy (wall time)"
     cu = doc.get("device", {}).get("compute_units")
-    return f"× NumPy (wall time; OpenCL {cu} CU, NumPy {doc.get('numpy_threads', 1)} thread)"
+    guard = doc.get("numpy_guard") or {}
+    flag = "; SUSPECT, see below" if guard.get("suspect") else ""
+    return f"× NumPy (wall time; OpenCL {cu} CU, NumPy {doc.get('numpy_threads', 1)} thread{flag})"
+
+
+NUMPY_BASELINE_CODE = "clshade/bench/numpy_baseline.py"
+
+
+def numpy_guard_line(doc: dict, code: str = NUMPY_BASELINE_CODE) -> str:
+    """One sentence: what the NumPy baseline is (`code`: how to name its file) and the straw-man
+    guard's measurement."""
+    what = (f"× NumPy = the NumPy baseline's wall time ({code}: vectorised float32 NumPy "
+            "specialised to the scene, checked against the kernel's image first) / the kernel's wall time")
+    guard = doc.get("numpy_guard")
+    if not guard or guard.get("ratio") is None:
+        return what + "; no straw-man guard in this run (the baseline has no Lambert for the scene)."
+    verdict = ("SUSPECT: the baseline may be a straw man" if guard["suspect"] else "not suspect")
+    return (what + f"; its Lambert takes {guard['ratio']:.2f}× a minimal NumPy Lambert (median of "
+            f"{guard['frames']} pairs in the same rounds; limit {guard['limit']:g}): {verdict}.")
 
 
 def bench_table(rows: list[dict], ladder: bool = False, doc: dict | None = None) -> str:
@@ -46,12 +66,14 @@ def bench_table(rows: list[dict], ladder: bool = False, doc: dict | None = None)
               "●" if r.get("pareto") else ""] for r in rows])
     return markdown(
         ["model", "mean ms", "avg FPS", "1 % low", "0.1 % low", "median ms", "p99 ms", "host ms", "Mpix/s", "B/px",
-         "mean B/px", "× Lambert", "× copy", "NumPy ms", numpy_header(doc), "max rel err", "mean rel err"],
+         "mean B/px", "× Lambert", "× copy", "NumPy ms", numpy_header(doc), "× general ref. (f32)", "max rel err",
+         "mean rel err"],
         [[r["label"], cell(r["mean_ms"], ".2f"), cell(r["avg_fps"], ".1f"), cell(r["low1_fps"], ".1f"),
           cell(low01_fps(r), ".1f"), cell(r["median_ms"], ".2f"), cell(r["p99_ms"], ".2f"),
           cell(r["host_overhead_ms"], ".3f"), cell(r["mpixel_per_s"], ".1f"), cell(r["bytes_per_pixel"]),
           cell(r["mean_bytes_per_pixel"], ".1f"), cell(r["lambert_ratio"], ".2f"), cell(r["copy_ratio"], ".2f"),
-          cell(r["numpy_ms"], ".1f"), cell(r["numpy_ratio"], ".1f"), cell(r["max_rel_error"], ".2e"),
+          cell(r["numpy_ms"], ".1f"), cell(r["numpy_ratio"], ".1f"), cell(r.get("reference_ratio"), ".1f"),
+          cell(r["max_rel_error"], ".2e"),
           cell(r["mean_rel_error"], ".2e")] for r in rows])
 
 
@@ -151,7 +173,8 @@ def bench_text(doc: dict) -> str:
     lines = [f"{scene} {doc['width']}x{doc['height']}{aa}, {doc['frames']} frames after {doc['warmup']} warm-up, "
              f"{doc['features']['num_dir'] + doc['features']['num_point'] + doc['features']['num_spot']} lights, "
              f"device {doc['device']['name']} [{doc['device']['platform_version']}]",
-             bench_table(doc["models"], doc=doc)]
+             bench_table(doc["models"], doc=doc), numpy_guard_line(doc)]
+    lines += [f"No NumPy time for {r['label']}: {r['numpy_note']}" for r in doc["models"] if r.get("numpy_note")]
     if doc["ladder"]:
         lines += ["", bench_table(doc["ladder"], ladder=True)]
     return "\n".join(lines)

@@ -89,17 +89,27 @@ def test_pareto():
 
 @pytest.mark.parametrize("spec", ["lambert", "oren_nayar", "burley", "blinn_phong_normalized", "cook_torrance",
                                   "ggx_correlated@conductor"])
-def test_numpy_baseline_matches_kernel(spec):
-    """The NumPy float32 baseline is the same shading as shade.cl (within float32 noise)."""
+def test_general_reference_f32_matches_kernel(spec):
+    """The general reference in float32 (the frame oracle in single precision, timed as its own
+    column) is the same shading as shade.cl (within float32 noise)."""
     from clshade.bench.run import Bench
     from clshade.models import resolve
-    from clshade.bench.numpy_baseline import shade_numpy
+    from clshade.bench.numpy_baseline import shade_reference_f32
     bench = Bench.prepare(SCENES / "sphere_grid.toml", 64, 48)
     model = resolve(spec)
     case = bench.case(model)
     image = case.shader.render(model, case.features)
-    mine = shade_numpy(model, bench.frame.gbuffer, bench.frame.scene, bench.frame.camera)
+    mine = shade_reference_f32(model, bench.frame.gbuffer, bench.frame.scene, bench.frame.camera)
     cov = bench.frame.gbuffer.coverage
     peak = np.abs(mine[cov, :3]).max()
     assert np.abs(image[cov] - mine[cov]).max() <= 1e-4 * peak
     assert np.array_equal(image[~cov], mine[~cov])
+
+
+def test_numpy_guard(report):
+    """The straw-man guard ran in the same rounds: its documented keys, a ratio, a verdict."""
+    guard = report["numpy_guard"]
+    assert documented_keys("NumPy guard") <= set(guard)
+    assert guard["frames"] > 0 and guard["ratio"] > 0 and guard["suspect"] == (guard["ratio"] > guard["limit"])
+    for row in report["models"]:
+        assert row["numpy_check"] <= 1e-4 and row["numpy_layout"] in ("covered", "all") and row["reference_ratio"] > 0
