@@ -517,6 +517,32 @@ CATALOGUE: list[Mutant] = [
     M("snapshot_kill_behavioural", "benchmarks/mutants.py",       # split: the catalogue must not contain it
       '(("snap' 'shot", "snapshot"), ("text", "text"), ("extra", "needs extra"))',
       '(("text", "text"), ("extra", "needs extra"))', "mutation score: a kill by a snapshot test counted as behavioural"),
+    # ---- the NumPy baseline and its straw-man guard (clshade/bench/numpy_baseline.py, run.py, publish.py)
+    M("numpy_lambert_pi", "clshade/bench/numpy_baseline.py", "INV_PI = f32(1.0 / math.pi)", "INV_PI = f32(0.5 / math.pi)",
+      "NumPy baseline: diffuse lobes use 1/(2π)"),
+    M("numpy_schlick_pow4", "clshade/bench/numpy_baseline.py", "return f0 + (f90 - f0) * pow5(1 - c)",
+      "return f0 + (f90 - f0) * (1 - c) ** 4", "NumPy baseline: Schlick's Fresnel with (1 − c)⁴"),
+    M("numpy_ggx_v_half", "clshade/bench/numpy_baseline.py", "return (a2 * f32(0.5)) / (d_ggx_den(g, a2) * (gv + gl))",
+      "return (a2 * f32(0.25)) / (d_ggx_den(g, a2) * (gv + gl))", "NumPy baseline: height-correlated V with 0.25"),
+    M("numpy_oren_nayar_b", "clshade/bench/numpy_baseline.py", "f32(0.45) * s2 / (s2 + f32(0.09))",
+      "f32(0.45) * s2 / (s2 + f32(0.9))", "NumPy baseline: Oren–Nayar B denominator 0.09 → 0.9"),
+    M("numpy_ambient_kd", "clshade/bench/numpy_baseline.py",
+      "wd = add(wd, s.ka * ambient * ((1 - s.f0) if fresnel and metallic_wf else s.kd))",
+      "wd = add(wd, s.ka * ambient * s.kd)", "NumPy baseline: ambient diffuse weight ignores F0 (k_d = 1)"),
+    M("numpy_zero_normal", "clshade/bench/numpy_baseline.py",
+      "            n[bad] = v[bad] if v is not None else view(bad if idx is None else idx[bad])",
+      "            pass", "NumPy baseline: a zero normal stays zero instead of facing the viewer"),
+    M("numpy_background", "clshade/bench/numpy_baseline.py", "            L[depth <= 0] = background\n",
+      "            L[depth <= 0] = 0\n", "NumPy baseline (every-pixel layout): empty pixels black, not the background"),
+    M("numpy_unverified", "clshade/bench/run.py", "    if c.numpy_check <= VERIFY_RTOL:", "    if True:",
+      "bench: the NumPy baseline is timed even when it differs from the kernel's image"),
+    M("numpy_guard_limit", "clshade/bench/numpy_baseline.py", "return ratio, ratio > SUSPECT_RATIO",
+      "return ratio, ratio >= SUSPECT_RATIO", "straw-man guard: a ratio of exactly 1.5 marked suspect"),
+    M("numpy_guard_mean", "clshade/bench/numpy_baseline.py", "ratio = float(np.median([a / b for a, b in pairs]))",
+      "ratio = float(np.mean([a / b for a, b in pairs]))", "straw-man guard: the mean of the pairs' ratios (one loaded pair moves it)"),
+    M("numpy_suspect_unmarked", "benchmarks/publish.py",
+      'return " (suspect)" if (doc.get("numpy_guard") or {}).get("suspect") else ""', 'return ""',
+      "published tables: a suspect NumPy column is not marked"),
 ]
 
 

@@ -90,3 +90,16 @@ def test_dated_notes_say_they_are_history(checkout, notes):
     text = (checkout / notes).read_text(encoding="utf-8")
     head = text.split("\n\n", 2)[1]
     assert head.startswith("> **Dated history — not a published result.**"), head[:120]
+
+
+def test_a_suspect_numpy_column_is_marked(publish):
+    """The straw-man guard's verdict reaches the published tables: a suspect run marks the README's
+    × NumPy header and leaves the NumPy target unjudged; a clean run does neither."""
+    bench = json.loads(publish.BENCH_JSON.read_text(encoding="utf-8"))
+    for bad in (False, True):
+        bench["numpy_guard"] = dict(baseline_lambert_ms=20.0 if bad else 12.0, minimal_lambert_ms=10.0,
+                                    ratio=2.0 if bad else 1.2, limit=1.5, suspect=bad, frames=25)
+        table, targets = publish.readme_bench_table(bench), "\n".join(publish.target_rows(bench))
+        assert ("× faster than NumPy (suspect)" in table) == bad
+        assert ("not judged (NumPy column suspect)" in targets) == bad
+        assert ("SUSPECT" in table) == bad and f"{bench['numpy_guard']['ratio']:.2f}×" in table
