@@ -9,7 +9,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from clshade.bench import numpy_baseline as nb
+import clshade.bench.numpy_baseline as nb
 from clshade.bench.peers import VERIFY_RTOL, verify, well_conditioned
 from clshade.bench.run import Bench, prepare_baseline
 from clshade.models import PRESETS, preset, resolve
