@@ -86,7 +86,8 @@ def _pyplot():
     try:
         import matplotlib
     except ImportError as exc:
-        raise ClshadeError("--plot needs matplotlib: pip install 'clshade[bench]'") from exc
+        raise ClshadeError("--plot needs matplotlib, a dependency of clshade missing from this environment: "
+                           "pip install matplotlib") from exc
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     return plt

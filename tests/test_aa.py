@@ -377,7 +377,6 @@ def test_render_command_samples(tmp_path, capsys):
 
 @pytest.mark.extra
 def test_aa_command_writes_its_results(tmp_path, capsys):
-    pytest.importorskip("matplotlib", reason="clshade aa plots the ladder: the bench extra (pip install '.[bench]')")
     prefix = tmp_path / "aa"
     assert main(["aa", "-m", "ggx_correlated", "--width", "48", "--height", "22", "--frames", "1",
                  "--truth-samples", "2", "--check-samples", "3", "--temporal-frames", "2", "-o", str(prefix)]) == 0

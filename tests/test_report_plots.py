@@ -1,13 +1,11 @@
 """Plots stay readable: labels of clustered points do not overlap (clshade.report)."""
 from __future__ import annotations
 
-import pytest
 
 
 @pytest.mark.extra
 def test_clustered_point_labels_do_not_overlap(tmp_path):
-    pytest.importorskip("matplotlib", reason="plots need the bench extra (pip install '.[bench]')")
-    import matplotlib
+    import matplotlib          # a default dependency: `clshade aa` and `bench --plot` draw with it
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.text import Text
