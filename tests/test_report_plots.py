@@ -2,8 +2,6 @@
 from __future__ import annotations
 
 
-
-@pytest.mark.extra
 def test_clustered_point_labels_do_not_overlap(tmp_path):
     import matplotlib          # a default dependency: `clshade aa` and `bench --plot` draw with it
     matplotlib.use("Agg")
