@@ -31,6 +31,7 @@ from clshade.models import GROUPS, preset, resolve, resolve_many  # noqa: E402
 from clshade.resources import kernels_dir  # noqa: E402
 from clshade.device.runtime import get_runtime  # noqa: E402
 from clshade.provenance import stamp  # noqa: E402
+from results_io import load_average  # noqa: E402
 
 OUT = ROOT / "benchmarks"
 IMAGES = OUT / "report"
@@ -155,7 +156,7 @@ def main() -> int:
     ap.add_argument("--width", type=int, default=1920)
     ap.add_argument("--height", type=int, default=1080)
     args = ap.parse_args()
-    start = time.perf_counter()
+    start, at_start = time.perf_counter(), load_average()
     IMAGES.mkdir(parents=True, exist_ok=True)
 
     # Sheets.
@@ -204,6 +205,7 @@ def main() -> int:
     doc["noise"] = dict(model=NOISE_MODEL, mean_ms=[next(r["mean_ms"] for r in rows if r["model"] == resolve(NOISE_MODEL).id)]
                         + [r["mean_ms"] for r in noise_rows])
     doc["seconds"] = round(time.perf_counter() - start, 1)
+    doc["load_average"] = dict(start=at_start, end=load_average())
     doc = stamp(doc, get_runtime().info.description)
     (IMAGES / "report.json").write_text(json.dumps(doc, indent=2, ensure_ascii=False, default=float), encoding="utf-8")
     print(f"wrote {IMAGES}/report.json and images in {time.perf_counter() - start:.0f} s; "

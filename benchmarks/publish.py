@@ -67,6 +67,17 @@ def _suspect(doc: dict[str, Any]) -> str:
     return " (suspect)" if (doc.get("numpy_guard") or {}).get("suspect") else ""
 
 
+def provenance_text(doc: dict[str, Any]) -> str:
+    """" Commit …; load average … at the start and the end." from the results ("" when absent)."""
+    p, la = doc.get("provenance") or {}, doc.get("load_average")
+    load = lambda a: "/".join(f"{x:g}" for x in a)  # noqa: E731
+    out = (f" Commit {(p.get('commit') or 'unknown')[:10]}{' (uncommitted changes)' if p.get('dirty') else ''}."
+           if p else "")
+    if la:
+        out += f" Load average (1/5/15 min) {load(la['start'])} at the start, {load(la['end'])} at the end (2 shared cores)."
+    return out
+
+
 def numpy_sentence(doc: dict[str, Any], up: str) -> str:
     """What the × NumPy column is, with a link to the baseline's code (`up`: the path from the
     published file to the repository root), and the straw-man guard's measurement."""
@@ -158,7 +169,8 @@ def render_report(doc: dict[str, Any]) -> str:
         f"{frames} frames per model after {doc['warmup']} warm-up (the frame count is in each row; the 0.1 % low "
         f"is printed only with ≥ {LOW01_MIN_FRAMES} frames), models and copy kernels interleaved in rounds. Only "
         "ratios from this one run are compared; the machine is shared and noisy. A CPU OpenCL device is not a "
-        "GPU running Unity: where our numbers disagree with the study's, that difference is part of the answer.",
+        "GPU running Unity: where our numbers disagree with the study's, that difference is part of the answer."
+        + provenance_text(doc),
         "",
         "## What the models look like",
         "",
@@ -284,7 +296,7 @@ def render_bench(doc: dict[str, Any]) -> str:
           f"`python benchmarks/run_bench.py`. Device: {dev['name']} [{dev['platform_version']}], local size "
           f"{dev['local_size']}; machine: {mach['processor']}, {mach['cpu_count']} CPUs (shared), {mach['os']}. "
           f"One directional light + ambient, precise math, float32 G-buffer; {doc['covered_pixels']} of "
-          f"{doc['pixels']} pixels covered.", "",
+          f"{doc['pixels']} pixels covered.{provenance_text(doc)}", "",
           f"**Frames:** {doc['frames']} timed frames per model after {doc['warmup']} warm-up; models and copy "
           f"kernels interleaved in rounds. Ladder {doc['ladder_frames']} frames, lights scaling {lights['frames']} "
           f"frames. The 0.1 % low is printed only with ≥ {LOW01_MIN_FRAMES} frames.", "",

@@ -23,6 +23,11 @@ def machine() -> dict:
             "device": get_runtime().info.description, "load_average_at_start": list(os.getloadavg())}
 
 
+def load_average() -> list[float]:
+    """The load average (1, 5, 15 min) now: on the shared machine, how busy it was."""
+    return [round(x, 2) for x in os.getloadavg()]
+
+
 def publish(out: Path, measure: Callable[[], dict], markdown: Callable[[dict], str], markdown_only: bool) -> dict:
     """Measure (unless `markdown_only`: re-read `out`), write `out` (JSON, with date, machine and provenance)
     and the Markdown rendered from it beside it (.md)."""

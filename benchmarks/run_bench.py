@@ -26,6 +26,7 @@ from clshade.bench.run import (Bench, frame_stats, ladder_cases, mark_pareto,  #
                                report, run_cases, summarize, with_lights)
 from clshade.report import bench_csv as write_csv, plot_fps, plot_ladder  # noqa: E402
 from clshade.models import resolve_many  # noqa: E402
+from results_io import load_average  # noqa: E402
 
 OUT = ROOT / "benchmarks" / "results"
 # numpy_ratio: against the NumPy baseline a NumPy user would write (clshade/bench/numpy_baseline.py). The
@@ -65,7 +66,7 @@ def main() -> int:
     ap.add_argument("--width", type=int, default=1920)
     ap.add_argument("--height", type=int, default=1080)
     args = ap.parse_args()
-    start = time.perf_counter()
+    start, at_start = time.perf_counter(), load_average()
     OUT.mkdir(parents=True, exist_ok=True)
     bench = Bench.prepare(ROOT / "scenes" / "sphere_grid.toml", args.width, args.height, lights=1)
     models = resolve_many("all")
@@ -86,6 +87,7 @@ def main() -> int:
     doc["ladder_frames"] = args.ladder_frames
     doc["targets"] = TARGETS
     doc["seconds"] = round(time.perf_counter() - start, 1)
+    doc["load_average"] = dict(start=at_start, end=load_average())
     stem = OUT / f"bench_{args.height}p"
     stem.with_suffix(".json").write_text(json.dumps(doc, indent=2, ensure_ascii=False), encoding="utf-8")
     write_csv(rows, stem.with_suffix(".csv"))
