@@ -58,7 +58,7 @@ def readme_bench_table(bench: dict[str, Any]) -> str:
     device = bench["device"]
     platform = re.search(r"PoCL [^ ]+", device["platform_version"])
     out += ["", f"*From benchmarks/results/bench_1080p.json (measured {bench['created'][:10]}, device "
-                f"`{device['name']}`{', ' + platform.group(0) if platform else ''}); 0.1 % low only with "
+                f"`{device['name']}`{', ' + platform.group(0) if platform else ''}).{provenance_text(bench)} 0.1 % low only with "
                 f"≥ {LOW01_MIN_FRAMES} frames. {numpy_sentence(bench, '')}*"]
     return "\n".join(out)
 
