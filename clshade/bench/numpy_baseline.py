@@ -50,7 +50,7 @@ from clshade.verify.reference import radiance
 
 NUMPY_THREADS = 1     # NumPy ufuncs are single-threaded
 SUSPECT_RATIO = 1.5   # baseline Lambert / minimal Lambert above this: the NumPy column is suspect
-LAYOUT_TRIALS = 3     # frames per layout when `prepare` picks covered-only or every pixel (median)
+LAYOUT_TRIALS = 5     # frames per layout, alternating, when numpy_shader picks covered-only or every pixel (median)
 GUARD_FRAMES = 25     # pairs (baseline Lambert, minimal Lambert) the bench times, spread over its rounds
 
 f32 = np.float32
@@ -250,24 +250,22 @@ def check_supported(model: Model, scene: Scene, features: Features) -> None:
 def numpy_shader(model: Model, gb: GBuffer, scene: Scene, camera: Camera, features: Features,
                  layout: str | None = None) -> NumpyShader:
     """The NumPy baseline of `model` on `gb` (half: the G-buffer rounded as the device reads it).
-    `layout` "covered" or "all"; None: time both (LAYOUT_TRIALS frames each) and keep the faster."""
+    `layout` "covered" or "all"; None: time both (LAYOUT_TRIALS frames each, alternating, so that a burst
+    of load on the shared machine hits both) and keep the one with the lower median."""
     check_supported(model, scene, features)
     if features.half_gbuffer:
         gb = half_gbuffer(gb)
     frame = _frame_function(model, gb, scene, camera, dict(features.uniform))
     if layout is None:
-        layout = min(("covered", "all"), key=lambda k: _median_ms(lambda: frame(k == "covered"), LAYOUT_TRIALS))
+        times: dict[str, list[float]] = {"covered": [], "all": []}
+        frame(True), frame(False)
+        for _ in range(LAYOUT_TRIALS):
+            for name in times:
+                t0 = time.perf_counter()
+                frame(name == "covered")
+                times[name].append(time.perf_counter() - t0)
+        layout = min(times, key=lambda name: float(np.median(times[name])))
     return NumpyShader(model, lambda: frame(layout == "covered"), layout)
-
-
-def _median_ms(fn: Callable[[], object], frames: int) -> float:
-    fn()
-    times = []
-    for _ in range(frames):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return float(np.median(times)) * 1e3
 
 
 def _frame_function(model: Model, gb: GBuffer, scene: Scene, camera: Camera,

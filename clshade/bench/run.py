@@ -86,7 +86,7 @@ class Guard:
     """The straw-man guard: the baseline's Lambert and a minimal NumPy Lambert on the same
     G-buffer, timed in pairs (GUARD_FRAMES of them) spread over the same rounds as the NumPy
     baselines."""
-    lambert: Callable[[], object]
+    lambert: NumpyShader
     minimal: Callable[[], object]
     lambert_ms: list[float] = field(default_factory=list)
     minimal_ms: list[float] = field(default_factory=list)
@@ -96,7 +96,8 @@ class Guard:
         median = lambda t: float(np.median(t)) if t else None  # noqa: E731
         ratio, bad = suspect(self.lambert_ms, self.minimal_ms)
         return dict(baseline_lambert_ms=median(self.lambert_ms), minimal_lambert_ms=median(self.minimal_ms),
-                    ratio=ratio, limit=SUSPECT_RATIO, suspect=bad, frames=len(self.minimal_ms))
+                    ratio=ratio, limit=SUSPECT_RATIO, suspect=bad, frames=len(self.minimal_ms),
+                    baseline_lambert_layout=self.lambert.layout)
 
 
 def frame_stats(device_ms: np.ndarray, host_ms: np.ndarray) -> dict[str, float]:
@@ -236,7 +237,7 @@ def run_cases(cases: list[Case], frames: int, warmup: int, progress: Callable[[i
                 if c.baseline is not None:
                     c.baseline.run()
         if guard is not None and numpy_runs and w == 0:
-            guard.lambert(), guard.minimal()
+            guard.lambert.run(), guard.minimal()
         for shader, d in copies.values():
             _timed(shader, d)
     schedule, guard_schedule = numpy_schedule(frames, numpy_frames), numpy_schedule(frames, GUARD_FRAMES)
@@ -252,7 +253,7 @@ def run_cases(cases: list[Case], frames: int, warmup: int, progress: Callable[[i
                     c.reference_ms.append(_wall(lambda: _reference_frame(c)))
         if guard is not None and numpy_runs:
             for _ in range(guard_schedule[r]):
-                guard.lambert_ms.append(_wall(guard.lambert))
+                guard.lambert_ms.append(_wall(guard.lambert.run))
                 guard.minimal_ms.append(_wall(guard.minimal))
         for key, (shader, d) in copies.items():
             copy_ms[key].append(_timed(shader, d)[0])
@@ -380,7 +381,7 @@ class Bench:
             lambert = numpy_shader(resolve("lambert"), fr.gbuffer, fr.scene, fr.camera, self.features)
         except Unsupported:
             return None
-        return Guard(lambert.run, minimal_lambert(fr.gbuffer, fr.scene))
+        return Guard(lambert, minimal_lambert(fr.gbuffer, fr.scene))
 
     def metal_gbuffer(self) -> GBuffer:
         """The G-buffer with every covered pixel a conductor: metallic 1, base colour the
