@@ -17,7 +17,6 @@ from clshade.provenance import provenance, stamp
 # Results measured before the code they depend on last changed, not yet regenerated
 # (expensive: the lead reruns them). strict: regenerating one fails here until it leaves this list.
 KNOWN_STALE = {
-    "bench_1080p.json": "1080p bench (benchmarks/run_bench.py, ~20 min)",
     "perf_1080p.json": "perf (python -m clshade.bench.perf, ~30 min)",
     "effects.json": "effects bench (benchmarks/effects_bench.py)",
     "aa.json": "anti-aliasing ladder (clshade aa)",
