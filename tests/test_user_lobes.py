@@ -15,7 +15,7 @@ import pytest
 from clshade import models
 from clshade.pipeline import prepare_frame, render
 from clshade.render.scene import parse_scene
-from tests.conftest import SCENES
+from conftest import SCENES
 
 LOBES = SCENES / "lobes"
 MATCH_RTOL = 1e-4
