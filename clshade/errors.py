@@ -1,6 +1,7 @@
 """The project error: library code raises it, only the CLI prints it."""
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
 
@@ -25,11 +26,17 @@ def one_line(text: str) -> str:
     return "; ".join(lines)
 
 
+# pyopencl's own wrapping of a build log, never the compiler's reason.
+_PYOPENCL_WRAPPING = re.compile(r"^(clBuildProgram failed|Build on <|\(options:|=+$)")
+
+
 def first_error(log: str) -> str:
-    """The line of a compiler log a reader needs first: its first line naming an error
-    (else its first non-blank line)."""
+    """The line of a compiler log a reader needs first: its first line naming an error (else its
+    first non-blank line), pyopencl's wrapping lines ('clBuildProgram failed', 'Build on <…>',
+    '(options: …)') left out where anything else remains."""
     lines = [line.strip() for line in str(log).splitlines() if line.strip()]
-    return next((line for line in lines if "error" in line.lower()), lines[0] if lines else "")
+    useful = [line for line in lines if not _PYOPENCL_WRAPPING.match(line)] or lines
+    return next((line for line in useful if "error" in line.lower()), useful[0] if useful else "")
 
 
 def located(message: str, file: str | Path | None = None, key: str | None = None,

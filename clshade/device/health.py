@@ -15,13 +15,13 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import re
 import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
 from clshade.cachedir import read_entry, user_cache_dir, write_entry
+from clshade.errors import first_error
 
 #: Kept results (one small JSON file per device × driver × environment).
 HEALTH_CACHE_ENTRIES = 256
@@ -53,18 +53,8 @@ class Health:
 
 
 def first_error_line(log: str) -> str:
-    """The compiler's first meaningful line of a build failure: a line with 'error' when there is
-    one, else the first line that is not pyopencl's own wrapping ('clBuildProgram failed', 'Build on
-    <…>', '(options: …)')."""
-    lines = [l.strip() for l in log.splitlines() if l.strip()]
-    skip = re.compile(r"^(clBuildProgram failed|Build on <|\(options:|=+$)")
-    useful = [l for l in lines if not skip.match(l)]
-    for line in useful:
-        if re.search(r"\berror\b", line, re.IGNORECASE):
-            return line
-    if useful:
-        return useful[0]
-    return lines[0] if lines else "unknown build failure"
+    """The compiler's reason for a failed probe build (clshade.errors.first_error), never empty."""
+    return first_error(log) or "unknown build failure"
 
 
 def build_environment() -> dict[str, str]:
