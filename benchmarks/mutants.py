@@ -38,6 +38,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 from clshade.provenance import stamp  # noqa: E402
+sys.path.insert(0, str(ROOT / "benchmarks"))
+import impact  # noqa: E402
 OUT = ROOT / "benchmarks" / "results" / "mutants.json"
 COPY_IGNORE = shutil.ignore_patterns(".venv", ".git", "__pycache__", "*.egg-info", "build", "dist",
                                      ".pytest_cache", ".hypothesis", "out")
@@ -543,6 +545,17 @@ CATALOGUE: list[Mutant] = [
     M("numpy_suspect_unmarked", "benchmarks/publish.py",
       'return " (suspect)" if (doc.get("numpy_guard") or {}).get("suspect") else ""', 'return ""',
       "published tables: a suspect NumPy column is not marked"),
+    # ---- the mutation runner's own test selection (benchmarks/impact.py)
+    M("impact_reads_ignored", "benchmarks/impact.py", "elif file in got.whole or file in got.read:",
+      "elif file in got.whole:", "impact: a kernel source read by a test file does not select that file"),
+    M("impact_statement_first_line", "benchmarks/impact.py",
+      "out.update(range(inner.lineno, (inner.end_lineno or inner.lineno) + 1))", "out.add(line)",
+      "impact: a mutated continuation line is looked up alone (coverage names a statement by its first line)"),
+    M("impact_failed_recording_trusted", "benchmarks/impact.py",
+      "if got.returncode not in RECORDED_OK or not got.lines:", "if got.returncode not in RECORDED_OK and not got.lines:",
+      "impact: a test file whose recording failed is trusted (left out of mutants it may reach)"),
+    M("impact_children_unsaved", "benchmarks/impact.py", "    atexit.register(save)\n", "\n",
+      "impact: no process saves its coverage (every open counts whole: a selection wider than needed)"),
 ]
 
 
@@ -634,8 +647,18 @@ def installed_extras(python: str) -> dict[str, bool]:
 BASELINE = Mutant("(baseline)", "", "", "", "the snapshot itself, unmutated")
 
 
-def run_one(mutant: Mutant, python: str, base: Path, baseline: frozenset[str] = frozenset()) -> dict:
-    """Copy the snapshot `base`, apply the mutant, run the whole suite there; every failing test
+def suite_env(copy: Path) -> dict[str, str]:
+    """The environment of a suite run in `copy`: the copy's Python code and kernels are the ones used."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(copy), str(copy / "benchmarks")]),
+               PYTHONDONTWRITEBYTECODE="1")
+    env.pop("CLSHADE_EXPECT_INSTALLED", None)
+    return env
+
+
+def run_one(mutant: Mutant, python: str, base: Path, baseline: frozenset[str] = frozenset(),
+            files: list[str] | None = None) -> dict:
+    """Copy the snapshot `base`, apply the mutant, run the suite there — the test files `files` that the
+    mutant can change (benchmarks/impact.py), or the whole suite where `files` is None; every failing test
     is recorded, and the kill classified on the tests that pass on the unmutated tree (`baseline`:
     the tests failing there, listed apart)."""
     start = time.perf_counter()
@@ -645,22 +668,24 @@ def run_one(mutant: Mutant, python: str, base: Path, baseline: frozenset[str] = 
         if mutant is not BASELINE:
             apply(copy, mutant)
         report = Path(tmp) / "failures.json"
-        env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(copy), str(copy / "benchmarks")]),
-                   PYTHONDONTWRITEBYTECODE="1", CLSHADE_MUTANT=mutant.name, CLSHADE_MUTANT_REPORT=str(report))
-        env.pop("CLSHADE_EXPECT_INSTALLED", None)
+        env = dict(suite_env(copy), CLSHADE_MUTANT=mutant.name, CLSHADE_MUTANT_REPORT=str(report))
         where = subprocess.run([python, "-c", "import clshade.resources as r; print(r.kernels_dir())"],
                                cwd=copy, env=env, capture_output=True, text=True)
         kernels = where.stdout.strip()
         if where.returncode or not Path(kernels).resolve().is_relative_to(copy.resolve()):
             raise SystemExit(f"mutant {mutant.name}: the copy's kernels are not the ones used ({kernels!r} "
                              f"{where.stderr.strip()})")
-        try:
-            proc = subprocess.run([python, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-p", "mutant_plugin",
-                                   *test_order(copy, mutant)],
-                                  cwd=copy, env=env, capture_output=True, text=True, timeout=TEST_TIMEOUT_S)
-            rc, tail = proc.returncode, proc.stdout.strip().splitlines()
-        except subprocess.TimeoutExpired:
-            rc, tail = -1, ["timeout"]
+        order = [f for f in test_order(copy, mutant) if files is None or f in files]
+        if not order:          # no test file reaches the mutated code: nothing can fail
+            rc, tail = 5, ["no test file reaches the mutated code"]
+        else:
+            try:
+                proc = subprocess.run([python, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-p", "mutant_plugin",
+                                       *order], cwd=copy, env=env, capture_output=True, text=True,
+                                      timeout=TEST_TIMEOUT_S)
+                rc, tail = proc.returncode, proc.stdout.strip().splitlines()
+            except subprocess.TimeoutExpired:
+                rc, tail = -1, ["timeout"]
         failures = json.loads(report.read_text(encoding="utf-8")) if report.exists() else []
     new = [f for f in failures if f["test"] not in baseline]
     kill = classify(new, 0 if failures and not new else rc)
@@ -668,7 +693,21 @@ def run_one(mutant: Mutant, python: str, base: Path, baseline: frozenset[str] = 
                 status="killed" if kill not in ("survived", "timeout") else kill, kill_class=kill, returncode=rc,
                 failing_tests=[dict(test=f["test"], kind=classify([f], 1)) for f in new],
                 failing_on_baseline_too=sorted({f["test"] for f in failures} - {f["test"] for f in new}),
-                seconds=round(time.perf_counter() - start, 1), summary=tail[-1] if tail else "")
+                seconds=round(time.perf_counter() - start, 1), summary=tail[-1] if tail else "",
+                test_files_run=len(order), test_files_total=len(test_order(base, mutant)))
+
+
+def record_impact(base: Path, keep: str | None = None) -> dict[str, impact.FileImpact]:
+    """Record, on an unmutated copy of the snapshot, what each test file reaches (benchmarks/impact.py)."""
+    start = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="mutants-impact-") as tmp:
+        copy = Path(tmp) / "repo"
+        shutil.copytree(base, copy)
+        got = impact.record(copy, sys.executable, suite_env(copy))
+    if keep:
+        Path(keep).write_text(json.dumps(impact.to_json(got)) + "\n", encoding="utf-8")
+    print(f"impact recorded for {len(got)} test files in {time.perf_counter() - start:.0f} s", flush=True)
+    return got
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -677,6 +716,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--only", default="", help="comma-separated mutant names")
     parser.add_argument("--json", default=str(OUT))
     parser.add_argument("--check", action="store_true", help="only check that every snippet is found once")
+    parser.add_argument("--whole-suite", action="store_true",
+                        help="run every test file for every mutant (default: the files that can fail, "
+                             "benchmarks/impact.py)")
+    parser.add_argument("--impact-json", help="keep the recorded impact map here")
     args = parser.parse_args(argv)
     commit = head_commit()
     holder = tempfile.TemporaryDirectory(prefix="mutants-base-")
@@ -694,8 +737,13 @@ def main(argv: list[str] | None = None) -> int:
     base_run = run_one(BASELINE, sys.executable, base)
     baseline = frozenset(f["test"] for f in base_run["failing_tests"])
     print(f"baseline (unmutated): {len(baseline)} failing {sorted(baseline)}", flush=True)
+    selection = None if args.whole_suite else record_impact(base, args.impact_json)
+    def files(m: Mutant) -> list[str] | None:
+        if selection is None:
+            return None
+        return impact.select(selection, m.file, (base / m.file).read_text(encoding="utf-8"), m.original)
     with ThreadPoolExecutor(max_workers=max(1, min(args.jobs, 2))) as pool:
-        for res in pool.map(lambda m: run_one(m, sys.executable, base, baseline), chosen):
+        for res in pool.map(lambda m: run_one(m, sys.executable, base, baseline, files(m)), chosen):
             res["commit"] = commit
             results.append(res)
             first = res["failing_tests"][0]["test"] if res["failing_tests"] else ""

@@ -18,11 +18,8 @@ from clshade.provenance import provenance, stamp
 # (expensive: the lead reruns them). strict: regenerating one fails here until it leaves this list.
 KNOWN_STALE = {
     "perf_1080p.json": "perf (python -m clshade.bench.perf, ~30 min)",
-    "effects.json": "effects bench (benchmarks/effects_bench.py)",
-    "aa.json": "anti-aliasing ladder (clshade aa)",
     "mutants.json": "mutation catalogue (benchmarks/mutants.py, hours on 2 cores)",
     "raster.json": "rasterizer timings (benchmarks/raster_bench.py; its writer now stamps provenance)",
-    "user_lobes.json": "the sample user lobes beside the built-ins (benchmarks/user_lobes.py)",
     "view.json": "the live viewer in headless Chromium (benchmarks/view_bench.py)",
 }
 

@@ -345,7 +345,7 @@ def test_alpha_zero_is_delta() -> None:
         np.testing.assert_allclose(zero, 1 / math.pi)
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=60, deadline=None, derandomize=True)
 @given(
     vecs=st.lists(st.floats(-10, 10, allow_nan=False), min_size=9, max_size=9),
     roughness=st.floats(0, 1),
