@@ -333,7 +333,7 @@ CATALOGUE: list[Mutant] = [
       "the copy kernel writes the loaded sums (0) in the sky lanes of covered work-items"),
     M("fill_value_unused", "clshade/bench/bandwidth.py", "    STREAMING_STORE((float16)(v), c + i);",
       "    STREAMING_STORE((float16)(1.0f), c + i);", "the fill kernel ignores its value: zeros are never timed"),
-    M("fill_line_swapped", "clshade/bench/perf.py", "f\"{short(d)} {v['zeros_median_gbs']:.1f} vs {v['ones_median_gbs']:.1f} \"",
+    M("fill_line_swapped", "clshade/report.py", "f\"{short(d)} {v['zeros_median_gbs']:.1f} vs {v['ones_median_gbs']:.1f} \"",
       "f\"{short(d)} {v['ones_median_gbs']:.1f} vs {v['zeros_median_gbs']:.1f} \"",
       "perf's fill line quotes the fill of 1.0 as the fill of zeros"),
     M("timed_first_run", "clshade/bench/perf.py", "    timed()\n    return timed()", "    return timed()",

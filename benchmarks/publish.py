@@ -693,8 +693,8 @@ def renderings() -> dict[Path, Callable[[str], str]]:
             replace_region(text, "user-lobes-example", user_lobes_example(load(USER_LOBES_JSON)), guide),
             "user-lobes-table", user_lobes_table(load(USER_LOBES_JSON)), guide)
     if (RESULTS / "perf_1080p.json").exists():
-        from clshade.bench import perf
-        out[RESULTS / "perf_1080p.md"] = lambda text: perf.markdown(load(RESULTS / "perf_1080p.json"))
+        from clshade.report import perf_markdown
+        out[RESULTS / "perf_1080p.md"] = lambda text: perf_markdown(load(RESULTS / "perf_1080p.json"))
     if (RESULTS / "aa.json").exists():
         from clshade.report import aa_markdown
         out[RESULTS / "aa.md"] = lambda text: aa_markdown(load(RESULTS / "aa.json"))

@@ -614,9 +614,10 @@ def cmd_bench(args: argparse.Namespace) -> int:
     print(bench_text(doc))
     if args.peers:
         from clshade.bench import perf
+        from clshade.report import perf_markdown
         doc["peers"] = perf.bench_peers(args)
         print()
-        print(perf.markdown(doc["peers"]))
+        print(perf_markdown(doc["peers"]))
     if args.json:
         write_text_atomic(args.json, json.dumps(doc, indent=2, ensure_ascii=False))
     if args.csv:

@@ -99,17 +99,17 @@ def test_opencl_fill_times_zeros_and_ones_and_checks_them(runtime, monkeypatch):
 
 @pytest.mark.snapshot
 def test_committed_perf_tables_are_rendered_from_their_json():
-    """benchmarks/results/perf_1080p.md is perf.markdown() of the committed JSON, so no figure in it was
-    typed by hand, and its fill line quotes each runtime's fill medians."""
+    """benchmarks/results/perf_1080p.md is report.perf_markdown() of the committed JSON, so no figure in it
+    was typed by hand, and its fill line quotes each runtime's fill medians."""
     import json
     from pathlib import Path
-    from clshade.bench import perf
+    from clshade.report import perf_markdown
     results = Path(__file__).resolve().parents[1] / "benchmarks" / "results"
     if not (results / "perf_1080p.json").exists():
         pytest.skip("no committed perf results (benchmarks/results/perf_1080p.json) in this checkout")
     doc = json.loads((results / "perf_1080p.json").read_text(encoding="utf-8"))
     md = (results / "perf_1080p.md").read_text(encoding="utf-8")
-    assert md == perf.markdown(doc)
+    assert md == perf_markdown(doc)
     for v in doc["stream"]["fill"].values():
         assert f"{v['zeros_median_gbs']:.1f} vs {v['ones_median_gbs']:.1f} GB/s ({v['zeros_over_ones']:.2f}×)" in md
 
@@ -186,7 +186,9 @@ def test_whole_frames_interleave_runtimes_and_judge_each(runtime):
     frame_targets = [t for t in perf.targets(doc) if "whole frame" in t["target"]]
     assert [(t["runtime"], t["met"]) for t in frame_targets] == [(runtime.info.description, True), ("slow device", False)]
     assert "250 ms" not in frame_targets[1]["cause"] and "G-buffer" in frame_targets[1]["cause"]
-    header = next(line for line in perf.whole_frame_markdown(doc["whole_frames"]) if line.startswith("| stage |"))
+    from clshade.report import perf_whole_frame_markdown
+    table = next(block for block in perf_whole_frame_markdown(doc["whole_frames"]) if block.startswith("| stage "))
+    header = table.splitlines()[0]
     assert header.count("median ms") == 2 and "slow device" in header
 
 

@@ -2,7 +2,7 @@
 column, the kernels as clshade builds them, with the OpenCL library's builtins
 everywhere (the state before issue 15) and with simd.h's inline ones, the copy
 kernel, the Numba peer, the STREAM anchor and whole frames — one JSON, one
-Markdown rendered from it.
+Markdown rendered from it (clshade.report.perf_markdown).
 
     python -m clshade.bench.perf --out benchmarks/results/perf_1080p [--rounds 200]
 
@@ -425,143 +425,6 @@ def short(device: str) -> str:
     return f"{name} (PoCL {pocl.group(1) if pocl else '?'}, LLVM {llvm.group(1) if llvm else '?'})"
 
 
-def _noise_lines(doc: dict) -> list[str]:
-    """Builds of one runtime that compiled the same code (same inline_math,
-    streaming_stores and prefetch): their time ratios per kernel are this run's noise band."""
-    out = []
-    by_device: dict[str, list[dict]] = {}
-    for rt in doc["runtimes"]:
-        if "error" not in rt and "inline_math" in rt:
-            by_device.setdefault(rt["device"], []).append(rt)
-    for device, rts in by_device.items():
-        for i, a in enumerate(rts):
-            for b in rts[i + 1:]:
-                if all(a.get(k) == b.get(k) for k in ("inline_math", "streaming_stores", "prefetch")):
-                    ratios = [ra[k] / rb[k] for ra, rb in zip(a["models"], b["models"]) for k in ("median_ms", "copy_ms")]
-                    out.append(f"Noise: on {short(device)} the `{a['build']}` and `{b['build']}` builds are the same "
-                               f"code; their kernel times differ by {min(ratios):.2f}–{max(ratios):.2f}× in this run.")
-    return [""] + out if out else []
-
-
-def _opencl_stream_keys(result: dict) -> list[tuple[str, str]]:
-    """(label, key) of the OpenCL STREAM loops in one `bandwidth.opencl_stream` result (results
-    before streaming stores were measured have only the plain ones)."""
-    out = []
-    for kind, suffix in bandwidth.STORE_KINDS.items():
-        for loop in bandwidth.STREAM_LOOPS:
-            if f"{loop}{suffix}_best_gbs" in result:
-                out.append((loop if not suffix else f"{loop} ({kind} stores)", loop + suffix))
-    return out
-
-
-def _ms(value: float | None) -> str:
-    return "—" if value is None else f"{value:.2f}"
-
-
-def markdown(doc: dict) -> str:
-    """The results file, rendered from the JSON document only."""
-    s = doc["stream"]
-    L = ["# Performance on the runtimes users get (issue 15)", "",
-         f"Generated {doc['created']} by `{doc.get('command', '')}` "
-         f"on {doc['machine']['processor']} ({doc['machine']['cpu_count']} cores, {doc['machine']['os']}); "
-         f"{doc['scene']} {doc['width']}×{doc['height']}, {doc['rounds']} interleaved rounds"
-         + (f" ({doc['timed_run']})" if doc.get("timed_run") else "") + ", medians. "
-         f"Versions: " + ", ".join(f"{k} {v}" for k, v in doc["versions"].items()) + ".", "",
-         "Times are of the shading dispatch alone (OpenCL profiling); the whole-frame figure is below. "
-         "Builds: `default` = what clshade builds (kernels/simd.h's inline builtins only where PoCL's AVX-512 "
-         "builtin library meets a compiler target without AVX-512), `library` = the OpenCL library's "
-         "builtins everywhere (the kernels before issue 15; CLSHADE_LIBRARY_MATH=1), `inline` = inline "
-         "builtins everywhere (CLSHADE_INLINE_MATH=1), `plain stores` = `default` with the image rows written "
-         "by plain stores instead of streaming ones (CLSHADE_CACHED_STORES=1; kernels/simd.h, STORE_ROW8), "
-         "`no prefetch` = `default` without the software prefetch of the G-buffer ahead (CLSHADE_NO_PREFETCH=1; "
-         "kernels/gbuffer.h, PREFETCH_AHEAD). "
-         "Targets are judged on `default`.", "",
-         f"**STREAM anchor** ({s['before']['method']}, {s['before']['array_mib']} MiB arrays, best of "
-         f"{s['before']['repeats']}): copy {s['before']['copy_best_gbs']:.1f} / {s['after']['copy_best_gbs']:.1f} GB/s, "
-         f"triad {s['before']['triad_best_gbs']:.1f} / {s['after']['triad_best_gbs']:.1f} GB/s (before / after the "
-         f"rounds)"
-         + "".join(f"; OpenCL STREAM kernels on {short(d)}: " + ", ".join(
-                       f"{loop} {v['before'][key + '_best_gbs']:.1f} / {v['after'][key + '_best_gbs']:.1f}"
-                       for loop, key in _opencl_stream_keys(v["before"])) + " GB/s"
-                   for d, v in s.get("opencl", {}).items())
-         + f"; the fastest {s.get('best_anchor_gbs', s['anchor_gbs']):.1f} GB/s."
-         + ("" if "in_rounds" not in s else
-            f" In the rounds (STREAM triads over three {s['round_array_mib']} MiB arrays, interleaved with the "
-            "kernels, medians): " + ", ".join(f"{k} {v['median_gbs']:.1f} GB/s (best {v['best_gbs']:.1f})"
-                                              for k, v in s["in_rounds"].items()))
-         + f". **Anchor** of the × STREAM columns and targets: {s['anchor_gbs']:.1f} GB/s"
-         + (" (the fastest in-round median)." if "in_rounds" in s else "."), "",
-         *([" ".join(["**Lines of zeros.** A streaming fill of one array with 0 and with 1.0, interleaved "
-                      "(medians):"] + [f"{short(d)} {v['zeros_median_gbs']:.1f} vs {v['ones_median_gbs']:.1f} "
-                                       f"GB/s ({v['zeros_over_ones']:.2f}×);" for d, v in s["fill"].items()]
-                     + ["so the copy kernel writes the background wherever the shading kernels do (every pixel "
-                        "with no coverage), not 0: the same lines with the same values there (kernels/copy.cl)."]),
-            ""] if s.get("fill") else []),
-         "In cache: the kernel on the frame's most covered band of "
-         f"{CACHE_BAND_PIXELS} px, dispatched twice and the second timed, scaled to the frame by covered "
-         "work-items: its instructions without the trip to memory.", "",
-         "| runtime | build | SIMD | model | ms | copy ms | × copy | in cache ms | copy in cache ms | GB/s | copy GB/s | "
-         "× STREAM bound | copy × STREAM bound | max rel diff vs first column |",
-         "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
-    for rt in doc["runtimes"]:
-        if "error" in rt:
-            L.append(f"| {short(rt['device'])} | {rt['build']} | — | build failed: {rt['error']} | | | | | | | | | | |")
-            continue
-        for r in rt["models"]:
-            L.append(f"| {short(rt['device'])} | {rt['build']} | {rt['simd']} | {r['name']} | {r['median_ms']:.2f} | "
-                     f"{r['copy_ms']:.2f} | {r['copy_ratio']:.2f} | {_ms(r.get('cache_frame_ms'))} | "
-                     f"{_ms(r.get('copy_cache_frame_ms'))} | {r['gbs']:.1f} | {r['copy_gbs']:.1f} | "
-                     f"{r['stream_ratio']:.2f} | {r['copy_stream_ratio']:.2f} | {r['max_rel_diff_vs_first']:.1e} |")
-    L += _noise_lines(doc)
-    L += ["", "## Peers (same G-buffer, same rounds; verified against clshade on covered pixels, ≤ 1e-4 relative)", "",
-          "| peer | model | ms | max rel diff (all covered) | max rel diff (well-conditioned) | verified | note |",
-          "|---|---|---|---|---|---|---|"]
-    for p in doc["peers"]:
-        if "skipped" in p:
-            L.append(f"| {p['peer']} | {p['model']} | — | — | — | — | skipped: {p['skipped']} |")
-        else:
-            note = (f"{p['ill_conditioned_pixels']} pixels with {p['ill_conditioned_why']} checked in the first "
-                    "column only" if p["ill_conditioned_pixels"] else "")
-            L.append(f"| {p['peer']} {p['version']} | {p['model']} | {p['median_ms']:.2f} | {p['max_rel_diff']:.1e} | "
-                     f"{p['max_rel_diff_well_conditioned']:.1e} | {'yes' if p['verified'] else 'NO'} | {note} |")
-    L += whole_frame_markdown(doc.get("whole_frames", []))
-    L += ["", "## Targets (default build)", "", "| runtime | target | measured | met | cause of the miss (same run) |",
-          "|---|---|---|---|---|"]
-    for t in doc["targets"]:
-        L.append(f"| {short(t['runtime'])} | {t['target']} | {t['value']:.2f} | {'met' if t['met'] else 'MISSED'} | "
-                 f"{t.get('cause', '')} |")
-    return "\n".join(L) + "\n"
-
-
-def whole_frame_markdown(wfs: list[dict]) -> list[str]:
-    """The whole-frame section: a (median ms, share) column pair per runtime."""
-    if not wfs:
-        return []
-    wf = wfs[0]
-    L = ["", f"## Whole frames: {wf['scene']} {wf['width']}×{wf['height']}, {wf['model']}, {wf['triangles']} "
-         f"triangles, camera orbiting {wf['step_degrees']}° a frame, {wf['frames']} frames"
-         + (f" in {wf['blocks']} blocks (before and after the kernel rounds)" if wf.get("blocks", 1) > 1 else "")
-         + (", the runtimes interleaved frame by frame" if len(wfs) > 1 else "")
-         + f", host stages on {wf.get('host_threads', '?')} threads", "",
-         "| stage | " + " | ".join(f"{short(w['device'])} median ms | share" for w in wfs) + " |",
-         "|---|" + "---|---|" * len(wfs)]
-    for k in (*whole.STAGES, "frame"):
-        cells = []
-        for w in wfs:
-            m = w["median_s"]
-            ms = f"{m[k] * 1e3:.1f}"
-            cells += [f"**{ms}**" if k == "frame" else ms, f"{m[k] / m['frame']:.0%}"]
-        L.append(f"| {'**whole frame**' if k == 'frame' else k} | " + " | ".join(cells) + " |")
-    if all("block_frame_s" in w for w in wfs):
-        cells = [cell for w in wfs for cell in (" / ".join(f"{b * 1e3:.1f}" for b in w["block_frame_s"]), "")]
-        L.append("| whole frame, median of each block | " + " | ".join(cells) + " |")
-        loads = wfs[0].get("load_average") or []
-        if loads and all(x is not None for x in loads):
-            L += ["", "1-minute load average of the machine after each block: "
-                  + " / ".join(f"{x:.2f}" for x in loads) + " (this benchmark's own threads count in it)."]
-    return L
-
-
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scene", default="scenes/sphere_grid.toml")
@@ -575,20 +438,21 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", default="benchmarks/results/perf_1080p", help="path stem: writes .json and .md")
     ap.add_argument("--render-only", action="store_true", help="re-render OUT.md (and the targets) from OUT.json")
     a = ap.parse_args(argv)
+    from clshade.report import perf_markdown
     out = Path(a.out)
     if a.render_only:
         doc = json.loads(out.with_suffix(".json").read_text(encoding="utf-8"))
         doc["targets"] = targets(doc)
         out.with_suffix(".json").write_text(json.dumps(doc, indent=2, ensure_ascii=False), encoding="utf-8")
-        out.with_suffix(".md").write_text(markdown(doc), encoding="utf-8")
+        out.with_suffix(".md").write_text(perf_markdown(doc), encoding="utf-8")
         return 0
     doc = run(a.scene, a.width, a.height, a.rounds, a.warmup, a.frame_scene, a.frame_frames,
               tuple(p for p in a.peers.split(",") if p))
     doc["command"] = "python -m clshade.bench.perf " + " ".join(argv if argv is not None else __import__("sys").argv[1:])
     doc = stamp(doc)             # PoCL CPU and the NumPy/Numba/Dr.Jit peers: the host's CPU
     out.with_suffix(".json").write_text(json.dumps(doc, indent=2, ensure_ascii=False), encoding="utf-8")
-    out.with_suffix(".md").write_text(markdown(doc), encoding="utf-8")
-    print(markdown(doc))
+    out.with_suffix(".md").write_text(perf_markdown(doc), encoding="utf-8")
+    print(perf_markdown(doc))
     return 0
 
 
