@@ -650,7 +650,7 @@ BASELINE = Mutant("(baseline)", "", "", "", "the snapshot itself, unmutated")
 def suite_env(copy: Path) -> dict[str, str]:
     """The environment of a suite run in `copy`: the copy's Python code and kernels are the ones used."""
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(copy), str(copy / "benchmarks")]),
-               PYTHONDONTWRITEBYTECODE="1")
+               PYTHONDONTWRITEBYTECODE="1", CLSHADE_TEST_ONE_RUNTIME="1")   # tests/conftest.py: the default device
     env.pop("CLSHADE_EXPECT_INSTALLED", None)
     return env
 

@@ -514,14 +514,15 @@ def render_mutants(doc: dict[str, Any]) -> str:
            f"{', ' + str(doc['not_run']) + ' not run' if doc.get('not_run') else ''}"
            f"{'; ' + str(unclassified) + ' killed in an older run that recorded neither every failing test nor the kill class (unclassified: not counted above)' if unclassified else ''}. "
            "Each mutant is one small semantic bug (catalogue in benchmarks/mutants.py) applied to a copy of the "
-           "repository; the whole suite runs there and every failing test is listed. A kill is behavioural when "
+           "repository; " + _selection_text(doc, rows) + " and every failing test is listed. A kill is behavioural when "
            "some failing test checks behaviour; tests marked `snapshot` (output vs a committed file the same code "
            "wrote), `text` (a string searched in source, docs or binaries) or `extra` (needs an optional package) "
            "do not count, nor does a mutated kernel that fails to compile."
            + (f" Optional packages present in the run: {', '.join(k for k, v in extras.items() if v) or 'none'}"
               f"{'; absent: ' + ', '.join(k for k, v in extras.items() if not v) if not all(extras.values()) else ''}."
               if extras else ""), "",
-           "| mutant | file | bug | kill | failing tests | commit |", "|---|---|---|---|---|---|"]
+           "| mutant | file | bug | kill | failing tests | test files run | commit |",
+           "|---|---|---|---|---|---|---|"]
     for m in rows:
         kill = m.get("kill_class") or ("killed (unclassified)" if m["status"] == "killed" else m["status"])
         kill = "**survived**" if kill == "survived" else kill
@@ -532,8 +533,22 @@ def render_mutants(doc: dict[str, Any]) -> str:
             shown = f"{len(tests)}: " + "; ".join(f"{f['test']} ({f['kind']})" for f in tests[:3]) \
                 + (f"; … {len(tests) - 3} more" if len(tests) > 3 else "") if tests else "–"
         commit = (m.get("commit") or doc.get("commit") or "")[:10]
-        out.append(f"| {m['name']} | {m['file']} | {_cell(m['description'])} | {kill} | {_cell(shown)} | {commit} |")
+        run = f"{m['test_files_run']} of {m['test_files_total']}" if "test_files_run" in m else "all"
+        out.append(f"| {m['name']} | {m['file']} | {_cell(m['description'])} | {kill} | {_cell(shown)} | {run} | "
+                   f"{commit} |")
     return "\n".join(out) + "\n"
+
+
+def _selection_text(doc: dict[str, Any], rows: list[dict[str, Any]]) -> str:
+    """How much of the suite ran per mutant: all of it, or the test files that reach the mutated code."""
+    selected = [m for m in rows if "test_files_run" in m]
+    if not selected:
+        return "the whole suite runs there"
+    share = sum(m["test_files_run"] for m in selected) / max(1, sum(m["test_files_total"] for m in selected))
+    return (f"the test files that reach the mutated code run there ({share:.0%} of the files per mutant on average; "
+            "benchmarks/impact.py records, on the same snapshot, what each test file executes, imports and reads, "
+            "its child processes included; a file that reaches none of the mutated code runs the same on the "
+            "mutant)")
 
 
 def _cell(text: str) -> str:

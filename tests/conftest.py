@@ -60,10 +60,19 @@ def healthy_devices() -> list:
     return _HEALTHY
 
 
+#: The mutation runner's suites (benchmarks/mutants.py) set this: `device_runtime` tests run on the default device
+#: only. A mutated kernel or host line acts the same on every runtime, and each runtime would compile every mutated
+#: variant again.
+ENV_ONE_RUNTIME = "CLSHADE_TEST_ONE_RUNTIME"
+
+
 def pytest_generate_tests(metafunc) -> None:
-    """`device_runtime`: the test runs once per healthy device, with that device's Runtime."""
+    """`device_runtime`: the test runs once per healthy device (the first only under CLSHADE_TEST_ONE_RUNTIME=1),
+    with that device's Runtime."""
     if "device_runtime" in metafunc.fixturenames:
         infos = healthy_devices()
+        if os.environ.get(ENV_ONE_RUNTIME) == "1":
+            infos = infos[:1]
         metafunc.parametrize("device_runtime", [i.spec for i in infos], indirect=True,
                              ids=[f"{i.runtime}-{i.kind}".replace(" ", "_") for i in infos])
 
