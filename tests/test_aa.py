@@ -25,7 +25,7 @@ from clshade.render.transforms import perspective
 from clshade.verify import reference
 
 from conftest import SCENES
-from test_pipeline import PLANE_SCENE
+from scene_toml import plane_facing_camera
 
 GGX = resolve("ggx_correlated")
 W, H = 96, 44
@@ -291,7 +291,7 @@ def test_specular_aa_widens_the_sharpest_highlights(spheres, runtime):
 
 def test_specular_aa_is_a_no_op_on_a_plane(runtime, tmp_path):
     """Constant normal (up to 1e-23 interpolation rounding): no widening, the same image bit for bit."""
-    scene = parse_scene(PLANE_SCENE, tmp_path / "plane.toml")
+    scene = parse_scene(plane_facing_camera(), tmp_path / "plane.toml")
     plain = render(scene, GGX, runtime=runtime)
     aa = render(dataclasses.replace(scene, specular_aa=True), GGX, runtime=runtime)
     normals = plain.frame.gbuffer.channels["normal"].reshape(-1, 3)

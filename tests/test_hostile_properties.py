@@ -18,7 +18,6 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import io
-import math
 import os
 import re
 import sys
@@ -34,6 +33,7 @@ from hypothesis import strategies as st
 
 from clshade import cli
 from hostile_files import exr_header, gltf_triangle, png_header
+from scene_toml import red_sphere, value as value_text
 
 settings.register_profile("hostile-ci", max_examples=60, deadline=None, derandomize=True, database=None,
                           suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
@@ -61,45 +61,7 @@ EXAMPLES: Counter = Counter()
 #: the specialised kernels would build a variant for each generated combination of features).
 FRAME = ["--width", "32", "--height", "32", "--general"]
 
-SCENE = """[camera]
-position = [0.0, 0.0, 4.0]
-target = [0.0, 0.0, 0.0]
-up = [0.0, 1.0, 0.0]
-fov = 40.0
-width = 32
-height = 32
-
-[render]
-background = [0.1, 0.2, 0.3]
-ambient = [0.02, 0.02, 0.02]
-exposure = 0.0
-model = "ggx_correlated"
-
-[[lights]]
-type = "directional"
-direction = [-0.4, -0.5, -1.0]
-irradiance = [3.0, 3.0, 3.0]
-
-[[lights]]
-type = "spot"
-position = [0.0, 3.0, 3.0]
-direction = [0.0, -1.0, -1.0]
-intensity = 10.0
-outer_angle = 30.0
-
-[materials.red]
-base_color = [0.8, 0.1, 0.1]
-roughness = 0.4
-metallic = 0.0
-ior = 1.5
-
-[[objects]]
-primitive = "sphere"
-subdivisions = 1
-material = "red"
-translate = [0.0, 0.0, 0.0]
-scale = 1.0
-"""
+SCENE = red_sphere()
 
 
 # ---------------------------------------------------------------- running the CLI
@@ -230,20 +192,6 @@ KEYS = [("camera", k) for k in ("position", "target", "up", "fov", "width", "hei
                                  "crease_angle")]
 
 
-def toml_value(value) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, float):
-        return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf") if math.isinf(value) else repr(value)
-    if isinstance(value, int):
-        return str(value) if -2 ** 63 <= value < 2 ** 63 else repr(float(value))
-    if isinstance(value, str):
-        return '"' + value.encode("unicode_escape").decode("ascii").replace('"', '\\"') + '"'
-    if isinstance(value, dict):
-        return "{}"
-    return "[" + ", ".join(toml_value(v) for v in value) + "]"
-
-
 def set_key(text: str, table: str, key: str, value) -> str:
     """SCENE with `key` of the first `table` set to `value` (inserted when absent)."""
     header = f"[[{table}]]" if table in ("lights", "objects") else f"[{table}]"
@@ -251,7 +199,7 @@ def set_key(text: str, table: str, key: str, value) -> str:
     end = text.find("\n[", start)
     end = len(text) if end < 0 else end
     lines = text[start:end].split("\n")
-    line = f"{key} = {toml_value(value)}"
+    line = f"{key} = {value_text(value)}"
     for i, old in enumerate(lines):
         if old.split("=")[0].strip() == key:
             lines[i] = line
@@ -318,7 +266,7 @@ def test_mesh_files(folder, mesh):
     path = folder / f"mesh{suffix}"
     path.write_bytes(content if isinstance(content, bytes) else content.encode("utf-8"))
     scene = folder / "scene.toml"
-    scene.write_text(SCENE.replace('primitive = "sphere"\nsubdivisions = 1', f'mesh = "{path.name}"'))
+    scene.write_text(red_sphere(mesh=path.name))
     image = folder / "out.exr"
     check_promise(["render", str(scene), "-o", str(image), *FRAME], [scene, path], image, "mesh file")
 
@@ -355,7 +303,7 @@ def test_texture_files(folder, texture, key):
     path = folder / f"texture{suffix}"
     path.write_bytes(content)
     scene = folder / "scene.toml"
-    scene.write_text(SCENE.replace("roughness = 0.4", f'roughness = 0.4\n{key} = "{path.name}"'))
+    scene.write_text(red_sphere(**{key: path.name}))
     image = folder / "out.exr"
     check_promise(["render", str(scene), "-o", str(image), *FRAME], [scene, path], image, "texture file")
 

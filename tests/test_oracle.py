@@ -19,6 +19,7 @@ from clshade.pipeline import render
 from clshade.render.scene import load_scene
 from clshade.resources import scenes_dir
 from clshade.verify import reference as R
+from scene_toml import floor_ball_torus
 
 SCENES = scenes_dir()      # the scenes the imported clshade ships (textures included)
 TOLERANCE = 1e-4        # relative, the issue's bound
@@ -26,102 +27,6 @@ DARK = 1e-3             # relative error below DARK · peak radiance counts as a
 MIN_COS = 1e-3          # n·l and n·v at least this far from 0
 WIDTH, HEIGHT = 96, 72
 
-CAMERA = """
-[camera]
-position = [0.0, 2.2, 5.0]
-target = [0.0, 0.4, 0.0]
-fov = 45.0
-width = 96
-height = 72
-"""
-OBJECTS = """
-[materials.floor]
-base_color = [0.6, 0.55, 0.5]
-roughness = 0.6
-ks = 0.3
-shininess = 24.0
-
-[materials.ball]
-base_color = [0.8, 0.2, 0.1]
-roughness = 0.35
-ks = 0.4
-shininess = 60.0
-ior = 1.7
-f90 = 0.8
-
-[materials.metal]
-base_color = [0.9, 0.8, 0.5]
-roughness = 0.25
-metallic = 1.0
-
-[[objects]]
-primitive = "plane"
-size = 8.0
-material = "floor"
-
-[[objects]]
-primitive = "sphere"
-radius = 0.7
-translate = [-0.8, 0.7, 0.0]
-material = "ball"
-
-[[objects]]
-primitive = "torus"
-major_radius = 0.5
-minor_radius = 0.2
-rotate = [70.0, 0.0, 0.0]
-translate = [0.9, 0.7, 0.3]
-material = "metal"
-"""
-LIGHTS = {
-    "directional": """
-[[lights]]
-type = "directional"
-direction = [0.4, -1.0, -0.5]
-irradiance = [2.0, 1.8, 1.5]
-""",
-    # 2.5 units above the floor: 1/r² and 1/r differ by > 2× over the floor
-    "point": """
-[[lights]]
-type = "point"
-position = [0.3, 2.5, 1.2]
-intensity = [9.0, 7.0, 5.0]
-""",
-    # the cone's edge and its t² band cross the floor in view
-    "spot": """
-[[lights]]
-type = "spot"
-position = [-0.5, 3.0, 1.5]
-direction = [0.2, -1.0, -0.4]
-intensity = [30.0, 26.0, 20.0]
-inner_angle = 12.0
-outer_angle = 32.0
-""",
-    "ambient": """
-[render]
-ambient = [0.6, 0.5, 0.4]
-background = [0.1, 0.2, 0.3]
-""",
-    "shadowed": """
-[render]
-shadows = true
-shadow_map_size = 256
-shadow_pcf = 3
-
-[[lights]]
-type = "directional"
-direction = [0.5, -1.0, -0.3]
-irradiance = [2.0, 1.9, 1.7]
-
-[[lights]]
-type = "spot"
-position = [-2.0, 3.0, 1.0]
-direction = [0.55, -0.8, -0.25]
-intensity = [25.0, 20.0, 15.0]
-inner_angle = 20.0
-outer_angle = 35.0
-""",
-}
 # Both workflows: metallic-roughness with Schlick Fresnel, and the k_d + k_s = 1 rule.
 MODELS = ("ggx_correlated", "phong")
 
@@ -155,7 +60,7 @@ def compare(scene_path, model_spec: str, runtime=None) -> dict[str, float]:
 
 def scene_file(tmp_path, kind: str) -> Path:
     path = tmp_path / f"{kind}.toml"
-    path.write_text(CAMERA + LIGHTS[kind] + OBJECTS, encoding="utf-8")
+    path.write_text(floor_ball_torus(kind), encoding="utf-8")
     return path
 
 

@@ -13,37 +13,12 @@ from clshade.pipeline import prepare_frame, render
 from clshade.render.scene import parse_scene
 
 from conftest import SCENES
-
-PLANE_SCENE = """
-[camera]
-position = [0.0, 0.0, 3.0]
-fov = 40.0
-width = 48
-height = 32
-
-[render]
-background = [0.1, 0.2, 0.3]
-
-[[lights]]
-type = "directional"
-direction = [0.0, 0.0, -1.0]
-irradiance = [2.0, 3.0, 4.0]
-
-[materials.m]
-base_color = [0.5, 0.25, 0.75]
-roughness = 0.5
-
-[[objects]]
-primitive = "plane"
-size = 20.0
-rotate = [90.0, 0.0, 0.0]
-material = "m"
-"""
+from scene_toml import plane_facing_camera, point_and_spot
 
 
 def test_lambert_plane_matches_closed_form(runtime):
     """A plane facing the camera and the light: L = (base/π)·E·cos0 exactly."""
-    scene = parse_scene(PLANE_SCENE)
+    scene = parse_scene(plane_facing_camera())
     image = render(scene, models.resolve("lambert"), runtime=runtime).image
     expected = np.array([0.5, 0.25, 0.75]) / math.pi * np.array([2.0, 3.0, 4.0])
     assert image[..., 3].min() == 1.0                      # the plane covers every pixel
@@ -51,7 +26,7 @@ def test_lambert_plane_matches_closed_form(runtime):
 
 
 def test_background_where_uncovered(runtime):
-    scene = parse_scene(PLANE_SCENE.replace("size = 20.0", "size = 0.5"))
+    scene = parse_scene(plane_facing_camera(size=0.5))
     image = render(scene, models.resolve("ggx_correlated"), runtime=runtime).image
     empty = image[..., 3] == 0
     assert empty.any() and (~empty).any()
@@ -88,8 +63,7 @@ def test_every_preset_renders_sphere_grid(runtime):
 
 def test_oren_nayar_sigma0_is_lambert(runtime):
     """Oren–Nayar with σ = 0 is exactly Lambert (a claim of the study)."""
-    scene = parse_scene(PLANE_SCENE.replace("roughness = 0.5", "roughness = 0.0").replace("rotate = [90.0, 0.0, 0.0]",
-                                                                                          "rotate = [70.0, 10.0, 0.0]"))
+    scene = parse_scene(plane_facing_camera(roughness=0.0, rotate=(70.0, 10.0, 0.0)))
     a = render(scene, models.resolve("lambert"), runtime=runtime).image
     b = render(scene, models.resolve("oren_nayar"), runtime=runtime).image
     np.testing.assert_allclose(a, b, rtol=1e-6)
@@ -143,22 +117,6 @@ def test_model_specs_resolve():
         models.resolve("ggx_corelated")
 
 
-POINT_SPOT = """
-[[lights]]
-type = "point"
-position = [0.7, -0.4, 1.0]
-intensity = [3.0, 2.0, 1.0]
-
-[[lights]]
-type = "spot"
-position = [-0.5, 0.6, 1.5]
-direction = [0.3, -0.4, -1.0]
-intensity = [4.0, 4.0, 4.0]
-inner_angle = 10.0
-outer_angle = 30.0
-"""
-
-
 @pytest.mark.parametrize("half, width, height", [(False, 83, 37), (True, 83, 37), (False, 7, 9)])
 def test_odd_sized_frame_matches_the_oracle_pixel_by_pixel(runtime, half, width, height):
     """83×37 (rows wrap inside the SIMD work-items, the last work-item is padded) and 7×9 (narrower than a
@@ -167,10 +125,8 @@ def test_odd_sized_frame_matches_the_oracle_pixel_by_pixel(runtime, half, width,
     oracle of the half-rounded G-buffer)."""
     from clshade.bench.numpy_baseline import half_gbuffer
     from clshade.verify.reference import radiance
-    scene = parse_scene(PLANE_SCENE.replace("width = 48", f"width = {width}")
-                        .replace("height = 32", f"height = {height}")
-                        .replace("base_color = [0.5, 0.25, 0.75]", "base_color = [0.51, 0.27, 0.73]")  # not exact in half
-                        + POINT_SPOT)
+    scene = parse_scene(plane_facing_camera(width, height, base_color=[0.51, 0.27, 0.73],  # not exact in half
+                                            lights=point_and_spot()))
     frame = prepare_frame(scene)
     model = models.resolve("ggx_correlated")
     image = render(scene, model, runtime=runtime, frame=frame, half_gbuffer=half).image
@@ -188,9 +144,7 @@ def test_ambient_weight_ka_and_k_d_k_s_weights(runtime, spec):
     """The k_d + k_s workflow's own weights (k_a = 0.4, k_d = 0.5, k_s = 0.2: none of them 1 or 1 − the
     other) under ambient light and a point light, against the frame oracle."""
     from clshade.verify.reference import radiance
-    text = PLANE_SCENE.replace("[render]\n", "[render]\nambient = [0.3, 0.2, 0.1]\n").replace(
-        "roughness = 0.5", "roughness = 0.5\nka = 0.4\nkd = 0.5\nks = 0.2") + POINT_SPOT
-    scene = parse_scene(text)
+    scene = parse_scene(plane_facing_camera(ambient=[0.3, 0.2, 0.1], ka=0.4, kd=0.5, ks=0.2, lights=point_and_spot()))
     frame = prepare_frame(scene)
     model = models.resolve(spec)
     image = render(scene, model, runtime=runtime, frame=frame).image[..., :3]

@@ -15,6 +15,7 @@ from clshade import models
 from clshade.pipeline import prepare_frame
 from clshade.render.scene import parse_scene
 from clshade.device.shade import Shader, scene_features
+from scene_toml import light, shadowed_floor_and_ball
 
 # float32 kernels that run the same operations in the same order agree to
 # round-off; what remains is the compiler contracting differently (FMA) in two
@@ -22,63 +23,7 @@ from clshade.device.shade import Shader, scene_features
 RTOL = 2e-5
 ATOL_REL = 1e-6        # absolute tolerance as a fraction of the image maximum
 
-SCENE = """
-[camera]
-position = [0.0, 2.5, 5.0]
-target = [0.0, 0.4, 0.0]
-fov = 45.0
-width = 64
-height = 48
-
-[render]
-background = [0.1, 0.1, 0.12]
-ambient = [0.05, 0.06, 0.07]
-shadows = true
-shadow_map_size = 128
-shadow_pcf = 3
-
-[[lights]]
-type = "directional"
-direction = [0.4, -1.0, -0.3]
-irradiance = [2.0, 2.0, 1.8]
-
-[[lights]]
-type = "point"
-position = [-2.0, 1.5, 1.5]
-intensity = [3.0, 2.0, 1.0]
-shadows = false
-
-[[lights]]
-type = "spot"
-position = [1.5, 3.0, 1.5]
-direction = [-0.4, -1.0, -0.4]
-intensity = [20.0, 20.0, 24.0]
-inner_angle = 20.0
-outer_angle = 35.0
-
-[materials.floor]
-base_color = [0.6, 0.6, 0.6]
-roughness = 0.7
-ks = 0.2
-
-[materials.ball]
-base_color = [0.8, 0.2, 0.1]
-roughness = 0.3
-metallic = 0.5
-ks = 0.5
-
-[[objects]]
-primitive = "plane"
-size = 8.0
-material = "floor"
-
-[[objects]]
-primitive = "sphere"
-radius = 0.6
-subdivisions = 3
-translate = [0.0, 0.6, 0.0]
-material = "ball"
-"""
+SCENE = shadowed_floor_and_ball()
 
 
 @pytest.fixture(scope="module")
@@ -126,15 +71,12 @@ def test_effect_off_equals_general_neutral(shader, frame, effect, neutral):
 
 def test_light_counts_are_runtime_in_general(runtime):
     """16 lights of two kinds: compile-time loops equal the runtime loop."""
-    lights = "".join(
-        f'\n[[lights]]\ntype = "point"\nposition = [{np.cos(k):.3f}, 1.5, {np.sin(k):.3f}]\nintensity = 0.4\n'
-        if k % 2 else
-        f'\n[[lights]]\ntype = "spot"\nposition = [{2 * np.cos(k):.3f}, 2.0, {2 * np.sin(k):.3f}]\n'
-        f'direction = [{-np.cos(k):.3f}, -1.0, {-np.sin(k):.3f}]\nintensity = 3.0\nouter_angle = 40.0\n'
-        for k in range(16))
-    text = SCENE.split("[[lights]]")[0].replace("shadows = true", "shadows = false") + lights \
-        + "[materials" + SCENE.split("[materials", 1)[1]
-    frame = prepare_frame(parse_scene(text))
+    c = lambda x: round(float(x), 3)  # noqa: E731 - positions on a circle, to 3 decimals
+    lights = [light("point", position=[c(np.cos(k)), 1.5, c(np.sin(k))], intensity=0.4) if k % 2 else
+              light("spot", position=[c(2 * np.cos(k)), 2.0, c(2 * np.sin(k))],
+                    direction=[c(-np.cos(k)), -1.0, c(-np.sin(k))], intensity=3.0, outer_angle=40.0)
+              for k in range(16)]
+    frame = prepare_frame(parse_scene(shadowed_floor_and_ball(shadows=False, lights=lights)))
     shader = Shader(runtime, frame.gbuffer, frame.scene, frame.camera, frame.shadows)
     features = scene_features(frame.scene)
     assert (features.num_point, features.num_spot) == (8, 8)
@@ -182,7 +124,7 @@ def test_simd_width_never_changes_results(runtime, monkeypatch, model, variant):
     37×23 image (851 pixels: rows and the image end mid-vector) with shadows,
     three light kinds, ambient and a per-pixel material table; also the half-float
     planar G-buffer loads and the general kernel."""
-    frame = prepare_frame(parse_scene(SCENE.replace("width = 64", "width = 37").replace("height = 48", "height = 23")))
+    frame = prepare_frame(parse_scene(shadowed_floor_and_ball(37, 23)))
     features = scene_features(frame.scene, geometry=frame.geometry)
     if variant == "half G-buffer":
         features = replace(features, half_gbuffer=True)
@@ -362,8 +304,8 @@ def test_image_kernels_have_one_store_site():
 
 def uniform_scene(metallic: str) -> str:
     """SCENE with roughness 0.3 and the given metallic on the floor and the ball alike."""
-    return SCENE.replace("metallic = 0.5\n", f"metallic = {metallic}\n").replace(
-        "roughness = 0.7\n", f"roughness = 0.3\nmetallic = {metallic}\n")
+    return shadowed_floor_and_ball(floor=dict(roughness=0.3, metallic=float(metallic)),
+                                   ball=dict(metallic=float(metallic)))
 
 
 @pytest.mark.parametrize("model, metallic", [("ggx_correlated", "0.5"), ("lambert", "0.5"), ("burley", "0.5"),

@@ -16,52 +16,11 @@ from clshade import models
 from clshade.pipeline import prepare_frame, render
 from clshade.render.scene import parse_scene
 from conftest import SCENES
+from scene_toml import two_spheres
 
 LOBES = SCENES / "lobes"
 MATCH_RTOL = 1e-4
 
-# Two materials: the .brdf parameters named like material keys must follow each pixel's material.
-SCENE = """
-[camera]
-position = [0.0, 0.0, 4.2]
-fov = 30.0
-width = 96
-height = 96
-[render]
-background = [0.0, 0.0, 0.0]
-[[lights]]
-type = "directional"
-direction = [-0.45, -0.5, -1.0]
-irradiance = [3.0, 3.0, 3.0]
-[[lights]]
-type = "point"
-position = [2.0, 1.0, 2.5]
-intensity = [4.0, 3.0, 2.0]
-[materials.m]
-base_color = [0.8, 0.3, 0.05]
-roughness = 0.5
-metallic = 0.0
-kd = 0.6
-ks = 0.4
-shininess = 40.0
-[materials.n]
-base_color = [0.2, 0.5, 0.9]
-roughness = 0.7
-metallic = 0.0
-kd = 0.6
-ks = 0.4
-shininess = 12.0
-[[objects]]
-primitive = "sphere"
-radius = 1.0
-subdivisions = 4
-material = "m"
-[[objects]]
-primitive = "sphere"
-radius = 0.4
-translate = [1.1, -0.6, 0.8]
-material = "n"
-"""
 
 
 @pytest.fixture(autouse=True)
@@ -73,7 +32,7 @@ def _fresh_registry():
 
 @pytest.fixture(scope="module")
 def frame():
-    return prepare_frame(parse_scene(SCENE, "match.toml"))
+    return prepare_frame(parse_scene(two_spheres(), "match.toml"))
 
 
 def _relative_mismatch(a: np.ndarray, b: np.ndarray) -> float:
@@ -337,10 +296,8 @@ def _eval_samples(model, s, double: bool) -> np.ndarray:
 # ------------------------------------------------------------------ the command line
 
 def _scene_with_lobes(tmp_path, model: str) -> str:
-    scene = SCENE.replace("[render]", f'[render]\nlobes = "{LOBES}"\nmodel = "{model}"').replace(
-        "width = 96", "width = 32").replace("height = 96", "height = 32")
     path = tmp_path / "scene.toml"
-    path.write_text(scene, encoding="utf-8")
+    path.write_text(two_spheres(32, 32, lobes=str(LOBES), model=model), encoding="utf-8")
     return str(path)
 
 
