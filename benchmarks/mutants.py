@@ -502,12 +502,12 @@ CATALOGUE: list[Mutant] = [
     M("kdks_ior_unread", "clshade/models.py", "            if self.specular != NONE:   # F0",
       "            if self.fresnel == \"schlick\" and self.specular != NONE:   # F0",
       "kdks: the IOR counted as read only under Schlick (a conductor variant bakes the first material's)"),
-    # ---- the oracle stands alone (clshade/verify/reference.py states its constants; kernels differ → a test fails)
+    # ---- the oracle stands alone (clshade/verify/reference/constants.py states its constants; kernels differ → a test fails)
     M("kernel_light_floor", "kernels/shade.cl", "#define MIN_LIGHT_DIST2 1.0e-8f", "#define MIN_LIGHT_DIST2 1.0e-6f",
       "shade.cl: the light-distance floor 100× larger (the oracle used to inherit it)"),
     M("kernel_shadow_bias", "kernels/shadow.h", "#define SHADOW_BIAS_TEXELS          0.5f",
       "#define SHADOW_BIAS_TEXELS          1.5f", "shadow.h: depth bias 3× larger (the oracle used to inherit it)"),
-    M("oracle_fresnel_lobes", "clshade/verify/reference.py", "FRESNEL_LOBES: frozenset[str] = frozenset(MICROFACET_MODELS)",
+    M("oracle_fresnel_lobes", "clshade/verify/reference/constants.py", "FRESNEL_LOBES: frozenset[str] = frozenset(MICROFACET_MODELS)",
       "FRESNEL_LOBES: frozenset[str] = frozenset(MICROFACET_MODELS[1:])",
       "oracle: Cook–Torrance's k_d no longer takes F's share"),
     # ---- evidence tied to its code (benchmarks/freshness.py, publish.py, the kill classes above)
