@@ -697,7 +697,7 @@ def run_one(mutant: Mutant, python: str, base: Path, baseline: frozenset[str] = 
                 test_files_run=len(order), test_files_total=len(test_order(base, mutant)))
 
 
-def record_impact(base: Path, keep: str | None = None) -> dict[str, impact.FileImpact]:
+def record_impact(base: Path, commit: str | None, keep: str | None = None) -> dict[str, impact.FileImpact]:
     """Record, on an unmutated copy of the snapshot, what each test file reaches (benchmarks/impact.py)."""
     start = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="mutants-impact-") as tmp:
@@ -705,9 +705,18 @@ def record_impact(base: Path, keep: str | None = None) -> dict[str, impact.FileI
         shutil.copytree(base, copy)
         got = impact.record(copy, sys.executable, suite_env(copy))
     if keep:
-        Path(keep).write_text(json.dumps(impact.to_json(got)) + "\n", encoding="utf-8")
+        Path(keep).write_text(json.dumps(dict(commit=commit, files=impact.to_json(got))) + "\n", encoding="utf-8")
     print(f"impact recorded for {len(got)} test files in {time.perf_counter() - start:.0f} s", flush=True)
     return got
+
+
+def load_impact(path: str, commit: str | None) -> dict[str, impact.FileImpact]:
+    """A map kept by --impact-json; it must name the commit the mutants run on."""
+    doc = json.loads(Path(path).read_text(encoding="utf-8"))
+    if not commit or doc.get("commit") != commit:
+        raise SystemExit(f"{path}: impact map recorded on {doc.get('commit')!r}, the mutants run on {commit!r}; "
+                         "record it again (--impact-json)")
+    return impact.from_json(doc["files"])
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -720,6 +729,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="run every test file for every mutant (default: the files that can fail, "
                              "benchmarks/impact.py)")
     parser.add_argument("--impact-json", help="keep the recorded impact map here")
+    parser.add_argument("--impact-from", help="use a map kept by --impact-json on this same commit instead of "
+                                              "recording one")
     args = parser.parse_args(argv)
     commit = head_commit()
     holder = tempfile.TemporaryDirectory(prefix="mutants-base-")
@@ -737,7 +748,8 @@ def main(argv: list[str] | None = None) -> int:
     base_run = run_one(BASELINE, sys.executable, base)
     baseline = frozenset(f["test"] for f in base_run["failing_tests"])
     print(f"baseline (unmutated): {len(baseline)} failing {sorted(baseline)}", flush=True)
-    selection = None if args.whole_suite else record_impact(base, args.impact_json)
+    selection = None if args.whole_suite else \
+        load_impact(args.impact_from, commit) if args.impact_from else record_impact(base, commit, args.impact_json)
     def files(m: Mutant) -> list[str] | None:
         if selection is None:
             return None
