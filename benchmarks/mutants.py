@@ -650,7 +650,9 @@ BASELINE = Mutant("(baseline)", "", "", "", "the snapshot itself, unmutated")
 def suite_env(copy: Path) -> dict[str, str]:
     """The environment of a suite run in `copy`: the copy's Python code and kernels are the ones used."""
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(copy), str(copy / "benchmarks")]),
-               PYTHONDONTWRITEBYTECODE="1", CLSHADE_TEST_ONE_RUNTIME="1")   # tests/conftest.py: the default device
+               PYTHONDONTWRITEBYTECODE="1",
+               CLSHADE_TEST_ONE_RUNTIME="1",          # tests/conftest.py: device_runtime tests on the default device
+               CLSHADE_TEST_NO_LOCAL_CONSTANTS="1")   # and Hypothesis's examples independent of other modules
     env.pop("CLSHADE_EXPECT_INSTALLED", None)
     return env
 
@@ -719,6 +721,23 @@ def load_impact(path: str, commit: str | None) -> dict[str, impact.FileImpact]:
     return impact.from_json(doc["files"])
 
 
+def _run_within(chosen: list[Mutant], run, jobs: int, deadline: float | None):
+    """Yield run(m) for the mutants in order, `jobs` at a time, starting none after `deadline` (perf_counter)."""
+    from concurrent.futures import FIRST_COMPLETED, wait
+    todo = list(chosen)
+    with ThreadPoolExecutor(max_workers=jobs) as pool:
+        running = set()
+        while todo or running:
+            while todo and len(running) < jobs and (deadline is None or time.perf_counter() < deadline):
+                running.add(pool.submit(run, todo.pop(0)))
+            if not running:
+                print(f"budget spent: {len(todo)} mutants not started", flush=True)
+                return
+            done, running = wait(running, return_when=FIRST_COMPLETED)
+            for future in done:
+                yield future.result()
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--jobs", type=int, default=2, help="mutants run at the same time (≤ 2 on the shared machine)")
@@ -729,6 +748,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="run every test file for every mutant (default: the files that can fail, "
                              "benchmarks/impact.py)")
     parser.add_argument("--impact-json", help="keep the recorded impact map here")
+    parser.add_argument("--budget-s", type=float, help="start no mutant after this many seconds (baseline and "
+                        "recording included); the rows not reached keep the results file's previous rows")
     parser.add_argument("--impact-from", help="use a map kept by --impact-json on this same commit instead of "
                                               "recording one")
     args = parser.parse_args(argv)
@@ -742,7 +763,8 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     chosen = [m for m in CATALOGUE if not args.only or m.name in args.only.split(",")]
     out = Path(args.json)
-    previous = json.loads(out.read_text(encoding="utf-8")) if out.exists() and args.only else None
+    previous = json.loads(out.read_text(encoding="utf-8")) if out.exists() and (args.only or args.budget_s) \
+        else None
     start = time.perf_counter()
     results: list[dict] = []
     base_run = run_one(BASELINE, sys.executable, base)
@@ -750,18 +772,23 @@ def main(argv: list[str] | None = None) -> int:
     print(f"baseline (unmutated): {len(baseline)} failing {sorted(baseline)}", flush=True)
     selection = None if args.whole_suite else \
         load_impact(args.impact_from, commit) if args.impact_from else record_impact(base, commit, args.impact_json)
+    selected = {m.name: impact.select(selection, m.file, (base / m.file).read_text(encoding="utf-8"), m.original)
+                for m in chosen} if selection is not None else {}
     def files(m: Mutant) -> list[str] | None:
-        if selection is None:
-            return None
-        return impact.select(selection, m.file, (base / m.file).read_text(encoding="utf-8"), m.original)
-    with ThreadPoolExecutor(max_workers=max(1, min(args.jobs, 2))) as pool:
-        for res in pool.map(lambda m: run_one(m, sys.executable, base, baseline, files(m)), chosen):
-            res["commit"] = commit
-            results.append(res)
-            first = res["failing_tests"][0]["test"] if res["failing_tests"] else ""
-            print(f"{res['kill_class']:16s} {res['name']:28s} {res['seconds']:6.1f} s  "
-                  f"{len(res['failing_tests'])} failing  {first}", flush=True)
-            write_results(out, results, chosen, previous, commit, time.perf_counter() - start, sorted(baseline))
+        return selected[m.name] if selection is not None else None
+    if selection is not None:      # the cheapest first (recorded seconds of the files each runs): a budget reaches most
+        cost = {m.name: sum(selection[f].seconds for f in files(m)) for m in chosen}
+        chosen = sorted(chosen, key=lambda m: cost[m.name])
+        print(f"selected test files: {sum(len(files(m)) for m in chosen)} runs for {len(chosen)} mutants "
+              f"(of {len(selection) * len(chosen)} in whole suites)", flush=True)
+    for res in _run_within(chosen, lambda m: run_one(m, sys.executable, base, baseline, files(m)),
+                           jobs=max(1, min(args.jobs, 2)), deadline=start + args.budget_s if args.budget_s else None):
+        res["commit"] = commit
+        results.append(res)
+        first = res["failing_tests"][0]["test"] if res["failing_tests"] else ""
+        print(f"{res['kill_class']:16s} {res['name']:28s} {res['seconds']:6.1f} s  "
+              f"{len(res['failing_tests'])} failing  {first}", flush=True)
+        write_results(out, results, chosen, previous, commit, time.perf_counter() - start, sorted(baseline))
     doc = write_results(out, results, chosen, previous, commit, time.perf_counter() - start, sorted(baseline))
     print(f"{doc['behavioural']}/{doc['total']} killed by a behavioural test ({doc['killed']} killed in all: "
           f"{doc['kill_classes']}); wrote {out}")
@@ -797,9 +824,11 @@ def write_results(out: Path, results: list[dict], chosen: list[Mutant], previous
                kill_classes={c: sum(r.get("kill_class") == c for r in rows) for c in KILL_CLASSES},
                unclassified=sum(r["status"] == "killed" and "kill_class" not in r for r in rows),
                extras=installed_extras(sys.executable), baseline_failures=baseline, mutants=rows)
-    # Provenance: the commit the suites ran on — the earliest run's when rows of a previous file are kept
+    # Provenance: the commit the suites ran on where every row ran there; else the previous file's, when rows of it are kept
     # (a partial run does not make the whole catalogue fresh); the snapshot is a clean `git archive`.
-    measured = ((previous.get("provenance") or {}).get("commit") or previous.get("commit")) if previous else commit
+    on_commit = all(r.get("commit") == commit for r in rows)      # every row measured on this commit
+    measured = commit if on_commit or not previous else \
+        ((previous.get("provenance") or {}).get("commit") or previous.get("commit"))
     doc = stamp(doc, commit=measured)   # the suites ran on the host (PoCL CPU)
     out.write_text(json.dumps(doc, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
     return doc

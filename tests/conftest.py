@@ -60,6 +60,15 @@ def healthy_devices() -> list:
     return _HEALTHY
 
 
+#: The mutation runner's suites set this too: Hypothesis draws no constants from the source of the modules loaded so
+#: far (its "local constants"), so that what a derandomized property test tries depends neither on which test files
+#: ran before it in the process nor on literals elsewhere in clshade (benchmarks/impact.py relies on that).
+ENV_NO_LOCAL_CONSTANTS = "CLSHADE_TEST_NO_LOCAL_CONSTANTS"
+if os.environ.get(ENV_NO_LOCAL_CONSTANTS) == "1":
+    from hypothesis.internal.conjecture import providers as _providers
+    from hypothesis.internal.constants_ast import Constants as _Constants
+    _providers._get_local_constants = _Constants
+
 #: The mutation runner's suites (benchmarks/mutants.py) set this: `device_runtime` tests run on the default device
 #: only. A mutated kernel or host line acts the same on every runtime, and each runtime would compile every mutated
 #: variant again.
