@@ -258,3 +258,11 @@ def test_peer_refuses_models_it_does_not_implement():
     frame = prepare_frame(load_scene(SCENES / "sphere_grid.toml"), 16, 8)
     with pytest.raises(RuntimeError, match="implements"):
         peers._check_supported(resolve("cook_torrance"), frame.scene, "Numba")
+
+
+def test_runtime_labels_name_what_the_device_string_says():
+    """A runtime that is not PoCL keeps its own platform version (Intel's CPU runtime was 'PoCL ?, LLVM ?')."""
+    from clshade.bench.perf import short
+    assert short("AMD EPYC [OpenCL 3.1 LINUX]") == "AMD EPYC (OpenCL 3.1 LINUX)"
+    assert short("pthread-AMD EPYC [OpenCL 3.0 PoCL 3.0-rc2  Linux, Release, RELOC, LLVM 14.0.6, SLEEF]") == \
+        "pthread-AMD EPYC (PoCL 3.0-rc2, LLVM 14.0.6)"

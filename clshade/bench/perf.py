@@ -418,11 +418,14 @@ def stream_miss_cause(r: dict, anchor: float, runtime_stream: float | None = Non
 
 
 def short(device: str) -> str:
-    """'pthread-… [OpenCL 3.0 PoCL 3.1+debian …, LLVM 15.0.6, …]' → 'pthread-… (PoCL 3.1+debian, LLVM 15.0.6)'."""
-    name = device.split(" [")[0]
+    """'pthread-… [OpenCL 3.0 PoCL 3.1+debian …, LLVM 15.0.6, …]' → 'pthread-… (PoCL 3.1+debian, LLVM 15.0.6)';
+    another runtime keeps its platform version: 'AMD EPYC [OpenCL 3.1 LINUX]' → 'AMD EPYC (OpenCL 3.1 LINUX)'."""
+    name, _, version = device.partition(" [")
     pocl = re.search(r"PoCL (\S+)", device)
+    if not pocl:
+        return f"{name} ({version.rstrip(']').strip() or '?'})"
     llvm = re.search(r"LLVM (\S+?),", device)
-    return f"{name} (PoCL {pocl.group(1) if pocl else '?'}, LLVM {llvm.group(1) if llvm else '?'})"
+    return f"{name} (PoCL {pocl.group(1)}, LLVM {llvm.group(1) if llvm else '?'})"
 
 
 def main(argv: list[str] | None = None) -> int:
