@@ -101,6 +101,22 @@ def checkout() -> Path:
 
 
 @pytest.fixture(scope="session")
+def bench_script(checkout):
+    """benchmarks/<name>.py loaded as the module <name> (registered in sys.modules: dataclasses look their
+    module up there; the scripts import each other by name from benchmarks/)."""
+    import importlib.util
+    import sys
+
+    def load(name: str):
+        spec = importlib.util.spec_from_file_location(name, checkout / "benchmarks" / f"{name}.py")
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module
+        spec.loader.exec_module(module)
+        return module
+    return load
+
+
+@pytest.fixture(scope="session")
 def assets() -> Path:
     """../shared/assets beside the checkout; tests using it skip when it is absent."""
     if not ASSETS.is_dir():

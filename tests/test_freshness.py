@@ -25,12 +25,8 @@ KNOWN_STALE = {
 
 
 @pytest.fixture(scope="module")
-def freshness(checkout):
-    spec = importlib.util.spec_from_file_location("freshness", checkout / "benchmarks" / "freshness.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["freshness"] = module
-    spec.loader.exec_module(module)
-    return module
+def freshness(bench_script):
+    return bench_script("freshness")
 
 
 def _git(root: Path, *args: str) -> str:

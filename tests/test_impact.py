@@ -3,7 +3,6 @@ its recording shows it cannot reach the mutated code. A selection that drops a f
 turn kills into survivors silently, so each rule is checked on a small project recorded for real."""
 from __future__ import annotations
 
-import importlib.util
 import os
 import sys
 import textwrap
@@ -15,12 +14,8 @@ pytest.importorskip("coverage", reason="the impact recorder needs coverage (pip 
 
 
 @pytest.fixture(scope="module")
-def impact(checkout):
-    spec = importlib.util.spec_from_file_location("impact", checkout / "benchmarks" / "impact.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["impact"] = module
-    spec.loader.exec_module(module)
-    return module
+def impact(bench_script):
+    return bench_script("impact")
 
 
 MODULE = textwrap.dedent('''\

@@ -2,20 +2,14 @@
 exactly once in its file, so a refactor that moves a snippet fails here until the catalogue follows."""
 from __future__ import annotations
 
-import importlib.util
 import os
-import sys
 
 import pytest
 
 
 @pytest.fixture(scope="module")
-def mutants(checkout):
-    spec = importlib.util.spec_from_file_location("mutants", checkout / "benchmarks" / "mutants.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["mutants"] = module          # dataclasses look their module up there
-    spec.loader.exec_module(module)
-    return module
+def mutants(bench_script):
+    return bench_script("mutants")
 
 
 def test_every_snippet_found_once(mutants, checkout):

@@ -2,7 +2,6 @@
 benchmarks/publish.py renders) equal their rendering from the JSON, so a number edited by hand fails here."""
 from __future__ import annotations
 
-import importlib.util
 import json
 import re
 
@@ -10,11 +9,8 @@ import pytest
 
 
 @pytest.fixture(scope="module")
-def publish(checkout):
-    spec = importlib.util.spec_from_file_location("publish", checkout / "benchmarks" / "publish.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+def publish(bench_script):
+    return bench_script("publish")
 
 
 @pytest.mark.snapshot
