@@ -17,7 +17,6 @@ from clshade.provenance import provenance, stamp
 # Results measured before the code they depend on last changed, not yet regenerated
 # (expensive: the lead reruns them). strict: regenerating one fails here until it leaves this list.
 KNOWN_STALE = {
-    "perf_1080p.json": "perf (python -m clshade.bench.perf, ~30 min)",
     "mutants.json": "mutation catalogue (benchmarks/mutants.py, hours on 2 cores)",
     "raster.json": "rasterizer timings (benchmarks/raster_bench.py; its writer now stamps provenance)",
     "view.json": "the live viewer in headless Chromium (benchmarks/view_bench.py)",
