@@ -107,6 +107,7 @@ class Dispatch:
     variant: Variant
     kernel: object
     global_size: int
+    entry: str = "shade"
 
 
 class Shader:
@@ -130,8 +131,7 @@ class Shader:
         else:   # the general kernel binds these even with its shadow switch off
             self.shadow_maps = runtime.to_device(np.zeros(1, np.float32))
             self.shadow_params = runtime.to_device(np.zeros((1, 4), np.float32))
-        table = gbuffer.materials if len(gbuffer.materials) else np.zeros((1, 4, 4), np.float32)
-        self.materials = runtime.to_device(table.astype(np.float32))
+        self.materials = runtime.to_device(self._table(gbuffer))
         self.out = runtime.empty(padded(gbuffer.pixels) * 16)
         self.background = np.array([*scene.background, 0.0], np.float32)
         self.ambient = np.array([*scene.ambient, 0.0], np.float32)
@@ -175,6 +175,15 @@ class Shader:
         # program with other runtime switches, must not rebind ours).
         cl = self.rt.cl
         kernel = cl.Kernel(built.get_info(cl.kernel_info.PROGRAM), entry)
+        dispatch = Dispatch(variant, kernel, self.rt.global_size((self.gb.pixels + simd - 1) // simd), entry)
+        kernel.set_args(*self._arguments(dispatch))
+        self._dispatches[key] = dispatch
+        return dispatch
+
+    def _arguments(self, dispatch: Dispatch) -> list[object]:
+        """The kernel arguments of a dispatch on this Shader's G-buffer, camera and tables."""
+        variant, entry = dispatch.variant, dispatch.entry
+        features = variant.features
         half = features.half_gbuffer
         n = self.gb.pixels
         args: list[object] = [np.uint32(n), np.uint32(padded(n))]
@@ -203,10 +212,30 @@ class Shader:
         args += [self.background, self.out]
         if features.count_terms:
             args.append(self.term_counts)
-        kernel.set_args(*args)
-        dispatch = Dispatch(variant, kernel, self.rt.global_size((n + simd - 1) // simd))
-        self._dispatches[key] = dispatch
-        return dispatch
+        return args
+
+    def rebind(self, gbuffer: GBuffer, scene: Scene, camera: Camera | None = None) -> None:
+        """Shade another G-buffer of the same size with the same lights, shadow maps,
+        background and ambient (the live viewer's next frame): the planes that changed are
+        shared again, the material table uploaded again when it changed, and every prepared
+        dispatch gets its arguments set again. No kernel is built or created; a variant the
+        new G-buffer calls for (another baked table) is built by prepare() as usual."""
+        if (gbuffer.width, gbuffer.height) != (self.gb.width, self.gb.height):
+            raise ValueError(f"rebind: a {gbuffer.width}x{gbuffer.height} G-buffer on a "
+                             f"{self.gb.width}x{self.gb.height} Shader")
+        old, self.gb, self.scene = self.gb, gbuffer, scene
+        self.camera = camera or scene.camera
+        self._buffers = {key: buffer for key, buffer in self._buffers.items()
+                         if gbuffer.shares_plane(old, key[0])}
+        if not np.array_equal(old.materials, gbuffer.materials):
+            self.materials = self.rt.to_device(self._table(gbuffer))
+        for dispatch in self._dispatches.values():
+            dispatch.kernel.set_args(*self._arguments(dispatch))
+
+    @staticmethod
+    def _table(gbuffer: GBuffer) -> np.ndarray:
+        table = gbuffer.materials if len(gbuffer.materials) else np.zeros((1, 4, 4), np.float32)
+        return table.astype(np.float32)
 
     def enqueue(self, dispatch: Dispatch):
         """Enqueue one frame; returns the OpenCL event (shading and resolve as one

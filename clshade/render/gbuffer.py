@@ -107,6 +107,11 @@ class GBuffer:
             self._planes[name] = planes
         return self._planes[name]
 
+    def shares_plane(self, other: GBuffer, name: str) -> bool:
+        """Whether channel `name` is the same plane array in both G-buffers (made, not copied)."""
+        mine = self._planes.get(name)
+        return mine is not None and mine is other._planes.get(name)
+
     def bytes_per_pixel(self, names: tuple[str, ...] | list[str], half: bool = False) -> int:
         """Bytes a pass reads per pixel for these channels (3-component channels as half when `half`)."""
         total = 0
@@ -250,7 +255,7 @@ UNIFORM_CANDIDATES = ("roughness", "metallic")
 def uniform_channels(geometry: Geometry, mats: list) -> tuple[tuple[str, float], ...]:
     """(name, value) of each UNIFORM_CANDIDATES channel that has one value on every face of the
     scene: each face's material, or for a face with a glTF texture set its factor, gives the same
-    value, and no metallic-roughness texture scales it (the values _face_planes and the texture
+    value, and no metallic-roughness texture scales it (the values face_planes and the texture
     sets write into the G-buffer). A kernel variant compiles such a channel in instead of reading
     it per pixel; the G-buffer still holds it. Decided from the whole scene, not the visible
     pixels, so every frame of a scene shares one variant."""
@@ -275,7 +280,7 @@ def uniform_channels(geometry: Geometry, mats: list) -> tuple[tuple[str, float],
     return tuple(out)
 
 
-def _face_planes(geometry: Geometry, mats: list, tangents: bool = False) -> dict[str, np.ndarray]:
+def face_planes(geometry: Geometry, mats: list, tangents: bool = False) -> dict[str, np.ndarray]:
     """Per-face lookup tables, one contiguous (F,) plane each: the corners' normal components
     (``n{corner}{axis}``) and the face material's values. Gathering one plane by triangle id
     is several times faster than gathering interleaved rows (F is small next to the pixels)."""
@@ -304,7 +309,7 @@ def _face_planes(geometry: Geometry, mats: list, tangents: bool = False) -> dict
 
 
 def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments, camera: Camera | None = None,
-                  tangents: bool = False) -> GBuffer:
+                  tangents: bool = False, faces: dict[str, np.ndarray] | None = None) -> GBuffer:
     """Interpolate normals and look up material values for every covered pixel; where a
     face has a texture set, sample its textures (trilinear, see textures.py). `camera`
     (default: the scene's, at the fragments' size) gives the UV screen derivatives.
@@ -312,7 +317,8 @@ def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments, camera
     geometry has them (UVs); without them the kernel builds a frame from the normal.
     Channels are written as planes (the device layout); the untextured work runs in
     chunks of covered pixels on the worker threads (clshade.render.arrays.run_chunked),
-    each chunk writing only its own pixels."""
+    each chunk writing only its own pixels. `faces`: face_planes(geometry, the scene's materials,
+    tangents) made before (the live viewer keeps them while the camera moves)."""
     h, w = fragments.shape
     n = h * w
     pix = fragments.pixels                                 # covered pixels (integer gathers/scatters)
@@ -325,7 +331,7 @@ def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments, camera
     depth = planes["depth"][0]                             # 0 where empty
     finite = np.ones(len(pix), bool)
     if len(pix):
-        face = _face_planes(geometry, mats, tangents)
+        face = faces if faces is not None else face_planes(geometry, mats, tangents)
 
         def shade_inputs(part: slice) -> None:
             p = pix[part]

@@ -83,12 +83,24 @@ def dumps(doc: dict[str, Any]) -> str:
 
 def applied(base: dict[str, Any], controls, position, width: int, height: int) -> dict[str, Any]:
     """`base` (the scene file's tables) with `controls` (clshade.view.controls.Controls) and
-    the orbit camera `position` written in; `base` itself is not changed."""
-    doc = copy.deepcopy(base)
-    camera = doc.setdefault("camera", {})
+    the orbit camera `position` written in; `base` itself is not changed. Only the tables
+    written here are copied; the rest (objects, meshes) is shared with `base`, which the
+    scene parser only reads (tests/test_view.py checks that `base` stays as it was)."""
+    doc = dict(base)
+    doc["camera"] = dict(doc.get("camera", {}))
+    doc["render"] = dict(doc.get("render", {}))
+    if controls.materials:
+        doc["materials"] = dict(doc["materials"])
+        for name, _ in controls.materials:
+            doc["materials"][name] = dict(doc["materials"][name])
+    if controls.lights:
+        doc["lights"] = list(doc["lights"])
+        for index, _, _ in controls.lights:
+            doc["lights"][index] = dict(doc["lights"][index])
+    camera = doc["camera"]
     camera["position"] = [float(x) for x in position]
     camera["width"], camera["height"] = int(width), int(height)
-    render = doc.setdefault("render", {})
+    render = doc["render"]
     render.update(model=controls.model_a, exposure=float(controls.exposure), tonemap=controls.tonemap,
                   samples=int(controls.samples), specular_aa=bool(controls.specular_aa))
     for name, params in controls.materials:

@@ -113,32 +113,54 @@ class Page:
             await self.error(seq, str(exc))
 
     async def run(self) -> None:
-        """Render the newest state, then the next; run jobs in between."""
-        while not self.ws.closed:
-            await self.wake.wait()
-            self.wake.clear()
-            while self.jobs:
-                kind, seq, controls, name = self.jobs.pop(0)
-                call = (lambda c=controls, n=name: self.server.session.save(c, n)) if kind == "save" \
-                    else (lambda c=controls: self.server.session.oracle(c))
-                result = await self.server.call(call, self, seq)
-                if result is not None:
-                    await self.send_json(dict(result, seq=seq))
-            if self.pending is not None:
-                seq, controls, received = self.pending
-                self.pending = None
-                started = time.perf_counter()
-                frame = await self.server.call(lambda c=controls: self.server.session.render(c), self, seq)
-                render_ms = (time.perf_counter() - started) * 1e3
-                if frame is None or self.ws.closed:
-                    continue
-                t0 = time.perf_counter()
-                data = pack_frame(frame, seq, dict(skipped=self.skipped))
-                pack_ms = (time.perf_counter() - t0) * 1e3
-                await self.ws.send_bytes(data)
-                # Timing of the frame just sent, for the page's stage split (known only after sending).
-                await self.send_json(dict(type="sent", seq=seq, pack_ms=pack_ms, bytes=len(data), render_ms=render_ms,
-                                          server_ms=(time.perf_counter() - received) * 1e3))
+        """Render the newest state, then the next; run jobs in between. A frame is packed on
+        the render thread and sent by a task of its own, so the next state renders while the
+        previous frame travels (one frame in flight: frames leave in order)."""
+        sending: asyncio.Task | None = None
+        try:
+            while not self.ws.closed:
+                await self.wake.wait()
+                self.wake.clear()
+                while self.jobs:
+                    kind, seq, controls, name = self.jobs.pop(0)
+                    call = (lambda c=controls, n=name: self.server.session.save(c, n)) if kind == "save" \
+                        else (lambda c=controls: self.server.session.oracle(c))
+                    result = await self.server.call(call, self, seq)
+                    if sending is not None:
+                        await sending
+                    if result is not None:
+                        await self.send_json(dict(result, seq=seq))
+                if self.pending is not None:
+                    seq, controls, received = self.pending
+                    self.pending = None
+                    started = time.perf_counter()
+                    packed = await self.server.call(lambda c=controls, s=seq: self._packed(c, s), self, seq)
+                    render_ms = (time.perf_counter() - started) * 1e3
+                    if sending is not None:
+                        await sending
+                    if packed is None or self.ws.closed:
+                        continue
+                    data, pack_ms = packed
+                    sending = asyncio.create_task(self._send(seq, data, pack_ms, render_ms - pack_ms, received))
+        finally:
+            if sending is not None:
+                sending.cancel()
+
+    def _packed(self, controls, seq: int) -> tuple[bytes, float]:
+        """Render and pack one frame (on the render thread); the packing time."""
+        frame = self.server.session.render(controls)
+        t0 = time.perf_counter()
+        data = pack_frame(frame, seq, dict(skipped=self.skipped))
+        return data, (time.perf_counter() - t0) * 1e3
+
+    async def _send(self, seq: int, data: bytes, pack_ms: float, render_ms: float, received: float) -> None:
+        try:
+            await self.ws.send_bytes(data)
+            # Timing of the frame just sent, for the page's stage split (known only after sending).
+            await self.send_json(dict(type="sent", seq=seq, pack_ms=pack_ms, bytes=len(data), render_ms=render_ms,
+                                      server_ms=(time.perf_counter() - received) * 1e3))
+        except ConnectionError:        # the page went away while its frame was on the way
+            pass
 
 
 class ViewServer:

@@ -36,7 +36,7 @@ from clshade.device.shade import Shader, scene_features
 from clshade.errors import ClshadeError
 from clshade.models import lobes, presets
 from clshade.pipeline import Timings
-from clshade.render.gbuffer import GBuffer, build_gbuffer, material_table
+from clshade.render.gbuffer import GBuffer, build_gbuffer, face_planes, material_table
 from clshade.render.image import check_output_path, to_display, write_encoded
 from clshade.render.meshes import build_geometry
 from clshade.render.raster import rasterize
@@ -114,6 +114,11 @@ def _geometry_key(scene: Scene) -> tuple:
                  for name, m in scene.materials.items())
 
 
+def _face_key(mats: list) -> tuple:
+    """What gbuffer.face_planes reads of the materials."""
+    return tuple((tuple(m.base_color), m.roughness, m.metallic, tuple(m.emissive)) for m in mats)
+
+
 def _lights_key(scene: Scene) -> tuple:
     return tuple((l.kind, tuple(l.color), None if l.direction is None else tuple(l.direction),
                   None if l.position is None else tuple(l.position), l.inner_angle, l.outer_angle, l.shadows)
@@ -175,7 +180,7 @@ class ViewSession:
         self.display = Display(self.runtime)
         self.history: dict[str, deque] = {}
         self._geometry, self._raster, self._shadows = _Kept(), _Kept(), _Kept()
-        self._gbuffer, self._shader = _Kept(), _Kept()
+        self._gbuffer, self._shader, self._faces = _Kept(), _Kept(), _Kept()
         self.last: dict[str, object] = {}
 
     # ------------------------------------------------------------ what the page starts from
@@ -238,10 +243,24 @@ class ViewSession:
                                                   scene.shadow_pcf), lambda: build_shadow_maps(scene, geometry),
                                   timings, "shadow maps")
         gbuffer = self._gbuffer_for(scene, geometry, fragments, camera, timings)
-        shader_key = (id(gbuffer), _lights_key(scene), id(shadows), scene.background, scene.ambient, scene.samples)
-        shader = self._stage(self._shader, shader_key, lambda: Shader(self.runtime, gbuffer, scene, camera, shadows),
-                             timings, "upload")
+        shader = self._shader_for(scene, gbuffer, camera, shadows, timings)
         return scene, geometry, camera, fragments, shadows, gbuffer, shader
+
+    def _shader_for(self, scene: Scene, gbuffer: GBuffer, camera, shadows, timings: Timings) -> Shader:
+        """The kept Shader (its device tables and bound kernels) rebound to a new G-buffer
+        (Shader.rebind: no kernel built or created); a new Shader when the lights, the shadow
+        maps, background, ambient or the sample count changed."""
+        kept = self._shader
+        key = (_lights_key(scene), id(shadows), tuple(scene.background), tuple(scene.ambient), scene.samples)
+        if kept.key != key or kept.value is None:
+            with timings.stage("upload"):
+                kept.value = Shader(self.runtime, gbuffer, scene, camera, shadows)
+            kept.key = key
+        elif kept.value.gb is not gbuffer or kept.extra.get("camera") != tuple(camera.position):
+            with timings.stage("bind"):
+                kept.value.rebind(gbuffer, scene, camera)
+        kept.extra["camera"] = tuple(camera.position)
+        return kept.value
 
     def _gbuffer_for(self, scene: Scene, geometry, fragments, camera, timings: Timings) -> GBuffer:
         """The kept G-buffer when only table values changed (new table), patched planes when a
@@ -259,8 +278,11 @@ class ViewSession:
                     groups = material_pixels(kept.value, fragments.pixels, len(values))
                 gbuffer = patched_gbuffer(kept.value, groups, kept.extra["values"], values, table)
         else:
+            mats = list(scene.materials.values())
+            faces = self._stage(self._faces, (self._geometry.key, _face_key(mats)), lambda: face_planes(geometry, mats),
+                                timings, "face tables")
             with timings.stage("g-buffer"):
-                gbuffer = build_gbuffer(scene, geometry, fragments, camera)
+                gbuffer = build_gbuffer(scene, geometry, fragments, camera, faces=faces)
         kept.value, kept.extra = gbuffer, dict(fragments=fragments, table=table, values=values, groups=groups)
         return gbuffer
 
