@@ -10,6 +10,7 @@ own pixels.
 from __future__ import annotations
 
 import os
+import sys
 import threading
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
@@ -42,6 +43,40 @@ def aligned_zeros(shape: tuple[int, ...], dtype: type, align: int = PLANE_ALIGN)
     raw = np.zeros(nbytes + align, np.uint8)
     start = (-raw.ctypes.data) % align
     return raw[start:start + nbytes].view(dtype).reshape(shape)
+
+
+class PlanePool:
+    """aligned_zeros from memory used before: on a virtual machine, filling a fresh 2 MB plane
+    costs more in page faults than the stage that writes it. A block is handed out again only
+    when nothing else refers to it: no array made from it (a G-buffer's plane, a view of
+    it, a device buffer sharing it: pyopencl holds the array) is alive, which the block's
+    reference count tells exactly. Zero-filled before it is handed out, as aligned_zeros."""
+
+    def __init__(self, limit: int = 64) -> None:
+        self.limit = limit
+        self._blocks: list[np.ndarray] = []
+
+    def zeros(self, shape: tuple[int, ...], dtype: type, align: int = PLANE_ALIGN) -> np.ndarray:
+        nbytes = int(np.prod(shape)) * np.dtype(dtype).itemsize
+        raw = None
+        for i in range(len(self._blocks)):
+            # 2 references: the list's and getrefcount's argument; any view made from it adds one.
+            if self._blocks[i].size == nbytes + align and sys.getrefcount(self._blocks[i]) == 2:
+                raw = self._blocks[i]
+                raw.fill(0)
+                break
+        if raw is None:
+            raw = np.zeros(nbytes + align, np.uint8)
+            if len(self._blocks) < self.limit:
+                self._blocks.append(raw)
+        start = (-raw.ctypes.data) % align
+        return raw[start:start + nbytes].view(dtype).reshape(shape)
+
+    def copy(self, array: np.ndarray) -> np.ndarray:
+        """A copy of `array` in a block of the pool (aligned)."""
+        out = self.zeros(array.shape, array.dtype)
+        out[...] = array
+        return out
 
 
 def padded(count: int) -> int:

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from clshade.render.arrays import aligned_zeros, padded, run_chunked
+from clshade.render.arrays import PlanePool, aligned_zeros, padded, run_chunked
 from clshade.render.meshes import Geometry
 from clshade.render.raster import Fragments
 from clshade.render.scene import Camera, Scene
@@ -309,7 +309,8 @@ def face_planes(geometry: Geometry, mats: list, tangents: bool = False) -> dict[
 
 
 def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments, camera: Camera | None = None,
-                  tangents: bool = False, faces: dict[str, np.ndarray] | None = None) -> GBuffer:
+                  tangents: bool = False, faces: dict[str, np.ndarray] | None = None,
+                  pool: PlanePool | None = None) -> GBuffer:
     """Interpolate normals and look up material values for every covered pixel; where a
     face has a texture set, sample its textures (trilinear, see textures.py). `camera`
     (default: the scene's, at the fragments' size) gives the UV screen derivatives.
@@ -318,7 +319,8 @@ def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments, camera
     Channels are written as planes (the device layout); the untextured work runs in
     chunks of covered pixels on the worker threads (clshade.render.arrays.run_chunked),
     each chunk writing only its own pixels. `faces`: face_planes(geometry, the scene's materials,
-    tangents) made before (the live viewer keeps them while the camera moves)."""
+    tangents) made before (the live viewer keeps them while the camera moves); `pool`: the planes
+    are taken from it (memory of G-buffers no longer in use) instead of newly allocated."""
     h, w = fragments.shape
     n = h * w
     pix = fragments.pixels                                 # covered pixels (integer gathers/scatters)
@@ -327,7 +329,8 @@ def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments, camera
     tangents = tangents and geometry.tangents is not None
     names = [name for name in CHANNELS if (name != "emissive" or geometry.has_emission)
              and (name != "occlusion" or geometry.has_occlusion) and (name != "tangent" or tangents)]
-    planes = {name: aligned_zeros((CHANNELS[name][1], padded(n)), CHANNELS[name][0]) for name in names}
+    zeros = pool.zeros if pool is not None else aligned_zeros
+    planes = {name: zeros((CHANNELS[name][1], padded(n)), CHANNELS[name][0]) for name in names}
     depth = planes["depth"][0]                             # 0 where empty
     finite = np.ones(len(pix), bool)
     if len(pix):

@@ -37,6 +37,7 @@ from clshade.errors import ClshadeError
 from clshade.models import lobes, presets
 from clshade.pipeline import Timings
 from clshade.render.gbuffer import GBuffer, build_gbuffer, face_planes, material_table
+from clshade.render.arrays import PlanePool
 from clshade.render.image import check_output_path, to_display, write_encoded
 from clshade.render.meshes import build_geometry
 from clshade.render.raster import rasterize
@@ -140,7 +141,7 @@ def material_pixels(gbuffer: GBuffer, pixels: np.ndarray, count: int) -> list[np
 
 
 def patched_gbuffer(gbuffer: GBuffer, groups: list[np.ndarray], old: np.ndarray, new: np.ndarray,
-                    table: np.ndarray) -> GBuffer:
+                    table: np.ndarray, pool: PlanePool | None = None) -> GBuffer:
     """`gbuffer` for changed material values, without the raster: the roughness / metallic
     planes rewritten on the covered pixels of each material whose value changed (`groups`:
     material_pixels; as build_gbuffer writes them for an untextured scene), and the new
@@ -150,7 +151,7 @@ def patched_gbuffer(gbuffer: GBuffer, groups: list[np.ndarray], old: np.ndarray,
         changed = np.flatnonzero(old[:, column] != new[:, column])
         if not len(changed):
             continue
-        plane = planes[name].copy()
+        plane = pool.copy(planes[name]) if pool is not None else planes[name].copy()
         for index in changed:
             plane[0][groups[index]] = new[index, column]
         planes[name] = plane
@@ -181,6 +182,7 @@ class ViewSession:
         self.history: dict[str, deque] = {}
         self._geometry, self._raster, self._shadows = _Kept(), _Kept(), _Kept()
         self._gbuffer, self._shader, self._faces = _Kept(), _Kept(), _Kept()
+        self._planes = PlanePool()      # the G-buffers' planes, their memory used again
         self.last: dict[str, object] = {}
 
     # ------------------------------------------------------------ what the page starts from
@@ -276,13 +278,13 @@ class ViewSession:
             with timings.stage("g-buffer patch"):
                 if groups is None:
                     groups = material_pixels(kept.value, fragments.pixels, len(values))
-                gbuffer = patched_gbuffer(kept.value, groups, kept.extra["values"], values, table)
+                gbuffer = patched_gbuffer(kept.value, groups, kept.extra["values"], values, table, self._planes)
         else:
             mats = list(scene.materials.values())
             faces = self._stage(self._faces, (self._geometry.key, _face_key(mats)), lambda: face_planes(geometry, mats),
                                 timings, "face tables")
             with timings.stage("g-buffer"):
-                gbuffer = build_gbuffer(scene, geometry, fragments, camera, faces=faces)
+                gbuffer = build_gbuffer(scene, geometry, fragments, camera, faces=faces, pool=self._planes)
         kept.value, kept.extra = gbuffer, dict(fragments=fragments, table=table, values=values, groups=groups)
         return gbuffer
 
