@@ -31,7 +31,7 @@ PRODUCERS: dict[str, tuple[str, ...]] = {
     "host_ab.json": ("benchmarks/host_ab.py",),
     "memory.json": ("benchmarks/memory_bench.py",),
     "startup.json": ("benchmarks/startup_bench.py",),
-    "raster.json": ("clshade/render/raster.py", "benchmarks/raster_bench.py"),
+    "raster.json": ("clshade/render/raster", "benchmarks/raster_bench.py"),
     "runtimes.json": ("kernels", "clshade/bench/runtimes.py", "clshade/device/health.py"),
     "user_lobes.json": ("kernels", "clshade/glsl.py", "clshade/brdf_explorer.py", "benchmarks/user_lobes.py"),
     "view.json": ("kernels", "clshade/view", "clshade/device/display.py", "benchmarks/view_bench.py"),

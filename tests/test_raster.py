@@ -17,7 +17,7 @@ import trimesh
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from clshade.render import raster
+from clshade.render.raster import batches, tiles
 from clshade.render import transforms
 from clshade.render.raster import Fragments, rasterize
 from clshade.render.transforms import look_at, pixel_rays
@@ -491,11 +491,11 @@ def test_small_chunks_and_batches_give_identical_result(monkeypatch):
     view = look_at((2.5, 1.8, 4.5), (0.0, 0.0, 0.0))
     proj = perspective(45.0, W / H)
     ref = render(mesh.vertices, mesh.faces, view, proj, cull_backfaces=False)
-    monkeypatch.setattr(raster, "FACE_BATCH", 257)
-    monkeypatch.setattr(raster, "WINNER_CHUNK", 1000)
-    monkeypatch.setattr(raster, "TILE", 8)
-    monkeypatch.setattr(raster, "_TILE_LOG2", 3)
-    monkeypatch.setattr(raster, "MAX_TILES", 50)
+    monkeypatch.setattr(batches, "FACE_BATCH", 257)
+    monkeypatch.setattr(batches, "WINNER_CHUNK", 1000)
+    monkeypatch.setattr(tiles, "TILE", 8)
+    monkeypatch.setattr(tiles, "_TILE_LOG2", 3)
+    monkeypatch.setattr(tiles, "MAX_TILES", 50)
     small = render(mesh.vertices, mesh.faces, view, proj, cull_backfaces=False, max_fragments=500)
     np.testing.assert_array_equal(small.tri_id, ref.tri_id)
     np.testing.assert_allclose(small.depth, ref.depth, rtol=1e-6)

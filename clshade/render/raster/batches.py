@@ -1,0 +1,168 @@
+"""`rasterize`: the checks, the vertices' clip coordinates, and the faces in batches,
+each through triangle setup (triangles), coverage (tiles) and depth resolve (resolve)."""
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from clshade.render.arrays import run_chunked
+from clshade.render.raster.fragments import Fragments, no_fragments
+from clshade.render.raster.resolve import Resolve, resolved, winners
+from clshade.render.raster.tiles import cover
+from clshade.render.raster.triangles import setup_parallel
+
+#: Maximum faces per batch: bounds the per-triangle working memory (a few
+#: hundred bytes per face) independently of the mesh size.  Small enough for
+#: the batch temporaries to be recycled by malloc instead of being returned to
+#: the OS and page-faulted in again (a large cost on virtual machines).
+FACE_BATCH: int = 1 << 16
+
+#: Preferred number of candidate pixels per dense grid chunk (cache friendly);
+#: the effective chunk is ``min(max_fragments, GRID_CHUNK_CELLS)`` (but at
+#: least one grid of the size class being processed).
+GRID_CHUNK_CELLS: int = 1 << 17
+
+#: Winning fragments whose barycentrics are computed at a time (cache sized).
+WINNER_CHUNK: int = 1 << 16
+
+
+def rasterize(
+    vertices: ArrayLike,
+    faces: ArrayLike,
+    view: ArrayLike,
+    proj: ArrayLike,
+    width: int,
+    height: int,
+    cull_backfaces: bool | np.ndarray = True,
+    max_fragments: int = 8_000_000,
+) -> Fragments:
+    """Rasterize a triangle mesh into per-pixel fragments.
+
+    Args:
+        vertices: ``(V, 3)`` world-space positions.
+        faces: ``(F, 3)`` vertex indices.
+        view: 4x4 world→camera matrix (camera looks down -Z, +Y up).
+        proj: 4x4 OpenGL projection matrix (column vectors:
+            ``p_clip = proj @ view @ [x, y, z, 1]``).
+        width, height: image size in pixels.
+        cull_backfaces: True drops faces that are clockwise in NDC, False keeps
+            all, a ``(F,)`` bool array culls per face (True = cull).
+        max_fragments: upper bound on candidate pixels alive at a time.
+
+    Returns:
+        :class:`Fragments`; nearest fragment (smallest depth) wins, only depths
+        between the near and far planes are kept.  A pixel is covered when its
+        centre is inside a triangle; centres exactly on an edge follow the
+        top-left rule, so adjacent triangles never both (or neither) cover it.
+        Faces crossing the near plane are clipped; faces behind the camera,
+        degenerate or with non-finite vertices are dropped silently.
+
+    Raises:
+        ValueError: on malformed shapes, non-integer or out-of-range faces.
+    """
+    width, height = int(width), int(height)
+    if width < 1 or height < 1:
+        raise ValueError(f"image size must be positive, got {width}x{height}")
+    if int(max_fragments) < 1:
+        raise ValueError("max_fragments must be >= 1")
+    verts = np.asarray(vertices, dtype=np.float64)
+    if verts.ndim != 2 or verts.shape[1] != 3:
+        raise ValueError(f"vertices must have shape (V, 3), got {verts.shape}")
+    tris = np.asarray(faces)
+    if tris.size == 0:
+        tris = tris.reshape(0, 3)
+    if tris.ndim != 2 or tris.shape[1] != 3:
+        raise ValueError(f"faces must have shape (F, 3), got {tris.shape}")
+    if tris.dtype.kind not in "iu":
+        raise ValueError(f"faces must be integers, got dtype {tris.dtype}")
+    tris = tris.astype(np.int64, copy=False)
+    n_faces = tris.shape[0]
+    if n_faces and (tris.min() < 0 or tris.max() >= verts.shape[0]):
+        raise ValueError("face indices out of range")
+    view_m = np.asarray(view, dtype=np.float64)
+    proj_m = np.asarray(proj, dtype=np.float64)
+    if view_m.shape != (4, 4) or proj_m.shape != (4, 4):
+        raise ValueError("view and proj must be 4x4 matrices")
+    if isinstance(cull_backfaces, (bool, np.bool_)):
+        cull = np.full(n_faces, bool(cull_backfaces))
+    else:
+        cull = np.asarray(cull_backfaces, dtype=bool)
+        if cull.shape != (n_faces,):
+            raise ValueError(f"cull_backfaces array must have shape ({n_faces},), got {cull.shape}")
+
+    if n_faces == 0:
+        return no_fragments(height, width)
+
+    with np.errstate(all="ignore"):  # non-finite input is dropped, never warned about
+        mvp = proj_m @ view_m
+        vx, vy, vz = verts[:, 0], verts[:, 1], verts[:, 2]
+        # Per-row products (not a BLAS matmul: no thread pool, no extra copy).
+        clip_t = np.empty((4, len(verts)))  # (4, V) clip coordinates
+        for k in range(4):
+            clip_t[k] = vx * mvp[k, 0] + vy * mvp[k, 1] + vz * mvp[k, 2] + mvp[k, 3]
+        vdepth = -(vx * view_m[2, 0] + vy * view_m[2, 1] + vz * view_m[2, 2] + view_m[2, 3])  # -z_view
+        vfinite = np.isfinite(vdepth)
+        for k in range(4):
+            vfinite &= np.isfinite(clip_t[k])
+        w_is_depth = bool(np.array_equal(proj_m[3], [0.0, 0.0, -1.0, 0.0]))
+        n_batches = -(-n_faces // FACE_BATCH)
+        state = Resolve(width, height, min(int(max_fragments), GRID_CHUNK_CELLS), w_is_depth,
+                        several_batches=n_batches > 1, batch_faces=FACE_BATCH)
+        bounds = np.linspace(0, n_faces, n_batches + 1).round().astype(int)  # balanced batches
+        if n_batches == 1:  # the batch's winners are the result
+            result = _raster_batch(state, clip_t, vdepth, vfinite, tris, cull, 0, n_faces, None) \
+                or no_fragments(height, width)
+        else:  # later batches overwrite nearer pixels: winners go to full-frame arrays
+            frame = (np.full((height, width), -1, np.int32), np.zeros((height, width), np.float32),
+                     np.zeros((3, height, width), np.float32))
+            for f0, f1 in zip(bounds[:-1].tolist(), bounds[1:].tolist()):
+                _raster_batch(state, clip_t, vdepth, vfinite, tris, cull, f0, f1, frame)
+            result = Fragments.from_frame(*frame)
+    state.release()  # not reached on an exception: arrays left mid-batch are dropped
+    return result
+
+
+def _raster_batch(
+    state: Resolve,
+    clip_t: NDArray[np.float64],
+    vdepth: NDArray[np.float64],
+    vfinite: NDArray[np.bool_],
+    tris: NDArray[np.int64],
+    cull: NDArray[np.bool_],
+    f0: int,
+    f1: int,
+    frame: tuple[NDArray[np.int32], NDArray[np.float32], NDArray[np.float32]] | None,
+) -> Fragments | None:
+    """Rasterize faces ``f0:f1``: their winners as Fragments (``frame`` None, the only
+    batch) or merged into the full-frame arrays ``frame`` = (tri_id, depth, bary planes)."""
+    width = state.width
+    t = setup_parallel(clip_t, vfinite, vdepth, tris, cull, f0, f1, width, state.height)
+    if t is None:
+        return None
+    tri_bits = state.tri_bits
+    used = cover(state, t)
+    hit, k = resolved(state, used, int(t.row0.min()) * width, (int(t.row1.max()) + 1) * width)
+    if len(hit) == 0:
+        return None
+    if state.best_q is not None:
+        # Merge with previous batches: strictly nearer wins (ties: earlier batch).
+        kq = k >> tri_bits
+        better = kq < state.best_q[hit]
+        if not better.all():
+            hit, k, kq = hit[better], k[better], kq[better]
+        state.best_q[hit] = kq
+    tri_mask = (1 << tri_bits) - 1
+    face = np.empty(len(hit), np.int32)
+    depth = np.empty(len(hit), np.float32)
+    bary = np.empty((3, len(hit)), np.float32)
+
+    def write(part: slice) -> None:
+        face[part], depth[part], bary[:, part] = winners(t, hit[part], k[part] & tri_mask, width, state.w_is_depth)
+        if frame is not None:
+            frame[0].reshape(-1)[hit[part]] = face[part]
+            frame[1].reshape(-1)[hit[part]] = depth[part]
+            for j in range(3):
+                frame[2][j].reshape(-1)[hit[part]] = bary[j, part]
+
+    run_chunked(len(hit), write, max_chunk=WINNER_CHUNK)
+    return Fragments(state.height, width, hit, face, depth, bary) if frame is None else None
