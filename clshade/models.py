@@ -44,6 +44,13 @@ BUILT_IN, USER, BRDF_FILE = "built-in", "user", "brdf"
 # Geometry's vectors: `vectors` = n, l, v; `tangents` = the tangent frame x, y too).
 USES = frozenset({"roughness", "metallic", "fresnel", "shininess", "kd", "ks", "ka", "ior", "f90", "eta", "k",
                   "vectors", "tangents"})
+# The surface inputs every model reads besides its lobes' parameters (kernels/surface.h
+# make_surface, per pixel in the G-buffer), declared as a lobe declares its parameters. The
+# defaults are the scene format's (clshade.render.scene.Material; tests/test_view.py checks them).
+SURFACE_PARAMS = (
+    Param("base_color", 0.0, 1.0, 0.8, "linear base colour, each of R, G, B (albedo; a metal's F0)", kind="color"),
+    Param("metallic", 0.0, 1.0, 0.0, "metalness (metallic workflow): 0 dielectric, 1 metal"),
+)
 # Uses that are Geometry options, not material inputs (compiled in: GEOMETRY_VECTORS, GEOMETRY_TANGENTS).
 GEOMETRY_USES = frozenset({"vectors", "tangents"})
 

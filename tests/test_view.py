@@ -13,6 +13,7 @@ import pytest
 
 from clshade.cli import main
 from clshade.device.display import Display, thresholds
+from clshade.device.runtime import get_runtime
 from clshade.device.variants import Variant
 from clshade.errors import ClshadeError
 from clshade.models import resolve
@@ -55,6 +56,10 @@ BAD = [
     ("materials", {"steel": {"metalness": 0.2}}, "not a lobe parameter"),
     ("materials", {"steel": {"roughness": 1.5}}, "materials.steel.roughness"),
     ("materials", {"steel": {"roughness": None}}, "must be a number"),
+    ("materials", {"steel": {"base_color": [0.1, 0.2]}}, "list of 3 numbers"),
+    ("materials", {"steel": {"base_color": 0.5}}, "list of 3 numbers"),
+    ("materials", {"steel": {"base_color": [0.1, 0.2, 1.5]}}, "materials.steel.base_color[2]"),
+    ("materials", {"steel": {"metallic": -0.1}}, "materials.steel.metallic"),
     ("lights", {"3": {"scale": 1.0}}, "no such light"), ("lights", {"-1": {"scale": 1.0}}, "no such light"),
     ("lights", {"1": {"direction": [0, -1, 0]}}, "point light has no direction"),
     ("lights", {"0": {"direction": [0, 0, 0]}}, "zero vector"),
@@ -139,7 +144,9 @@ def test_patched_gbuffer_equals_a_rebuilt_one(session):
     start = parse_controls(controls(session), session.limits)
     session.render(start)
     changed = parse_controls(controls(session, materials={"paint_red": {"roughness": 0.9},
-                                                          "steel": {"roughness": 0.05}, "gold": {"ks": 0.2}}),
+                                                          "steel": {"roughness": 0.05, "metallic": 0.4},
+                                                          "paint_cream": {"base_color": [0.1, 0.5, 0.9]},
+                                                          "gold": {"ks": 0.2}}),
                              session.limits)
     frame = session.render(changed)
     assert frame.reshade_only and "g-buffer patch" in frame.stages and "rasterize" not in frame.stages
@@ -149,6 +156,126 @@ def test_patched_gbuffer_equals_a_rebuilt_one(session):
         np.testing.assert_array_equal(last["gbuffer"].channels[name], rebuilt.channels[name], err_msg=name)
     np.testing.assert_array_equal(last["gbuffer"].materials, rebuilt.materials)
     assert (last["gbuffer"].channels["roughness"] == np.float32(0.05)).any()
+    assert (last["gbuffer"].channels["metallic"] == np.float32(0.4)).any()
+    assert (last["gbuffer"].plane("base")[2] == np.float32(0.9)).any()
+
+
+def test_material_edits_survive_the_next_orbit(session):
+    """After a patched material change the camera moves: the G-buffer built from the new raster
+    (with the kept face tables) has the changed values, as a G-buffer built from scratch."""
+    edit = {"paint_cream": {"base_color": [0.2, 0.6, 0.3], "metallic": 0.7, "roughness": 0.15}}
+    session.render(parse_controls(controls(session), session.limits))
+    assert session.render(parse_controls(controls(session, materials=edit), session.limits)).reshade_only
+    moved = session.render(parse_controls(controls(session, materials=edit, azimuth=12.0), session.limits))
+    assert "rasterize" in moved.stages
+    last = session.last
+    fresh = build_gbuffer(last["scene"], session._geometry.value, session._raster.value, last["camera"])
+    for name in fresh.channels:
+        np.testing.assert_array_equal(last["gbuffer"].channels[name], fresh.channels[name], err_msg=name)
+    assert (last["gbuffer"].plane("base")[1] == np.float32(0.6)).any()
+
+
+def test_base_document_is_not_changed_by_frames(session):
+    """applied() copies only the tables it writes; nothing downstream writes into the scene file's."""
+    import copy
+    before = copy.deepcopy(session.base_doc)
+    session.render(parse_controls(controls(session, azimuth=3.0, materials={"steel": {"base_color": [0.3, 0.3, 0.3]}},
+                                           lights={"0": {"direction": [0.3, -1.0, 0.2], "scale": 1.5}}),
+                                  session.limits))
+    session.save(parse_controls(controls(session, materials={"gold": {"roughness": 0.2}}), session.limits), "doc")
+    assert session.base_doc == before
+
+
+def test_surface_params_are_the_scene_defaults():
+    """The base colour and metallic sliders start from the scene format's own defaults."""
+    from clshade.models import SURFACE_PARAMS
+    from clshade.render.scene import Material
+    fields = Material.__dataclass_fields__
+    for p in SURFACE_PARAMS:
+        default = fields[p.name].default
+        assert (tuple(default) == (p.default,) * 3) if p.kind == "color" else default == p.default, p.name
+
+
+SINGLE = """
+[camera]
+position = [0.0, 0.0, 4.2]
+fov = 30.0
+[render]
+model = "ggx_correlated"
+ambient = [0.02, 0.02, 0.02]
+[[lights]]
+type = "directional"
+direction = [-0.45, -0.5, -1.0]
+irradiance = [3.0, 3.0, 3.0]
+[materials.paint]
+base_color = [0.8, 0.05, 0.05]
+roughness = 0.3
+ks = 0.3
+[[objects]]
+primitive = "sphere"
+radius = 1.0
+material = "paint"
+"""
+
+
+def test_sliders_never_build_a_kernel(tmp_path, monkeypatch):
+    """One material, so `clshade render` compiles its constants and its uniform roughness and
+    metallic in (Variant.build); the viewer's kernels read them at run time: after the first
+    frame of each model no slider builds or even looks up a program, and every slider moves
+    the image."""
+    (tmp_path / "one.toml").write_text(SINGLE, encoding="utf-8")
+    s = ViewSession(tmp_path / "one.toml", tmp_path, 48, 48)
+    start = controls(s, model_a="ggx_correlated", model_b="phong", split=True)
+    previous = s.render(parse_controls(start, s.limits)).views
+    calls = []
+    real = s.runtime.kernel
+    monkeypatch.setattr(s.runtime, "kernel", lambda *a, **k: calls.append(a[1]) or real(*a, **k))
+    edits = [("roughness", 0.7), ("metallic", 0.9), ("base_color", [0.1, 0.7, 0.2]), ("ks", 0.8), ("kd", 0.1),
+             ("shininess", 400.0), ("ka", 0.2)]
+    values = {}
+    for name, value in edits:
+        values[name] = value
+        frame = s.render(parse_controls(dict(start, materials={"paint": dict(values)}), s.limits))
+        assert frame.reshade_only
+        assert any((frame.views[v] != previous[v]).any() for v in "ab"), name
+        previous = frame.views
+    assert calls == []
+
+
+@pytest.mark.parametrize("model", ["ggx_correlated", "phong"])
+def test_runtime_material_equals_compiled_in(tmp_path, model):
+    """The viewer's kernel (material table, roughness and metallic read per pixel) writes the
+    same bits as the one `clshade render` compiles (constants and uniform channels as literals):
+    the saved view reproduces bit for bit on one-material scenes too."""
+    from clshade.device.shade import Shader, scene_features
+    from clshade.pipeline import prepare_frame
+    from clshade.render.scene import parse_scene
+    frame = prepare_frame(parse_scene(SINGLE, tmp_path / "one.toml"), 64, 48)
+    features = scene_features(frame.scene, geometry=frame.geometry)
+    shader = Shader(get_runtime(), frame.gbuffer, frame.scene, frame.camera, frame.shadows)
+    m = resolve(model)
+    compiled = shader.variant(m, features)
+    assert compiled.baked_material is not None and dict(features.uniform)["roughness"] == pytest.approx(0.3)
+    live = dataclasses.replace(features, runtime_material=True)
+    read = set(shader.variant(m, live).channels)
+    assert "material" in read and {c for c in ("roughness", "metallic") if c in m.uses} <= read
+    a, b = shader.render(m, features), shader.render(m, live)
+    assert np.array_equal(a.view(np.uint32), b.view(np.uint32))
+
+
+def test_plane_pool_hands_out_only_blocks_nothing_uses():
+    from clshade.render.arrays import PLANE_ALIGN, PlanePool
+    pool = PlanePool()
+    a = pool.zeros((2, 64), np.float32)
+    a[:] = 7.0
+    view = a[1]                     # a view alone keeps the block in use
+    del a
+    b = pool.zeros((2, 64), np.float32)
+    assert (b == 0).all() and not np.shares_memory(b, view) and b.ctypes.data % PLANE_ALIGN == 0
+    b[:] = 3.0
+    del view, b
+    c = pool.zeros((2, 64), np.float32)
+    assert (c == 0).all() and len(pool._blocks) == 2
 
 
 def test_orbit_rasterises_and_exposure_does_not(session):

@@ -109,6 +109,19 @@ def test_viewer_end_to_end(browser, served, tmp_path, monkeypatch):
     assert header["reshade_only"] and "rasterize" not in header["stages"]
     assert 0.1 < js(browser, "return window.clshadeView.controls.materials.paint_red.roughness;") < 0.2
 
+    # the surface inputs (clshade.models.SURFACE_PARAMS): base colour, one slider per channel, and
+    # metallic; re-shade only, and the paint changes colour on the canvas
+    before = canvas(browser)
+    for slider, value in (("param_base_color_1", 900), ("param_metallic", 600)):
+        js(browser, f"const s = document.getElementById('{slider}'); s.value = {value};"
+                    "s.dispatchEvent(new Event('input'));")
+        next_frame(browser)
+        assert js(browser, "return window.clshadeView.lastFrame;")["reshade_only"]
+    red = js(browser, "return window.clshadeView.controls.materials.paint_red;")
+    assert red["base_color"] == pytest.approx([0.75, 0.9, 0.06]) and red["metallic"] == pytest.approx(0.6)
+    after = canvas(browser)
+    assert (after[..., 1].astype(int) - before[..., 1] > 20).mean() > 0.002     # greener where the paint is
+
     # split: A left of the divider, B right of it, both on the same G-buffer
     browser.find_element(By.ID, "split").click()
     next_frame(browser)

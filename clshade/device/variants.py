@@ -16,7 +16,7 @@ equals the general kernel with the same switches (tests/test_specialisation.py).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -63,6 +63,9 @@ class Features:
     # (clshade.render.gbuffer.uniform_channels): compiled in, not read per pixel (not by the general kernel)
     uniform: tuple[tuple[str, float], ...] = ()
     double: bool = False           # real = double (REAL_DOUBLE): the evaluation kernel's float64 build only
+    # The material table and the roughness / metallic channels read at run time, never compiled in
+    # (no MAT_M*, no uniform channels): a material edit is new data, not a new program (the live viewer)
+    runtime_material: bool = False
 
     @property
     def num_lights(self) -> int:
@@ -81,6 +84,8 @@ class Features:
         out.append(f"G-buffer storage: {'half (normal, base colour)' if self.half_gbuffer else 'float32'}")
         out.append(f"math: {'fast-relaxed' if self.fast_math else 'precise'}")
         out.append(f"specular anti-aliasing: {'on (normal variance, kernels/specular_aa.h)' if self.specular_aa else 'off'}")
+        if self.runtime_material:
+            out.append("material: table, roughness and metallic read at run time (nothing compiled in)")
         if self.uniform and not self.general:
             out.append("uniform channels: " + ", ".join(f"{k} = {v:g}" for k, v in self.uniform)
                        + " (one value in the whole scene: compiled in, not read per pixel)")
@@ -132,6 +137,8 @@ class Variant:
         not give them one value everywhere (Features.uniform: then compiled in); the material id
         channel only when the materials differ in a constant the model reads (otherwise
         those constants are compiled in)."""
+        if features.runtime_material:    # nothing compiled in: the scene's uniform values are not the program's
+            features = replace(features, uniform=())
         extra = (("emissive",) if features.emissive else ()) + (("occlusion",) if features.occlusion else ())
         # The G-buffer's tangents (`tangents`: it has them) only for a lobe that reads the frame.
         extra += ("tangent",) if tangents and "tangents" in model.uses else ()
@@ -148,7 +155,7 @@ class Variant:
         mask = used_table_columns(model)
         table = np.asarray(material_table, np.float32).reshape(-1, 4, 4)
         baked = None
-        if len(table) and np.all(table[:, mask] == table[0][mask]):
+        if len(table) and not features.runtime_material and np.all(table[:, mask] == table[0][mask]):
             row = table[0].copy()
             if "shininess" not in uses:
                 # The exponent derived from roughness (Material.exponent), read by the empirical lobes

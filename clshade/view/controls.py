@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from clshade.errors import ClshadeError
-from clshade.models import Model, lobes, resolve
+from clshade.models import SURFACE_PARAMS, Model, Param, lobes, resolve
 from clshade.render.scene import EXPOSURE_RANGE, MAX_SAMPLES, TONEMAPS, Material, Scene
 
 #: Longest message the server reads (a control state is well under 4 KiB).
@@ -51,23 +51,24 @@ class Controls:
     tonemap: str
     samples: int
     specular_aa: bool
-    materials: tuple[tuple[str, tuple[tuple[str, float], ...]], ...] = ()   # (material, ((param, value), …))
+    # (material, ((param, value), …)); a colour's value is (R, G, B)
+    materials: tuple[tuple[str, tuple[tuple[str, float | tuple[float, float, float]], ...]], ...] = ()
     lights: tuple[tuple[int, tuple[float, float, float] | None, float | None], ...] = ()  # (index, direction, scale)
 
     def models(self) -> tuple[Model, Model]:
         return resolve(self.model_a), resolve(self.model_b)
 
 
-def material_params() -> dict[str, tuple[float, float, float]]:
-    """name → (low, high, default) of every parameter a lobe declares that a scene material
-    holds (roughness, shininess, kd, ks, ka): the sliders. Read from the registry, so new lobes
-    bring their parameters with them."""
+def material_params() -> dict[str, Param]:
+    """name → Param of the surface inputs (base colour, metallic: clshade.models.SURFACE_PARAMS)
+    and of every parameter a lobe declares that a scene material holds (roughness, shininess,
+    kd, ks, ka): the sliders. Read from the registry, so new lobes bring their parameters."""
     fields = Material.__dataclass_fields__
-    out: dict[str, tuple[float, float, float]] = {}
+    out: dict[str, Param] = {p.name: p for p in SURFACE_PARAMS}
     for lobe in lobes().values():
         for p in lobe.params:
             if p.name in fields and p.name not in out:
-                out[p.name] = (p.low, p.high, p.default)
+                out[p.name] = p
     return out
 
 
@@ -77,7 +78,7 @@ class Limits:
     the distance range and the frame size (for the supersampling limit)."""
     materials: tuple[str, ...]
     light_kinds: tuple[str, ...]
-    params: dict[str, tuple[float, float, float]]
+    params: dict[str, Param]
     distance: tuple[float, float]
     width: int
     height: int
@@ -154,6 +155,16 @@ def _direction(key: str, value: Any) -> tuple[float, float, float]:
     return d
 
 
+def _param(key: str, value: Any, p: Param) -> float | tuple[float, float, float]:
+    """A number within the parameter's range; for a colour, a list of 3 such numbers."""
+    if p.kind != "color":
+        return _number(key, value, p.low, p.high)
+    if not isinstance(value, list) or len(value) != 3:
+        raise _fail(key, value, "must be a list of 3 numbers (R, G, B)")
+    r, g, b = (_number(f"{key}[{i}]", x, p.low, p.high) for i, x in enumerate(value))
+    return r, g, b
+
+
 def _materials(value: Any, limits: Limits) -> tuple:
     out = []
     for name, params in _table("materials", value).items():
@@ -163,8 +174,7 @@ def _materials(value: Any, limits: Limits) -> tuple:
         for param, v in _table(f"materials.{name}", params).items():
             if param not in limits.params:
                 raise _fail(f"materials.{name}.{param}", v, f"not a lobe parameter ({', '.join(limits.params)})")
-            low, high, _ = limits.params[param]
-            row.append((param, _number(f"materials.{name}.{param}", v, low, high)))
+            row.append((param, _param(f"materials.{name}.{param}", v, limits.params[param])))
         out.append((name, tuple(sorted(row))))
     return tuple(sorted(out))
 

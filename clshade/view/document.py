@@ -104,7 +104,8 @@ def applied(base: dict[str, Any], controls, position, width: int, height: int) -
     render.update(model=controls.model_a, exposure=float(controls.exposure), tonemap=controls.tonemap,
                   samples=int(controls.samples), specular_aa=bool(controls.specular_aa))
     for name, params in controls.materials:
-        doc["materials"][name].update({k: float(v) for k, v in params})
+        doc["materials"][name].update({k: [float(c) for c in v] if isinstance(v, tuple) else float(v)
+                                       for k, v in params})
     for index, direction, scale in controls.lights:
         light = doc["lights"][index]
         if direction is not None:

@@ -34,7 +34,7 @@ from clshade.device.display import Display
 from clshade.device.runtime import get_runtime
 from clshade.device.shade import Shader, scene_features
 from clshade.errors import ClshadeError
-from clshade.models import lobes, presets
+from clshade.models import SURFACE_PARAMS, lobes, presets
 from clshade.pipeline import Timings
 from clshade.render.gbuffer import GBuffer, build_gbuffer, face_planes, material_table
 from clshade.render.arrays import PlanePool
@@ -54,8 +54,9 @@ HISTORY = 120
 SAVE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
 #: Colours of the difference view's scale bar on the page.
 RAMP_STEPS = 160
-#: Per-pixel G-buffer channels a material fills from its own values (G-buffer rebuilt or patched).
-CHANNEL_FIELDS = ("roughness", "metallic")
+#: Per-pixel G-buffer channels a material fills from its own values (G-buffer rebuilt or patched):
+#: (channel, the Material field it takes, its components).
+CHANNEL_FIELDS = (("base", "base_color", 3), ("roughness", "roughness", 1), ("metallic", "metallic", 1))
 
 
 @dataclass(frozen=True)
@@ -127,9 +128,10 @@ def _lights_key(scene: Scene) -> tuple:
 
 
 def _channel_values(scene: Scene) -> np.ndarray:
-    """(materials, CHANNEL_FIELDS) float32: the per-pixel values each material writes."""
-    return np.array([[getattr(m, f) for f in CHANNEL_FIELDS] for m in scene.materials.values()],
-                    np.float32).reshape(-1, len(CHANNEL_FIELDS))
+    """(materials, components of CHANNEL_FIELDS) float32: the per-pixel values each material writes."""
+    width = sum(n for _, _, n in CHANNEL_FIELDS)
+    return np.array([np.concatenate([np.ravel(getattr(m, f)) for _, f, _ in CHANNEL_FIELDS])
+                     for m in scene.materials.values()], np.float32).reshape(-1, width)
 
 
 def material_pixels(gbuffer: GBuffer, pixels: np.ndarray, count: int) -> list[np.ndarray]:
@@ -142,18 +144,27 @@ def material_pixels(gbuffer: GBuffer, pixels: np.ndarray, count: int) -> list[np
 
 def patched_gbuffer(gbuffer: GBuffer, groups: list[np.ndarray], old: np.ndarray, new: np.ndarray,
                     table: np.ndarray, pool: PlanePool | None = None) -> GBuffer:
-    """`gbuffer` for changed material values, without the raster: the roughness / metallic
-    planes rewritten on the covered pixels of each material whose value changed (`groups`:
-    material_pixels; as build_gbuffer writes them for an untextured scene), and the new
-    material table. Planes that did not change are shared, not copied."""
+    """`gbuffer` for changed material values, without the raster: the base colour, roughness
+    and metallic planes rewritten on the covered pixels of each material whose value changed
+    (`groups`: material_pixels; as build_gbuffer writes them for an untextured scene, which
+    leaves the base colour of a pixel with non-finite inputs 0), and the new material table.
+    Planes that did not change are shared, not copied."""
     planes = {name: gbuffer.plane(name) for name in gbuffer.channels}
-    for column, name in enumerate(CHANNEL_FIELDS):
-        changed = np.flatnonzero(old[:, column] != new[:, column])
+    covered = gbuffer.coverage.ravel() if gbuffer.nonfinite_pixels else None
+    start = 0
+    for name, _, width in CHANNEL_FIELDS:
+        columns = slice(start, start + width)
+        start += width
+        changed = np.flatnonzero((old[:, columns] != new[:, columns]).any(axis=1))
         if not len(changed):
             continue
         plane = pool.copy(planes[name]) if pool is not None else planes[name].copy()
         for index in changed:
-            plane[0][groups[index]] = new[index, column]
+            rows = groups[index]
+            if name == "base" and covered is not None:
+                rows = rows[covered[rows]]
+            for c in range(width):
+                plane[c][rows] = new[index, columns.start + c]
         planes[name] = plane
     return GBuffer.from_planes(gbuffer.width, gbuffer.height, planes, table, gbuffer.coverage,
                                gbuffer.nonfinite_pixels, unit_normals=gbuffer.unit_normals)
@@ -204,7 +215,9 @@ class ViewSession:
             lobes=[dict(id=l.id, name=l.name, kind=l.kind, params=[dict(name=p.name, min=p.low, max=p.high,
                                                                         default=p.default, text=p.description)
                                                                    for p in l.params]) for l in lobes().values()],
-            params={k: dict(min=lo, max=hi, default=d) for k, (lo, hi, d) in self.limits.params.items()},
+            params={k: dict(min=p.low, max=p.high, default=p.default, kind=p.kind, text=p.description)
+                    for k, p in self.limits.params.items()},
+            surface=[p.name for p in SURFACE_PARAMS],
             materials={name: _material_values(s.materials[name]) for name in self.limits.materials},
             lights=[dict(kind=l.kind, direction=None if l.direction is None else [float(x) for x in l.direction])
                     for l in s.lights],
@@ -294,7 +307,8 @@ class ViewSession:
         timings = Timings()
         model_a, model_b = controls.models()
         scene, geometry, camera, fragments, shadows, gbuffer, shader = self.frame_state(controls, timings)
-        features = scene_features(scene, geometry=geometry)
+        # Material values read at run time: a slider moves data, never builds a program (Features).
+        features = dataclasses.replace(scene_features(scene, geometry=geometry), runtime_material=True)
         shown = {"a": model_a}
         if controls.split or controls.diff:
             shown["b"] = model_b
@@ -397,8 +411,8 @@ def _preset_ids() -> list[str]:
 def _material_values(m) -> dict[str, float]:
     """The lobe parameters as the material gives them (derived shininess and kd included)."""
     constants = m.constants()
-    return dict(roughness=m.roughness, metallic=m.metallic, shininess=constants["shininess"], kd=constants["kd"],
-                ks=constants["ks"], ka=constants["ka"])
+    return dict(base_color=[float(c) for c in m.base_color], roughness=m.roughness, metallic=m.metallic,
+                shininess=constants["shininess"], kd=constants["kd"], ks=constants["ks"], ka=constants["ka"])
 
 
 def difference_rgba(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, float]:

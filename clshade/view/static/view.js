@@ -134,8 +134,8 @@ function lobesOf(spec) {
   return out;
 }
 
-function sliderParams() {
-  const names = new Set();
+function sliderParams() {             // the surface inputs (base colour, metallic), then the lobes' parameters
+  const names = new Set(Object.keys(hello.params).filter((name) => hello.surface.includes(name)));
   for (const spec of [controls.model_a, controls.model_b]) {
     for (const id of lobesOf(spec)) {
       const lobe = hello.lobes.find((l) => l.id === id);
@@ -156,26 +156,41 @@ function materialValue(name, param) {
   return controls.materials[name]?.[param] ?? hello.materials[name][param];
 }
 
+function slider(id, text, p, value, set) {     // one range input with its label and value
+  const label = document.createElement("label");
+  const input = Object.assign(document.createElement("input"), {type: "range", min: 0, max: 1000, step: 1, id});
+  const out = document.createElement("output");
+  input.value = toSlider(p, value);
+  out.textContent = (+value).toPrecision(3);
+  input.addEventListener("input", () => {
+    const v = toValue(p, +input.value);
+    out.textContent = v.toPrecision(3);
+    set(v);
+    update();
+  });
+  label.title = p.text || "";
+  label.append(`${text} `, input, out);
+  return label;
+}
+
 function buildSliders() {
   const box = $("params"), name = $("material").value;
   box.innerHTML = "";
   if (!name) return;
   for (const param of sliderParams()) {
     const p = hello.params[param];
-    const label = document.createElement("label");
-    const input = Object.assign(document.createElement("input"), {type: "range", min: 0, max: 1000, step: 1});
-    input.id = `param_${param}`;
-    const out = document.createElement("output");
-    input.value = toSlider(p, materialValue(name, param));
-    out.textContent = (+materialValue(name, param)).toPrecision(3);
-    input.addEventListener("input", () => {
-      const value = toValue(p, +input.value);
-      (controls.materials[name] ??= {})[param] = value;
-      out.textContent = value.toPrecision(3);
-      update();
-    });
-    label.append(`${param} `, input, out);
-    box.append(label);
+    if (p.kind === "color") {            // one slider per channel; the control value is [R, G, B]
+      ["R", "G", "B"].forEach((channel, i) => {
+        box.append(slider(`param_${param}_${i}`, `${param} ${channel}`, p, materialValue(name, param)[i], (v) => {
+          const rgb = [...materialValue(name, param)];
+          rgb[i] = v;
+          (controls.materials[name] ??= {})[param] = rgb;
+        }));
+      });
+    } else {
+      box.append(slider(`param_${param}`, param, p, materialValue(name, param),
+                        (v) => { (controls.materials[name] ??= {})[param] = v; }));
+    }
   }
 }
 
