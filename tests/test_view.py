@@ -175,6 +175,24 @@ def test_material_edits_survive_the_next_orbit(session):
     assert (last["gbuffer"].plane("base")[1] == np.float32(0.6)).any()
 
 
+def test_rebound_shader_equals_a_new_one(session):
+    """The kept Shader, rebound to each new G-buffer (orbit: new planes and camera; a material
+    edit: patched planes and table), shades what a Shader made for that G-buffer shades."""
+    from clshade.device.shade import Shader
+    first = session.render(parse_controls(controls(session, model_b="phong", split=True), session.limits))
+    kept = session.last["shader"]
+    for change in (dict(azimuth=25.0), dict(azimuth=25.0, materials={"steel": {"roughness": 0.1, "ks": 0.5}}),
+                   dict(azimuth=-10.0, elevation=40.0)):
+        frame = session.render(parse_controls(controls(session, model_b="phong", split=True, **change),
+                                              session.limits))
+        last = session.last
+        assert last["shader"] is kept and (frame.views["a"] != first.views["a"]).any()
+        fresh = Shader(session.runtime, last["gbuffer"], last["scene"], last["camera"], last["shadows"])
+        for model in last["models"].values():
+            np.testing.assert_array_equal(kept.render(model, last["features"]),
+                                          fresh.render(model, last["features"]), err_msg=f"{change} {model.id}")
+
+
 def test_base_document_is_not_changed_by_frames(session):
     """applied() copies only the tables it writes; nothing downstream writes into the scene file's."""
     import copy

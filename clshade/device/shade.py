@@ -136,6 +136,7 @@ class Shader:
         self.background = np.array([*scene.background, 0.0], np.float32)
         self.ambient = np.array([*scene.ambient, 0.0], np.float32)
         self._dispatches: dict[tuple, Dispatch] = {}
+        self._unbound: set[tuple] = set()      # dispatches whose arguments name a G-buffer before rebind()
         self.term_counts = counts.zeros(runtime)   # the counting build's counters (Features.count_terms)
         self.samples = scene.samples
         self.resolver = None
@@ -167,7 +168,11 @@ class Shader:
         simd = 1 if features.count_terms else self.rt.simd   # count.h counts one pixel per work-item
         key = (variant.key, entry, self.rt.info.spec, simd)
         if key in self._dispatches:
-            return self._dispatches[key]
+            dispatch = self._dispatches[key]
+            if key in self._unbound:        # prepared before a rebind(): its arguments set again
+                dispatch.kernel.set_args(*self._arguments(dispatch))
+                self._unbound.discard(key)
+            return dispatch
         built = self.rt.kernel(variant.source(f"{entry}.cl", simd), entry, variant.options(),
                                label=f"{model.id} ({entry})")
         # The runtime shares one kernel object per program; arguments are state of the
@@ -218,8 +223,9 @@ class Shader:
         """Shade another G-buffer of the same size with the same lights, shadow maps,
         background and ambient (the live viewer's next frame): the planes that changed are
         shared again, the material table uploaded again when it changed, and every prepared
-        dispatch gets its arguments set again. No kernel is built or created; a variant the
-        new G-buffer calls for (another baked table) is built by prepare() as usual."""
+        dispatch gets its arguments set again when prepare() next returns it. No kernel is built
+        or created; a variant the new G-buffer calls for (another baked table) is built by
+        prepare() as usual."""
         if (gbuffer.width, gbuffer.height) != (self.gb.width, self.gb.height):
             raise ValueError(f"rebind: a {gbuffer.width}x{gbuffer.height} G-buffer on a "
                              f"{self.gb.width}x{self.gb.height} Shader")
@@ -229,8 +235,7 @@ class Shader:
                          if gbuffer.shares_plane(old, key[0])}
         if not np.array_equal(old.materials, gbuffer.materials):
             self.materials = self.rt.to_device(self._table(gbuffer))
-        for dispatch in self._dispatches.values():
-            dispatch.kernel.set_args(*self._arguments(dispatch))
+        self._unbound = set(self._dispatches)
 
     @staticmethod
     def _table(gbuffer: GBuffer) -> np.ndarray:

@@ -9,6 +9,7 @@ own pixels.
 """
 from __future__ import annotations
 
+import ctypes
 import os
 import sys
 import threading
@@ -43,6 +44,31 @@ def aligned_zeros(shape: tuple[int, ...], dtype: type, align: int = PLANE_ALIGN)
     raw = np.zeros(nbytes + align, np.uint8)
     start = (-raw.ctypes.data) % align
     return raw[start:start + nbytes].view(dtype).reshape(shape)
+
+
+#: glibc malloc settings for a process that renders frame after frame (mallopt parameters):
+#: allocations up to MMAP_THRESHOLD come from the heap instead of their own mapping, and the
+#: heap keeps up to TRIM_THRESHOLD of free memory instead of giving it back to the system.
+MALLOC_MMAP_THRESHOLD: int = 256 << 20
+MALLOC_TRIM_THRESHOLD: int = 1 << 30
+_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3     # glibc's malloc.h
+
+
+def keep_freed_memory() -> bool:
+    """Ask glibc's malloc to keep freed memory for the next frame. By default an array above
+    its mmap threshold (128 KiB, raised as it sees larger ones, to 32 MiB at most) is mapped
+    and unmapped every time and the heap's free top is trimmed, so a loop that makes the same
+    arrays every frame pays a page fault per 4 KiB page of each, every frame (the rasterizer's
+    and G-buffer's temporaries: on a virtual machine a large part of their time). Process-wide
+    and permanent; for long-running frame loops (the live viewer). False where the C library
+    is not glibc (nothing changed)."""
+    try:
+        libc = ctypes.CDLL("libc.so.6")
+        mallopt = libc.mallopt
+    except (OSError, AttributeError):
+        return False
+    return bool(mallopt(_M_MMAP_THRESHOLD, MALLOC_MMAP_THRESHOLD)) and bool(mallopt(_M_TRIM_THRESHOLD,
+                                                                                   MALLOC_TRIM_THRESHOLD))
 
 
 class PlanePool:

@@ -37,7 +37,7 @@ from clshade.errors import ClshadeError
 from clshade.models import SURFACE_PARAMS, lobes, presets
 from clshade.pipeline import Timings
 from clshade.render.gbuffer import GBuffer, build_gbuffer, face_planes, material_table
-from clshade.render.arrays import PlanePool
+from clshade.render.arrays import PlanePool, keep_freed_memory
 from clshade.render.image import check_output_path, to_display, write_encoded
 from clshade.render.meshes import build_geometry
 from clshade.render.raster import rasterize
@@ -190,6 +190,7 @@ class ViewSession:
         self.limits = Limits.of(self.base_scene, self.orbit.distance, self.width, self.height)
         self.runtime = get_runtime(device)
         self.display = Display(self.runtime)
+        keep_freed_memory()             # frame after frame: no page faults on the stages' temporaries
         self.history: dict[str, deque] = {}
         self._geometry, self._raster, self._shadows = _Kept(), _Kept(), _Kept()
         self._gbuffer, self._shader, self._faces = _Kept(), _Kept(), _Kept()
