@@ -437,7 +437,9 @@ CATALOGUE: list[Mutant] = [
     M("view_split_whole_b", "clshade/view/static/view.js", "ctx.putImageData(views.b, 0, 0, x, 0, w - x, h);",
       "ctx.putImageData(views.b, 0, 0);", "viewer page: model B drawn over the whole frame, not right of the divider"),
     # ---- the live viewer's speed (issue 27): kept Shader, runtime material, patched base colour, pooled planes
-    M("view_rebind_camera", "clshade/device/shade.py", "        self.camera = camera or scene.camera\n", "",
+    M("view_rebind_camera", "clshade/device/shade.py",
+      "old, self.gb, self.scene, self.camera = self.gb, gbuffer, scene, camera or scene.camera",
+      "old, self.gb, self.scene = self.gb, gbuffer, scene",
       "viewer: a rebound Shader keeps the previous frame's camera (orbit shades with stale view rays)"),
     M("view_runtime_bakes", "clshade/device/variants.py",
       "if len(table) and not features.runtime_material and np.all(table[:, mask] == table[0][mask]):",

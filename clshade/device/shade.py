@@ -229,8 +229,7 @@ class Shader:
         if (gbuffer.width, gbuffer.height) != (self.gb.width, self.gb.height):
             raise ValueError(f"rebind: a {gbuffer.width}x{gbuffer.height} G-buffer on a "
                              f"{self.gb.width}x{self.gb.height} Shader")
-        old, self.gb, self.scene = self.gb, gbuffer, scene
-        self.camera = camera or scene.camera
+        old, self.gb, self.scene, self.camera = self.gb, gbuffer, scene, camera or scene.camera
         self._buffers = {key: buffer for key, buffer in self._buffers.items()
                          if gbuffer.shares_plane(old, key[0])}
         if not np.array_equal(old.materials, gbuffer.materials):
