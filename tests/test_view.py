@@ -23,6 +23,7 @@ from clshade.resources import scenes_dir
 from clshade.view.controls import ControlError, parse_controls, parse_message
 from clshade.view.document import dumps
 from clshade.view.session import ViewSession
+from scene_toml import red_sphere
 
 ROBOT = scenes_dir() / "robot.toml"
 W, H = 96, 64
@@ -214,34 +215,12 @@ def test_surface_params_are_the_scene_defaults():
         assert (tuple(default) == (p.default,) * 3) if p.kind == "color" else default == p.default, p.name
 
 
-SINGLE = """
-[camera]
-position = [0.0, 0.0, 4.2]
-fov = 30.0
-[render]
-model = "ggx_correlated"
-ambient = [0.02, 0.02, 0.02]
-[[lights]]
-type = "directional"
-direction = [-0.45, -0.5, -1.0]
-irradiance = [3.0, 3.0, 3.0]
-[materials.paint]
-base_color = [0.8, 0.05, 0.05]
-roughness = 0.3
-ks = 0.3
-[[objects]]
-primitive = "sphere"
-radius = 1.0
-material = "paint"
-"""
-
-
 def test_sliders_never_build_a_kernel(tmp_path, monkeypatch):
     """One material, so `clshade render` compiles its constants and its uniform roughness and
     metallic in (Variant.build); the viewer's kernels read them at run time: after the first
     frame of each model no slider builds or even looks up a program, and every slider moves
     the image."""
-    (tmp_path / "one.toml").write_text(SINGLE, encoding="utf-8")
+    (tmp_path / "one.toml").write_text(red_sphere(), encoding="utf-8")
     s = ViewSession(tmp_path / "one.toml", tmp_path, 48, 48)
     start = controls(s, model_a="ggx_correlated", model_b="phong", split=True)
     previous = s.render(parse_controls(start, s.limits)).views
@@ -253,7 +232,7 @@ def test_sliders_never_build_a_kernel(tmp_path, monkeypatch):
     values = {}
     for name, value in edits:
         values[name] = value
-        frame = s.render(parse_controls(dict(start, materials={"paint": dict(values)}), s.limits))
+        frame = s.render(parse_controls(dict(start, materials={"red": dict(values)}), s.limits))
         assert frame.reshade_only
         assert any((frame.views[v] != previous[v]).any() for v in "ab"), name
         previous = frame.views
@@ -268,12 +247,12 @@ def test_runtime_material_equals_compiled_in(tmp_path, model):
     from clshade.device.shade import Shader, scene_features
     from clshade.pipeline import prepare_frame
     from clshade.render.scene import parse_scene
-    frame = prepare_frame(parse_scene(SINGLE, tmp_path / "one.toml"), 64, 48)
+    frame = prepare_frame(parse_scene(red_sphere(), tmp_path / "one.toml"), 64, 48)
     features = scene_features(frame.scene, geometry=frame.geometry)
     shader = Shader(get_runtime(), frame.gbuffer, frame.scene, frame.camera, frame.shadows)
     m = resolve(model)
     compiled = shader.variant(m, features)
-    assert compiled.baked_material is not None and dict(features.uniform)["roughness"] == pytest.approx(0.3)
+    assert compiled.baked_material is not None and dict(features.uniform)["roughness"] == pytest.approx(0.4)
     live = dataclasses.replace(features, runtime_material=True)
     read = set(shader.variant(m, live).channels)
     assert "material" in read and {c for c in ("roughness", "metallic") if c in m.uses} <= read
