@@ -61,8 +61,8 @@ def keep_freed_memory() -> bool:
     trimmed; a loop that makes the same arrays every frame then pays a page fault per 4 KiB
     page of each, every frame. The viewer frees no large blocks (PlanePool keeps the G-buffer's
     planes), so the threshold stays low and the rasterizer's temporaries were mapped afresh every
-    frame: measured on robot at 960×540 on the shared 2-core machine, rasterize took ~27 ms a frame
-    with the pool alone and ~23.5 ms with this as well (as before the pool). Process-wide and
+    frame: with the pool alone the viewer's rasterize stage was slower than before the pool, with
+    this as well it is back where it was (robot, 960×540, the shared 2-core machine). Process-wide and
     permanent; for long-running frame loops (the live viewer). False where the C library is not
     glibc (nothing changed)."""
     try:
