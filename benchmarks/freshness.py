@@ -34,7 +34,8 @@ PRODUCERS: dict[str, tuple[str, ...]] = {
     "raster.json": ("clshade/render/raster", "benchmarks/raster_bench.py"),
     "runtimes.json": ("kernels", "clshade/bench/runtimes.py", "clshade/device/health.py"),
     "user_lobes.json": ("kernels", "clshade/glsl.py", "clshade/brdf_explorer.py", "benchmarks/user_lobes.py"),
-    "view.json": ("kernels", "clshade/view", "clshade/device/display.py", "benchmarks/view_bench.py"),
+    "view.json": ("kernels", "clshade/view", "clshade/render", "clshade/device/display.py", "clshade/device/shade.py",
+                  "clshade/device/variants.py", "benchmarks/view_bench.py"),
     "mutants.json": ("benchmarks/mutants.py", "kernels", "clshade", "tests"),
 }
 
