@@ -19,7 +19,6 @@ from clshade.provenance import provenance, stamp
 KNOWN_STALE = {
     "mutants.json": "mutation catalogue (benchmarks/mutants.py, hours on 2 cores)",
     "raster.json": "rasterizer timings (benchmarks/raster_bench.py; its writer now stamps provenance)",
-    "view.json": "the live viewer in headless Chromium (benchmarks/view_bench.py)",
 }
 
 
