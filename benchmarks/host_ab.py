@@ -1,6 +1,6 @@
 #!/usr/bin/env python
 """Host-side stages of a frame, this checkout against a git ref (default `main`), A/B in one
-process: the ref's versions of clshade/render/{arrays,raster,gbuffer,meshes,image}.py are loaded
+process: the ref's versions of clshade/render/{arrays,raster,gbuffer,meshes,image} are loaded
 beside the checkout's (importing each other) and timed in interleaved rounds on the same inputs; every pair's
 outputs are checked equal (bytes) before anything is timed.
 
@@ -38,18 +38,37 @@ FRAME_TARGET_S = 0.100          # issue 15: whole robot frame at 1920×1080
 ORBIT_DEGREES = 2.0
 
 
+def _git_text(ref: str, path: str) -> str | None:
+    proc = subprocess.run(["git", "show", f"{ref}:{path}"], cwd=ROOT, capture_output=True, text=True)
+    return proc.stdout if proc.returncode == 0 else None
+
+
 def load_base(ref: str, folder: Path) -> dict[str, object]:
-    """The ref's clshade/render/<name>.py as standalone modules importing each other (their other
+    """The ref's clshade/render/<name>.py (or the package clshade/render/<name>/, as the
+    rasterizer is since its split) as standalone modules importing each other (their other
     imports resolve to this checkout)."""
     out = {}
     for name in MODULES:
-        text = subprocess.run(["git", "show", f"{ref}:clshade/render/{name}.py"], cwd=ROOT, check=True,
-                              capture_output=True, text=True).stdout
-        for other in out:
-            text = text.replace(f"from clshade.render.{other} import", f"from base_{other} import")
-        path = folder / f"base_{name}.py"
-        path.write_text(text, encoding="utf-8")
-        spec = importlib.util.spec_from_file_location(f"base_{name}", path)
+        single = _git_text(ref, f"clshade/render/{name}.py")
+        if single is not None:
+            files = {f"base_{name}.py": single}
+        else:                                    # a package: every module of its folder
+            listing = subprocess.run(["git", "ls-tree", "--name-only", f"{ref}:clshade/render/{name}"], cwd=ROOT,
+                                     check=True, capture_output=True, text=True).stdout.split()
+            files = {f"base_{name}/{f}": _git_text(ref, f"clshade/render/{name}/{f}") for f in listing
+                     if f.endswith(".py")}
+        for file, text in files.items():
+            for other in (*out, name):
+                text = text.replace(f"from clshade.render.{other} import", f"from base_{other} import")
+                text = text.replace(f"from clshade.render.{other}.", f"from base_{other}.")
+            path = folder / file
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text(text, encoding="utf-8")
+        if single is not None:
+            spec = importlib.util.spec_from_file_location(f"base_{name}", folder / f"base_{name}.py")
+        else:
+            spec = importlib.util.spec_from_file_location(f"base_{name}", folder / f"base_{name}" / "__init__.py",
+                                                          submodule_search_locations=[str(folder / f"base_{name}")])
         module = importlib.util.module_from_spec(spec)
         sys.modules[spec.name] = module          # dataclasses look their module up there
         spec.loader.exec_module(module)
