@@ -782,8 +782,6 @@ def load_numpy_single_threaded_blas() -> None:
         del os.environ[BLAS_THREADS]
 
 
-#: glibc's mallopt(3) parameters (malloc.h).
-M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3
 #: Blocks up to this size come from the heap, where freed blocks are reused, instead of
 #: fresh mmap(2)s that the kernel zero-fills page by page on first touch (32 MiB: glibc's
 #: largest allowed value). A render allocates and frees NumPy temporaries of a few MB all
@@ -798,14 +796,8 @@ TRIM_THRESHOLD = 128 << 20
 def tune_allocator() -> bool:
     """Set MMAP_THRESHOLD and TRIM_THRESHOLD with glibc's mallopt; False (nothing changed)
     where the C library has no mallopt (musl, macOS) or refuses a value."""
-    import ctypes
-    try:
-        mallopt = ctypes.CDLL(None).mallopt
-    except (OSError, AttributeError):
-        return False
-    mallopt.argtypes, mallopt.restype = (ctypes.c_int, ctypes.c_int), ctypes.c_int
-    accepted = [mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD), mallopt(M_TRIM_THRESHOLD, TRIM_THRESHOLD)]
-    return all(accepted)
+    from clshade.allocator import set_malloc_thresholds
+    return set_malloc_thresholds(MMAP_THRESHOLD, TRIM_THRESHOLD)
 
 
 def _resume_gc() -> None:

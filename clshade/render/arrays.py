@@ -9,7 +9,6 @@ own pixels.
 """
 from __future__ import annotations
 
-import ctypes
 import os
 import sys
 import threading
@@ -18,6 +17,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from clshade.allocator import set_malloc_thresholds
 from clshade.errors import ClshadeError
 
 #: Below this many items a stage runs on the calling thread: splitting costs
@@ -46,12 +46,11 @@ def aligned_zeros(shape: tuple[int, ...], dtype: type, align: int = PLANE_ALIGN)
     return raw[start:start + nbytes].view(dtype).reshape(shape)
 
 
-#: glibc malloc settings for a process that renders frame after frame (mallopt parameters):
-#: allocations up to MMAP_THRESHOLD come from the heap instead of their own mapping, and the
-#: heap keeps up to TRIM_THRESHOLD of free memory instead of giving it back to the system.
-MALLOC_MMAP_THRESHOLD: int = 256 << 20
-MALLOC_TRIM_THRESHOLD: int = 1 << 30
-_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3     # glibc's malloc.h
+#: The live viewer's settings (keep_freed_memory): allocations up to this size come from the heap
+#: instead of a mapping of their own, and the heap keeps up to KEEP_TRIM_THRESHOLD of free memory
+#: instead of giving it back to the system.
+KEEP_MMAP_THRESHOLD: int = 256 << 20
+KEEP_TRIM_THRESHOLD: int = 1 << 30
 
 
 def keep_freed_memory() -> bool:
@@ -65,13 +64,7 @@ def keep_freed_memory() -> bool:
     this as well it is back where it was (robot, 960×540, the shared 2-core machine). Process-wide and
     permanent; for long-running frame loops (the live viewer). False where the C library is not
     glibc (nothing changed)."""
-    try:
-        libc = ctypes.CDLL("libc.so.6")
-        mallopt = libc.mallopt
-    except (OSError, AttributeError):
-        return False
-    return bool(mallopt(_M_MMAP_THRESHOLD, MALLOC_MMAP_THRESHOLD)) and bool(mallopt(_M_TRIM_THRESHOLD,
-                                                                                   MALLOC_TRIM_THRESHOLD))
+    return set_malloc_thresholds(KEEP_MMAP_THRESHOLD, KEEP_TRIM_THRESHOLD)
 
 
 class PlanePool:
