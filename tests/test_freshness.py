@@ -18,8 +18,6 @@ from clshade.provenance import provenance, stamp
 # (expensive: the lead reruns them). strict: regenerating one fails here until it leaves this list.
 KNOWN_STALE = {
     "mutants.json": "mutation catalogue (benchmarks/mutants.py, hours on 2 cores)",
-    "raster.json": "rasterizer timings (benchmarks/raster_bench.py; its writer now stamps provenance)",
-    "host_ab.json": "host stages A/B (benchmarks/host_ab.py; it now loads a ref's rasterizer package too)",
 }
 
 
