@@ -511,6 +511,7 @@ def render_mutants(doc: dict[str, Any]) -> str:
            f"{len(commits)} commit(s): {', '.join(commits) or '–'}).", "",
            f"**{behavioural} of {doc['total']} mutants killed by a behavioural test.** "
            f"Killed otherwise: {others or 'none'}; {doc['survived']} survived"
+           f"{_timeouts(rows)}"
            f"{', ' + str(doc['not_run']) + ' not run' if doc.get('not_run') else ''}"
            f"{'; ' + str(unclassified) + ' killed in an older run that recorded neither every failing test nor the kill class (unclassified: not counted above)' if unclassified else ''}. "
            "Each mutant is one small semantic bug (catalogue in benchmarks/mutants.py) applied to a copy of the "
@@ -537,6 +538,12 @@ def render_mutants(doc: dict[str, Any]) -> str:
         out.append(f"| {m['name']} | {m['file']} | {_cell(m['description'])} | {kill} | {_cell(shown)} | {run} | "
                    f"{commit} |")
     return "\n".join(out) + "\n"
+
+
+def _timeouts(rows: list[dict[str, Any]]) -> str:
+    """', N timed out (name, …)': a suite that hung past the runner's limit is not counted as a kill."""
+    hung = [m["name"] for m in rows if m["status"] == "timeout"]
+    return f", {len(hung)} timed out ({', '.join(hung)}: not counted as killed)" if hung else ""
 
 
 def _selection_text(doc: dict[str, Any], rows: list[dict[str, Any]]) -> str:
