@@ -837,6 +837,7 @@ def write_results(out: Path, results: list[dict], chosen: list[Mutant], previous
                seconds=round(seconds, 1), total=len(rows),
                killed=sum(r["status"] == "killed" for r in rows),
                survived=sum(r["status"] == "survived" for r in rows),
+               timeouts=sum(r["status"] == "timeout" for r in rows),
                not_run=sum(r["status"] == "not run" for r in rows),
                # the headline: kills by a test of behaviour; rows of schema-1 runs (first failing test only,
                # no class) are counted apart as unclassified

@@ -33,7 +33,8 @@ def test_results_file_is_the_catalogue(mutants):
         pytest.skip("no committed results yet")
     doc = json.loads(mutants.OUT.read_text(encoding="utf-8"))
     assert [m["name"] for m in doc["mutants"]] == [m.name for m in mutants.CATALOGUE]
-    assert doc["killed"] + doc["survived"] + doc.get("not_run", 0) == doc["total"] == len(doc["mutants"])
+    timeouts = sum(m["status"] == "timeout" for m in doc["mutants"])     # hung past the runner's limit
+    assert doc["killed"] + doc["survived"] + timeouts + doc.get("not_run", 0) == doc["total"] == len(doc["mutants"])
 
 
 def test_kill_classes(mutants):
