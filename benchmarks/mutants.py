@@ -621,9 +621,8 @@ def snapshot(dest: Path) -> None:
 
 
 def test_order(root: Path, mutant: Mutant) -> list[str]:
-    """Test files that name the mutated module (or kernel file: `glsl.h`) first (they are the likeliest to
-    fail, and -x stops there), then the rest in the usual order: the same suite, a shorter run for a killed
-    mutant."""
+    """Every test file, those that name the mutated module (or kernel file: `glsl.h`) first (the likeliest
+    to fail), then the rest in the usual order."""
     files = sorted((root / "tests").glob("test_*.py"))
     module = mutant.file.removesuffix(".py").replace("/", ".")       # clshade.render.image
     if mutant.file.startswith("kernels/"):
@@ -697,7 +696,8 @@ def run_one(mutant: Mutant, python: str, base: Path, baseline: frozenset[str] = 
         if where.returncode or not Path(kernels).resolve().is_relative_to(copy.resolve()):
             raise SystemExit(f"mutant {mutant.name}: the copy's kernels are not the ones used ({kernels!r} "
                              f"{where.stderr.strip()})")
-        order = [f for f in test_order(copy, mutant) if files is None or f in files]
+        every = test_order(copy, mutant)
+        order = [f for f in every if files is None or f in files]
         if not order:          # no test file reaches the mutated code: nothing can fail
             rc, tail = 5, ["no test file reaches the mutated code"]
         else:
@@ -716,7 +716,7 @@ def run_one(mutant: Mutant, python: str, base: Path, baseline: frozenset[str] = 
                 failing_tests=[dict(test=f["test"], kind=classify([f], 1)) for f in new],
                 failing_on_baseline_too=sorted({f["test"] for f in failures} - {f["test"] for f in new}),
                 seconds=round(time.perf_counter() - start, 1), summary=tail[-1] if tail else "",
-                test_files_run=len(order), test_files_total=len(test_order(base, mutant)))
+                test_files_run=len(order), test_files_total=len(every))
 
 
 def record_impact(base: Path, commit: str | None, keep: str | None = None) -> dict[str, impact.FileImpact]:
