@@ -39,6 +39,14 @@ PRODUCERS: dict[str, tuple[str, ...]] = {
     "mutants.json": ("benchmarks/mutants.py", "kernels", "clshade", "tests"),
 }
 
+# Results measured before the code they depend on last changed, not yet regenerated (expensive: the lead
+# reruns them); tests/test_freshness.py marks them xfail, strict: a regenerated one fails there until it
+# leaves this list. The list lives here, outside every result's producers, so that taking a result off it
+# does not make that result stale again (tests/ produces mutants.json).
+KNOWN_STALE: dict[str, str] = {
+    "mutants.json": "mutation catalogue (benchmarks/mutants.py, hours on 2 cores)",
+}
+
 
 def git(root: Path, *args: str) -> str | None:
     proc = subprocess.run(["git", "-C", str(root), *args], capture_output=True, text=True)
@@ -81,7 +89,8 @@ def main() -> int:
             print(f"unknown  {name}")
         elif since:
             stale += 1
-            print(f"STALE    {name}: {len(since)} later commit(s) changed its code, newest {since[0][:10]}")
+            known = " (known: " + KNOWN_STALE[name] + ")" if name in KNOWN_STALE else ""
+            print(f"STALE    {name}: {len(since)} later commit(s) changed its code, newest {since[0][:10]}{known}")
         else:
             print(f"fresh    {name}")
     return 1 if stale else 0

@@ -16,6 +16,7 @@ counts behavioural kills only. The unmutated snapshot runs first (the baseline):
 nothing, and is listed apart in each mutant's row.
 
     python benchmarks/mutants.py [--jobs 2] [--only NAME,...] [--json benchmarks/results/mutants.json]
+    python benchmarks/mutants.py --resume --impact-from MAP    # go on with a run stopped part way, same commit
 
 Writes JSON only; `python benchmarks/publish.py` renders benchmarks/results/mutants.md from it.
 """
@@ -576,6 +577,10 @@ CATALOGUE: list[Mutant] = [
       "impact: a test file whose recording failed is trusted (left out of mutants it may reach)"),
     M("impact_children_unsaved", "benchmarks/impact.py", "    atexit.register(save)\n", "\n",
       "impact: no process saves its coverage (every open counts whole: a selection wider than needed)"),
+    M("resume_reruns_done", "benchmarks/mutants.py", 'if commit and r.get("commit") == commit',
+      'if commit and r.get("commit") != commit', "--resume: runs the rows already measured on this commit, skips the rest"),
+    M("known_stale_in_producers", "benchmarks/freshness.py", '"mutants.json": ("benchmarks/mutants.py", ',
+      '"mutants.json": ("benchmarks", ', "the known-stale list inside mutants.json's producers (off the list = stale again)"),
 ]
 
 
@@ -732,9 +737,24 @@ def record_impact(base: Path, commit: str | None, keep: str | None = None) -> di
     return got
 
 
+MAX_IMPACT_BYTES = 256 << 20     # a kept map is a few MB; a larger file is not one
+
+
+def _seconds(text: str) -> float:
+    """--budget-s: a positive, finite number of seconds."""
+    value = float(text)
+    if not 0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"{text!r}: not a positive, finite number of seconds")
+    return value
+
+
 def load_impact(path: str, commit: str | None) -> dict[str, impact.FileImpact]:
     """A map kept by --impact-json; it must name the commit the mutants run on."""
-    doc = json.loads(Path(path).read_text(encoding="utf-8"))
+    file = Path(path)
+    if not file.is_file() or file.stat().st_size > MAX_IMPACT_BYTES:
+        raise SystemExit(f"{path}: --impact-from needs a map kept by --impact-json (a regular file of at most "
+                         f"{MAX_IMPACT_BYTES >> 20} MB)")
+    doc = json.loads(file.read_text(encoding="utf-8"))
     if not commit or doc.get("commit") != commit:
         raise SystemExit(f"{path}: impact map recorded on {doc.get('commit')!r}, the mutants run on {commit!r}; "
                          "record it again (--impact-json)")
@@ -758,6 +778,13 @@ def _run_within(chosen: list[Mutant], run, jobs: int, deadline: float | None):
                 yield future.result()
 
 
+def still_to_run(chosen: list[Mutant], previous: dict, commit: str | None) -> list[Mutant]:
+    """--resume: the mutants without a measured row on `commit` in the previous results."""
+    done = {r["name"] for r in previous["mutants"] if commit and r.get("commit") == commit
+            and r["status"] != "not run"}
+    return [m for m in chosen if m.name not in done]
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--jobs", type=int, default=2, help="mutants run at the same time (≤ 2 on the shared machine)")
@@ -768,10 +795,12 @@ def main(argv: list[str] | None = None) -> int:
                         help="run every test file for every mutant (default: the files that can fail, "
                              "benchmarks/impact.py)")
     parser.add_argument("--impact-json", help="keep the recorded impact map here")
-    parser.add_argument("--budget-s", type=float, help="start no mutant after this many seconds (baseline and "
+    parser.add_argument("--budget-s", type=_seconds, help="start no mutant after this many seconds (baseline and "
                         "recording included); the rows not reached keep the results file's previous rows")
     parser.add_argument("--impact-from", help="use a map kept by --impact-json on this same commit instead of "
                                               "recording one")
+    parser.add_argument("--resume", action="store_true", help="run only the mutants whose row in the results file "
+                        "was not measured on this commit (a run stopped part way goes on; rows of this commit are kept)")
     args = parser.parse_args(argv)
     commit = head_commit()
     holder = tempfile.TemporaryDirectory(prefix="mutants-base-")
@@ -781,17 +810,24 @@ def main(argv: list[str] | None = None) -> int:
     if args.check:
         print(f"{len(CATALOGUE)} mutants, every snippet found once")
         return 0
+    unknown = set(args.only.split(",")) - {m.name for m in CATALOGUE} if args.only else set()
+    if unknown:
+        raise SystemExit(f"--only: no mutant named {', '.join(sorted(unknown))} in the catalogue")
+    kept = load_impact(args.impact_from, commit) if args.impact_from else None    # refused before hours of work
     chosen = [m for m in CATALOGUE if not args.only or m.name in args.only.split(",")]
     out = Path(args.json)
-    previous = json.loads(out.read_text(encoding="utf-8")) if out.exists() and (args.only or args.budget_s) \
-        else None
+    previous = json.loads(out.read_text(encoding="utf-8")) if out.exists() and \
+        (args.only or args.budget_s or args.resume) else None
+    if args.resume and previous:
+        chosen = still_to_run(chosen, previous, commit)
+        print(f"resume: {len(chosen)} mutants to run; the others were measured on {commit}", flush=True)
     start = time.perf_counter()
     results: list[dict] = []
     base_run = run_one(BASELINE, sys.executable, base)
     baseline = frozenset(f["test"] for f in base_run["failing_tests"])
     print(f"baseline (unmutated): {len(baseline)} failing {sorted(baseline)}", flush=True)
     selection = None if args.whole_suite else \
-        load_impact(args.impact_from, commit) if args.impact_from else record_impact(base, commit, args.impact_json)
+        kept if kept is not None else record_impact(base, commit, args.impact_json)
     selected = {m.name: impact.select(selection, m.file, (base / m.file).read_text(encoding="utf-8"), m.original)
                 for m in chosen} if selection is not None else {}
     def files(m: Mutant) -> list[str] | None:

@@ -50,3 +50,30 @@ def test_kill_classes(mutants):
     assert mutants.classify([f(build_failed=True), f(["text"])], 1) == "compile error"
     assert mutants.classify([f(when="collect")], 2) == "collection error"
     assert mutants.classify([], 2) == "collection error"      # pytest failed before any test ran
+
+
+def test_a_resumed_run_names_its_commit_only_when_every_row_ran_there(mutants, tmp_path):
+    """--resume runs the rows not measured on this commit; the file names the commit only once all are."""
+    import json
+    cat = mutants.CATALOGUE[:3]
+    def row(m, commit, status="killed"):
+        return dict(name=m.name, file=m.file, description=m.description, status=status, kill_class="behavioural",
+                    returncode=1, failing_tests=[], seconds=1.0, summary="", commit=commit)
+    previous = dict(commit="old", provenance={"commit": "old"},
+                    mutants=[row(cat[0], "new"), row(cat[1], "old"), row(cat[2], None, "not run")])
+    todo = mutants.still_to_run(cat, previous, "new")
+    assert [m.name for m in todo] == [cat[1].name, cat[2].name]
+    assert mutants.still_to_run(cat, previous, None) == cat
+    out = tmp_path / "m.json"
+    monkey = mutants.CATALOGUE
+    try:
+        mutants.CATALOGUE = cat
+        doc = mutants.write_results(out, [row(todo[0], "new")], todo, previous, "new", 1.0)
+        assert doc["provenance"]["commit"] == "old" and doc["not_run"] == 1      # one row still missing
+        previous = json.loads(out.read_text())
+        assert [m.name for m in mutants.still_to_run(cat, previous, "new")] == [cat[2].name]
+        doc = mutants.write_results(out, [row(cat[2], "new")], [cat[2]], previous, "new", 1.0)
+        assert doc["provenance"]["commit"] == "new" and doc["not_run"] == 0
+        assert [r["commit"] for r in doc["mutants"]] == ["new"] * 3
+    finally:
+        mutants.CATALOGUE = monkey
