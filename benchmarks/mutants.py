@@ -577,8 +577,8 @@ CATALOGUE: list[Mutant] = [
       "impact: a test file whose recording failed is trusted (left out of mutants it may reach)"),
     M("impact_children_unsaved", "benchmarks/impact.py", "    atexit.register(save)\n", "\n",
       "impact: no process saves its coverage (every open counts whole: a selection wider than needed)"),
-    M("resume_reruns_done", "benchmarks/mutants.py", 'if commit and r.get("commit") == commit',
-      'if commit and r.get("commit") != commit', "--resume: runs the rows already measured on this commit, skips the rest"),
+    M("resume_reruns_done", "benchmarks/mutants.py", 'if commit and r.get("commit") ' '== commit',  # split: see above
+      'if commit and r.get("commit") ' '!= commit', "--resume: runs the rows already measured on this commit, skips the rest"),
     M("known_stale_in_producers", "benchmarks/freshness.py", '"mutants.json": ("benchmarks/mutants.py", ',
       '"mutants.json": ("benchmarks", ', "the known-stale list inside mutants.json's producers (off the list = stale again)"),
 ]
