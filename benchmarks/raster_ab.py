@@ -1,0 +1,191 @@
+#!/usr/bin/env python
+"""Two source trees of clshade side by side: are their rasterizer and G-buffer outputs
+bitwise the same, and how do their times compare (interleaved, same frames)?
+
+Usage::
+
+    python benchmarks/raster_ab.py identical OTHER_TREE [--scenes scenes/*.toml]
+    python benchmarks/raster_ab.py time OTHER_TREE [--frames 30] [--rounds 5]
+
+OTHER_TREE is a checkout of another commit (e.g. `git worktree add /tmp/main main`, or
+`git archive main | tar -x -C DIR`); this script's own tree is the other side. Each tree
+runs in a worker process of its own (PYTHONPATH set to the tree), so the two never share
+an import.
+
+- ``identical``: every scene × 4 cameras (the scene's own; an orbit view at 960×540; a close
+  view whose near plane cuts the scene; a grazing view with a supersampled, jittered raster):
+  the Fragments (pixels, face, depth, barycentrics) and every G-buffer plane, compared byte
+  for byte. Exit status 1 on any difference.
+- ``time``: the robot at 960×540 over `frames` orbit cameras 1° apart (as the viewer makes
+  them), rasterize and G-buffer timed separately; the two workers take turns frame by frame
+  for `rounds` rounds. Prints medians and the ratio (this tree / other). Timings are printed,
+  not stored: the published figures come from benchmarks/view_bench.py.
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import glob
+import json
+import os
+import pickle
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+ROBOT = ROOT / "scenes" / "robot.toml"
+
+
+# ------------------------------------------------------------------ worker side (runs in one tree)
+
+def _cameras(scene):
+    """The four cameras of the identity check."""
+    from clshade.render.samples import jittered, supersampled
+    from clshade.view.session import Orbit
+    cam = scene.camera
+    orbit = Orbit.of(cam)
+    wide = cam.with_size(960, 540)
+    return {
+        "scene": cam,
+        "orbit": dataclasses.replace(wide, position=orbit.position(37.0, orbit.elevation + 10.0, orbit.distance)),
+        "close": dataclasses.replace(wide, position=orbit.position(200.0, orbit.elevation, 0.25 * orbit.distance)),
+        "grazing": supersampled(jittered(dataclasses.replace(cam.with_size(320, 180), position=orbit.position(
+            290.0, 1.5, 1.2 * orbit.distance)), 0.25, -0.25), 2),
+    }
+
+
+def _frame(scene, geometry, camera, faces=None, pool=None):
+    from clshade.render.gbuffer import build_gbuffer
+    from clshade.render.raster import rasterize
+    t0 = time.perf_counter()
+    frags = rasterize(geometry.vertices, geometry.faces, camera.view_matrix(), camera.projection_matrix(),
+                      camera.width, camera.height, cull_backfaces=geometry.cull)
+    t1 = time.perf_counter()
+    gbuffer = build_gbuffer(scene, geometry, frags, camera, faces=faces, pool=pool)
+    t2 = time.perf_counter()
+    return frags, gbuffer, t1 - t0, t2 - t1
+
+
+def _dump(paths: list[str]) -> dict:
+    """scene → camera → name → bytes of every output array."""
+    from clshade.render.meshes import build_geometry
+    from clshade.render.scene import load_scene
+    out = {}
+    for path in paths:
+        scene = load_scene(path)
+        geometry = build_geometry(scene)
+        for name, camera in _cameras(scene).items():
+            frags, gbuffer, _, _ = _frame(scene, geometry, camera)
+            arrays = {"pixels": frags.pixels, "face": frags.face, "face_depth": frags.face_depth,
+                      "face_bary": frags.face_bary, "coverage": gbuffer.coverage,
+                      "materials": gbuffer.materials, "nonfinite": gbuffer.nonfinite_pixels}
+            arrays.update({f"plane:{c}": gbuffer.plane(c) for c in gbuffer.channels})
+            out[f"{Path(path).name} / {name}"] = {
+                k: (str(getattr(v, "dtype", type(v))), getattr(v, "shape", ()), bytes(memoryview(
+                    __import__("numpy").ascontiguousarray(v)).cast("B")) if hasattr(v, "dtype") else v)
+                for k, v in arrays.items()}
+    return out
+
+
+def _serve_timing(frames: int) -> None:
+    """Answer 'i' lines with the rasterize and G-buffer seconds of orbit camera i."""
+    from clshade.render.arrays import PlanePool, keep_freed_memory
+    from clshade.render.gbuffer import face_planes
+    from clshade.render.meshes import build_geometry
+    from clshade.render.scene import load_scene
+    from clshade.view.session import Orbit
+    keep_freed_memory()
+    scene = load_scene(ROBOT)
+    geometry = build_geometry(scene)
+    cam = scene.camera.with_size(960, 540)
+    orbit = Orbit.of(cam)
+    cams = [dataclasses.replace(cam, position=orbit.position(float(k), orbit.elevation, orbit.distance))
+            for k in range(frames)]
+    faces, pool = face_planes(geometry, list(scene.materials.values())), PlanePool()
+    for c in cams[:5]:                                   # warm-up
+        _frame(scene, geometry, c, faces, pool)
+    print("ready", flush=True)
+    for line in sys.stdin:
+        _, _, raster_s, gbuffer_s = _frame(scene, geometry, cams[int(line)], faces, pool)
+        print(json.dumps([raster_s, gbuffer_s]), flush=True)
+
+
+# ------------------------------------------------------------------ driver side
+
+def _worker(tree: Path, *args: str, **kw) -> subprocess.Popen:
+    env = dict(os.environ, PYTHONPATH=str(tree))
+    return subprocess.Popen([sys.executable, str(Path(__file__).resolve()), "_worker", *args], cwd=tree, env=env,
+                            **kw)
+
+
+def identical(other: Path, scenes: list[str]) -> int:
+    dumps = {}
+    for label, tree in (("this", ROOT), ("other", other)):
+        proc = _worker(tree, "dump", *[str(Path(s).resolve()) for s in scenes], stdout=subprocess.PIPE)
+        data, _ = proc.communicate()
+        if proc.returncode:
+            raise SystemExit(f"{label} tree ({tree}): worker failed")
+        dumps[label] = pickle.loads(data)
+    bad = 0
+    for key, arrays in dumps["other"].items():
+        mine = dumps["this"].get(key, {})
+        diff = sorted(k for k in arrays.keys() | mine.keys() if arrays.get(k) != mine.get(k))
+        covered = len(arrays["pixels"][2]) // 8
+        print(f"{key:40s} {covered:8d} covered  {'identical' if not diff else 'DIFFERENT: ' + ', '.join(diff)}")
+        bad += bool(diff)
+    print(f"{len(dumps['other'])} frames, {len(dumps['other']) - bad} identical, {bad} different")
+    return 1 if bad else 0
+
+
+def timing(other: Path, frames: int, rounds: int) -> int:
+    workers = {label: _worker(tree, "time", str(frames), stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+               for label, tree in (("this", ROOT), ("other", other))}
+    for w in workers.values():
+        assert w.stdout.readline().strip() == "ready"
+    times: dict[str, list] = {label: [] for label in workers}
+    for r in range(rounds):
+        for i in range(frames):
+            order = list(workers) if (r + i) % 2 == 0 else list(workers)[::-1]
+            for label in order:
+                w = workers[label]
+                w.stdin.write(f"{i}\n")
+                w.stdin.flush()
+                times[label].append(json.loads(w.stdout.readline()))
+    for w in workers.values():
+        w.stdin.close()
+        w.wait()
+    med = {label: [statistics.median(t[k] for t in ts) * 1e3 for k in range(2)] for label, ts in times.items()}
+    for label in workers:
+        r, g = med[label]
+        print(f"{label:6s} rasterize {r:6.1f} ms  g-buffer {g:6.1f} ms  both {r + g:6.1f} ms (medians of "
+              f"{len(times[label])} frames)")
+    (ra, ga), (rb, gb) = med["this"], med["other"]
+    print(f"ratio this/other: rasterize {ra / rb:.2f}  g-buffer {ga / gb:.2f}  both {(ra + ga) / (rb + gb):.2f}")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    if argv and argv[0] == "_worker":
+        if argv[1] == "dump":
+            sys.stdout.buffer.write(pickle.dumps(_dump(argv[2:])))
+        else:
+            _serve_timing(int(argv[2]))
+        return 0
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("mode", choices=("identical", "time"))
+    parser.add_argument("other", type=Path, help="the other source tree")
+    parser.add_argument("--scenes", nargs="*", default=sorted(glob.glob(str(ROOT / "scenes" / "*.toml"))))
+    parser.add_argument("--frames", type=int, default=30)
+    parser.add_argument("--rounds", type=int, default=5)
+    args = parser.parse_args(argv)
+    if args.mode == "identical":
+        return identical(args.other.resolve(), args.scenes)
+    return timing(args.other.resolve(), args.frames, args.rounds)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
