@@ -57,12 +57,21 @@ def _cameras(scene):
     }
 
 
-def _frame(scene, geometry, camera, faces=None, pool=None):
+def _raster(geometry):
+    """camera → Fragments: the way the viewer rasterizes (one RasterMesh kept for all views) where the
+    tree has RasterMesh, else rasterize()."""
+    from clshade.render import raster
+    if hasattr(raster, "RasterMesh"):
+        mesh = raster.RasterMesh(geometry.vertices, geometry.faces, geometry.cull)
+        return lambda c: raster.rasterize_mesh(mesh, c.view_matrix(), c.projection_matrix(), c.width, c.height)
+    return lambda c: raster.rasterize(geometry.vertices, geometry.faces, c.view_matrix(), c.projection_matrix(),
+                                      c.width, c.height, cull_backfaces=geometry.cull)
+
+
+def _frame(scene, geometry, camera, raster, faces=None, pool=None):
     from clshade.render.gbuffer import build_gbuffer
-    from clshade.render.raster import rasterize
     t0 = time.perf_counter()
-    frags = rasterize(geometry.vertices, geometry.faces, camera.view_matrix(), camera.projection_matrix(),
-                      camera.width, camera.height, cull_backfaces=geometry.cull)
+    frags = raster(camera)
     t1 = time.perf_counter()
     gbuffer = build_gbuffer(scene, geometry, frags, camera, faces=faces, pool=pool)
     t2 = time.perf_counter()
@@ -77,8 +86,9 @@ def _dump(paths: list[str]) -> dict:
     for path in paths:
         scene = load_scene(path)
         geometry = build_geometry(scene)
+        raster = _raster(geometry)
         for name, camera in _cameras(scene).items():
-            frags, gbuffer, _, _ = _frame(scene, geometry, camera)
+            frags, gbuffer, _, _ = _frame(scene, geometry, camera, raster)
             arrays = {"pixels": frags.pixels, "face": frags.face, "face_depth": frags.face_depth,
                       "face_bary": frags.face_bary, "coverage": gbuffer.coverage,
                       "materials": gbuffer.materials, "nonfinite": gbuffer.nonfinite_pixels}
@@ -104,12 +114,12 @@ def _serve_timing(frames: int) -> None:
     orbit = Orbit.of(cam)
     cams = [dataclasses.replace(cam, position=orbit.position(float(k), orbit.elevation, orbit.distance))
             for k in range(frames)]
-    faces, pool = face_planes(geometry, list(scene.materials.values())), PlanePool()
+    faces, pool, raster = face_planes(geometry, list(scene.materials.values())), PlanePool(), _raster(geometry)
     for c in cams[:5]:                                   # warm-up
-        _frame(scene, geometry, c, faces, pool)
+        _frame(scene, geometry, c, raster, faces, pool)
     print("ready", flush=True)
     for line in sys.stdin:
-        _, _, raster_s, gbuffer_s = _frame(scene, geometry, cams[int(line)], faces, pool)
+        _, _, raster_s, gbuffer_s = _frame(scene, geometry, cams[int(line)], raster, faces, pool)
         print(json.dumps([raster_s, gbuffer_s]), flush=True)
 
 

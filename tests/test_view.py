@@ -528,3 +528,26 @@ def test_ctrl_c_stops_the_command_cleanly(tmp_path):
     finally:
         proc.kill()
     assert proc.returncode == 0 and "stopped" in out and "Traceback" not in err
+
+
+def test_raster_follows_a_new_geometry(session, monkeypatch):
+    """When the geometry is built again (its key changed), the next raster is of the new one: the
+    kept RasterMesh (checks and face planes) is made again, never reused for another geometry."""
+    import clshade.view.session as view_session
+    from clshade.render.raster import rasterize
+    real_build, real_key = view_session.build_geometry, view_session._geometry_key
+
+    def build(scene):                       # the geometry lifted by the exposure (a stand-in for a real edit)
+        g = real_build(scene)
+        return dataclasses.replace(g, vertices=g.vertices + [0.0, 0.3 * scene.exposure, 0.0])
+
+    monkeypatch.setattr(view_session, "build_geometry", build)
+    monkeypatch.setattr(view_session, "_geometry_key", lambda scene: (real_key(scene), scene.exposure))
+    for exposure in (0.0, 1.0):
+        frame = session.render(parse_controls(controls(session, azimuth=15.0, exposure=exposure), session.limits))
+        assert "rasterize" in frame.stages
+        g, camera = session._geometry.value, session.last["camera"]
+        expected = rasterize(g.vertices, g.faces, camera.view_matrix(), camera.projection_matrix(), camera.width,
+                             camera.height, cull_backfaces=g.cull)
+        np.testing.assert_array_equal(session._raster.value.tri_id, expected.tri_id, err_msg=f"exposure {exposure}")
+        np.testing.assert_array_equal(session._raster.value.depth, expected.depth)

@@ -40,7 +40,7 @@ from clshade.render.gbuffer import GBuffer, build_gbuffer, face_planes, material
 from clshade.render.arrays import PlanePool, keep_freed_memory
 from clshade.render.image import check_output_path, to_display, write_encoded
 from clshade.render.meshes import build_geometry
-from clshade.render.raster import rasterize
+from clshade.render.raster import RasterMesh, rasterize_mesh
 from clshade.render.samples import supersampled
 from clshade.render.scene import MAX_RESOLUTION, Scene, load_scene, parse_scene, scene_from_data
 from clshade.render.shadows import build_shadow_maps
@@ -250,9 +250,9 @@ class ViewSession:
                                "geometry")
         camera = supersampled(scene.camera, scene.samples)
         raster_key = (id(geometry), tuple(camera.position), camera.width, camera.height)
-        fragments = self._stage(self._raster, raster_key, lambda: rasterize(
-            geometry.vertices, geometry.faces, camera.view_matrix(), camera.projection_matrix(), camera.width,
-            camera.height, cull_backfaces=geometry.cull), timings, "rasterize")
+        fragments = self._stage(self._raster, raster_key, lambda: rasterize_mesh(
+            self._mesh_of(geometry), camera.view_matrix(), camera.projection_matrix(), camera.width, camera.height),
+            timings, "rasterize")
         shadows = None
         if scene.shadow_lights:
             shadows = self._stage(self._shadows, (id(geometry), _lights_key(scene), scene.shadow_map_size,
@@ -261,6 +261,13 @@ class ViewSession:
         gbuffer = self._gbuffer_for(scene, geometry, fragments, camera, timings)
         shader = self._shader_for(scene, gbuffer, camera, shadows, timings)
         return scene, geometry, camera, fragments, shadows, gbuffer, shader
+
+    def _mesh_of(self, geometry) -> RasterMesh:
+        """The RasterMesh of `geometry` (its checks and face planes made once per geometry)."""
+        kept = self._geometry.extra
+        if kept.get("mesh_of") is not geometry:
+            kept["mesh"], kept["mesh_of"] = RasterMesh(geometry.vertices, geometry.faces, geometry.cull), geometry
+        return kept["mesh"]
 
     def _shader_for(self, scene: Scene, gbuffer: GBuffer, camera, shadows, timings: Timings) -> Shader:
         """The kept Shader (its device tables and bound kernels) rebound to a new G-buffer

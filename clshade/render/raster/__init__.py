@@ -51,7 +51,8 @@ Modules, in the order a batch of faces goes through them:
 - ``batches``: :func:`rasterize` itself (checks, clip transform, face batches);
 - ``fragments``: the result, :class:`Fragments`.
 """
-from clshade.render.raster.batches import rasterize
+from clshade.render.raster.batches import rasterize, rasterize_mesh
 from clshade.render.raster.fragments import Fragments
+from clshade.render.raster.mesh import RasterMesh
 
-__all__ = ["Fragments", "rasterize"]
+__all__ = ["Fragments", "RasterMesh", "rasterize", "rasterize_mesh"]

@@ -7,6 +7,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from clshade.render.arrays import run_chunked
 from clshade.render.raster.fragments import Fragments, no_fragments
+from clshade.render.raster.mesh import RasterMesh, camera_centre
 from clshade.render.raster.resolve import Resolve, resolved, winners
 from clshade.render.raster.tiles import cover
 from clshade.render.raster.triangles import setup_parallel
@@ -59,40 +60,36 @@ def rasterize(
 
     Raises:
         ValueError: on malformed shapes, non-integer or out-of-range faces.
+
+    Many views of one mesh: make its :class:`RasterMesh` once and call :func:`rasterize_mesh`
+    (the checks and the faces' planes are then made once).
     """
+    return rasterize_mesh(RasterMesh(vertices, faces, cull_backfaces), view, proj, width, height, max_fragments)
+
+
+def rasterize_mesh(
+    mesh: RasterMesh,
+    view: ArrayLike,
+    proj: ArrayLike,
+    width: int,
+    height: int,
+    max_fragments: int = 8_000_000,
+) -> Fragments:
+    """:func:`rasterize` of a :class:`RasterMesh` (the same fragments, bit for bit)."""
     width, height = int(width), int(height)
     if width < 1 or height < 1:
         raise ValueError(f"image size must be positive, got {width}x{height}")
     if int(max_fragments) < 1:
         raise ValueError("max_fragments must be >= 1")
-    verts = np.asarray(vertices, dtype=np.float64)
-    if verts.ndim != 2 or verts.shape[1] != 3:
-        raise ValueError(f"vertices must have shape (V, 3), got {verts.shape}")
-    tris = np.asarray(faces)
-    if tris.size == 0:
-        tris = tris.reshape(0, 3)
-    if tris.ndim != 2 or tris.shape[1] != 3:
-        raise ValueError(f"faces must have shape (F, 3), got {tris.shape}")
-    if tris.dtype.kind not in "iu":
-        raise ValueError(f"faces must be integers, got dtype {tris.dtype}")
-    tris = tris.astype(np.int64, copy=False)
-    n_faces = tris.shape[0]
-    if n_faces and (tris.min() < 0 or tris.max() >= verts.shape[0]):
-        raise ValueError("face indices out of range")
     view_m = np.asarray(view, dtype=np.float64)
     proj_m = np.asarray(proj, dtype=np.float64)
     if view_m.shape != (4, 4) or proj_m.shape != (4, 4):
         raise ValueError("view and proj must be 4x4 matrices")
-    if isinstance(cull_backfaces, (bool, np.bool_)):
-        cull = np.full(n_faces, bool(cull_backfaces))
-    else:
-        cull = np.asarray(cull_backfaces, dtype=bool)
-        if cull.shape != (n_faces,):
-            raise ValueError(f"cull_backfaces array must have shape ({n_faces},), got {cull.shape}")
-
+    n_faces = len(mesh)
     if n_faces == 0:
         return no_fragments(height, width)
 
+    verts = mesh.vertices
     with np.errstate(all="ignore"):  # non-finite input is dropped, never warned about
         mvp = proj_m @ view_m
         vx, vy, vz = verts[:, 0], verts[:, 1], verts[:, 2]
@@ -104,19 +101,20 @@ def rasterize(
         vfinite = np.isfinite(vdepth)
         for k in range(4):
             vfinite &= np.isfinite(clip_t[k])
+        eye = camera_centre(mvp)
         w_is_depth = bool(np.array_equal(proj_m[3], [0.0, 0.0, -1.0, 0.0]))
         n_batches = -(-n_faces // FACE_BATCH)
         state = Resolve(width, height, min(int(max_fragments), GRID_CHUNK_CELLS), w_is_depth,
                         several_batches=n_batches > 1, batch_faces=FACE_BATCH)
         bounds = np.linspace(0, n_faces, n_batches + 1).round().astype(int)  # balanced batches
         if n_batches == 1:  # the batch's winners are the result
-            result = _raster_batch(state, clip_t, vdepth, vfinite, tris, cull, 0, n_faces, None) \
+            result = _raster_batch(state, clip_t, vdepth, vfinite, mesh, mesh.candidates(eye, 0, n_faces), None) \
                 or no_fragments(height, width)
         else:  # later batches overwrite nearer pixels: winners go to full-frame arrays
             frame = (np.full((height, width), -1, np.int32), np.zeros((height, width), np.float32),
                      np.zeros((3, height, width), np.float32))
             for f0, f1 in zip(bounds[:-1].tolist(), bounds[1:].tolist()):
-                _raster_batch(state, clip_t, vdepth, vfinite, tris, cull, f0, f1, frame)
+                _raster_batch(state, clip_t, vdepth, vfinite, mesh, mesh.candidates(eye, f0, f1), frame)
             result = Fragments.from_frame(*frame)
     state.release()  # not reached on an exception: arrays left mid-batch are dropped
     return result
@@ -127,16 +125,17 @@ def _raster_batch(
     clip_t: NDArray[np.float64],
     vdepth: NDArray[np.float64],
     vfinite: NDArray[np.bool_],
-    tris: NDArray[np.int64],
-    cull: NDArray[np.bool_],
-    f0: int,
-    f1: int,
+    mesh: RasterMesh,
+    face: NDArray[np.int64],
     frame: tuple[NDArray[np.int32], NDArray[np.float32], NDArray[np.float32]] | None,
 ) -> Fragments | None:
-    """Rasterize faces ``f0:f1``: their winners as Fragments (``frame`` None, the only
-    batch) or merged into the full-frame arrays ``frame`` = (tri_id, depth, bary planes)."""
+    """Rasterize the faces ``face`` of one batch (ascending, the pre-culled back faces left
+    out): their winners as Fragments (``frame`` None, the only batch) or merged into the
+    full-frame arrays ``frame`` = (tri_id, depth, bary planes)."""
     width = state.width
-    t = setup_parallel(clip_t, vfinite, vdepth, tris, cull, f0, f1, width, state.height)
+    if len(face) == 0:
+        return None
+    t = setup_parallel(clip_t, vfinite, vdepth, mesh, face, width, state.height)
     if t is None:
         return None
     tri_bits = state.tri_bits

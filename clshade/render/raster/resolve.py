@@ -136,10 +136,9 @@ def winners(
     face = np.take(t.face, tri)
     if not w_is_depth or bad.any():  # general projection: interpolate -z_view
         sel = slice(None) if not w_is_depth else np.flatnonzero(bad)
-        local = face[sel] - t.face0
-        vd = t.face_depth
+        fs, vd = face[sel], t.vdepth
         bs = b[:, sel]
-        d = bs[0] * vd[0][local] + bs[1] * vd[1][local] + bs[2] * vd[2][local]
+        d = bs[0] * vd[t.corners[0][fs]] + bs[1] * vd[t.corners[1][fs]] + bs[2] * vd[t.corners[2][fs]]
         if w_is_depth:
             depth[sel] = d
         else:

@@ -11,6 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from clshade.render.arrays import chunks, run_tasks, workers_for
+from clshade.render.raster.mesh import RasterMesh
 
 #: A triangle is degenerate (dropped) when the sine of the screen-space angle
 #: between its edges is below this: such a sliver is thinner than float64
@@ -39,8 +40,8 @@ class Tris:
     """
 
     face: NDArray[np.int64]  # (T,) original face index
-    face0: int  # first face of the batch
-    face_depth: NDArray[np.float64]  # (3, n_batch) view depth of the batch's face vertices
+    vdepth: NDArray[np.float64]  # (V,) view depth of the mesh's vertices
+    corners: NDArray[np.int64]  # (3, F) the mesh's vertex indices (RasterMesh.corners)
     n_unclipped: int  # the first n_unclipped triangles are whole faces, the rest near-plane clipped
     persp_a: NDArray[np.float64]  # (3, T) perspective-correct barycentric weights of the
     persp_b: NDArray[np.float64]  #   ORIGINAL face's vertices, affine in (X, Y) up to a
@@ -159,16 +160,14 @@ def _setup(
     clip_t: NDArray[np.float64],
     vfinite: NDArray[np.bool_],
     vdepth: NDArray[np.float64],
-    tris: NDArray[np.int64],
-    cull: NDArray[np.bool_],
-    f0: int,
-    f1: int,
+    mesh: RasterMesh,
+    face: NDArray[np.int64],
     width: int,
     height: int,
 ) -> Tris | None:
-    """Cull, clip, project and set up edge functions for faces ``f0:f1``."""
-    fv = np.ascontiguousarray(tris[f0:f1].T)  # (3, n) vertex indices
-    face = np.arange(f0, f1, dtype=np.int64)
+    """Cull, clip, project and set up edge functions for the faces ``face`` (ascending)."""
+    cull = mesh.cull
+    fv = np.take(mesh.corners, face, axis=1)  # (3, n) vertex indices
     x, y, z, w = (clip_t[k][fv] for k in range(4))  # (3, n) each
     dist = z + w  # near plane: dist >= 0 is visible
     inside = dist >= 0.0
@@ -266,7 +265,7 @@ def _setup(
         persp[:, :, clipped] = np.einsum("cvm,mvj->cjm", persp[:, :, clipped], clip_bary[slot[clipped]])
 
     return Tris(
-        face=face, face0=f0, face_depth=np.take(vdepth, fv), n_unclipped=int(np.count_nonzero(slot < 0)),
+        face=face, vdepth=vdepth, corners=mesh.corners, n_unclipped=int(np.count_nonzero(slot < 0)),
         persp_a=persp[0], persp_b=persp[1], persp_c=persp[2],
         edge_a=ea, edge_b=eb, edge_c=ec, edge_thr=thr, area2=np.abs(area2),
         z_a=za, z_b=zb, z_c=zc,
@@ -279,24 +278,22 @@ def setup_parallel(
     clip_t: NDArray[np.float64],
     vfinite: NDArray[np.bool_],
     vdepth: NDArray[np.float64],
-    tris: NDArray[np.int64],
-    cull: NDArray[np.bool_],
-    f0: int,
-    f1: int,
+    mesh: RasterMesh,
+    face: NDArray[np.int64],
     width: int,
     height: int,
 ) -> Tris | None:
-    """:func:`_setup` of faces ``f0:f1`` in parts on the worker threads, joined in the order one
-    call gives (whole faces by index, then the clipped triangles by face index), so that triangle
-    indices (the depth ties' order) do not depend on the number of threads."""
-    workers = workers_for(f1 - f0, SETUP_PARALLEL_MIN_FACES)
+    """:func:`_setup` of the faces ``face`` in parts on the worker threads, joined in the order
+    one call gives (whole faces by index, then the clipped triangles by face index), so that
+    triangle indices (the depth ties' order) do not depend on the number of threads."""
+    workers = workers_for(len(face), SETUP_PARALLEL_MIN_FACES)
     if workers == 1:
-        return _setup(clip_t, vfinite, vdepth, tris, cull, f0, f1, width, height)
+        return _setup(clip_t, vfinite, vdepth, mesh, face, width, height)
     parts: list[Tris | None] = [None] * workers
-    spans = [slice(f0 + p.start, f0 + p.stop) for p in chunks(f1 - f0, workers)]
+    spans = chunks(len(face), workers)
 
     def setup(i: int) -> None:
-        parts[i] = _setup(clip_t, vfinite, vdepth, tris, cull, spans[i].start, spans[i].stop, width, height)
+        parts[i] = _setup(clip_t, vfinite, vdepth, mesh, face[spans[i]], width, height)
 
     run_tasks([lambda i=i: setup(i) for i in range(len(spans))], workers)
     done = [p for p in parts if p is not None]
@@ -306,6 +303,5 @@ def setup_parallel(
     order = np.concatenate([np.arange(o, o + p.n_unclipped) for o, p in zip(offsets, done)]
                            + [np.arange(o + p.n_unclipped, o + len(p.face)) for o, p in zip(offsets, done)])
     joined = {f.name: np.take(np.concatenate([getattr(p, f.name) for p in done], axis=-1), order, axis=-1)
-              for f in dataclasses.fields(Tris) if f.name not in ("face0", "face_depth", "n_unclipped")}
-    return Tris(face0=f0, face_depth=np.take(vdepth, np.ascontiguousarray(tris[f0:f1].T)),
-                 n_unclipped=sum(p.n_unclipped for p in done), **joined)
+              for f in dataclasses.fields(Tris) if f.name not in ("vdepth", "corners", "n_unclipped")}
+    return Tris(vdepth=vdepth, corners=mesh.corners, n_unclipped=sum(p.n_unclipped for p in done), **joined)
