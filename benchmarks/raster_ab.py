@@ -5,7 +5,7 @@ bitwise the same, and how do their times compare (interleaved, same frames)?
 Usage::
 
     python benchmarks/raster_ab.py identical OTHER_TREE [--scenes scenes/*.toml]
-    python benchmarks/raster_ab.py time OTHER_TREE [--frames 30] [--rounds 5]
+    python benchmarks/raster_ab.py time OTHER_TREE [--frames 30] [--rounds 5] [--clock process_time]
 
 OTHER_TREE is a checkout of another commit (e.g. `git worktree add /tmp/main main`, or
 `git archive main | tar -x -C DIR`); this script's own tree is the other side. Each tree
@@ -68,13 +68,13 @@ def _raster(geometry):
                                       c.width, c.height, cull_backfaces=geometry.cull)
 
 
-def _frame(scene, geometry, camera, raster, faces=None, pool=None):
+def _frame(scene, geometry, camera, raster, faces=None, pool=None, clock=time.perf_counter):
     from clshade.render.gbuffer import build_gbuffer
-    t0 = time.perf_counter()
+    t0 = clock()
     frags = raster(camera)
-    t1 = time.perf_counter()
+    t1 = clock()
     gbuffer = build_gbuffer(scene, geometry, frags, camera, faces=faces, pool=pool)
-    t2 = time.perf_counter()
+    t2 = clock()
     return frags, gbuffer, t1 - t0, t2 - t1
 
 
@@ -100,8 +100,9 @@ def _dump(paths: list[str]) -> dict:
     return out
 
 
-def _serve_timing(frames: int) -> None:
+def _serve_timing(frames: int, clock_name: str) -> None:
     """Answer 'i' lines with the rasterize and G-buffer seconds of orbit camera i."""
+    clock = getattr(time, clock_name)
     from clshade.render.arrays import PlanePool, keep_freed_memory
     from clshade.render.gbuffer import face_planes
     from clshade.render.meshes import build_geometry
@@ -119,7 +120,7 @@ def _serve_timing(frames: int) -> None:
         _frame(scene, geometry, c, raster, faces, pool)
     print("ready", flush=True)
     for line in sys.stdin:
-        _, _, raster_s, gbuffer_s = _frame(scene, geometry, cams[int(line)], raster, faces, pool)
+        _, _, raster_s, gbuffer_s = _frame(scene, geometry, cams[int(line)], raster, faces, pool, clock)
         print(json.dumps([raster_s, gbuffer_s]), flush=True)
 
 
@@ -150,8 +151,8 @@ def identical(other: Path, scenes: list[str]) -> int:
     return 1 if bad else 0
 
 
-def timing(other: Path, frames: int, rounds: int) -> int:
-    workers = {label: _worker(tree, "time", str(frames), stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+def timing(other: Path, frames: int, rounds: int, clock: str) -> int:
+    workers = {label: _worker(tree, "time", str(frames), clock, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
                for label, tree in (("this", ROOT), ("other", other))}
     for w in workers.values():
         assert w.stdout.readline().strip() == "ready"
@@ -183,7 +184,7 @@ def main(argv: list[str] | None = None) -> int:
         if argv[1] == "dump":
             sys.stdout.buffer.write(pickle.dumps(_dump(argv[2:])))
         else:
-            _serve_timing(int(argv[2]))
+            _serve_timing(int(argv[2]), argv[3])
         return 0
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("mode", choices=("identical", "time"))
@@ -191,10 +192,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--scenes", nargs="*", default=sorted(glob.glob(str(ROOT / "scenes" / "*.toml"))))
     parser.add_argument("--frames", type=int, default=30)
     parser.add_argument("--rounds", type=int, default=5)
+    parser.add_argument("--clock", choices=("perf_counter", "process_time"), default="perf_counter",
+                        help="wall time, or the CPU time of the worker's threads (less disturbed by other "
+                             "processes on a busy machine; with CLSHADE_THREADS=1 the work itself)")
     args = parser.parse_args(argv)
     if args.mode == "identical":
         return identical(args.other.resolve(), args.scenes)
-    return timing(args.other.resolve(), args.frames, args.rounds)
+    return timing(args.other.resolve(), args.frames, args.rounds, args.clock)
 
 
 if __name__ == "__main__":

@@ -145,7 +145,6 @@ def _test_grid(
     ``interior`` tiles (full grids inside their triangle) skip the edge tests."""
     tile_tri, tx0, ty0, tbw, tbh, _ = tiles
     width = state.width
-    lo_z, hi_z = -1.0 - NDC_DEPTH_EPS, 1.0 + NDC_DEPTH_EPS
     gx, gy = 1 << lsx, 1 << lsy
     cols = np.arange(gx)[:, None]
     rows = np.arange(gy)[:, None]
@@ -157,16 +156,15 @@ def _test_grid(
     yabs = ty0[sel] + rows  # (gy, n) pixel row
     xc = xabs + 0.5
     yc = yabs + 0.5
+    # NDC depth z = zx[column] + zy[row] (one rounding each, as everywhere it is computed).
+    zx = t.z_a[ti] * xc  # (gx, n)
+    zy = t.z_b[ti] * yc + t.z_c[ti]  # (gy, n)
+    last_col, last_row = (gx - 1, gy - 1) if interior else (tbw[sel] - 1, tbh[sel] - 1)
+    in_unit = _depth_in_unit_range(zx, zy, last_col, last_row)
     if interior:
-        z = (t.z_a[ti] * xc)[None, :, :] + (t.z_b[ti] * yc + t.z_c[ti])[:, None, :]  # (gy, gx, n)
+        z = np.add(zx[None, :, :], zy[:, None, :])  # (gy, gx, n)
         pix = (yabs * width)[:, None, :] + xabs[None, :, :]
-        key_tri = np.broadcast_to(ti, z.shape)
-        good = (z >= lo_z) & (z <= hi_z)
-        if not good.all():
-            z, pix, key_tri = z[good], pix[good], key_tri[good]
-        np.clip(z, -1.0, 1.0, out=z)
-        q = ((z + 1.0) * z_scale).astype(np.int64)
-        np.minimum.at(keys, pix.ravel(), ((q << tri_bits) | key_tri).ravel())
+        _resolve_into(keys, pix, z, ti, tri_bits, z_scale, in_unit)
         return
     if gx > 1:  # columns beyond the box: NaN fails every edge test
         xc[cols >= tbw[sel]] = np.nan
@@ -191,13 +189,39 @@ def _test_grid(
     rc, tl = np.divmod(idx, n)  # rc = row * gx + column; tl = tile in chunk
     ri = (rc >> lsx) * n + tl  # flat index into (gy, n)
     ci = (rc & (gx - 1)) * n + tl  # flat index into (gx, n)
-    zx = t.z_a[ti] * xc
-    zy = t.z_b[ti] * yc + t.z_c[ti]
     z = zx.ravel()[ci] + zy.ravel()[ri]
-    good = (z >= lo_z) & (z <= hi_z)  # between the near and far planes
-    if not good.all():
-        ri, ci, tl, z = ri[good], ci[good], tl[good], z[good]
     pix = (yabs * width).ravel()[ri] + xabs.ravel()[ci]
-    np.clip(z, -1.0, 1.0, out=z)
-    q = ((z + 1.0) * z_scale).astype(np.int64)
-    np.minimum.at(keys, pix, (q << tri_bits) | ti[tl])
+    _resolve_into(keys, pix, z, ti[tl], tri_bits, z_scale, in_unit)
+
+
+def _depth_in_unit_range(zx: NDArray[np.float64], zy: NDArray[np.float64], last_col: int | NDArray[np.int64],
+                         last_row: int | NDArray[np.int64]) -> bool:
+    """Whether every cell's depth ``zx[column] + zy[row]`` of the tiles (columns up to `last_col`,
+    rows up to `last_row`) lies in [-1, 1]. zx and zy are each monotone along their axis (an affine
+    function rounded, and rounding is monotone), and so is their rounded sum in each: the extremes
+    over a tile are at its corner cells, exactly as the cells compute them."""
+    k = np.arange(zx.shape[1])
+    x0, x1 = zx[0], zx[last_col, k]
+    y0, y1 = zy[0], zy[last_row, k]
+    c00, c01, c10, c11 = x0 + y0, x1 + y0, x0 + y1, x1 + y1
+    lo = np.minimum(np.minimum(c00, c01), np.minimum(c10, c11))
+    hi = np.maximum(np.maximum(c00, c01), np.maximum(c10, c11))
+    return bool((lo >= -1.0).all() and (hi <= 1.0).all())  # False with a NaN: the checked path
+
+
+def _resolve_into(keys: NDArray[np.int64], pix: NDArray[np.int64], z: NDArray[np.float64],
+                  tri: NDArray[np.int64], tri_bits: int, z_scale: float, in_unit: bool) -> None:
+    """Keep the fragments between the near and far planes (all of them when `in_unit`: every z is
+    known to lie in [-1, 1]) and resolve their packed keys into `keys`. `z` (a temporary) is
+    overwritten; `tri` broadcasts against it."""
+    if not in_unit:
+        good = (z >= -1.0 - NDC_DEPTH_EPS) & (z <= 1.0 + NDC_DEPTH_EPS)  # between the near and far planes
+        if not good.all():
+            pix, z, tri = pix[good], z[good], np.broadcast_to(tri, z.shape)[good]
+        np.clip(z, -1.0, 1.0, out=z)
+    z += 1.0
+    z *= z_scale
+    q = z.astype(np.int64)
+    q <<= tri_bits
+    q |= tri
+    np.minimum.at(keys, pix.ravel(), q.ravel())
