@@ -352,32 +352,43 @@ def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments, camera
             b = fragments.face_bary[:, part]
             put(depth, fragments.face_depth[part])
             nrm = []
+            term = np.empty(len(tri), np.float32)
             for d in range(3):
-                # ((0 + b0 n0) + b1 n1) + b2 n2: 0 + x turns -0.0 into +0.0.
-                acc = np.take(face[f"n0{d}"], tri) * b[0]
+                # ((0 + b0 n0) + b1 n1) + b2 n2: 0 + x turns -0.0 into +0.0 (in place, the same roundings).
+                acc = np.take(face[f"n0{d}"], tri)
+                acc *= b[0]
                 acc += 0.0
-                acc += np.take(face[f"n1{d}"], tri) * b[1]
-                acc += np.take(face[f"n2{d}"], tri) * b[2]
+                for c in (1, 2):
+                    np.take(face[f"n{c}{d}"], tri, out=term, mode="clip")   # tri < F: clip never clips
+                    term *= b[c]
+                    acc += term
                 nrm.append(acc)
-            len2 = nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]
+            len2 = nrm[0] * nrm[0]
+            for d in (1, 2):
+                np.multiply(nrm[d], nrm[d], out=term)
+                len2 += term
             # 1/|n| where |n| > 0; 0 elsewhere, so a zero normal stays 0 and a NaN/Inf one
             # becomes NaN (NaN·0, Inf·0), counted below as non-finite.
             with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
-                inv = np.where(len2 > 0, 1.0 / np.sqrt(len2), np.float32(0.0)).astype(np.float32, copy=False)
+                inv = np.sqrt(len2)
+                np.divide(1.0, inv, out=inv)
+                inv[~(len2 > 0)] = 0.0
             ok = np.isfinite(fragments.face_depth[part])
             for d in range(3):
-                nd = nrm[d] * inv
+                nd = nrm[d]
+                nd *= inv
                 ok &= np.isfinite(nd)
                 put(planes["normal"][d], nd)
-                put(planes["base"][d], np.take(face[f"base{d}"], tri))
+                put(planes["base"][d], np.take(face[f"base{d}"], tri, out=term, mode="clip"))
                 if "emissive" in planes:
                     put(planes["emissive"][d], np.take(face[f"emissive{d}"], tri))
                 if "tangent" in planes:
                     put(planes["tangent"][d], np.take(face[f"t0{d}"], tri) * b[0] + np.take(face[f"t1{d}"], tri) * b[1]
                         + np.take(face[f"t2{d}"], tri) * b[2])
             finite[part] = ok
-            for name in ("roughness", "metallic", "material"):
-                put(planes[name][0], np.take(face[name], tri))
+            for name in ("roughness", "metallic"):
+                put(planes[name][0], np.take(face[name], tri, out=term, mode="clip"))
+            put(planes["material"][0], np.take(face["material"], tri))
             if "occlusion" in planes:
                 planes["occlusion"][0][lo:hi][mask] = 1.0
 

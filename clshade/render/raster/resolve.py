@@ -89,10 +89,12 @@ def resolved(state: Resolve, used: int, lo: int, hi: int) -> tuple[NDArray[np.in
     k = np.empty(starts[-1], np.int64)
 
     def extract(i: int) -> None:
-        out = slice(starts[i], starts[i + 1])
-        hit[out] = np.flatnonzero(masks[i]) + ranges[i].start
-        k[out] = keys[hit[out]]
-        keys[hit[out]] = EMPTY_KEY
+        out, r, mask = slice(starts[i], starts[i + 1]), ranges[i], masks[i]
+        hit[out] = np.flatnonzero(mask) + r.start
+        # Through the mask, not the indices: a covered region's mask is coherent, and a masked
+        # read or write of it several times faster than a gather or scatter.
+        k[out] = keys[r][mask]
+        keys[r][mask] = EMPTY_KEY
 
     run_tasks([lambda i=i: extract(i) for i in range(len(ranges))])
     return hit, k
@@ -114,24 +116,35 @@ def winners(
     # stays below the next integer (px/width <= 1 - 1/width), so floor() is the exact row;
     # twice as fast as an int64 divmod.
     pf = pix.astype(np.float64)
-    py = np.floor(pf / width)
-    px = pf - py * width + 0.5
+    py = pf / width
+    np.floor(py, out=py)
+    px = py * width
+    np.subtract(pf, px, out=px)  # (pf - py * width) + 0.5
+    px += 0.5
     py += 0.5
+    # Evaluated in place, in the order of a X + (b Y + c) (the same roundings).
     b = np.empty((3, len(pix)))
+    by = np.empty(len(pix))
     for j in range(3):
-        e = np.take(t.persp_a[j], tri) * px + (np.take(t.persp_b[j], tri) * py + np.take(t.persp_c[j], tri))
-        np.maximum(e, 0.0, out=b[j])
-    s = b[0] + b[1] + b[2]
+        e = b[j]
+        np.multiply(np.take(t.persp_a[j], tri), px, out=e)
+        np.multiply(np.take(t.persp_b[j], tri), py, out=by)
+        by += np.take(t.persp_c[j], tri)
+        e += by
+        np.maximum(e, 0.0, out=e)
+    s = b[0] + b[1]
+    s += b[2]
     # s <= 0 or non-finite: only reachable by round-off/overflow on
     # near-degenerate slivers or absurd coordinates; fall back to the centroid.
-    bad = ~(s > 0.0) | ~np.isfinite(s)
+    bad = ~((s > 0.0) & (s < np.inf))
     if bad.any():
         b[:, bad] = 1.0
         s[bad] = 3.0
     if w_is_depth:
         # w_clip = -z_view: the perspective-correct depth 1 / sum(lambda_i / w_i)
         # is sum(E_i) / sum(E_i / w_i), and sum(E_i) is twice the triangle area.
-        depth = np.take(t.area2, tri) / s
+        depth = np.take(t.area2, tri)
+        depth /= s
     b /= s
     face = np.take(t.face, tri)
     if not w_is_depth or bad.any():  # general projection: interpolate -z_view
