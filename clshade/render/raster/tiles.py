@@ -89,18 +89,40 @@ def cover(state: Resolve, t: Tris) -> int:
     memory even when many triangles are large). Returns how many key arrays were written."""
     n_tiles = (((t.col1 - t.col0) >> _TILE_LOG2) + 1) * (((t.row1 - t.row0) >> _TILE_LOG2) + 1)
     cum = np.cumsum(n_tiles)
+    unit = _box_depth_in_unit_range(t)
     used = 1
     t0 = 0
     while t0 < len(cum):
         base = int(cum[t0 - 1]) if t0 else 0
         t1 = max(t0 + 1, int(np.searchsorted(cum, base + MAX_TILES, side="right")))
-        used = max(used, _raster_tiles(state, t, _make_tiles(t, t0, t1), state.tri_bits, state.z_scale))
+        used = max(used, _raster_tiles(state, t, _make_tiles(t, t0, t1), unit, state.tri_bits, state.z_scale))
         t0 = t1
     return used
 
 
+def _box_depth_in_unit_range(t: Tris) -> NDArray[np.bool_]:
+    """(T,) whether the NDC depth of every pixel centre of each triangle's box, as the grids
+    compute it (``z_a X + (z_b Y + z_c)``), lies in [-1, 1]: then no fragment of it needs the
+    near/far test or the clamp. Each term is an affine function rounded, so monotone along its
+    axis, and so is their rounded sum in each: the extremes over a box are at its corner
+    centres, exactly as the grids compute them (False with a NaN: the checked path)."""
+    x0, x1 = t.z_a * (t.col0 + 0.5), t.z_a * (t.col1 + 0.5)
+    y0, y1 = t.z_b * (t.row0 + 0.5) + t.z_c, t.z_b * (t.row1 + 0.5) + t.z_c
+    c00, c01, c10, c11 = x0 + y0, x1 + y0, x0 + y1, x1 + y1
+    lo = np.minimum(np.minimum(c00, c01), np.minimum(c10, c11))
+    hi = np.maximum(np.maximum(c00, c01), np.maximum(c10, c11))
+    return (lo >= -1.0) & (hi <= 1.0)
+
+
+#: A size class with fewer tiles than this is tested in the square grid of its longer side
+#: (cells beyond a box fail the edge tests as in any grid): one grid call instead of several
+#: for the rare shapes, at the price of a few empty cells.
+MERGE_CLASS_BELOW: int = 128
+
+
 def _raster_tiles(
-    state: Resolve, t: Tris, tiles: tuple[NDArray[np.int64], ...], tri_bits: int, z_scale: float
+    state: Resolve, t: Tris, tiles: tuple[NDArray[np.int64], ...], unit: NDArray[np.bool_], tri_bits: int,
+    z_scale: float
 ) -> int:
     """Test the pixel centres of ``tiles`` against their triangles; resolve into the key arrays.
 
@@ -113,8 +135,15 @@ def _raster_tiles(
     n_cls = _TILE_LOG2 + 1
     # Size classes (grid height, width); interior tiles (all TILE x TILE) get the class after them.
     cls = np.where(interior, n_cls * n_cls, _CEIL_LOG2[tbh] * n_cls + _CEIL_LOG2[tbw])
-    order = np.argsort(cls, kind="stable")
     counts = np.bincount(cls, minlength=n_cls * n_cls + 1)
+    rare = np.flatnonzero((counts[:-1] > 0) & (counts[:-1] < MERGE_CLASS_BELOW))
+    if len(rare):
+        side = np.maximum(rare // n_cls, rare % n_cls)
+        remap = np.arange(n_cls * n_cls + 1)
+        remap[rare] = side * (n_cls + 1)
+        cls = remap[cls]
+        counts = np.bincount(cls, minlength=n_cls * n_cls + 1)
+    order = np.argsort(cls, kind="stable")
     starts = np.concatenate([[0], np.cumsum(counts)])
     work: list[tuple[int, int, NDArray[np.int64], bool]] = []  # (log2 grid width, height, tiles, interior)
     for c in np.flatnonzero(counts):
@@ -132,17 +161,19 @@ def _raster_tiles(
         shares[w].append(i)
         load[w] += cells[i]
     keys = state.key_arrays(workers)
-    run_tasks([lambda share=share, k=k: [_test_grid(state, t, tiles, *work[i], k, tri_bits, z_scale) for i in share]
-               for share, k in zip(shares, keys)], workers)
+    run_tasks([lambda share=share, k=k: [_test_grid(state, t, tiles, *work[i], k, unit, tri_bits, z_scale)
+                                         for i in share] for share, k in zip(shares, keys)], workers)
     return workers
 
 
 def _test_grid(
     state: Resolve, t: Tris, tiles: tuple[NDArray[np.int64], ...], lsx: int, lsy: int,
-    sel: NDArray[np.int64], interior: bool, keys: NDArray[np.int64], tri_bits: int, z_scale: float
+    sel: NDArray[np.int64], interior: bool, keys: NDArray[np.int64], unit: NDArray[np.bool_], tri_bits: int,
+    z_scale: float
 ) -> None:
     """Test tiles ``sel`` (all of one size class, grids of 2**lsx x 2**lsy) and resolve into `keys`;
-    ``interior`` tiles (full grids inside their triangle) skip the edge tests."""
+    ``interior`` tiles (full grids inside their triangle) skip the edge tests; the fragments of
+    triangles whose box lies in the depth range (`unit`) skip the depth test."""
     tile_tri, tx0, ty0, tbw, tbh, _ = tiles
     width = state.width
     gx, gy = 1 << lsx, 1 << lsy
@@ -159,8 +190,7 @@ def _test_grid(
     # NDC depth z = zx[column] + zy[row] (one rounding each, as everywhere it is computed).
     zx = t.z_a[ti] * xc  # (gx, n)
     zy = t.z_b[ti] * yc + t.z_c[ti]  # (gy, n)
-    last_col, last_row = (gx - 1, gy - 1) if interior else (tbw[sel] - 1, tbh[sel] - 1)
-    in_unit = _depth_in_unit_range(zx, zy, last_col, last_row)
+    in_unit = bool(unit[ti].all())
     if interior:
         z = np.add(zx[None, :, :], zy[:, None, :])  # (gy, gx, n)
         pix = (yabs * width)[:, None, :] + xabs[None, :, :]
@@ -192,21 +222,6 @@ def _test_grid(
     z = zx.ravel()[ci] + zy.ravel()[ri]
     pix = (yabs * width).ravel()[ri] + xabs.ravel()[ci]
     _resolve_into(keys, pix, z, ti[tl], tri_bits, z_scale, in_unit)
-
-
-def _depth_in_unit_range(zx: NDArray[np.float64], zy: NDArray[np.float64], last_col: int | NDArray[np.int64],
-                         last_row: int | NDArray[np.int64]) -> bool:
-    """Whether every cell's depth ``zx[column] + zy[row]`` of the tiles (columns up to `last_col`,
-    rows up to `last_row`) lies in [-1, 1]. zx and zy are each monotone along their axis (an affine
-    function rounded, and rounding is monotone), and so is their rounded sum in each: the extremes
-    over a tile are at its corner cells, exactly as the cells compute them."""
-    k = np.arange(zx.shape[1])
-    x0, x1 = zx[0], zx[last_col, k]
-    y0, y1 = zy[0], zy[last_row, k]
-    c00, c01, c10, c11 = x0 + y0, x1 + y0, x0 + y1, x1 + y1
-    lo = np.minimum(np.minimum(c00, c01), np.minimum(c10, c11))
-    hi = np.maximum(np.maximum(c00, c01), np.maximum(c10, c11))
-    return bool((lo >= -1.0).all() and (hi <= 1.0).all())  # False with a NaN: the checked path
 
 
 def _resolve_into(keys: NDArray[np.int64], pix: NDArray[np.int64], z: NDArray[np.float64],
