@@ -161,3 +161,39 @@ def test_mesh_keeps_its_own_copy_of_the_arrays():
 def test_mesh_checks_its_input(args, message):
     with pytest.raises(ValueError, match=message):
         RasterMesh(*args)
+
+
+def test_grid_grouping_and_depth_shortcut_change_no_pixel(monkeypatch):
+    """The rare size classes merged into square grids (or none merged, or all), and the depth-range
+    shortcut on (or off for every triangle), give the same fragments bit for bit: a scene with
+    triangles of every box shape, a floor crossing the near plane and boxes straddling the far one."""
+    import trimesh.creation as creation
+    from clshade.render.raster import tiles
+    rng = np.random.default_rng(5)
+    parts = [creation.icosphere(subdivisions=3), creation.box(extents=(30.0, 0.1, 30.0)),
+             creation.cylinder(radius=0.05, height=3.0, sections=7)]
+    parts[1].apply_translation((0.0, -1.0, 0.0))
+    far = creation.box(extents=(2.0, 2.0, 40.0))
+    far.apply_translation((1.5, 0.0, -30.0))            # reaches beyond the far plane (25)
+    sizes = rng.uniform(0.002, 0.3, size=(200, 3))       # thin, wide and tall slivers of every box class
+    spots = rng.normal(size=(200, 3)) * [1.5, 1.0, 1.0]
+    fans = [trimesh.Trimesh(np.array([p, p + [s[0], 0.0, 0.0], p + [0.0, s[1], s[2]]]), [[0, 1, 2]])
+            for p, s in zip(spots, sizes)]
+    scene = trimesh.util.concatenate(parts + [far] + fans)
+    mesh = RasterMesh(scene.vertices, scene.faces, False)
+    proj = transforms.perspective(60.0, W / H, 0.1, 25.0)
+    views = [look_at((0.3, 0.2, 3.5), (0.0, 0.0, -2.0)), look_at((4.0, 1.0, 0.5), (0.0, -0.5, -10.0))]
+
+    def frames():
+        return [rasterize_mesh(mesh, v, proj, 2 * W, 2 * H) for v in views]
+
+    reference = frames()
+    assert all(len(f.pixels) > 1000 for f in reference)
+    for merge in (0, 10 ** 9):
+        monkeypatch.setattr(tiles, "MERGE_CLASS_BELOW", merge)
+        for a, b in zip(frames(), reference):
+            same(a, b)
+    monkeypatch.undo()
+    monkeypatch.setattr(tiles, "_box_depth_in_unit_range", lambda t: np.zeros(len(t.face), bool))
+    for a, b in zip(frames(), reference):
+        same(a, b)
