@@ -551,3 +551,44 @@ def test_raster_follows_a_new_geometry(session, monkeypatch):
                              camera.height, cull_backfaces=g.cull)
         np.testing.assert_array_equal(session._raster.value.tri_id, expected.tri_id, err_msg=f"exposure {exposure}")
         np.testing.assert_array_equal(session._raster.value.depth, expected.depth)
+
+
+def test_camera_only_changes_parse_only_the_camera_and_give_the_full_scene(session, monkeypatch):
+    """Orbit and zoom reuse the last scene with the camera parsed anew; any other change parses
+    everything: either way the scene equals the scene parser's of the same document."""
+    import clshade.view.session as view_session
+    from clshade.render.scene import scene_from_data
+    full = []
+    real = view_session.scene_from_data
+    monkeypatch.setattr(view_session, "scene_from_data", lambda doc, path: full.append(1) or real(doc, path))
+    steel = {"steel": {"roughness": 0.2}}
+    lights = {"0": {"scale": 2.0}}
+    steps = [dict(azimuth=3.0), dict(azimuth=7.0, distance=session.orbit.distance * 1.3),
+             dict(azimuth=7.0, materials=steel), dict(azimuth=9.0, elevation=20.0, materials=steel),
+             dict(azimuth=9.0, elevation=20.0, materials=steel, exposure=0.5),
+             dict(azimuth=9.0, elevation=20.0, materials=steel, exposure=0.5, lights=lights),
+             dict(azimuth=11.0, elevation=20.0, materials=steel, exposure=0.5, lights=lights)]
+    parsed = []
+    for change in steps:
+        count = len(full)
+        scene, doc = session.scene(parse_controls(controls(session, **change), session.limits))
+        parsed.append(len(full) > count)
+        expected = scene_from_data(doc, session.path)
+        for f in dataclasses.fields(expected):
+            assert _same_value(getattr(scene, f.name), getattr(expected, f.name)), f"{change}: {f.name}"
+    assert parsed[1] is False and parsed[3] is False and parsed[6] is False       # camera only
+    assert parsed[2] and parsed[4] and parsed[5]                                  # material, exposure, light
+
+
+def _same_value(a, b) -> bool:
+    """Deep equality of parsed scene values (dataclasses, arrays, containers)."""
+    if dataclasses.is_dataclass(a):
+        return type(a) is type(b) and all(_same_value(getattr(a, f.name), getattr(b, f.name))
+                                          for f in dataclasses.fields(a))
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return np.array_equal(a, b)
+    if isinstance(a, (tuple, list)):
+        return type(a) is type(b) and len(a) == len(b) and all(_same_value(x, y) for x, y in zip(a, b))
+    if isinstance(a, dict):
+        return a.keys() == b.keys() and all(_same_value(a[k], b[k]) for k in a)
+    return a == b

@@ -481,9 +481,9 @@ def parse_scene(text: str, file: Path | str = "<scene>") -> Scene:
     return scene_from_data(data, file)
 
 
-def scene_from_data(data: dict[str, Any], file: Path | str = "<scene>") -> Scene:
-    """Validate a scene from its parsed TOML tables (what tomllib returns; `clshade view`
-    edits them and parses each edit without writing TOML text in between)."""
+def camera_from_data(data: dict[str, Any], file: Path | str = "<scene>") -> Camera:
+    """The checked camera of a scene's parsed tables (scene_from_data's own; the live viewer
+    parses only the camera when nothing else changed)."""
     file = Path(file) if not isinstance(file, Path) else file
     top = _Reader(file, data, "")
     cam = _Reader(file, top.raw("camera", None) or _missing(file, "camera"), "camera")
@@ -505,6 +505,16 @@ def scene_from_data(data: dict[str, Any], file: Path | str = "<scene>") -> Scene
         raise located("equals camera.position", file, "camera.target", list(camera.target), has_value=True)
     if np.linalg.norm(np.cross(fwd, camera.up)) < 1e-9 * np.linalg.norm(fwd) * np.linalg.norm(camera.up):
         raise located("is parallel to the view direction", file, "camera.up", list(camera.up), has_value=True)
+    return camera
+
+
+def scene_from_data(data: dict[str, Any], file: Path | str = "<scene>") -> Scene:
+    """Validate a scene from its parsed TOML tables (what tomllib returns; `clshade view`
+    edits them and parses each edit without writing TOML text in between)."""
+    file = Path(file) if not isinstance(file, Path) else file
+    top = _Reader(file, data, "")
+    camera = camera_from_data(data, file)
+    top.raw("camera", None)
 
     rnd = _Reader(file, top.raw("render", {}), "render")
     background = rnd.vector("background", (0.0, 0.0, 0.0), 0.0, 1e6)

@@ -42,7 +42,7 @@ from clshade.render.image import check_output_path, to_display, write_encoded
 from clshade.render.meshes import build_geometry
 from clshade.render.raster import RasterMesh, rasterize_mesh
 from clshade.render.samples import supersampled
-from clshade.render.scene import MAX_RESOLUTION, Scene, load_scene, parse_scene, scene_from_data
+from clshade.render.scene import MAX_RESOLUTION, Scene, camera_from_data, load_scene, parse_scene, scene_from_data
 from clshade.render.shadows import build_shadow_maps
 from clshade.verify import reference
 from clshade.view.controls import Controls, Limits
@@ -121,6 +121,12 @@ def _face_key(mats: list) -> tuple:
     return tuple((tuple(m.base_color), m.roughness, m.metallic, tuple(m.emissive)) for m in mats)
 
 
+def _same_but_camera(a: dict, b: dict) -> bool:
+    """Whether two scene documents have the same tables but (maybe) the camera (the tables
+    applied() did not touch are shared, so the comparison is short)."""
+    return a.keys() == b.keys() and all(a[k] == b[k] for k in a if k != "camera")
+
+
 def _lights_key(scene: Scene) -> tuple:
     return tuple((l.kind, tuple(l.color), None if l.direction is None else tuple(l.direction),
                   None if l.position is None else tuple(l.position), l.inner_angle, l.outer_angle, l.shadows)
@@ -196,6 +202,7 @@ class ViewSession:
         self._gbuffer, self._shader, self._faces = _Kept(), _Kept(), _Kept()
         self._planes = PlanePool()      # the G-buffers' planes, their memory used again
         self.last: dict[str, object] = {}
+        self._parsed: tuple[dict, Scene] | None = None     # the last document parsed and its scene
 
     # ------------------------------------------------------------ what the page starts from
 
@@ -231,7 +238,13 @@ class ViewSession:
         position = self.orbit.position(controls.azimuth, controls.elevation, controls.distance)
         doc = applied(self.base_doc, controls, position, self.width, self.height)
         # The tables as tomllib reads back dumps(doc) (tests/test_view.py: the round trip is exact).
-        return scene_from_data(doc, self.path), doc
+        last = self._parsed
+        if last is not None and _same_but_camera(last[0], doc):     # orbit, zoom: only the camera is parsed
+            scene = dataclasses.replace(last[1], camera=camera_from_data(doc, self.path))
+        else:
+            scene = scene_from_data(doc, self.path)
+        self._parsed = (doc, scene)
+        return scene, doc
 
     # ------------------------------------------------------------ the stages, kept
 
