@@ -89,12 +89,11 @@ def rasterize_mesh(
     if n_faces == 0:
         return no_fragments(height, width)
 
-    verts = mesh.vertices
     with np.errstate(all="ignore"):  # non-finite input is dropped, never warned about
         mvp = proj_m @ view_m
-        vx, vy, vz = verts[:, 0], verts[:, 1], verts[:, 2]
+        vx, vy, vz = mesh.columns
         # Per-row products (not a BLAS matmul: no thread pool, no extra copy).
-        clip_t = np.empty((4, len(verts)))  # (4, V) clip coordinates
+        clip_t = np.empty((4, len(vx)))  # (4, V) clip coordinates
         for k in range(4):
             clip_t[k] = vx * mvp[k, 0] + vy * mvp[k, 1] + vz * mvp[k, 2] + mvp[k, 3]
         vdepth = -(vx * view_m[2, 0] + vy * view_m[2, 1] + vz * view_m[2, 2] + view_m[2, 3])  # -z_view

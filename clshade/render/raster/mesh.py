@@ -20,12 +20,15 @@ from numpy.typing import ArrayLike, NDArray
 BACKFACE_PRECULL_COS: float = 1e-6
 
 
+_WITHOUT = np.array([[j for j in range(4) if j != i] for i in range(4)])    # (4, 3) columns kept
+
+
 def camera_centre(mvp: NDArray[np.float64]) -> NDArray[np.float64]:
     """The homogeneous centre of projection C of ``mvp`` (the null vector of its x, y, w rows M,
     signed): by Cauchy–Binet, ``det(M [a b c; 1 1 1]) = C · (n, −n·a)`` with n = (b − a) × (c − a)
     for any points a, b, c; the face projects clockwise (a back face) exactly when that is < 0."""
     m = mvp[[0, 1, 3]]
-    minors = np.array([np.linalg.det(np.delete(m, i, axis=1)) for i in range(4)])
+    minors = np.linalg.det(m[:, _WITHOUT].transpose(1, 0, 2))     # the 3x3 minors without column i
     return minors * np.array([1.0, -1.0, 1.0, -1.0])
 
 
@@ -56,11 +59,12 @@ class RasterMesh:
             if cull.shape != (n_faces,):
                 raise ValueError(f"cull_backfaces array must have shape ({n_faces},), got {cull.shape}")
         self.vertices = verts
+        self.columns = np.ascontiguousarray(verts.T)    # (3, V): x, y, z rows (contiguous per-row products)
         self.faces = tris
         self.corners = np.ascontiguousarray(tris.T)     # (3, F): one contiguous row per corner (fast gathers)
         self.cull = cull
         self.any_cull = bool(cull.any())
-        for a in (self.vertices, self.faces, self.corners, self.cull):
+        for a in (self.vertices, self.columns, self.faces, self.corners, self.cull):
             a.flags.writeable = False
 
     def __len__(self) -> int:
