@@ -403,11 +403,20 @@ class SlowSession:
         self.limits, self.rendered = real.limits, []
         self.real = real
 
-    def render(self, c):
+    def prepare(self, c):
         import time
-        time.sleep(0.05)
-        self.rendered.append(c.exposure)
-        return self.real.render(dataclasses.replace(c, exposure=0.0))
+        time.sleep(0.025)
+        return c.exposure, self.real.prepare(dataclasses.replace(c, exposure=0.0))
+
+    def finish(self, p):
+        import time
+        time.sleep(0.025)
+        exposure, prepared = p
+        self.rendered.append(exposure)
+        return self.real.finish(prepared)
+
+    def render(self, c):
+        return self.finish(self.prepare(c))
 
 
 def test_latest_state_wins(session):
@@ -592,3 +601,65 @@ def _same_value(a, b) -> bool:
     if isinstance(a, dict):
         return a.keys() == b.keys() and all(_same_value(a[k], b[k]) for k in a)
     return a == b
+
+
+def test_pipelined_frames_show_their_own_state(session):
+    """The raster thread prepares a state while the render thread finishes the one before: the
+    stages overlap, yet every frame sent is of its own state (its pixels are a fresh render of
+    that state's controls: never another state's camera), frames leave in order, the newest last."""
+    import threading
+    import time
+    from clshade.view.server import Page, ViewServer
+
+    class Recorder:
+        def __init__(self, real):
+            self.limits, self.real, self.spans, self.lock = real.limits, real, [], threading.Lock()
+
+        def _span(self, kind, fn, arg):
+            start = time.perf_counter()
+            time.sleep(0.005 if kind == "prepare" else 0.06)   # shading slower: states prepared meanwhile
+            out = fn(arg)
+            with self.lock:
+                self.spans.append((kind, start, time.perf_counter()))
+            return out
+
+        def prepare(self, c):
+            return self._span("prepare", self.real.prepare, c)
+
+        def finish(self, p):
+            return self._span("finish", self.real.finish, p)
+
+    recorder = Recorder(session)
+    server = ViewServer(recorder, log=lambda text: None)
+    states = {k + 1: controls(session, azimuth=11.0 * k, elevation=15.0 + 2.0 * k) for k in range(8)}
+
+    async def scenario():
+        ws = FakeSocket()
+        page = Page(server, ws)
+        task = asyncio.create_task(page.run())
+        for seq, c in states.items():
+            await page.receive(json.dumps(dict(type="state", seq=seq, controls=c)))
+            await asyncio.sleep(0.02)
+        await asyncio.sleep(1.0)
+        ws.closed = True
+        page.wake.set()
+        await task
+        return ws
+
+    ws = asyncio.run(scenario())
+    server.executor.shutdown()
+    server.raster_executor.shutdown()
+    frames = []
+    for m in ws.sent:
+        if isinstance(m, bytes):
+            n = int.from_bytes(m[:4], "little")
+            header = json.loads(m[4:4 + n])
+            frames.append((header["seq"], np.frombuffer(m[4 + n:4 + n + W * H * 4], np.uint8)))
+    seqs = [seq for seq, _ in frames]
+    assert len(frames) >= 2 and seqs == sorted(set(seqs)) and seqs[-1] == max(states)
+    for seq, pixels in frames:
+        fresh = session.render(parse_controls(states[seq], session.limits)).views["a"].reshape(-1)
+        np.testing.assert_array_equal(pixels, fresh, err_msg=f"frame of state {seq}")
+    prepares = [(a, b) for kind, a, b in recorder.spans if kind == "prepare"]
+    finishes = [(a, b) for kind, a, b in recorder.spans if kind == "finish"]
+    assert any(p0 < f1 and f0 < p1 for p0, p1 in prepares for f0, f1 in finishes)      # the stages overlapped

@@ -9,7 +9,9 @@ message each: a little-endian uint32 n, n bytes of JSON header (seq, size, views
 timings, statistics), then the views' RGBA8 pixels one after the other.
 
 Latest state wins: a state that arrives while a frame renders replaces any state still
-waiting, so the next frame is always of the newest controls and frames never queue.
+waiting, so the next frame is always of the newest controls and frames never queue. Frames
+render in two stages on two threads (rasterize; then G-buffer, shading, packing): the newest
+state is rasterized while the previous one is shaded.
 Save and oracle requests are never dropped; they run between frames.
 
 Safety. Bound to 127.0.0.1 on a free port unless --host says otherwise; on any other
@@ -113,42 +115,74 @@ class Page:
             await self.error(seq, str(exc))
 
     async def run(self) -> None:
-        """Render the newest state, then the next; run jobs in between. A frame is packed on
-        the render thread and sent by a task of its own, so the next state renders while the
-        previous frame travels (one frame in flight: frames leave in order)."""
+        """Two stages on two threads, each taking the newest state it can: the raster thread
+        prepares the newest state that arrived (scene, geometry, rasterize: ViewSession.prepare),
+        the render thread finishes the newest prepared one (G-buffer, shading, display, packing),
+        so the next state is rasterized while the previous one is shaded. Frames leave in order,
+        each of its own state; a state superseded before a stage took it is skipped, never
+        queued. Jobs (save, oracle) run when both stages are idle, between frames. A frame is
+        sent by a task of its own, so the next one renders while it travels."""
         sending: asyncio.Task | None = None
+        raster: tuple | None = None         # (task, seq, received, started): a state being prepared
+        render: tuple | None = None         # (task, seq, received, started, prepare_ms): a state being finished
+        prepared: tuple | None = None       # (seq, Prepared, received, prepare_ms): waiting for the render thread
+        session = self.server.session
         try:
             while not self.ws.closed:
                 await self.wake.wait()
                 self.wake.clear()
-                while self.jobs:
-                    kind, seq, controls, name = self.jobs.pop(0)
-                    call = (lambda c=controls, n=name: self.server.session.save(c, n)) if kind == "save" \
-                        else (lambda c=controls: self.server.session.oracle(c))
-                    result = await self.server.call(call, self, seq)
+                if raster is not None and raster[0].done():
+                    task, seq, received, started = raster
+                    raster, result = None, task.result()
+                    if result is not None:
+                        if prepared is not None:
+                            self.skipped += 1       # prepared, then superseded before it was shaded
+                        prepared = (seq, result, received, (time.perf_counter() - started) * 1e3)
+                if render is not None and render[0].done():
+                    task, seq, received, started, prepare_ms = render
+                    render, packed = None, task.result()
                     if sending is not None:
                         await sending
-                    if result is not None:
-                        await self.send_json(dict(result, seq=seq))
-                if self.pending is not None:
+                    if packed is not None and not self.ws.closed:
+                        data, pack_ms = packed
+                        render_ms = prepare_ms + (time.perf_counter() - started) * 1e3 - pack_ms
+                        sending = asyncio.create_task(self._send(seq, data, pack_ms, render_ms, received))
+                if self.jobs:
+                    if raster is not None or render is not None:
+                        continue                    # woken again when both stages are done
+                    while self.jobs:
+                        kind, seq, controls, name = self.jobs.pop(0)
+                        call = (lambda c=controls, n=name: session.save(c, n)) if kind == "save" \
+                            else (lambda c=controls: session.oracle(c))
+                        result = await self.server.call(call, self, seq)
+                        if sending is not None:
+                            await sending
+                        if result is not None:
+                            await self.send_json(dict(result, seq=seq))
+                if raster is None and self.pending is not None:
                     seq, controls, received = self.pending
                     self.pending = None
-                    started = time.perf_counter()
-                    packed = await self.server.call(lambda c=controls, s=seq: self._packed(c, s), self, seq)
-                    render_ms = (time.perf_counter() - started) * 1e3
-                    if sending is not None:
-                        await sending
-                    if packed is None or self.ws.closed:
-                        continue
-                    data, pack_ms = packed
-                    sending = asyncio.create_task(self._send(seq, data, pack_ms, render_ms - pack_ms, received))
+                    raster = (self._start(lambda c=controls: session.prepare(c), seq, self.server.raster_executor),
+                              seq, received, time.perf_counter())
+                if render is None and prepared is not None:
+                    seq, p, received, prepare_ms = prepared
+                    prepared = None
+                    render = (self._start(lambda p=p, s=seq: self._finished(p, s), seq, self.server.executor),
+                              seq, received, time.perf_counter(), prepare_ms)
         finally:
-            if sending is not None:
-                sending.cancel()
+            for stage in (raster, render, (sending,)):
+                if stage is not None and stage[0] is not None:
+                    stage[0].cancel()
 
-    def _packed(self, controls, seq: int) -> tuple[bytes, float]:
-        """Render and pack one frame (on the render thread); the packing time."""
-        frame = self.server.session.render(controls)
+    def _start(self, fn, seq: int, executor) -> asyncio.Task:
+        """Run `fn` on `executor`; the loop is woken when it is done."""
+        task = asyncio.ensure_future(self.server.call(fn, self, seq, executor))
+        task.add_done_callback(lambda _: self.wake.set())
+        return task
+
+    def _finished(self, prepared, seq: int) -> tuple[bytes, float]:
+        """Finish and pack one prepared frame (on the render thread); the packing time."""
+        frame = self.server.session.finish(prepared)
         t0 = time.perf_counter()
         data = pack_frame(frame, seq, dict(skipped=self.skipped))
         return data, (time.perf_counter() - t0) * 1e3
@@ -168,7 +202,8 @@ class ViewServer:
                  log: Callable[[str], None] | None = None) -> None:
         self.session, self.host, self.port, self.linger = session, host, port, linger
         self.token = None if is_loopback(host) else secrets.token_urlsafe(16)
-        self.executor = ThreadPoolExecutor(1, thread_name_prefix="clshade-view")
+        self.executor = ThreadPoolExecutor(1, thread_name_prefix="clshade-view")          # the render thread
+        self.raster_executor = ThreadPoolExecutor(1, thread_name_prefix="clshade-raster")  # prepares the next state
         self.pages: set[Page] = set()
         self.stopped: asyncio.Event | None = None
         self.url = ""
@@ -177,11 +212,11 @@ class ViewServer:
 
     # ------------------------------------------------------------ rendering off the event loop
 
-    async def call(self, fn, page: Page, seq: int):
-        """Run `fn` on the render thread; a ClshadeError goes to the page, anything else is
-        logged here and reported to the page in one line."""
+    async def call(self, fn, page: Page, seq: int, executor: ThreadPoolExecutor | None = None):
+        """Run `fn` on the render thread (or `executor`); a ClshadeError goes to the page, anything
+        else is logged here and reported to the page in one line."""
         try:
-            return await asyncio.get_running_loop().run_in_executor(self.executor, fn)
+            return await asyncio.get_running_loop().run_in_executor(executor or self.executor, fn)
         except ClshadeError as exc:
             await page.error(seq, str(exc))
         except Exception as exc:  # noqa: BLE001 — a bug must not stop the server
@@ -277,6 +312,7 @@ class ViewServer:
             for page in list(self.pages):
                 await page.ws.close()
             await runner.cleanup()
+            self.raster_executor.shutdown(wait=True, cancel_futures=True)
             self.executor.shutdown(wait=True, cancel_futures=True)
 
 

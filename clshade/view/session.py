@@ -102,6 +102,18 @@ class ViewFrame:
 
 
 @dataclass
+class Prepared:
+    """A state through ViewSession.prepare (the raster stage), for ViewSession.finish."""
+    controls: Controls
+    scene: Scene
+    geometry: object
+    geometry_key: object
+    camera: object
+    fragments: object
+    timings: Timings
+
+
+@dataclass
 class _Kept:
     """The last result of a stage and the key of the inputs it was made from."""
     key: object = None
@@ -255,8 +267,11 @@ class ViewSession:
             kept.key = key
         return kept.value
 
-    def frame_state(self, controls: Controls, timings: Timings):
-        """(scene, geometry, camera, fragments, shadows, gbuffer, shader) for the controls."""
+    def prepare(self, controls: Controls) -> Prepared:
+        """The raster stage of a frame (scene, geometry, rasterize): the first half of render(),
+        which the server runs for the next state while the previous one is still being shaded
+        (it touches only the scene, geometry and raster stages; finish() only the others)."""
+        timings = Timings()
         with timings.stage("scene"):
             scene, _ = self.scene(controls)
         geometry = self._stage(self._geometry, _geometry_key(scene), lambda: build_geometry(scene), timings,
@@ -266,14 +281,19 @@ class ViewSession:
         fragments = self._stage(self._raster, raster_key, lambda: rasterize_mesh(
             self._mesh_of(geometry), camera.view_matrix(), camera.projection_matrix(), camera.width, camera.height),
             timings, "rasterize")
+        return Prepared(controls, scene, geometry, self._geometry.key, camera, fragments, timings)
+
+    def frame_state(self, p: Prepared):
+        """(shadows, gbuffer, shader) for a prepared state."""
+        scene, geometry, camera, timings = p.scene, p.geometry, p.camera, p.timings
         shadows = None
         if scene.shadow_lights:
             shadows = self._stage(self._shadows, (id(geometry), _lights_key(scene), scene.shadow_map_size,
                                                   scene.shadow_pcf), lambda: build_shadow_maps(scene, geometry),
                                   timings, "shadow maps")
-        gbuffer = self._gbuffer_for(scene, geometry, fragments, camera, timings)
+        gbuffer = self._gbuffer_for(scene, geometry, p.geometry_key, p.fragments, camera, timings)
         shader = self._shader_for(scene, gbuffer, camera, shadows, timings)
-        return scene, geometry, camera, fragments, shadows, gbuffer, shader
+        return shadows, gbuffer, shader
 
     def _mesh_of(self, geometry) -> RasterMesh:
         """The RasterMesh of `geometry` (its checks and face planes made once per geometry)."""
@@ -298,7 +318,7 @@ class ViewSession:
         kept.extra["camera"] = tuple(camera.position)
         return kept.value
 
-    def _gbuffer_for(self, scene: Scene, geometry, fragments, camera, timings: Timings) -> GBuffer:
+    def _gbuffer_for(self, scene: Scene, geometry, geometry_key, fragments, camera, timings: Timings) -> GBuffer:
         """The kept G-buffer when only table values changed (new table), patched planes when a
         per-pixel material value changed in an untextured scene, else built from the kept raster."""
         kept = self._gbuffer
@@ -315,7 +335,7 @@ class ViewSession:
                 gbuffer = patched_gbuffer(kept.value, groups, kept.extra["values"], values, table, self._planes)
         else:
             mats = list(scene.materials.values())
-            faces = self._stage(self._faces, (self._geometry.key, _face_key(mats)), lambda: face_planes(geometry, mats),
+            faces = self._stage(self._faces, (geometry_key, _face_key(mats)), lambda: face_planes(geometry, mats),
                                 timings, "face tables")
             with timings.stage("g-buffer"):
                 gbuffer = build_gbuffer(scene, geometry, fragments, camera, faces=faces, pool=self._planes)
@@ -325,9 +345,13 @@ class ViewSession:
     # ------------------------------------------------------------ frames
 
     def render(self, controls: Controls) -> ViewFrame:
-        timings = Timings()
+        return self.finish(self.prepare(controls))
+
+    def finish(self, p: Prepared) -> ViewFrame:
+        """The rest of a frame after prepare(): G-buffer, shading, display transform, read back."""
+        controls, scene, geometry, camera, timings = p.controls, p.scene, p.geometry, p.camera, p.timings
         model_a, model_b = controls.models()
-        scene, geometry, camera, fragments, shadows, gbuffer, shader = self.frame_state(controls, timings)
+        shadows, gbuffer, shader = self.frame_state(p)
         # Material values read at run time: a slider moves data, never builds a program (Features).
         features = dataclasses.replace(scene_features(scene, geometry=geometry), runtime_material=True)
         shown = {"a": model_a}
