@@ -10,6 +10,9 @@ What a change costs, by what it changes:
 - shininess, kd, ks, ka, lights: the material or light table is uploaded again; shade;
 - model, exposure, tone map: shade (or only the display transform) on the same G-buffer.
 
+A frame is made in two halves, prepare() (scene, geometry, rasterize) and finish() (the rest),
+which the server runs on two threads: the next state is rasterized while the last is shaded.
+
 Device times come from clshade.bench.run (the same dispatch timing and frame statistics
 as `clshade bench`), the error from the same float64 oracle (clshade.verify.reference).
 """

@@ -8,7 +8,10 @@ barycentrics with respect to that face's three vertices.
 Pipeline (no Python loop per triangle or per pixel):
 
 1. vertices → clip space (``proj @ view``), float64;
-2. faces are processed in batches of :data:`FACE_BATCH`; trivially invisible
+2. faces are processed in batches of :data:`FACE_BATCH`; culled faces that face
+   away from the camera's centre by more than a margin are dropped first, from
+   their world-space planes kept in the :class:`RasterMesh` (a dot product per
+   face, no per-corner work; setup would drop them too); trivially invisible
    faces (non-finite, fully outside one frustum plane) are dropped;
 3. faces crossing the near plane (``z_clip + w_clip = 0``, i.e. ``w = near``
    for a perspective matrix) are clipped Sutherland–Hodgman style into one or
@@ -19,7 +22,10 @@ Pipeline (no Python loop per triangle or per pixel):
    tie rule: watertight, no pixel covered twice), a depth plane, a pixel
    bounding box; boxes larger than :data:`TILE` are split into tiles, and
    full tiles inside all three edges are marked interior (no edge tests);
-5. boxes/tiles are grouped by power-of-two size class ``(sy, sx)`` and tested
+   a triangle whose box's corner depths lie in [-1, 1] needs no per-fragment
+   depth-range test (the depth is monotone along rows and columns);
+5. boxes/tiles are grouped by power-of-two size class ``(sy, sx)`` (a class of
+   few tiles joins the square class of its longer side) and tested
    against the pixel centres of a dense ``(sy, sx, n)`` grid by broadcasting
    (one add, one compare and one ``and`` per edge and candidate pixel; the
    tile axis is innermost so NumPy's loops are long), in chunks of at most
@@ -42,6 +48,8 @@ Front faces are counter-clockwise in NDC.
 
 Modules, in the order a batch of faces goes through them:
 
+- ``mesh``: :class:`RasterMesh`, the checked input and its faces' planes (kept
+  between views of one mesh: :func:`rasterize_mesh`), and the back-face pre-cull;
 - ``triangles``: cull, near-plane clipping, projection, edge functions and depth
   planes (steps 1–4), in parts of the batch on the worker threads;
 - ``tiles``: bounding boxes split into tiles, grouped by size class and tested
