@@ -45,6 +45,9 @@ PRODUCERS: dict[str, tuple[str, ...]] = {
 # does not make that result stale again (tests/ produces mutants.json).
 KNOWN_STALE: dict[str, str] = {
     "mutants.json": "mutation catalogue (benchmarks/mutants.py, hours on 2 cores)",
+    "raster.json": "issue 27's rasterizer speed-up: to be measured again on a quiet machine (benchmarks/raster_bench.py)",
+    "view.json": "issue 27's rasterizer speed-up and pipelined viewer: to be measured again on a quiet machine "
+                 "(benchmarks/view_bench.py)",
 }
 
 
