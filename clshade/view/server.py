@@ -118,7 +118,8 @@ class Page:
         """Two stages on two threads, each taking the newest state it can: the raster thread
         prepares the newest state that arrived (scene, geometry, rasterize: ViewSession.prepare),
         the render thread finishes the newest prepared one (G-buffer, shading, display, packing),
-        so the next state is rasterized while the previous one is shaded. Frames leave in order,
+        so the next state is rasterized while the previous one is shaded (a state that finds both
+        idle is made whole on the render thread: no hand-over). Frames leave in order,
         each of its own state; a state superseded before a stage took it is skipped, never
         queued. Jobs (save, oracle) run when both stages are idle, between frames. A frame is
         sent by a task of its own, so the next one renders while it travels."""
@@ -162,8 +163,12 @@ class Page:
                 if raster is None and self.pending is not None:
                     seq, controls, received = self.pending
                     self.pending = None
-                    raster = (self._start(lambda c=controls: session.prepare(c), seq, self.server.raster_executor),
-                              seq, received, time.perf_counter())
+                    if render is None and prepared is None:     # both idle: the whole frame on the render thread
+                        render = (self._start(lambda c=controls, s=seq: self._finished(session.prepare(c), s), seq,
+                                              self.server.executor), seq, received, time.perf_counter(), 0.0)
+                    else:                                       # rasterized while the render thread works
+                        raster = (self._start(lambda c=controls: session.prepare(c), seq,
+                                              self.server.raster_executor), seq, received, time.perf_counter())
                 if render is None and prepared is not None:
                     seq, p, received, prepare_ms = prepared
                     prepared = None

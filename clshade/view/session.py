@@ -23,6 +23,7 @@ import math
 import os
 import re
 import tempfile
+import threading
 import tomllib
 from collections import deque
 from dataclasses import dataclass, field
@@ -218,6 +219,7 @@ class ViewSession:
         self._planes = PlanePool()      # the G-buffers' planes, their memory used again
         self.last: dict[str, object] = {}
         self._parsed: tuple[dict, Scene] | None = None     # the last document parsed and its scene
+        self._preparing = threading.Lock()
 
     # ------------------------------------------------------------ what the page starts from
 
@@ -274,17 +276,18 @@ class ViewSession:
         """The raster stage of a frame (scene, geometry, rasterize): the first half of render(),
         which the server runs for the next state while the previous one is still being shaded
         (it touches only the scene, geometry and raster stages; finish() only the others)."""
-        timings = Timings()
-        with timings.stage("scene"):
-            scene, _ = self.scene(controls)
-        geometry = self._stage(self._geometry, _geometry_key(scene), lambda: build_geometry(scene), timings,
-                               "geometry")
-        camera = supersampled(scene.camera, scene.samples)
-        raster_key = (id(geometry), tuple(camera.position), camera.width, camera.height)
-        fragments = self._stage(self._raster, raster_key, lambda: rasterize_mesh(
-            self._mesh_of(geometry), camera.view_matrix(), camera.projection_matrix(), camera.width, camera.height),
-            timings, "rasterize")
-        return Prepared(controls, scene, geometry, self._geometry.key, camera, fragments, timings)
+        with self._preparing:               # one prepare at a time, from whichever thread
+            timings = Timings()
+            with timings.stage("scene"):
+                scene, _ = self.scene(controls)
+            geometry = self._stage(self._geometry, _geometry_key(scene), lambda: build_geometry(scene), timings,
+                                   "geometry")
+            camera = supersampled(scene.camera, scene.samples)
+            raster_key = (id(geometry), tuple(camera.position), camera.width, camera.height)
+            fragments = self._stage(self._raster, raster_key, lambda: rasterize_mesh(
+                self._mesh_of(geometry), camera.view_matrix(), camera.projection_matrix(), camera.width,
+                camera.height), timings, "rasterize")
+            return Prepared(controls, scene, geometry, self._geometry.key, camera, fragments, timings)
 
     def frame_state(self, p: Prepared):
         """(shadows, gbuffer, shader) for a prepared state."""
