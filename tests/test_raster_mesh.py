@@ -105,7 +105,7 @@ def test_precull_changes_no_pixel_near_edge_on(monkeypatch):
     parts_f.append(base + np.stack([np.arange(300), 300 + np.arange(300), 600 + np.arange(300)], axis=1))
     vertices, faces = np.concatenate(parts_v), np.concatenate(parts_f)
     mesh = RasterMesh(vertices, faces)
-    assert mesh.planes.shape == (5, len(faces))
+    assert mesh.planes_of(mesh.batch(0, len(faces))).shape == (5, len(faces))
     persp = transforms.perspective(60.0, W / H, 0.05, 200.0)
     shifted = persp.copy()
     shifted[0] -= 0.3 * persp[3]
@@ -197,3 +197,15 @@ def test_grid_grouping_and_depth_shortcut_change_no_pixel(monkeypatch):
     monkeypatch.setattr(tiles, "_box_depth_in_unit_range", lambda t: np.zeros(len(t.face), bool))
     for a, b in zip(frames(), reference):
         same(a, b)
+
+
+def test_a_one_view_mesh_copies_and_keeps_nothing():
+    """rasterize() (one view) wraps the caller's arrays without copying and keeps no batch: its
+    memory stays that of a batch of faces (benchmarks/raster_bench.py measures it)."""
+    sphere = trimesh.creation.icosphere(subdivisions=2)
+    vertices, faces = np.array(sphere.vertices), np.array(sphere.faces, dtype=np.int64)
+    once = RasterMesh(vertices, faces, keep=False)
+    assert np.shares_memory(once.vertices, vertices) and np.shares_memory(once.faces, faces)
+    view, proj = look_at((0.0, 0.0, 4.0), (0.0, 0.0, 0.0)), transforms.perspective(45.0, W / H, 0.1, 100.0)
+    same(rasterize_mesh(once, view, proj, W, H), rasterize_mesh(RasterMesh(vertices, faces), view, proj, W, H))
+    assert not once._batches and vertices.flags.writeable

@@ -64,7 +64,8 @@ def rasterize(
     Many views of one mesh: make its :class:`RasterMesh` once and call :func:`rasterize_mesh`
     (the checks and the faces' planes are then made once).
     """
-    return rasterize_mesh(RasterMesh(vertices, faces, cull_backfaces), view, proj, width, height, max_fragments)
+    return rasterize_mesh(RasterMesh(vertices, faces, cull_backfaces, keep=False), view, proj, width, height,
+                          max_fragments)
 
 
 def rasterize_mesh(
@@ -107,13 +108,13 @@ def rasterize_mesh(
                         several_batches=n_batches > 1, batch_faces=FACE_BATCH)
         bounds = np.linspace(0, n_faces, n_batches + 1).round().astype(int)  # balanced batches
         if n_batches == 1:  # the batch's winners are the result
-            result = _raster_batch(state, clip_t, vdepth, vfinite, mesh, mesh.candidates(eye, 0, n_faces), None) \
+            result = _raster_batch(state, clip_t, vdepth, vfinite, mesh, eye, 0, n_faces, None) \
                 or no_fragments(height, width)
         else:  # later batches overwrite nearer pixels: winners go to full-frame arrays
             frame = (np.full((height, width), -1, np.int32), np.zeros((height, width), np.float32),
                      np.zeros((3, height, width), np.float32))
             for f0, f1 in zip(bounds[:-1].tolist(), bounds[1:].tolist()):
-                _raster_batch(state, clip_t, vdepth, vfinite, mesh, mesh.candidates(eye, f0, f1), frame)
+                _raster_batch(state, clip_t, vdepth, vfinite, mesh, eye, f0, f1, frame)
             result = Fragments.from_frame(*frame)
     state.release()  # not reached on an exception: arrays left mid-batch are dropped
     return result
@@ -125,16 +126,19 @@ def _raster_batch(
     vdepth: NDArray[np.float64],
     vfinite: NDArray[np.bool_],
     mesh: RasterMesh,
-    face: NDArray[np.int64],
+    eye: NDArray[np.float64],
+    f0: int,
+    f1: int,
     frame: tuple[NDArray[np.int32], NDArray[np.float32], NDArray[np.float32]] | None,
 ) -> Fragments | None:
-    """Rasterize the faces ``face`` of one batch (ascending, the pre-culled back faces left
+    """Rasterize faces ``f0:f1`` (the back faces pre-culled for the camera centre `eye` left
     out): their winners as Fragments (``frame`` None, the only batch) or merged into the
     full-frame arrays ``frame`` = (tri_id, depth, bary planes)."""
     width = state.width
+    face = mesh.candidates(eye, f0, f1)
     if len(face) == 0:
         return None
-    t = setup_parallel(clip_t, vfinite, vdepth, mesh, face, width, state.height)
+    t = setup_parallel(clip_t, vfinite, vdepth, mesh, mesh.batch(f0, f1), face, width, state.height)
     if t is None:
         return None
     tri_bits = state.tri_bits

@@ -149,9 +149,9 @@ def winners(
     face = np.take(t.face, tri)
     if not w_is_depth or bad.any():  # general projection: interpolate -z_view
         sel = slice(None) if not w_is_depth else np.flatnonzero(bad)
-        fs, vd = face[sel], t.vdepth
+        local, vd, corners = face[sel] - t.batch.f0, t.vdepth, t.batch.corners
         bs = b[:, sel]
-        d = bs[0] * vd[t.corners[0][fs]] + bs[1] * vd[t.corners[1][fs]] + bs[2] * vd[t.corners[2][fs]]
+        d = bs[0] * vd[corners[0][local]] + bs[1] * vd[corners[1][local]] + bs[2] * vd[corners[2][local]]
         if w_is_depth:
             depth[sel] = d
         else:

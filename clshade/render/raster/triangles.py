@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from clshade.render.arrays import chunks, run_tasks, workers_for
-from clshade.render.raster.mesh import RasterMesh
+from clshade.render.raster.mesh import FaceBatch, RasterMesh
 
 #: A triangle is degenerate (dropped) when the sine of the screen-space angle
 #: between its edges is below this: such a sliver is thinner than float64
@@ -41,7 +41,7 @@ class Tris:
 
     face: NDArray[np.int64]  # (T,) original face index
     vdepth: NDArray[np.float64]  # (V,) view depth of the mesh's vertices
-    corners: NDArray[np.int64]  # (3, F) the mesh's vertex indices (RasterMesh.corners)
+    batch: FaceBatch  # the batch's faces (their corners' vertex indices)
     n_unclipped: int  # the first n_unclipped triangles are whole faces, the rest near-plane clipped
     persp_a: NDArray[np.float64]  # (3, T) perspective-correct barycentric weights of the
     persp_b: NDArray[np.float64]  #   ORIGINAL face's vertices, affine in (X, Y) up to a
@@ -161,13 +161,14 @@ def _setup(
     vfinite: NDArray[np.bool_],
     vdepth: NDArray[np.float64],
     mesh: RasterMesh,
+    batch: FaceBatch,
     face: NDArray[np.int64],
     width: int,
     height: int,
 ) -> Tris | None:
-    """Cull, clip, project and set up edge functions for the faces ``face`` (ascending)."""
+    """Cull, clip, project and set up edge functions for the faces ``face`` (ascending) of `batch`."""
     cull = mesh.cull
-    fv = np.take(mesh.corners, face, axis=1)  # (3, n) vertex indices
+    fv = np.take(batch.corners, face - batch.f0, axis=1)  # (3, n) vertex indices
     x, y, z, w = (clip_t[k][fv] for k in range(4))  # (3, n) each
     dist = z + w  # near plane: dist >= 0 is visible
     inside = dist >= 0.0
@@ -265,7 +266,7 @@ def _setup(
         persp[:, :, clipped] = np.einsum("cvm,mvj->cjm", persp[:, :, clipped], clip_bary[slot[clipped]])
 
     return Tris(
-        face=face, vdepth=vdepth, corners=mesh.corners, n_unclipped=int(np.count_nonzero(slot < 0)),
+        face=face, vdepth=vdepth, batch=batch, n_unclipped=int(np.count_nonzero(slot < 0)),
         persp_a=persp[0], persp_b=persp[1], persp_c=persp[2],
         edge_a=ea, edge_b=eb, edge_c=ec, edge_thr=thr, area2=np.abs(area2),
         z_a=za, z_b=zb, z_c=zc,
@@ -279,6 +280,7 @@ def setup_parallel(
     vfinite: NDArray[np.bool_],
     vdepth: NDArray[np.float64],
     mesh: RasterMesh,
+    batch: FaceBatch,
     face: NDArray[np.int64],
     width: int,
     height: int,
@@ -288,12 +290,12 @@ def setup_parallel(
     triangle indices (the depth ties' order) do not depend on the number of threads."""
     workers = workers_for(len(face), SETUP_PARALLEL_MIN_FACES)
     if workers == 1:
-        return _setup(clip_t, vfinite, vdepth, mesh, face, width, height)
+        return _setup(clip_t, vfinite, vdepth, mesh, batch, face, width, height)
     parts: list[Tris | None] = [None] * workers
     spans = chunks(len(face), workers)
 
     def setup(i: int) -> None:
-        parts[i] = _setup(clip_t, vfinite, vdepth, mesh, face[spans[i]], width, height)
+        parts[i] = _setup(clip_t, vfinite, vdepth, mesh, batch, face[spans[i]], width, height)
 
     run_tasks([lambda i=i: setup(i) for i in range(len(spans))], workers)
     done = [p for p in parts if p is not None]
@@ -303,5 +305,5 @@ def setup_parallel(
     order = np.concatenate([np.arange(o, o + p.n_unclipped) for o, p in zip(offsets, done)]
                            + [np.arange(o + p.n_unclipped, o + len(p.face)) for o, p in zip(offsets, done)])
     joined = {f.name: np.take(np.concatenate([getattr(p, f.name) for p in done], axis=-1), order, axis=-1)
-              for f in dataclasses.fields(Tris) if f.name not in ("vdepth", "corners", "n_unclipped")}
-    return Tris(vdepth=vdepth, corners=mesh.corners, n_unclipped=sum(p.n_unclipped for p in done), **joined)
+              for f in dataclasses.fields(Tris) if f.name not in ("vdepth", "batch", "n_unclipped")}
+    return Tris(vdepth=vdepth, batch=batch, n_unclipped=sum(p.n_unclipped for p in done), **joined)
