@@ -209,3 +209,17 @@ def test_a_one_view_mesh_copies_and_keeps_nothing():
     view, proj = look_at((0.0, 0.0, 4.0), (0.0, 0.0, 0.0)), transforms.perspective(45.0, W / H, 0.1, 100.0)
     same(rasterize_mesh(once, view, proj, W, H), rasterize_mesh(RasterMesh(vertices, faces), view, proj, W, H))
     assert not once._batches and vertices.flags.writeable
+
+
+def test_kept_batches_serve_every_view(monkeypatch):
+    """A kept mesh of many face batches: its per-batch corners and planes, made in the first
+    view, give the next views the fragments a fresh one-view rasterize gives, bit for bit."""
+    from clshade.render.raster import batches
+    monkeypatch.setattr(batches, "FACE_BATCH", 257)
+    sphere = trimesh.creation.icosphere(subdivisions=3)
+    mesh = RasterMesh(sphere.vertices, sphere.faces)
+    proj = transforms.perspective(45.0, W / H, 0.1, 100.0)
+    for eye in ((0.0, 0.0, 4.0), (3.0, 1.0, -2.0), (0.5, 3.5, 0.5)):
+        view = look_at(eye, (0.0, 0.0, 0.0))
+        same(rasterize_mesh(mesh, view, proj, W, H), rasterize(sphere.vertices, sphere.faces, view, proj, W, H))
+    assert len(mesh._batches) == -(-len(sphere.faces) // 257)

@@ -10,8 +10,9 @@ Pipeline (no Python loop per triangle or per pixel):
 1. vertices → clip space (``proj @ view``), float64;
 2. faces are processed in batches of :data:`FACE_BATCH`; culled faces that face
    away from the camera's centre by more than a margin are dropped first, from
-   their world-space planes kept in the :class:`RasterMesh` (a dot product per
-   face, no per-corner work; setup would drop them too); trivially invisible
+   their world-space planes kept in a :class:`RasterMesh` kept for many views
+   (a dot product per face, no per-corner work; setup would drop them too);
+   trivially invisible
    faces (non-finite, fully outside one frustum plane) are dropped;
 3. faces crossing the near plane (``z_clip + w_clip = 0``, i.e. ``w = near``
    for a perspective matrix) are clipped Sutherland–Hodgman style into one or
