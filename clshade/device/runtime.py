@@ -23,6 +23,7 @@ import numpy as np
 
 from clshade.cachedir import read_entry, user_cache_dir, write_entry
 from clshade.device import health
+from clshade.device.buildlog import relocate
 from clshade.diagnostics import stderr_captured
 from clshade.errors import ClshadeError, first_error
 from clshade.render.arrays import PIXEL_PAD
@@ -44,7 +45,8 @@ def _cl():
 
 
 # A compiler error naming a file by absolute path (a user's lobe), as PoCL's clang writes it
-# ("error: /path:11:31: message") and as clang-based compilers write it ("/path:11:31: error: message").
+# ("error: /path:11:31: message") and as clang-based compilers write it ("/path:11:31: error: message");
+# NVIDIA's `<kernel>:N:C: error: message` reaches here relocated (clshade/device/buildlog.py).
 _BUILD_ERROR = re.compile(r"(?:error: (?P<file>/[^:\n]+):(?P<line>\d+):\d+[^:\n]*: (?P<message>[^\n]+))"
                           r"|(?:(?P<file2>/[^:\n]+):(?P<line2>\d+):\d+: error: (?P<message2>[^\n]+))")
 
@@ -297,7 +299,7 @@ class Runtime:
                     warnings.simplefilter("ignore", self.cl.CompilerWarning)   # a non-empty log on success
                     program.build(options=list(options))
             except self.cl.RuntimeError as exc:
-                log = str(exc).strip()
+                log = relocate(str(exc).strip(), source)     # `<kernel>:N:` (NVIDIA) as file:line
                 where = _user_file_error(log)
                 if where is not None:       # the user's lobe: one line, the compiler's own words
                     raise ClshadeError(f"{where} (OpenCL C, building {label or name})", detail=log) from exc
