@@ -83,13 +83,15 @@ class DeviceInfo:
 
     @property
     def runtime(self) -> str:
-        """A short name of the OpenCL runtime: `PoCL 3.0`, `Intel OpenCL 3.1`, else the platform name."""
+        """A short name of the OpenCL runtime: `PoCL 3.0`, `Intel OpenCL 3.1`, `NVIDIA CUDA 13.0`: the
+        platform name and the runtime's own version where the platform version states one after
+        "OpenCL X.Y" ("OpenCL 3.0 CUDA 13.0.98"), else the OpenCL version; else the platform name."""
         pocl = _pocl_version(self.platform_version)
         if pocl != (-1,):
             return "PoCL " + ".".join(map(str, pocl))
-        version = re.search(r"OpenCL (\d+\.\d+)", self.platform_version)
+        version = re.search(r"OpenCL (\d+\.\d+)(?:\D*?(\d+\.\d+))?", self.platform_version)
         name = re.sub(r"\(R\)|\(TM\)", "", self.platform).strip()
-        return f"{name} {version.group(1)}" if version else name
+        return f"{name} {version.group(2) or version.group(1)}" if version else name
 
 
 def list_devices() -> list[tuple[DeviceInfo, object]]:
