@@ -599,6 +599,8 @@ CATALOGUE: list[Mutant] = [
       "s.shininess == 0", "NumPy baseline: Phong's 0ⁿ with a denormal n differs from the kernel's"),
     M("runtime_label_opencl_version", "clshade/device/runtime.py", "version.group(2) or version.group(1)",
       "version.group(1)", "runtime label: NVIDIA's runtime named by its OpenCL version (NVIDIA CUDA 3.0)"),
+    M("stability_zero_rule_dropped", "clshade/verify/stability.py", 'if getattr(r, "nonzero_where_zero", 0):',
+      "if False:", "check stability: a fast build non-zero where the reference is exactly 0 passes (NVIDIA's 1000)"),
     M("devices_footnote_always_cpu", "clshade/cli.py", '    if "cpu" in default.kind:\n', "    if True:\n",
       "clshade devices: the footnote says a CPU device is the default when a GPU is"),
 ]
