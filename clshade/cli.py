@@ -463,6 +463,16 @@ def _param_text(p) -> str:
     return text + (f" (set to {p.value[0]:g})" if p.value and p.value[0] != p.default else "")
 
 
+def default_rule(default) -> str:
+    """How `clshade devices` explains its starred default (clshade.device.runtime.preference)."""
+    if default is None:
+        return "none, no device passes the health probe"
+    if "cpu" in default.kind:
+        return "the first healthy CPU device in clshade.device.runtime.RUNTIME_PREFERENCE"
+    kind = default.kind.split("|")[-1].strip()        # "all | gpu" → "gpu"
+    return f"no CPU device is healthy, so the first healthy device ({kind}) in clshade.device.runtime.preference order"
+
+
 def cmd_devices(args: argparse.Namespace) -> int:
     from clshade.device.runtime import choose_device, device_health, list_devices
     from clshade.errors import ClshadeError
@@ -476,8 +486,7 @@ def cmd_devices(args: argparse.Namespace) -> int:
         status = "healthy" if state.ok else f"BROKEN: {state.reason}"
         print(f"{mark} {info.spec}  {info.kind:10s} {info.device}  |  {info.platform} | {info.platform_version}")
         print(f"        {info.runtime}: {status}")
-    print("(* = default: the first healthy CPU device in clshade.device.runtime.RUNTIME_PREFERENCE; "
-          "choose with --device P:D or CLSHADE_DEVICE)")
+    print(f"(* = default: {default_rule(default)}; choose with --device P:D or CLSHADE_DEVICE)")
     return 0
 
 

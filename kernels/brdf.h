@@ -59,6 +59,19 @@
  * 0ⁿ itself: 1 for n = 0, else 0 (Fs_Phong). */
 #define MIN_POW_BASE 1.0e-30f
 
+/* Shininess below which the empirical lobes read n as 0 (0⁰ = 1 behind Phong's mirror): FLT_MIN,
+ * the smallest normal float32. A build that flushes denormals sees a denormal n as 0 (NVIDIA's
+ * -cl-fast-relaxed-math; -cl-denorms-are-zero on PoCL), one that keeps them sees n > 0, and 0ⁿ
+ * then is 1 in one build and 0 in the other (the H100 fast Phong build deviated by 1000 from the
+ * float64 reference at n = 1e-40, 2026-11-26). Comparing with FLT_MIN gives the same answer in
+ * both. Bias: for 0 < n < FLT_MIN the lobe is 1 behind the mirror instead of 0; everywhere
+ * else it is 1 already (exp2(n·log2 x) with n·log2 x ≥ FLT_MIN·log2 MIN_POW_BASE = −1.2e-36),
+ * so such an n shades as n = 0 does. The float64 reference applies the same rule. */
+#define MIN_SHININESS 1.17549435e-38f
+
+/* Whether shininess n reads as 0 (|n| < MIN_SHININESS; a NaN n does not). */
+INLINE mask shininess_is_zero(real n) { return fabs(n) < MIN_SHININESS; }
+
 /* ---- small math helpers -------------------------------------------------- */
 
 INLINE real sq(real x) { return x * x; }
@@ -326,9 +339,10 @@ INLINE real Fd_OrenNayar(real nl, real nv, real lv, real sigma) {
 /* Phong 1975, as a BRDF ("modified Phong", Lewis 1994): (r·v)ⁿ, r = 2(n·l)n − l.
  * r·v = 2(n·l)(n·v) − l·v of unit vectors rounds up to 1 + 1.1e-6 in float32;
  * (r·v)ⁿ would then exceed the lobe's peak by n·1.1e-6, so r·v is capped at 1.
- * Where r·v ≤ 0 the lobe is 0ⁿ exactly (1 for n = 0, else 0), not MIN_POW_BASEⁿ. */
+ * Where r·v ≤ 0 the lobe is 0ⁿ exactly (1 for n = 0, else 0), not MIN_POW_BASEⁿ; n below
+ * MIN_SHININESS counts as 0 (flushed or not). */
 INLINE real Fs_Phong(real rv, real n) {
-    real zero_pow = n == 0.0f ? (real)(1.0f) : (real)(0.0f);
+    real zero_pow = shininess_is_zero(n) ? (real)(1.0f) : (real)(0.0f);
     return rv > 0.0f ? pow_runtime(fmin(rv, 1.0f), n) : zero_pow;
 }
 
@@ -345,11 +359,11 @@ INLINE mask power_underflows(real x, real n) {
     return n * (fmin(fmax(x, MIN_POW_BASE), 1.0f) - 1.0f) * 1.44269504089f < POW_ZERO_BOUND;
 }
 
-/* Whether Fs_Phong is exactly 0 in every lane of a work-item: r·v ≤ 0 with n > 0 (the
+/* Whether Fs_Phong is exactly 0 in every lane of a work-item: r·v ≤ 0 with n ≥ MIN_SHININESS (the
  * mirror direction points away from the viewer, about half the lit pixels of a glossy
  * surface) or (r·v)ⁿ underflows. The Phong models then skip the power's log2 and exp2. */
 INLINE int phong_lobe_is_zero(real rv, real n) {
-    return ALL((!(rv > 0.0f) & (n != 0.0f)) | power_underflows(rv, n));
+    return ALL((!(rv > 0.0f) & !shininess_is_zero(n)) | power_underflows(rv, n));
 }
 
 /* Whether Fs_BlinnPhong is exactly 0 in every lane (its power underflows there). */

@@ -122,3 +122,32 @@ def assets() -> Path:
     if not ASSETS.is_dir():
         pytest.skip(f"third-party assets not found at {ASSETS} (only present beside the developers' checkout)")
     return ASSETS
+
+
+@pytest.fixture
+def nvidia_compiler(monkeypatch):
+    """`fail(needle, message)`: from then on pyopencl builds a program whose source contains `needle`
+    the way NVIDIA's OpenCL compiler fails it (OpenCL 3.0 CUDA 13.0.98, H100, 2026-11-26): `#line`
+    ignored, the error located at `<kernel>:LINE:COL`, LINE counted in the whole assembled program.
+    Other programs build as usual."""
+    import pyopencl as cl
+    real = cl.Program
+
+    def fail(needle: str, message: str) -> None:
+        def program(context, *args):
+            source = args[0] if len(args) == 1 and isinstance(args[0], str) else None
+            if source is None or needle not in source:
+                return real(context, *args)
+            lines = source.split("\n")
+            row = next(i for i, text in enumerate(lines) if needle in text)
+            col = lines[row].index(needle) + 1
+            log = ("clBuildProgram failed: BUILD_PROGRAM_FAILURE - clBuildProgram failed: BUILD_PROGRAM_FAILURE\n\n"
+                   "Build on <pyopencl.Device 'NVIDIA H100 80GB HBM3' on 'NVIDIA CUDA' at 0x5571>:\n\n"
+                   f"<kernel>:{row + 1}:{col}: error: {message}\n{lines[row]}\n{' ' * (col - 1)}^\n\n(options: )")
+
+            class Failing:
+                def build(self, options=()):
+                    raise cl.RuntimeError(log)
+            return Failing()
+        monkeypatch.setattr(cl, "Program", program)
+    return fail

@@ -169,6 +169,28 @@ def test_kernel_build_failure_is_one_line_and_the_log_under_debug(tmp_path, caps
     assert "clshade: debug: detail of the error:" in debug and debug.count("\n") > 2
 
 
+def test_kernel_build_failure_names_the_file_where_the_compiler_ignores_line_markers(tmp_path, capsys, monkeypatch,
+                                                                                     nvidia_compiler):
+    """NVIDIA's compiler ignores #line and names `<kernel>:1050:13` (a line of the assembled program);
+    the one-line error names surface.h and its line instead (clshade/device/buildlog.py)."""
+    import shutil
+
+    from clshade.device import variants
+    from clshade.resources import kernels_dir
+    broken = tmp_path / "kernels"
+    shutil.copytree(kernels_dir(), broken)
+    lines = (broken / "surface.h").read_text().split("\n")
+    row = next(i for i, text in enumerate(lines) if "return g;" in text)
+    lines[row] = lines[row].replace("return g;", "return g oops;")
+    (broken / "surface.h").write_text("\n".join(lines))
+    monkeypatch.setattr(variants, "kernels_dir", lambda: broken)
+    nvidia_compiler("oops;", "expected ';' after return statement")
+    code, _, err = run_cli(capsys, ["render", str(write(tmp_path, SCENE)), "-o", str(tmp_path / "o.png"), *SIZE])
+    assert code == 2 and err.startswith("clshade: error: kernel build failed") and err.count("\n") == 1, err
+    where = f"surface.h:{row + 1}:{lines[row].index('oops;') + 1}: error: expected ';' after return statement"
+    assert where in err and "<kernel>" not in err, err
+
+
 @pytest.mark.parametrize("output, needle", [
     ("missing_folder/out.png", "does not exist"),
     ("scene.toml/out.png", "does not exist"),     # parent is a file

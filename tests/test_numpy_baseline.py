@@ -121,3 +121,19 @@ def test_suspect_flag():
     # one pair slowed by load on one side only does not move the median
     assert nb.suspect([12.0, 12.0, 90.0], [10.0, 10.0, 10.0]) == (pytest.approx(1.2), False)
     assert nb.suspect([], []) == (None, None)
+
+
+def test_phong_behind_the_mirror_reads_shininess_as_the_kernel() -> None:
+    """0ⁿ where r·v ≤ 0: 1 for n below MIN_SHININESS (denormals included, kernels/brdf.h), else 0 —
+    the kernel's Fs_Phong, term for term."""
+    from types import SimpleNamespace
+
+    from clshade.verify import accuracy as A
+    n = np.array([1e-40, 1e-45, 0.0, 1e-37, 0.1], np.float32)
+    rv = np.full(len(n), -0.5, np.float32)
+    x = np.zeros((len(n), 4), np.float32)
+    x[:, 0], x[:, 1] = rv, n
+    kernel = A.eval_term("Fs_Phong", x, np.zeros_like(x), np.zeros_like(x))[:, 0]
+    mine = nb.fs_phong(SimpleNamespace(rv=rv), SimpleNamespace(shininess=n))
+    np.testing.assert_array_equal(mine, kernel)
+    np.testing.assert_array_equal(kernel, [1.0, 1.0, 1.0, 0.0, 0.0])

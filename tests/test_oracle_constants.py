@@ -11,7 +11,7 @@ from clshade.resources import constant
 from clshade.verify import reference as R
 
 
-@pytest.mark.parametrize("name", ["MIN_LIGHT_DIST2", "MIN_ALPHA", "SHADOW_NORMAL_OFFSET_TEXELS", "SHADOW_BIAS_TEXELS"])
+@pytest.mark.parametrize("name", ["MIN_LIGHT_DIST2", "MIN_ALPHA", "MIN_SHININESS", "SHADOW_NORMAL_OFFSET_TEXELS", "SHADOW_BIAS_TEXELS"])
 def test_stated_constant_is_the_kernels(name: str) -> None:
     assert getattr(R, name) == pytest.approx(constant(name), rel=1e-7), \
         f"reference.{name} = {getattr(R, name)!r}, kernels: {constant(name)!r}"

@@ -155,6 +155,16 @@ def test_the_default_prefers_cpu_devices_then_the_measured_runtime_order():
         want += [d for d in (pocl30, pocl31, intel) if key in f"{d.platform}, {d.platform_version}" and d not in want]
     assert order[:3] == want
     assert [d.runtime for d in (pocl30, pocl31, intel)] == ["PoCL 3.0", "PoCL 3.1", "Intel OpenCL 3.1"]
+    # NVIDIA's platform version "OpenCL 3.0 CUDA 13.0.98" (H100, 2026-11-26): the CUDA version, not OpenCL's
+    assert info("NVIDIA CUDA", "OpenCL 3.0 CUDA 13.0.98", kind="gpu").runtime == "NVIDIA CUDA 13.0"
+
+
+def test_devices_footnote_names_the_rule_that_chose_the_default() -> None:
+    """The starred default is a GPU where no CPU device is healthy (the H100 machine): the footnote says so."""
+    from clshade.cli import default_rule
+    assert "CPU device" in default_rule(R.DeviceInfo(0, 0, "PoCL", "OpenCL 3.0 PoCL 3.1", "cpu0", "all | cpu"))
+    gpu = default_rule(R.DeviceInfo(0, 0, "NVIDIA CUDA", "OpenCL 3.0 CUDA 13.0.98", "H100", "all | gpu"))
+    assert "no CPU device is healthy" in gpu and "gpu" in gpu
 
 
 def test_the_cli_works_with_every_pocl_build_failing(tmp_path):

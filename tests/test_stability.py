@@ -85,3 +85,39 @@ def test_kdks_reads_each_materials_ior_under_every_fresnel(runtime) -> None:
         got = Shader(runtime, gb, scene, camera).render(model, scene_features(scene))[..., :3]
         want = R.radiance(gb, scene, model, camera=camera).reshape(h, w, 3)
         assert np.allclose(got, want, rtol=1e-5), (fresnel, got[:, 0], want[:, 0])
+
+
+def test_denormal_shininess_shades_alike_with_denormals_flushed_or_kept(runtime) -> None:
+    """A denormal shininess (1e-40: the torture grid's) reads as 0 in a build that flushes denormals
+    (NVIDIA's -cl-fast-relaxed-math; here -cl-denorms-are-zero, which PoCL honours), so 0ⁿ behind the
+    mirror (r·v ≤ 0) took its n = 0 branch there (1) and its n > 0 branch (0) elsewhere: the H100
+    fast Phong build deviated from the float64 reference by 1000 (2026-11-26). Every build and the
+    reference must give the same lobe for n below MIN_SHININESS (FLT_MIN), at, behind and off the mirror.
+    Each case fills 16 lanes, so that a work-item of SIMD ≤ 16 holds one case (the skip test decides per work-item)."""
+    import numpy as np
+
+    from clshade.device.evaluate import Samples, constant_materials, eval_brdf
+    from clshade.device.runtime import Runtime
+    from clshade.verify.torture import reference_f
+
+    s, lanes = np.sqrt(0.75), 16
+    shininess = np.repeat(np.array([1e-40, 1e-45, 0.0, 1e-37, 1e-40, 1e-40, 0.0], np.float32), lanes)
+    l = np.repeat(np.array([[s, 0, 0.5]] * 4 + [[-s, 0, 0.5], [0, s, 0.5], [-s, 0, 0.5]], np.float32), lanes, axis=0)
+    k = len(l)
+    v = np.tile([[s, 0.0, 0.5]], (k, 1)).astype(np.float32)          # l = v (the first four): r·v = −0.5
+    up = np.tile([[0.0, 0.0, 1.0]], (k, 1)).astype(np.float32)
+    samples = Samples(up, l, v, np.ones((k, 3), np.float32), np.full(k, 0.5, np.float32), np.zeros(k, np.float32),
+                      constant_materials(k, kd=0.0, ks=1.0, shininess=shininess))
+    flushed = Runtime(runtime.info.spec, options=("-cl-denorms-are-zero",))
+    dim = Samples(up, up, up, np.full((1, 3), 1e-40, np.float32), np.full(1, 0.5, np.float32), np.zeros(1, np.float32),
+                  constant_materials(1, kd=1.0, ks=0.0))
+    if eval_brdf(resolve("lambert"), dim, flushed)[0, 0] != 0.0:
+        import pytest
+        pytest.skip(f"{runtime.info.description} keeps denormals under -cl-denorms-are-zero")
+    for model in (resolve("phong"), resolve("phong_normalized")):
+        ref = reference_f(model, samples)
+        for rt in (runtime, flushed):
+            for fast in (False, True):
+                got = eval_brdf(model, samples, rt, fast_math=fast)
+                np.testing.assert_allclose(got, ref, rtol=1e-5, atol=1e-7,
+                                           err_msg=f"{model.id}, {rt.options}, fast math {fast}")

@@ -85,3 +85,22 @@ def test_above_bound_fails_the_precise_build_only() -> None:
     report = lambda r: stability.Report([], [r], [], [], "device", 0.0)  # noqa: E731
     assert not report(shaded(False, "above")).ok and report(shaded(True, "above")).ok
     assert not report(shaded(True, "nan")).ok and not report(shaded(True, "negative")).ok
+
+
+def test_a_fast_build_nonzero_where_the_reference_is_zero_fails() -> None:
+    """Fast math's deviation is reported, not bounded, but a fast build that takes another branch
+    (NVIDIA's flushed denormal shininess: Phong's 0ⁿ as 1 where the reference is 0, H100,
+    2026-11-26) fails the check: here the fast build of a patched brdf.h reads every shininess as 0."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as folder, pytest.MonkeyPatch.context() as monkeypatch:
+        patched_kernels(Path(folder), monkeypatch, "brdf.h", "{ return fabs(n) < MIN_SHININESS; }",
+                        "{ return fabs(n) < (FAST_FLUSHES_ALL ? INFINITY : MIN_SHININESS); }")
+        text = (Path(folder) / "kernels" / "brdf.h").read_text(encoding="utf-8")
+        (Path(folder) / "kernels" / "brdf.h").write_text(text.replace(
+            "#define CLSHADE_BRDF_H\n", "#define CLSHADE_BRDF_H\n#ifdef __FAST_RELAXED_MATH__\n"
+            "#define FAST_FLUSHES_ALL 1\n#else\n#define FAST_FLUSHES_ALL 0\n#endif\n", 1), encoding="utf-8")
+        rep = stability.run([resolve("phong")], extras=False, shading=False)
+    precise, fast = sorted(rep.results, key=lambda r: r.fast_math)
+    assert precise.nonzero_where_zero == 0 and fast.nonzero_where_zero > 0, (precise, fast)
+    assert any("(fast, BRDF)" in f and "reference is exactly 0" in f for f in rep.failures()), rep.failures()

@@ -251,6 +251,21 @@ def test_compile_error_is_one_line_with_the_compilers_message(tmp_path, runtime)
     assert str(info.value).startswith(f"{path}:10: no member named 'no_such_member'") and "\n" not in str(info.value)
 
 
+def test_compile_error_names_the_lobe_file_where_the_compiler_ignores_line_markers(tmp_path, runtime, nvidia_compiler):
+    """NVIDIA's compiler names `<kernel>:N` (N: the line in the assembled program); the error still
+    names the user's file and line (clshade/device/buildlog.py maps N through the #line markers)."""
+    path = tmp_path / "no_member.cl"
+    path.write_text("/*! clshade-model\n * id: no_member\n * name: n\n * kind: diffuse\n * family: diffuse\n"
+                    " * formula: f\n * source: s\n */\nINLINE real diffuse_lobe(const Geometry g, const Surface s) {\n"
+                    "    return g.no_such_member;\n}\n", encoding="utf-8")
+    nvidia_compiler("no_such_member;", "no member named 'no_such_member' in 'Geometry'")
+    from clshade.device.evaluate import eval_brdf
+    with pytest.raises(models.ClshadeError) as info:
+        eval_brdf(models.resolve(str(path)), _samples_like(4), runtime)
+    assert str(info.value).startswith(f"{path}:10: no member named 'no_such_member' in 'Geometry'"), str(info.value)
+    assert "\n" not in str(info.value) and "<kernel>" not in str(info.value)
+
+
 def _samples_like(k: int, l: np.ndarray | None = None, n: np.ndarray | None = None):
     """K samples with n = v = +z (or n for all three), l = +z (or the given l), white, r = 0.5."""
     from clshade.device.evaluate import Samples, constant_materials

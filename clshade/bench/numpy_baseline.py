@@ -59,6 +59,7 @@ INV_PI = f32(1.0 / math.pi)
 MIN_N_DOT_L, MIN_N_DOT_V, MIN_ALPHA = (f32(constant(k)) for k in ("MIN_N_DOT_L", "MIN_N_DOT_V", "MIN_ALPHA"))
 MIN_HALF_LEN2, MIN_UNIT_LEN2 = f32(constant("MIN_HALF_LEN2")), f32(constant("MIN_UNIT_LEN2"))
 MIN_POW_BASE, MIN_N_DOT_H_BECKMANN = f32(constant("MIN_POW_BASE")), f32(constant("MIN_N_DOT_H_BECKMANN"))
+MIN_SHININESS = f32(constant("MIN_SHININESS"))
 F0_DIELECTRIC = f32(constant("F0_DIELECTRIC"))
 RECORD = np.dtype("V12")   # one pixel's three float32 channels: gathers and scatters move 12-byte records
 
@@ -98,7 +99,7 @@ def power(x: np.ndarray, n) -> np.ndarray:
 
 
 def fs_phong(g: "Geometry", s: "Surface") -> np.ndarray:
-    return np.where(g.rv > 0, power(g.rv, s.shininess), np.where(s.shininess == 0, f32(1), f32(0)))
+    return np.where(g.rv > 0, power(g.rv, s.shininess), np.where(np.abs(s.shininess) < MIN_SHININESS, f32(1), f32(0)))
 
 
 def fs_blinn_phong(g: "Geometry", s: "Surface") -> np.ndarray:

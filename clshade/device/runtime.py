@@ -23,6 +23,7 @@ import numpy as np
 
 from clshade.cachedir import read_entry, user_cache_dir, write_entry
 from clshade.device import health
+from clshade.device.buildlog import relocate
 from clshade.diagnostics import stderr_captured
 from clshade.errors import ClshadeError, first_error
 from clshade.render.arrays import PIXEL_PAD
@@ -44,7 +45,8 @@ def _cl():
 
 
 # A compiler error naming a file by absolute path (a user's lobe), as PoCL's clang writes it
-# ("error: /path:11:31: message") and as clang-based compilers write it ("/path:11:31: error: message").
+# ("error: /path:11:31: message") and as clang-based compilers write it ("/path:11:31: error: message");
+# NVIDIA's `<kernel>:N:C: error: message` reaches here relocated (clshade/device/buildlog.py).
 _BUILD_ERROR = re.compile(r"(?:error: (?P<file>/[^:\n]+):(?P<line>\d+):\d+[^:\n]*: (?P<message>[^\n]+))"
                           r"|(?:(?P<file2>/[^:\n]+):(?P<line2>\d+):\d+: error: (?P<message2>[^\n]+))")
 
@@ -81,13 +83,15 @@ class DeviceInfo:
 
     @property
     def runtime(self) -> str:
-        """A short name of the OpenCL runtime: `PoCL 3.0`, `Intel OpenCL 3.1`, else the platform name."""
+        """A short name of the OpenCL runtime: `PoCL 3.0`, `Intel OpenCL 3.1`, `NVIDIA CUDA 13.0`: the
+        platform name and the runtime's own version where the platform version states one after
+        "OpenCL X.Y" ("OpenCL 3.0 CUDA 13.0.98"), else the OpenCL version; else the platform name."""
         pocl = _pocl_version(self.platform_version)
         if pocl != (-1,):
             return "PoCL " + ".".join(map(str, pocl))
-        version = re.search(r"OpenCL (\d+\.\d+)", self.platform_version)
+        version = re.search(r"OpenCL (\d+\.\d+)(?:\D*?(\d+\.\d+))?", self.platform_version)
         name = re.sub(r"\(R\)|\(TM\)", "", self.platform).strip()
-        return f"{name} {version.group(1)}" if version else name
+        return f"{name} {version.group(2) or version.group(1)}" if version else name
 
 
 def list_devices() -> list[tuple[DeviceInfo, object]]:
@@ -297,7 +301,7 @@ class Runtime:
                     warnings.simplefilter("ignore", self.cl.CompilerWarning)   # a non-empty log on success
                     program.build(options=list(options))
             except self.cl.RuntimeError as exc:
-                log = str(exc).strip()
+                log = relocate(str(exc).strip(), source)     # `<kernel>:N:` (NVIDIA) as file:line
                 where = _user_file_error(log)
                 if where is not None:       # the user's lobe: one line, the compiler's own words
                     raise ClshadeError(f"{where} (OpenCL C, building {label or name})", detail=log) from exc

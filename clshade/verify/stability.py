@@ -11,7 +11,9 @@ build; fast math reports it) above its bound *before* any clamp (the counting bu
 V, F, diffuse and empirical term, lobe, lobe sum, radiance per light, ambient
 term and pixel radiance, counted per term on the device); and the precise build
 stays within PRECISE_TOLERANCE of the float64 reference where no floor acts
-(BRDF) and at unit lights (shaded pixels). The shaded pixels are counted on the
+(BRDF) and at unit lights (shaded pixels); and every build, fast math included, gives exactly 0
+where no floor acts and the reference is exactly 0 (a fast build that flushed a denormal
+shininess to 0 gave 1 there on NVIDIA, 2026-11-26, while its deviation is reported, not bounded). The shaded pixels are counted on the
 raw radiance (-D RAW_RADIANCE: no MAX_RADIANCE clamp, whose fmin would turn a
 NaN into a number); pixels the clamp acts on are counted as saturated; the
 shipped build is checked finite as well. Cases are reported per build as
@@ -108,6 +110,8 @@ class ModelResult:
     max_deviation_at: dict[str, Any] = field(default_factory=dict)
     max_deviation_unclamped: float = 0.0
     max_deviation_unclamped_at: dict[str, Any] = field(default_factory=dict)
+    nonzero_where_zero: int = 0          # no floor active, the reference exactly 0, the device not
+    nonzero_where_zero_at: dict[str, Any] = field(default_factory=dict)
     first_bad: dict[str, Any] = field(default_factory=dict)
     terms: dict[str, dict[str, int]] = field(default_factory=dict)   # the counting build's raw terms (count.h)
 
@@ -165,6 +169,11 @@ def run_model(model: Model, grid: Grid, rt: Runtime, fast_math: bool,
         j = int(np.argmax(du))
         res.max_deviation_unclamped = float(du[j])
         res.max_deviation_unclamped_at = _where(labels, j, {"f32": f[j].tolist(), "f64": ref[j].tolist()})
+        wrong = unclamped & finite & (ref == 0.0).all(1) & (f != 0.0).any(1)
+        res.nonzero_where_zero = int(wrong.sum())
+        if res.nonzero_where_zero:
+            k = int(np.flatnonzero(wrong)[0])
+            res.nonzero_where_zero_at = _where(labels, k, {"f32": f[k].tolist(), "f64": ref[k].tolist()})
     return res
 
 
@@ -409,6 +418,9 @@ class Report:
                 if bad:
                     out.append(f"{where}: raw {term} " + ", ".join(f"{k} {v}" for k, v in bad.items()))
             deviation = r.max_deviation if isinstance(r, ShadeResult) else r.max_deviation_unclamped
+            if getattr(r, "nonzero_where_zero", 0):     # every build, fast math included
+                out.append(f"{where}: {r.nonzero_where_zero} non-zero outputs where the float64 reference is "
+                           f"exactly 0 (first: {r.nonzero_where_zero_at})")
             if not r.fast_math and not deviation <= PRECISE_TOLERANCE:
                 out.append(f"{where}: deviation from float64 {deviation:.3g} > {PRECISE_TOLERANCE:g}")
         return out

@@ -20,6 +20,9 @@ Conventions
   floor (e.g. ``MIN_ALPHA``).  The floored alpha is used by every alpha-based
   term (D, G, Burley's F90).  Oren-Nayar uses ``sigma = r`` (radians, not
   squared, not floored).
+* ``shininess`` n is used as given (``0**0 = 1``); :func:`surface_args`, the kernels'
+  reading of a material, takes ``|n| < MIN_SHININESS`` (FLT_MIN) as 0, as a build
+  that flushes denormals must.
 * f is the BRDF *without* the cosine: outgoing radiance for one light is
   ``L = f * (n.l) * E``.
 * At alpha = 0 the microfacet lobes are a Dirac delta: D (and so the lobe) is
@@ -77,7 +80,7 @@ from __future__ import annotations
 
 from clshade.verify.reference.constants import (DIELECTRIC_F0, DIFFUSE_MODELS, EMPIRICAL_MODELS, EPS_LENGTH,
                                                 EPS_TANGENT, FRESNEL_LOBES, INV_PI, MICROFACET_MODELS, MIN_ALPHA,
-                                                MIN_LIGHT_DIST2, SHADOW_BIAS_TEXELS, SHADOW_NORMAL_OFFSET_TEXELS,
+                                                MIN_LIGHT_DIST2, MIN_SHININESS, SHADOW_BIAS_TEXELS, SHADOW_NORMAL_OFFSET_TEXELS,
                                                 SPECULAR_MODELS)
 from clshade.verify.reference.vectors import (Geometry, alpha_from_roughness, geometry, normalize, precision,
                                               reflect)
@@ -134,6 +137,7 @@ __all__ = [
     "INV_PI",
     "MIN_ALPHA",
     "MIN_LIGHT_DIST2",
+    "MIN_SHININESS",
     "SHADOW_BIAS_TEXELS",
     "SHADOW_NORMAL_OFFSET_TEXELS",
     "precision",

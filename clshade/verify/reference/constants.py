@@ -37,6 +37,9 @@ MIN_LIGHT_DIST2: float = 1e-8
 # brdf.h MIN_ALPHA: the documented floor of α = r² (roughness below 0.01 renders as
 # 0.01); radiance() applies it unless given another alpha_floor.
 MIN_ALPHA: float = 1e-4
+# brdf.h MIN_SHININESS: FLT_MIN. A shininess below it reads as 0 (0⁰ = 1 behind Phong's mirror),
+# as it must in a build that flushes denormals; surface_args() applies it (kernel_shininess).
+MIN_SHININESS: float = 1.17549435e-38
 # shadow.h: the shadow lookup moves the point (PCF radius + SHADOW_NORMAL_OFFSET_TEXELS)
 # texels along its normal and compares its depth less SHADOW_BIAS_TEXELS texels.
 SHADOW_NORMAL_OFFSET_TEXELS: float = 1.0

@@ -16,8 +16,8 @@ from clshade.render.scene import Camera, Scene
 from clshade.render.shadows import ShadowMaps, shadow_visibility as _map_visibility
 from clshade.render.transforms import pixel_rays
 from clshade.verify.reference.compose import brdf, uses_fresnel
-from clshade.verify.reference.constants import (DIELECTRIC_F0, MIN_ALPHA, MIN_LIGHT_DIST2, SHADOW_BIAS_TEXELS,
-                                                SHADOW_NORMAL_OFFSET_TEXELS)
+from clshade.verify.reference.constants import (DIELECTRIC_F0, MIN_ALPHA, MIN_LIGHT_DIST2, MIN_SHININESS,
+                                                SHADOW_BIAS_TEXELS, SHADOW_NORMAL_OFFSET_TEXELS)
 from clshade.verify.reference.vectors import _ERR, Array, _dot, _f, normalize, precision
 
 # The shadow lookup's offsets as the oracle states them (constants.py), never shadow.h's defaults.
@@ -98,17 +98,24 @@ def light_rays(scene: Scene, px: Pixels) -> Iterator[tuple[int, Array, Array]]:
         yield i, l, E
 
 
+def kernel_shininess(shininess: ArrayLike) -> Array:
+    """The exponent as the kernels read it (kernels/brdf.h shininess_is_zero): |n| below
+    MIN_SHININESS is 0, the value a build that flushes denormals sees."""
+    s = _f(shininess)
+    return np.where(np.abs(s) < MIN_SHININESS, 0.0, s)
+
+
 def surface_args(model: Model, base: ArrayLike, roughness: ArrayLike, metallic: ArrayLike, material: ArrayLike,
                  alpha_floor: float) -> dict:
     """Keyword arguments of :func:`brdf` for a clshade model at K points: base (K, 3),
     roughness and metallic (K,), material (K, 4, 4) rows of the material table
     (surface.h layout: kd, ks, ka, shininess | ior, f90 | eta | k). Metallic
     workflow: F0 from base and metallic; k_d + k_s = 1: the material's kd, ks and
-    F0 = ((ior - 1)/(ior + 1))**2."""
+    F0 = ((ior - 1)/(ior + 1))**2. Shininess as the kernels read it (kernel_shininess)."""
     m = _f(material)
     args = dict(base_color=_f(base), roughness=_f(roughness), metallic=_f(metallic), workflow=model.workflow,
                 fresnel=model.fresnel, ior=m[:, 1, 0], f90=m[:, 1, 1], eta=m[:, 2, :3], k=m[:, 3, :3],
-                shininess=m[:, 0, 3], alpha_floor=alpha_floor)
+                shininess=kernel_shininess(m[:, 0, 3]), alpha_floor=alpha_floor)
     if model.workflow == "kdks":
         r0 = (m[:, 1, 0] - 1.0) / (m[:, 1, 0] + 1.0)
         args.update(kd=m[:, 0, 0], ks=m[:, 0, 1], f0=(r0 * r0)[:, None])
