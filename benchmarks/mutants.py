@@ -40,6 +40,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 from clshade.provenance import stamp  # noqa: E402
 sys.path.insert(0, str(ROOT / "benchmarks"))
+import freshness  # noqa: E402
 import impact  # noqa: E402
 OUT = ROOT / "benchmarks" / "results" / "mutants.json"
 COPY_IGNORE = shutil.ignore_patterns(".venv", ".git", "__pycache__", "*.egg-info", "build", "dist",
@@ -482,6 +483,13 @@ CATALOGUE: list[Mutant] = [
       "                    pass", "viewer: superseded states not counted as skipped"),
     M("view_split_whole_b", "clshade/view/static/view.js", "ctx.putImageData(views.b, 0, 0, x, 0, w - x, h);",
       "ctx.putImageData(views.b, 0, 0);", "viewer page: model B drawn over the whole frame, not right of the divider"),
+    M("view_cost_stale", "clshade/view/static/view.js", "  costHeader = header;\n  if (costTimer !== null) return;",
+      "  if (costTimer !== null) return;\n  costHeader = header;",
+      "viewer page: a throttled cost readout shows an older frame's figures, not the newest"),
+    M("code_commit_is_head", "benchmarks/mutants.py", '"HEAD", "--", *freshness.PRODUCERS' '["mutants.json"]) or head',  # split: see above
+      '"HEAD") or head', "mutants.py names HEAD (a results-only commit) instead of the last commit of the code"),
+    M("view_cost_no_trailing", "clshade/view/static/view.js", "if (wait <= 0) show(); else costTimer = setTimeout(show, wait);",
+      "if (wait <= 0) show();", "viewer page: the cost readout skips the last frames of a burst (no trailing update)"),
     # ---- the live viewer's speed (issue 27): kept Shader, runtime material, patched base colour, pooled planes
     M("view_rebind_camera", "clshade/device/shade.py",
       "old, self.gb, self.scene, self.camera = self.gb, gbuffer, scene, camera or scene.camera",
@@ -680,6 +688,16 @@ def head_commit() -> str | None:
     return proc.stdout.strip() if proc.returncode == 0 else None
 
 
+def code_commit(root: Path = ROOT) -> str | None:
+    """The commit the results name: the last one up to HEAD that changed the catalogue's code
+    (freshness.PRODUCERS["mutants.json"]). HEAD's tree holds that code as it was there, so a run
+    resumed after commits of results only names the same commit (and goes on where it stopped)."""
+    head = freshness.git(root, "rev-parse", "HEAD")
+    if not head:
+        return None
+    return freshness.git(root, "log", "-1", "--format=%H", "HEAD", "--", *freshness.PRODUCERS["mutants.json"]) or head
+
+
 def snapshot(dest: Path) -> None:
     """The tree under test: the committed HEAD (git archive), so that edits made while the catalogue runs
     cannot leak into a mutant; a plain copy of the working tree where there is no git checkout."""
@@ -869,7 +887,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--resume", action="store_true", help="run only the mutants whose row in the results file "
                         "was not measured on this commit (a run stopped part way goes on; rows of this commit are kept)")
     args = parser.parse_args(argv)
-    commit = head_commit()
+    commit = code_commit()
     holder = tempfile.TemporaryDirectory(prefix="mutants-base-")
     base = Path(holder.name) / "repo"
     snapshot(base)                      # one snapshot for the whole run: later commits cannot leak in
@@ -877,11 +895,12 @@ def main(argv: list[str] | None = None) -> int:
     if args.check:
         print(f"{len(CATALOGUE)} mutants, every snippet found once")
         return 0
-    unknown = set(args.only.split(",")) - {m.name for m in CATALOGUE} if args.only else set()
+    only = set(args.only.split(",")) if args.only else set()
+    unknown = only - {m.name for m in CATALOGUE}
     if unknown:
         raise SystemExit(f"--only: no mutant named {', '.join(sorted(unknown))} in the catalogue")
     kept = load_impact(args.impact_from, commit) if args.impact_from else None    # refused before hours of work
-    chosen = [m for m in CATALOGUE if not args.only or m.name in args.only.split(",")]
+    chosen = [m for m in CATALOGUE if not only or m.name in only]
     out = Path(args.json)
     previous = json.loads(out.read_text(encoding="utf-8")) if out.exists() and \
         (args.only or args.budget_s or args.resume) else None

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from clshade.render import arrays
-from clshade.render.raster import batches, triangles
+from clshade.render.raster import batches, tiles, triangles
 from clshade.render.gbuffer import build_gbuffer
 from clshade.render.meshes import build_geometry
 from clshade.render.raster import rasterize
@@ -39,6 +39,7 @@ def test_threads_give_the_serial_result(monkeypatch, threads):
     monkeypatch.setattr(batches, "WINNER_CHUNK", 997)        # many winner chunks, odd-sized
     monkeypatch.setattr(batches, "GRID_CHUNK_CELLS", 4096)   # many candidate grids to share out
     monkeypatch.setattr(triangles, "SETUP_PARALLEL_MIN_FACES", 1)
+    monkeypatch.setattr(tiles, "COVER_PARALLEL_MIN_CELLS", 1)
     par_f, par_g = frame(scene, geometry, 200, 150)
     assert serial_f.coverage.sum() > 5000
     np.testing.assert_array_equal(par_f.tri_id, serial_f.tri_id)

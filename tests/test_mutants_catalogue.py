@@ -52,7 +52,7 @@ def test_kill_classes(mutants):
     assert mutants.classify([], 2) == "collection error"      # pytest failed before any test ran
 
 
-def test_a_resumed_run_names_its_commit_only_when_every_row_ran_there(mutants, tmp_path):
+def test_a_resumed_run_names_its_commit_only_when_every_row_ran_there(mutants, tmp_path, monkeypatch):
     """--resume runs the rows not measured on this commit; the file names the commit only once all are."""
     import json
     cat = mutants.CATALOGUE[:3]
@@ -65,15 +65,32 @@ def test_a_resumed_run_names_its_commit_only_when_every_row_ran_there(mutants, t
     assert [m.name for m in todo] == [cat[1].name, cat[2].name]
     assert mutants.still_to_run(cat, previous, None) == cat
     out = tmp_path / "m.json"
-    monkey = mutants.CATALOGUE
-    try:
-        mutants.CATALOGUE = cat
-        doc = mutants.write_results(out, [row(todo[0], "new")], todo, previous, "new", 1.0)
-        assert doc["provenance"]["commit"] == "old" and doc["not_run"] == 1      # one row still missing
-        previous = json.loads(out.read_text())
-        assert [m.name for m in mutants.still_to_run(cat, previous, "new")] == [cat[2].name]
-        doc = mutants.write_results(out, [row(cat[2], "new")], [cat[2]], previous, "new", 1.0)
-        assert doc["provenance"]["commit"] == "new" and doc["not_run"] == 0
-        assert [r["commit"] for r in doc["mutants"]] == ["new"] * 3
-    finally:
-        mutants.CATALOGUE = monkey
+    monkeypatch.setattr(mutants, "CATALOGUE", cat)
+    doc = mutants.write_results(out, [row(todo[0], "new")], todo, previous, "new", 1.0)
+    assert doc["provenance"]["commit"] == "old" and doc["not_run"] == 1      # one row still missing
+    previous = json.loads(out.read_text())
+    assert [m.name for m in mutants.still_to_run(cat, previous, "new")] == [cat[2].name]
+    doc = mutants.write_results(out, [row(cat[2], "new")], [cat[2]], previous, "new", 1.0)
+    assert doc["provenance"]["commit"] == "new" and doc["not_run"] == 0
+    assert [r["commit"] for r in doc["mutants"]] == ["new"] * 3
+
+
+def test_results_name_the_last_commit_of_the_catalogue_s_code(mutants, tmp_path):
+    """A commit of results only after the code's last change: the run (and --resume) names the code's commit."""
+    import subprocess
+    def git(*args):
+        return subprocess.run(["git", "-C", str(tmp_path), *args], check=True, capture_output=True,
+                              text=True).stdout.strip()
+    git("init", "-q")
+    git("config", "user.email", "t@example.org")
+    git("config", "user.name", "t")
+    for path, text, message in (("clshade/a.py", "x = 1\n", "code"), ("tests/test_a.py", "y = 2\n", "tests"),
+                                ("benchmarks/results/mutants.json", "{}\n", "results"),
+                                ("README.md", "r\n", "docs")):
+        (tmp_path / path).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / path).write_text(text)
+        git("add", path)
+        git("commit", "-qm", message)
+    tests_commit = git("log", "-1", "--format=%H", "--", "tests")
+    assert git("rev-parse", "HEAD") != tests_commit
+    assert mutants.code_commit(tmp_path) == tests_commit

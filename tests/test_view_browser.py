@@ -185,3 +185,34 @@ def test_viewer_end_to_end(browser, served, tmp_path, monkeypatch):
     np.testing.assert_array_equal(read_image(out / "e2e.png"), read_image(tmp_path / "cli.png"))
     assert main(["render", "e2e.toml", "-m", "phong", "-o", str(tmp_path / "cli_b.png")]) == 0
     np.testing.assert_array_equal(read_image(out / "e2e_b.png"), read_image(tmp_path / "cli_b.png"))
+
+
+def test_cost_readouts_follow_the_newest_frame(browser, served):
+    """The cost table and stage line (redrawn a few times a second, not every frame) end on the
+    newest frame's figures: a row per shown model with its shading time and rates, the stages
+    of that frame."""
+    url, _ = served
+    browser.get(url)
+    until(browser, "const wait = () => window.clshadeView && window.clshadeView.lastFrame ? done(true) "
+                   ": setTimeout(wait, 20); wait();")
+    for k in range(6):                       # a burst of frames, faster than the readouts are redrawn
+        js(browser, f"window.clshadeView.set({{azimuth: {5 * (k + 1)}, model_a: 'lambert'}});")
+    next_frame(browser)
+    js(browser, "window.clshadeView.set({model_a: 'phong'});")
+    last = next_frame(browser)
+    header = js(browser, "return window.clshadeView.lastFrame;")
+    model = header["models"]["a"]
+    assert header["seq"] == last["seq"] and list(header["models"]) == ["a"] and "phong" in model
+    shown = until(browser, "const t0 = performance.now(); const poll = () => {"
+                           " const rows = [...document.querySelectorAll('#cost tbody tr')]"
+                           "   .map((r) => [...r.cells].map((c) => c.textContent));"
+                           " const stages = document.getElementById('stages').textContent;"
+                           f" if ((rows.length && rows[0][0] === 'A {model}') || performance.now() - t0 > 3000)"
+                           "   done({rows, stages}); else setTimeout(poll, 20); }; poll();")
+    assert [row[0] for row in shown["rows"]] == [f"A {model}"], shown
+    ms, fps, low = (float(v) for v in shown["rows"][0][1:])
+    stats = header["stats"][model]
+    assert ms == pytest.approx(stats["mean_ms"], abs=0.006) and ms > 0
+    assert fps == pytest.approx(stats["avg_fps"], abs=0.6) and low == pytest.approx(stats["low1_fps"], abs=0.6)
+    assert shown["stages"].startswith("frame: ") and "shade" in shown["stages"]
+    assert "rasterize" not in shown["stages"]        # the newest frame re-shaded only: not an older frame's stages

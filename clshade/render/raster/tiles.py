@@ -28,6 +28,13 @@ TILE_CULL_MARGIN_PX: float = 1e-6
 TILE: int = 8
 _TILE_LOG2: int = TILE.bit_length() - 1
 
+#: The candidate grids of a batch are shared out to the worker threads from this many
+#: candidate pixels: the grids are many short NumPy calls and np.minimum.at, which scale
+#: poorly on threads, and each worker's key array must be merged. On 2 cores, up to the
+#: ~2 M candidate pixels of many_lights at 1920x1080, one thread is as fast or faster
+#: (benchmarks/raster_threads.py); beyond that it is untested, so the split is kept.
+COVER_PARALLEL_MIN_CELLS: int = 1 << 22
+
 #: Tiles generated at a time (bounds memory when many triangles are large).
 MAX_TILES: int = 1 << 18
 
@@ -153,7 +160,7 @@ def _raster_tiles(
         work += [(lsx, lsy, sel_all[s: s + per_chunk], c == n_cls * n_cls)
                  for s in range(0, len(sel_all), per_chunk)]
     cells = [len(sel) << (lsx + lsy) for lsx, lsy, sel, _ in work]
-    workers = min(workers_for(sum(cells)), len(work))
+    workers = min(workers_for(sum(cells), COVER_PARALLEL_MIN_CELLS), len(work))
     shares: list[list[int]] = [[] for _ in range(workers)]
     load = [0] * workers
     for i in sorted(range(len(work)), key=cells.__getitem__, reverse=True):

@@ -64,12 +64,25 @@ function onFrame(buffer) {
                 stages: header.stages, reshade_only: header.reshade_only});
   if (records.length > 1000) records.shift();
   if ($("error").dataset.seq && +$("error").dataset.seq < header.seq) showError("");
-  showCost(header);
+  costShown(header);
   $("legend").hidden = !(controls.diff && views.diff);
   if (header.diff_scale !== null) $("scale").textContent = header.diff_scale.toFixed(3);
   for (let i = waiters.length - 1; i >= 0; i--) {
     if (header.seq >= waiters[i][0]) { waiters[i][1]({seq: header.seq, latency}); waiters.splice(i, 1); }
   }
+}
+
+// The cost readouts change every frame; text rewritten at 30 Hz cannot be read and costs the
+// browser a layout and paint each time: they are redrawn at most every COST_INTERVAL_MS, always
+// with the newest frame's figures (a trailing update shows the last frame of a burst).
+const COST_INTERVAL_MS = 250;
+let costTimer = null, costHeader = null, costAt = -Infinity;
+function costShown(header) {
+  costHeader = header;
+  if (costTimer !== null) return;
+  const wait = costAt + COST_INTERVAL_MS - performance.now();
+  const show = () => { costTimer = null; costAt = performance.now(); showCost(costHeader); };
+  if (wait <= 0) show(); else costTimer = setTimeout(show, wait);
 }
 
 function showCost(header) {
