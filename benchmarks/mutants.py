@@ -488,6 +488,8 @@ CATALOGUE: list[Mutant] = [
       "viewer page: a throttled cost readout shows an older frame's figures, not the newest"),
     M("code_commit_is_head", "benchmarks/mutants.py", '"HEAD", "--", *freshness.PRODUCERS' '["mutants.json"]) or head',  # split: see above
       '"HEAD") or head', "mutants.py names HEAD (a results-only commit) instead of the last commit of the code"),
+    M("provenance_kernels_rendered", "clshade/provenance.py", '"REPORT.md", "docs")', '"REPORT.md", "docs", "kernels")',
+      "provenance: a kernel edited in the checkout does not make a measurement dirty"),
     M("view_cost_no_trailing", "clshade/view/static/view.js", "if (wait <= 0) show(); else costTimer = setTimeout(show, wait);",
       "if (wait <= 0) show();", "viewer page: the cost readout skips the last frames of a burst (no trailing update)"),
     # ---- the live viewer's speed (issue 27): kept Shader, runtime material, patched base colour, pooled planes

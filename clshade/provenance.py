@@ -13,21 +13,27 @@ from typing import Any
 _ROOT = Path(__file__).resolve().parents[1]
 
 
-def _git(*args: str) -> str | None:
+#: What a measurement writes or publish.py renders from the results (tables between markers):
+#: changed in the checkout, they do not make a measurement "dirty".
+RENDERED: tuple[str, ...] = ("benchmarks/results", "README.md", "REPORT.md", "docs")
+
+
+def _git(*args: str, root: Path = _ROOT) -> str | None:
     try:
-        proc = subprocess.run(["git", "-C", str(_ROOT), *args], capture_output=True, text=True, timeout=30)
+        proc = subprocess.run(["git", "-C", str(root), *args], capture_output=True, text=True, timeout=30)
     except (OSError, subprocess.SubprocessError):
         return None
     return proc.stdout.strip() if proc.returncode == 0 else None
 
 
-def checkout_commit() -> tuple[str | None, bool]:
-    """(HEAD of the checkout clshade runs from, whether tracked files other than the results
-    themselves differ from it); (None, False) for an install outside a git checkout."""
-    commit = _git("rev-parse", "HEAD")
+def checkout_commit(root: Path = _ROOT) -> tuple[str | None, bool]:
+    """(HEAD of the checkout clshade runs from, whether tracked files other than the results and
+    the documents rendered from them (RENDERED) differ from it); (None, False) outside a git checkout."""
+    commit = _git("rev-parse", "HEAD", root=root)
     if commit is None:
         return None, False
-    return commit, bool(_git("status", "--porcelain", "--untracked-files=no", "--", ".", ":!benchmarks/results"))
+    return commit, bool(_git("status", "--porcelain", "--untracked-files=no", "--", ".",
+                             *(f":!{path}" for path in RENDERED), root=root))
 
 
 def host_description() -> str:

@@ -81,6 +81,32 @@ def test_provenance_names_commit_device_and_time() -> None:
     assert stamp({"a": 1, "provenance": None}, "d")["provenance"]["device"] == "d"
 
 
+def test_a_checkout_is_dirty_for_code_not_for_results_or_rendered_documents(tmp_path) -> None:
+    import subprocess
+    from clshade.provenance import checkout_commit
+
+    def git(*args):
+        subprocess.run(["git", "-C", str(tmp_path), *args], check=True, capture_output=True)
+    git("init", "-q")
+    git("config", "user.email", "t@example.org")
+    git("config", "user.name", "t")
+    files = ("clshade/a.py", "kernels/k.cl", "README.md", "docs/d.md", "benchmarks/results/r.json")
+    for path in files:
+        (tmp_path / path).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / path).write_text("0\n")
+    git("add", *files)
+    git("commit", "-qm", "all")
+    assert checkout_commit(tmp_path)[1] is False
+    for path in ("README.md", "docs/d.md", "benchmarks/results/r.json"):      # what publish and benchmarks write
+        (tmp_path / path).write_text("1\n")
+    commit, dirty = checkout_commit(tmp_path)
+    assert dirty is False and len(commit) == 40
+    for path in ("clshade/a.py", "kernels/k.cl"):
+        (tmp_path / path).write_text("1\n")
+        assert checkout_commit(tmp_path)[1] is True, path
+        git("checkout", "--", path)
+
+
 def _results(checkout: Path) -> list:
     spec = importlib.util.spec_from_file_location("freshness_list", checkout / "benchmarks" / "freshness.py")
     module = importlib.util.module_from_spec(spec)
