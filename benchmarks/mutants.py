@@ -490,6 +490,10 @@ CATALOGUE: list[Mutant] = [
       '"HEAD") or head', "mutants.py names HEAD (a results-only commit) instead of the last commit of the code"),
     M("provenance_kernels_rendered", "clshade/provenance.py", '"REPORT.md", "docs")', '"REPORT.md", "docs", "kernels")',
       "provenance: a kernel edited in the checkout does not make a measurement dirty"),
+    M("numpy_dot_channel", "clshade/bench/numpy_baseline.py", "    out += a[:, 2] * l[2]\n", "    out += a[:, 2] * l[1]\n",
+      "NumPy baseline: n·l takes the light's y for its z"),
+    M("minimal_lambert_no_z", "clshade/bench/numpy_baseline.py", "        nl += normal[:, 2] * l[2]\n", "",
+      "straw-man guard: the minimal Lambert drops n_z l_z (a cheaper yardstick than a Lambert)"),
     M("view_cost_no_trailing", "clshade/view/static/view.js", "if (wait <= 0) show(); else costTimer = setTimeout(show, wait);",
       "if (wait <= 0) show();", "viewer page: the cost readout skips the last frames of a burst (no trailing update)"),
     # ---- the live viewer's speed (issue 27): kept Shader, runtime material, patched base colour, pooled planes

@@ -17,7 +17,7 @@ directional lights and a constant ambient, Schlick Fresnel, no shadows,
 emission, occlusion or specular AA; anything else raises Unsupported with the
 reason (the bench then reports the reason instead of a time).
 
-`minimal_lambert`: the smallest NumPy Lambert (one `normals @ l`, an in-place
+`minimal_lambert`: the smallest NumPy Lambert (one n·l per pixel, an in-place
 maximum, scale, add, a broadcast multiply with the base colour; every pixel,
 no background). The bench times it in the same rounds as the baseline's
 Lambert: a ratio above SUSPECT_RATIO marks the NumPy column suspect.
@@ -26,8 +26,9 @@ Lambert: a ratio above SUSPECT_RATIO marks the NumPy column suspect.
 float32 — general (every light kind, shadows, workflow), written for clarity;
 timed as a separate column, "general reference in float32", not "NumPy".
 
-NumPy's element-wise operations run on one thread (NUMPY_THREADS); its matrix
-products (`@`) use OpenBLAS with the threads it is given.
+NumPy's element-wise operations run on one thread (NUMPY_THREADS); the baseline and the
+guard's minimal Lambert take their dot products element-wise too, not through OpenBLAS's
+threaded products, whose speed depends on what the kernels' threads leave free.
 """
 from __future__ import annotations
 
@@ -192,16 +193,27 @@ def dot_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return column(np.einsum("ij,ij->i", a, b))
 
 
+def dot_light(a: np.ndarray, l: np.ndarray) -> np.ndarray:
+    """(K, 3) rows · the vector l, as (K, 1), element-wise on one thread like the rest of the baseline.
+    Not ``a @ l``: OpenBLAS's threaded gemv is faster alone, but inside the bench, between the
+    kernels' dispatches, it made the baseline's Lambert slower than one thread (the straw-man guard
+    marked the NumPy column suspect)."""
+    out = a[:, 0] * l[0]
+    out += a[:, 1] * l[1]
+    out += a[:, 2] * l[2]
+    return column(out)
+
+
 def geometry(n: np.ndarray, v: np.ndarray | None, nv_raw: np.ndarray | None, l: np.ndarray,
              needs: set[str]) -> Geometry:
     """The cosines of one directional light l (unit, towards the light) that the model needs."""
-    nl_raw = column(n @ l)
+    nl_raw = dot_light(n, l)
     g = Geometry(nl_raw, None)
     if "v" not in needs:                               # Lambert: n·l only
         return g
     g.nl = np.maximum(nl_raw, MIN_N_DOT_L)
     g.nv = np.maximum(nv_raw, MIN_N_DOT_V)
-    lv = column(v @ l)
+    lv = dot_light(v, l)
     g.lv = lv
     if "rv" in needs:
         g.rv = 2 * nl_raw * nv_raw - lv
@@ -423,7 +435,9 @@ def minimal_lambert(gb: GBuffer, scene: Scene) -> Callable[[], np.ndarray]:
     e, a = f32(np.mean(light.color[:3]) / math.pi), f32(np.mean(scene.ambient[:3]))
 
     def run() -> np.ndarray:
-        nl = normal @ l
+        nl = normal[:, 0] * l[0]              # one thread, as the baseline (NUMPY_THREADS): not a threaded gemv
+        nl += normal[:, 1] * l[1]
+        nl += normal[:, 2] * l[2]
         np.maximum(nl, 0, out=nl)
         nl *= e
         nl += a
