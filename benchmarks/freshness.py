@@ -36,8 +36,8 @@ PRODUCERS: dict[str, tuple[str, ...]] = {
     "user_lobes.json": ("kernels", "clshade/glsl.py", "clshade/brdf_explorer.py", "benchmarks/user_lobes.py"),
     "view.json": ("kernels", "clshade/view", "clshade/render", "clshade/device/display.py", "clshade/device/shade.py",
                   "clshade/device/variants.py", "benchmarks/view_bench.py"),
-    "mutants.json": ("benchmarks/mutants.py", "benchmarks/impact.py", "kernels", "clshade", "tests", "scenes",
-                     "pyproject.toml"),
+    "mutants.json": ("benchmarks/mutants.py", "benchmarks/mutant_plugin.py", "benchmarks/impact.py", "kernels",
+                     "clshade", "tests", "scenes", "pyproject.toml"),
 }
 
 # Results measured before the code they depend on last changed, not yet regenerated (expensive: the lead

@@ -16,12 +16,21 @@ def _text(report) -> str:
     return str(report.longrepr) if report.longrepr is not None else ""
 
 
+def _crash(report) -> str:
+    """The exception that ended the test ("AssertionError: …", "ClshadeError: …")."""
+    crash = getattr(report.longrepr, "reprcrash", None)
+    return crash.message if crash is not None else _text(report)
+
+
 def pytest_runtest_logreport(report) -> None:
     if report.failed:
         text = _text(report)
+        # A build that failed where the test wanted a program; not a test that checks a build error's
+        # message and found it wrong (its assertion quotes the message).
+        build_failed = BUILD_FAILED in text and not _crash(report).startswith("AssertionError")
         _FAILURES.append(dict(test=report.nodeid, when=report.when,
                               markers=[m for m in CLASS_MARKERS if m in report.keywords],
-                              build_failed=BUILD_FAILED in text, message=text.strip().splitlines()[-1][:300]
+                              build_failed=build_failed, message=text.strip().splitlines()[-1][:300]
                               if text.strip() else ""))
 
 

@@ -494,6 +494,9 @@ CATALOGUE: list[Mutant] = [
       "NumPy baseline: n·l takes the light's y for its z"),
     M("minimal_lambert_no_z", "clshade/bench/numpy_baseline.py", "        nl += normal[:, 2] * l[2]\n", "",
       "straw-man guard: the minimal Lambert drops n_z l_z (a cheaper yardstick than a Lambert)"),
+    M("plugin_assertion_is_build_failure", "benchmarks/mutant_plugin.py",
+      'BUILD_FAILED in text and not _crash(report).startswith("AssertionError")', "BUILD_FAILED in text",
+      "mutant plugin: a test that checks a build error's message counts as a compile-error kill"),
     M("view_cost_no_trailing", "clshade/view/static/view.js", "if (wait <= 0) show(); else costTimer = setTimeout(show, wait);",
       "if (wait <= 0) show();", "viewer page: the cost readout skips the last frames of a burst (no trailing update)"),
     # ---- the live viewer's speed (issue 27): kept Shader, runtime material, patched base colour, pooled planes
