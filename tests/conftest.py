@@ -151,3 +151,17 @@ def nvidia_compiler(monkeypatch):
             return Failing()
         monkeypatch.setattr(cl, "Program", program)
     return fail
+
+
+@pytest.fixture
+def scratch_repo(tmp_path):
+    """A new git repository at tmp_path; returns git(*args) run there (its stdout, stripped)."""
+    import subprocess
+
+    def git(*args: str) -> str:
+        return subprocess.run(["git", "-C", str(tmp_path), *args], check=True, capture_output=True,
+                              text=True).stdout.strip()
+    git("init", "-q")
+    git("config", "user.email", "t@example.org")
+    git("config", "user.name", "t")
+    return git

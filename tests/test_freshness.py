@@ -81,15 +81,9 @@ def test_provenance_names_commit_device_and_time() -> None:
     assert stamp({"a": 1, "provenance": None}, "d")["provenance"]["device"] == "d"
 
 
-def test_a_checkout_is_dirty_for_code_not_for_results_or_rendered_documents(tmp_path) -> None:
-    import subprocess
+def test_a_checkout_is_dirty_for_code_not_for_results_or_rendered_documents(tmp_path, scratch_repo) -> None:
     from clshade.provenance import checkout_commit
-
-    def git(*args):
-        subprocess.run(["git", "-C", str(tmp_path), *args], check=True, capture_output=True)
-    git("init", "-q")
-    git("config", "user.email", "t@example.org")
-    git("config", "user.name", "t")
+    git = scratch_repo
     files = ("clshade/a.py", "kernels/k.cl", "README.md", "docs/d.md", "benchmarks/results/r.json")
     for path in files:
         (tmp_path / path).parent.mkdir(parents=True, exist_ok=True)

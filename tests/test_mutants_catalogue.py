@@ -75,15 +75,9 @@ def test_a_resumed_run_names_its_commit_only_when_every_row_ran_there(mutants, t
     assert [r["commit"] for r in doc["mutants"]] == ["new"] * 3
 
 
-def test_results_name_the_last_commit_of_the_catalogue_s_code(mutants, tmp_path):
+def test_results_name_the_last_commit_of_the_catalogue_s_code(mutants, tmp_path, scratch_repo):
     """A commit of results only after the code's last change: the run (and --resume) names the code's commit."""
-    import subprocess
-    def git(*args):
-        return subprocess.run(["git", "-C", str(tmp_path), *args], check=True, capture_output=True,
-                              text=True).stdout.strip()
-    git("init", "-q")
-    git("config", "user.email", "t@example.org")
-    git("config", "user.name", "t")
+    git = scratch_repo
     for path, text, message in (("clshade/a.py", "x = 1\n", "code"), ("tests/test_a.py", "y = 2\n", "tests"),
                                 ("benchmarks/results/mutants.json", "{}\n", "results"),
                                 ("README.md", "r\n", "docs")):
