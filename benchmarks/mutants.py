@@ -693,8 +693,7 @@ def check_catalogue(root: Path = ROOT) -> None:
 
 
 def head_commit() -> str | None:
-    proc = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "HEAD"], capture_output=True, text=True)
-    return proc.stdout.strip() if proc.returncode == 0 else None
+    return freshness.git(ROOT, "rev-parse", "HEAD")
 
 
 def code_commit(root: Path = ROOT) -> str | None:

@@ -41,6 +41,17 @@ def test_threads_give_the_serial_result(monkeypatch, threads):
     monkeypatch.setattr(triangles, "SETUP_PARALLEL_MIN_FACES", 1)
     monkeypatch.setattr(tiles, "COVER_PARALLEL_MIN_CELLS", 1)
     par_f, par_g = frame(scene, geometry, 200, 150)
+    # A second view after it: the workers' key arrays are kept between calls and must come back empty.
+    import dataclasses
+    from clshade.view.session import Orbit
+    orbit = Orbit.of(scene.camera)
+    turned = dataclasses.replace(scene, camera=dataclasses.replace(
+        scene.camera, position=orbit.position(140.0, orbit.elevation, 0.8 * orbit.distance)))
+    par2_f, _ = frame(turned, geometry, 200, 150)
+    monkeypatch.setenv("CLSHADE_THREADS", "1")
+    serial2_f, _ = frame(turned, geometry, 200, 150)
+    np.testing.assert_array_equal(par2_f.tri_id, serial2_f.tri_id)
+    np.testing.assert_array_equal(par2_f.bary_planes, serial2_f.bary_planes)
     assert serial_f.coverage.sum() > 5000
     np.testing.assert_array_equal(par_f.tri_id, serial_f.tri_id)
     np.testing.assert_array_equal(par_f.depth, serial_f.depth)

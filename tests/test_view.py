@@ -619,8 +619,9 @@ def test_pipelined_frames_show_their_own_state(session):
             start = time.perf_counter()
             time.sleep(0.005 if kind == "prepare" else 0.06)   # shading slower: states prepared meanwhile
             out = fn(arg)
+            azimuth = (arg if kind == "prepare" else arg.controls).azimuth
             with self.lock:
-                self.spans.append((kind, start, time.perf_counter()))
+                self.spans.append((kind, start, time.perf_counter(), azimuth))
             return out
 
         def prepare(self, c):
@@ -660,6 +661,12 @@ def test_pipelined_frames_show_their_own_state(session):
     for seq, pixels in frames:
         fresh = session.render(parse_controls(states[seq], session.limits)).views["a"].reshape(-1)
         np.testing.assert_array_equal(pixels, fresh, err_msg=f"frame of state {seq}")
-    prepares = [(a, b) for kind, a, b in recorder.spans if kind == "prepare"]
-    finishes = [(a, b) for kind, a, b in recorder.spans if kind == "finish"]
-    assert any(p0 < f1 and f0 < p1 for p0, p1 in prepares for f0, f1 in finishes)      # the stages overlapped
+    prepares = [(a, b, az) for kind, a, b, az in recorder.spans if kind == "prepare"]
+    finishes = [(a, b, az) for kind, a, b, az in recorder.spans if kind == "finish"]
+    assert any(p0 < f1 and f0 < p1 for p0, p1, _ in prepares for f0, f1, _ in finishes)      # the stages overlapped
+    # Latest wins: a finish takes the newest state prepared by then, never an older one while a newer one
+    # had been waiting (by more than HANDOFF_S: the pick happens just before the finish span starts).
+    HANDOFF_S = 0.005
+    for f0, _, az in finishes:
+        waiting = [p_az for _, p1, p_az in prepares if p1 < f0 - HANDOFF_S]
+        assert not waiting or az >= max(waiting), f"finished azimuth {az} while {max(waiting)} was prepared"
