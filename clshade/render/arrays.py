@@ -79,13 +79,19 @@ class PlanePool:
         self._blocks: list[np.ndarray] = []
 
     def zeros(self, shape: tuple[int, ...], dtype: type, align: int = PLANE_ALIGN) -> np.ndarray:
+        return self.empty(shape, dtype, align, fill=True)
+
+    def empty(self, shape: tuple[int, ...], dtype: type, align: int = PLANE_ALIGN, fill: bool = False) -> np.ndarray:
+        """An aligned array whose contents are left as they are (for a pass that writes every
+        element); `fill`: zero-filled (zeros)."""
         nbytes = int(np.prod(shape)) * np.dtype(dtype).itemsize
         raw = None
         for i in range(len(self._blocks)):
             # 2 references: the list's and getrefcount's argument; any view made from it adds one.
             if self._blocks[i].size == nbytes + align and sys.getrefcount(self._blocks[i]) == 2:
                 raw = self._blocks[i]
-                raw.fill(0)
+                if fill:
+                    raw.fill(0)
                 break
         if raw is None:
             raw = np.zeros(nbytes + align, np.uint8)

@@ -36,7 +36,9 @@ from clshade.bench.run import compared_pixels, frame_stats, grazing_pixels, rela
 from clshade.compare import difference, false_colour
 from clshade.device.display import Display
 from clshade.device.runtime import get_runtime
+from clshade.device import visibility as device_visibility
 from clshade.device.shade import Shader, scene_features
+from clshade.device.visibility import DeviceGBuffer
 from clshade.errors import ClshadeError
 from clshade.models import SURFACE_PARAMS, lobes, presets
 from clshade.pipeline import Timings
@@ -44,7 +46,7 @@ from clshade.render.gbuffer import GBuffer, build_gbuffer, face_planes, material
 from clshade.render.arrays import PlanePool, keep_freed_memory
 from clshade.render.image import check_output_path, to_display, write_encoded
 from clshade.render.meshes import build_geometry
-from clshade.render.raster import RasterMesh, rasterize_mesh
+from clshade.render.raster import Fragments, RasterMesh, Visibility, rasterize_mesh, rasterize_visibility
 from clshade.render.samples import supersampled
 from clshade.render.scene import MAX_RESOLUTION, Scene, camera_from_data, load_scene, parse_scene, scene_from_data
 from clshade.render.shadows import build_shadow_maps
@@ -196,7 +198,7 @@ class ViewSession:
     """One scene explored in the viewer: its document, the kept stages and each model's recent times."""
 
     def __init__(self, scene_path: str | Path, out_dir: str | Path, width: int | None = None,
-                 height: int | None = None, device: str | None = None) -> None:
+                 height: int | None = None, device: str | None = None, device_gbuffer: bool = True) -> None:
         self.base_scene = load_scene(scene_path)
         self.path = Path(scene_path).resolve()
         self.base_doc = tomllib.loads(self.path.read_text(encoding="utf-8"))
@@ -216,6 +218,10 @@ class ViewSession:
         self.history: dict[str, deque] = {}
         self._geometry, self._raster, self._shadows = _Kept(), _Kept(), _Kept()
         self._gbuffer, self._shader, self._faces = _Kept(), _Kept(), _Kept()
+        self._device_gbuffer = _Kept()
+        # Orbit frames: the rasterizer stops at the visibility buffer and the device makes the
+        # G-buffer (clshade.device.visibility; the same planes as build_gbuffer, bit for bit).
+        self.device_gbuffer = device_gbuffer
         self._planes = PlanePool()      # the G-buffers' planes, their memory used again
         self.last: dict[str, object] = {}
         self._parsed: tuple[dict, Scene] | None = None     # the last document parsed and its scene
@@ -284,9 +290,8 @@ class ViewSession:
                                    "geometry")
             camera = supersampled(scene.camera, scene.samples)
             raster_key = (id(geometry), tuple(camera.position), camera.width, camera.height)
-            fragments = self._stage(self._raster, raster_key, lambda: rasterize_mesh(
-                self._mesh_of(geometry), camera.view_matrix(), camera.projection_matrix(), camera.width,
-                camera.height), timings, "rasterize")
+            fragments = self._stage(self._raster, raster_key, lambda: self._rasterize(geometry, camera), timings,
+                                    "rasterize")
             return Prepared(controls, scene, geometry, self._geometry.key, camera, fragments, timings)
 
     def frame_state(self, p: Prepared):
@@ -300,6 +305,16 @@ class ViewSession:
         gbuffer = self._gbuffer_for(scene, geometry, p.geometry_key, p.fragments, camera, timings)
         shader = self._shader_for(scene, gbuffer, camera, shadows, timings)
         return shadows, gbuffer, shader
+
+    def _rasterize(self, geometry, camera) -> Fragments | Visibility:
+        """The visibility buffer where the device makes the G-buffer from it (clshade.device.visibility:
+        no textures, double precision, one face batch), else the fragments."""
+        mesh, view, proj = self._mesh_of(geometry), camera.view_matrix(), camera.projection_matrix()
+        if self.device_gbuffer and device_visibility.supports(self.runtime, geometry):
+            visibility = rasterize_visibility(mesh, view, proj, camera.width, camera.height)
+            if visibility is not None:
+                return visibility
+        return rasterize_mesh(mesh, view, proj, camera.width, camera.height)
 
     def _mesh_of(self, geometry) -> RasterMesh:
         """The RasterMesh of `geometry` (its checks and face planes made once per geometry)."""
@@ -334,18 +349,28 @@ class ViewSession:
         if same_raster and np.array_equal(kept.extra["table"], table) and np.array_equal(kept.extra["values"], values):
             return kept.value
         groups = kept.extra.get("groups") if same_raster else None
+        cover = kept.extra.get("cover") if same_raster else None     # DeviceGBuffer.build's (visibility)
         if same_raster and geometry.face_texture is None and kept.extra["values"].shape == values.shape:
             with timings.stage("g-buffer patch"):
                 if groups is None:
-                    groups = material_pixels(kept.value, fragments.pixels, len(values))
+                    pixels = np.flatnonzero(kept.extra["cover"]) if isinstance(fragments, Visibility) \
+                        else fragments.pixels
+                    groups = material_pixels(kept.value, pixels, len(values))
                 gbuffer = patched_gbuffer(kept.value, groups, kept.extra["values"], values, table, self._planes)
         else:
             mats = list(scene.materials.values())
             faces = self._stage(self._faces, (geometry_key, _face_key(mats)), lambda: face_planes(geometry, mats),
                                 timings, "face tables")
-            with timings.stage("g-buffer"):
-                gbuffer = build_gbuffer(scene, geometry, fragments, camera, faces=faces, pool=self._planes)
-        kept.value, kept.extra = gbuffer, dict(fragments=fragments, table=table, values=values, groups=groups)
+            if isinstance(fragments, Visibility):   # the winners and the G-buffer on the device
+                device = self._stage(self._device_gbuffer, (geometry_key, _face_key(mats)),
+                                     lambda: DeviceGBuffer(self.runtime, geometry, faces), timings, "g-buffer kernel")
+                with timings.stage("g-buffer"):
+                    gbuffer, cover = device.build(fragments, table, self._planes)
+            else:
+                with timings.stage("g-buffer"):
+                    gbuffer = build_gbuffer(scene, geometry, fragments, camera, faces=faces, pool=self._planes)
+        kept.value, kept.extra = gbuffer, dict(fragments=fragments, table=table, values=values, groups=groups,
+                                               cover=cover)
         return gbuffer
 
     # ------------------------------------------------------------ frames

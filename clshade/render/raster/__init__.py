@@ -58,10 +58,13 @@ Modules, in the order a batch of faces goes through them:
 - ``resolve``: the packed depth keys, their arrays kept between calls, the merge of
   the workers' arrays and the winners' barycentrics and depth (step 6);
 - ``batches``: :func:`rasterize` itself (checks, clip transform, face batches);
-- ``fragments``: the result, :class:`Fragments`.
+- ``fragments``: the result, :class:`Fragments`;
+- ``visibility``: :func:`rasterize_visibility`'s result, the winning triangle of each pixel
+  before its barycentrics (a visibility buffer, for a pass that interpolates on the device).
 """
-from clshade.render.raster.batches import rasterize, rasterize_mesh
+from clshade.render.raster.batches import rasterize, rasterize_mesh, rasterize_visibility
 from clshade.render.raster.fragments import Fragments
 from clshade.render.raster.mesh import RasterMesh
+from clshade.render.raster.visibility import Visibility
 
-__all__ = ["Fragments", "RasterMesh", "rasterize", "rasterize_mesh"]
+__all__ = ["Fragments", "RasterMesh", "Visibility", "rasterize", "rasterize_mesh", "rasterize_visibility"]

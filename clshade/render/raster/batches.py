@@ -2,13 +2,16 @@
 each through triangle setup (triangles), coverage (tiles) and depth resolve (resolve)."""
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from clshade.render.arrays import run_chunked
 from clshade.render.raster.fragments import Fragments, no_fragments
 from clshade.render.raster.mesh import RasterMesh, camera_centre
-from clshade.render.raster.resolve import Resolve, resolved, winners
+from clshade.render.raster.resolve import Resolve, resolved, visible_triangles, winners
+from clshade.render.raster.visibility import Visibility
 from clshade.render.raster.tiles import cover
 from clshade.render.raster.triangles import setup_parallel
 
@@ -86,38 +89,102 @@ def rasterize_mesh(
     proj_m = np.asarray(proj, dtype=np.float64)
     if view_m.shape != (4, 4) or proj_m.shape != (4, 4):
         raise ValueError("view and proj must be 4x4 matrices")
-    n_faces = len(mesh)
-    if n_faces == 0:
-        return no_fragments(height, width)
-
+    frame = _Frame.of(mesh, view, proj, width, height, max_fragments)
+    if frame is None:
+        return no_fragments(int(height), int(width))
+    state, height, width = frame.state, frame.state.height, frame.state.width
     with np.errstate(all="ignore"):  # non-finite input is dropped, never warned about
-        mvp = proj_m @ view_m
-        vx, vy, vz = mesh.columns
-        # Per-row products (not a BLAS matmul: no thread pool, no extra copy).
-        clip_t = np.empty((4, len(vx)))  # (4, V) clip coordinates
-        for k in range(4):
-            clip_t[k] = vx * mvp[k, 0] + vy * mvp[k, 1] + vz * mvp[k, 2] + mvp[k, 3]
-        vdepth = -(vx * view_m[2, 0] + vy * view_m[2, 1] + vz * view_m[2, 2] + view_m[2, 3])  # -z_view
-        vfinite = np.isfinite(vdepth)
-        for k in range(4):
-            vfinite &= np.isfinite(clip_t[k])
-        eye = camera_centre(mvp)
+        if frame.n_batches == 1:  # the batch's winners are the result
+            result = _raster_batch(state, *frame.args, 0, len(mesh), None) or no_fragments(height, width)
+        else:  # later batches overwrite nearer pixels: winners go to full-frame arrays
+            planes = (np.full((height, width), -1, np.int32), np.zeros((height, width), np.float32),
+                      np.zeros((3, height, width), np.float32))
+            for f0, f1 in zip(frame.bounds[:-1].tolist(), frame.bounds[1:].tolist()):
+                _raster_batch(state, *frame.args, f0, f1, planes)
+            result = Fragments.from_frame(*planes)
+    state.release()  # not reached on an exception: arrays left mid-batch are dropped
+    return result
+
+
+def rasterize_visibility(
+    mesh: RasterMesh,
+    view: ArrayLike,
+    proj: ArrayLike,
+    width: int,
+    height: int,
+    max_fragments: int = 8_000_000,
+) -> Visibility | None:
+    """The visibility buffer of :func:`rasterize_mesh`: per pixel the index of the winning
+    triangle of the triangle setup (steps 1–6 without the winners' barycentrics), for a pass
+    that interpolates on its own (clshade.device.visibility: the live viewer's G-buffer on the
+    device). ``Visibility.fragments()`` gives rasterize_mesh's Fragments bit for bit.
+    None when the mesh needs more than one face batch (the winners then merge across batches:
+    use rasterize_mesh); an empty view gives a Visibility without triangles."""
+    frame = _Frame.of(mesh, view, proj, width, height, max_fragments)
+    if frame is None:
+        return Visibility.empty(int(width), int(height))
+    if frame.n_batches > 1:
+        frame.state.release()
+        return None
+    state = frame.state
+    clip_t, vdepth, vfinite, _, eye = frame.args
+    with np.errstate(all="ignore"):  # non-finite input is dropped, never warned about
+        face = mesh.candidates(eye, 0, len(mesh))
+        t = setup_parallel(clip_t, vfinite, vdepth, mesh, mesh.batch(0, len(mesh)), face, state.width,
+                           state.height) if len(face) else None
+        if t is None:
+            state.release()
+            return Visibility.empty(state.width, state.height, frame.w_is_depth)
+        used = cover(state, t)
+        tri = visible_triangles(state, used, int(t.row0.min()) * state.width, (int(t.row1.max()) + 1) * state.width)
+    state.release()
+    return Visibility(state.width, state.height, tri, t, frame.w_is_depth)
+
+
+@dataclass
+class _Frame:
+    """What every batch of one view shares: the resolve state, the vertices' clip
+    coordinates, view depths and finiteness, the camera centre, the face batches."""
+    state: Resolve
+    args: tuple                     # (clip_t, vdepth, vfinite, mesh, eye): _raster_batch's
+    n_batches: int
+    bounds: NDArray[np.int64]
+    w_is_depth: bool
+
+    @classmethod
+    def of(cls, mesh: RasterMesh, view: ArrayLike, proj: ArrayLike, width: int, height: int,
+           max_fragments: int) -> _Frame | None:
+        """The checks and the clip transform; None for a mesh without faces."""
+        width, height = int(width), int(height)
+        if width < 1 or height < 1:
+            raise ValueError(f"image size must be positive, got {width}x{height}")
+        if int(max_fragments) < 1:
+            raise ValueError("max_fragments must be >= 1")
+        view_m = np.asarray(view, dtype=np.float64)
+        proj_m = np.asarray(proj, dtype=np.float64)
+        if view_m.shape != (4, 4) or proj_m.shape != (4, 4):
+            raise ValueError("view and proj must be 4x4 matrices")
+        n_faces = len(mesh)
+        if n_faces == 0:
+            return None
+        with np.errstate(all="ignore"):  # non-finite input is dropped, never warned about
+            mvp = proj_m @ view_m
+            vx, vy, vz = mesh.columns
+            # Per-row products (not a BLAS matmul: no thread pool, no extra copy).
+            clip_t = np.empty((4, len(vx)))  # (4, V) clip coordinates
+            for k in range(4):
+                clip_t[k] = vx * mvp[k, 0] + vy * mvp[k, 1] + vz * mvp[k, 2] + mvp[k, 3]
+            vdepth = -(vx * view_m[2, 0] + vy * view_m[2, 1] + vz * view_m[2, 2] + view_m[2, 3])  # -z_view
+            vfinite = np.isfinite(vdepth)
+            for k in range(4):
+                vfinite &= np.isfinite(clip_t[k])
+            eye = camera_centre(mvp)
         w_is_depth = bool(np.array_equal(proj_m[3], [0.0, 0.0, -1.0, 0.0]))
         n_batches = -(-n_faces // FACE_BATCH)
         state = Resolve(width, height, min(int(max_fragments), GRID_CHUNK_CELLS), w_is_depth,
                         several_batches=n_batches > 1, batch_faces=FACE_BATCH)
         bounds = np.linspace(0, n_faces, n_batches + 1).round().astype(int)  # balanced batches
-        if n_batches == 1:  # the batch's winners are the result
-            result = _raster_batch(state, clip_t, vdepth, vfinite, mesh, eye, 0, n_faces, None) \
-                or no_fragments(height, width)
-        else:  # later batches overwrite nearer pixels: winners go to full-frame arrays
-            frame = (np.full((height, width), -1, np.int32), np.zeros((height, width), np.float32),
-                     np.zeros((3, height, width), np.float32))
-            for f0, f1 in zip(bounds[:-1].tolist(), bounds[1:].tolist()):
-                _raster_batch(state, clip_t, vdepth, vfinite, mesh, eye, f0, f1, frame)
-            result = Fragments.from_frame(*frame)
-    state.release()  # not reached on an exception: arrays left mid-batch are dropped
-    return result
+        return cls(state, (clip_t, vdepth, vfinite, mesh, eye), n_batches, bounds, w_is_depth)
 
 
 def _raster_batch(

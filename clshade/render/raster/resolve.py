@@ -100,6 +100,32 @@ def resolved(state: Resolve, used: int, lo: int, hi: int) -> tuple[NDArray[np.in
     return hit, k
 
 
+def visible_triangles(state: Resolve, used: int, lo: int, hi: int) -> NDArray[np.int32]:
+    """(H·W,) int32: the winning triangle of each pixel (its key's low bits), -1 where none, from
+    the `used` workers' key arrays, which are left empty again (covered pixels lie in ``lo:hi``).
+    In chunks of pixels on the worker threads, as resolved()."""
+    keys, *others = state.key_arrays(used)
+    tri = np.empty(state.width * state.height, np.int32)
+    tri[:lo] = -1
+    tri[hi:] = -1
+    ranges = [slice(lo + p.start, lo + p.stop) for p in chunks(hi - lo, 2 * workers_for(hi - lo))]
+    mask = (1 << state.tri_bits) - 1
+
+    def extract(r: slice) -> None:
+        for other in others:
+            np.minimum(keys[r], other[r], out=keys[r])
+            other[r] = EMPTY_KEY
+        k = keys[r]
+        empty = k == EMPTY_KEY
+        np.bitwise_and(k, mask, out=k)
+        tri[r] = k
+        tri[r][empty] = -1
+        k[...] = EMPTY_KEY
+
+    run_tasks([lambda r=r: extract(r) for r in ranges])
+    return tri
+
+
 def winners(
     t: Tris,
     pix: NDArray[np.int64],
