@@ -3,31 +3,51 @@
  * fragments (scenes without textures, hence without an occlusion channel; the live viewer,
  * clshade/device/visibility.py).
  *
- * Per pixel p of the frame (work-item p; the padding pixels past npix too):
+ * Per pixel p of the frame (the padding pixels past npix too):
  *   tri = visible[p]: the winning triangle of the view's triangle setup, or -1
  *         (clshade/render/raster/visibility.py);
  *   the winners' step of the rasterizer (raster/resolve.py:winners), in double:
  *         e_j = max(a_j X + (b_j Y + c_j), 0) at the pixel centre (X, Y),
  *         s = e_0 + e_1 + e_2, depth = area2 / s (clip w is the view depth),
  *         b_j = e_j / s; s not in (0, ∞) (round-off on a sliver) gives the centroid and
- *         the depth interpolated from the corners' view depths;
+ *         the depth interpolated from the corners' view depths (as any projection whose
+ *         clip w is not the view depth);
  *   then build_gbuffer's per-pixel step, in float: the normal interpolated from the face's
  *         corner normals, ((0 + b0 n0) + b1 n1) + b2 n2, scaled by 1/|n| (0 stays 0); the
  *         face's base colour, roughness, metallic, material (and emission).
  *   A pixel whose depth or normal is not finite keeps roughness, metallic and material,
  *   and gets zero depth, normal, base colour and emission; `cover` says which pixels are
- *   covered (1), empty (0) or so replaced (2).
+ *   covered (1), empty (0) or so replaced (2). Empty pixels get zero everywhere.
  *
  * Exactness: every operation is the one NumPy performs, in its order, with no contraction
  * into fused multiply-adds (FP_CONTRACT OFF) and correctly rounded float division and
- * square root (the host builds with -cl-fp32-correctly-rounded-divide-sqrt). The device
- * must have double precision (cl_khr_fp64); without it the host builds the G-buffer.
+ * square root (the host builds with -cl-fp32-correctly-rounded-divide-sqrt); conversions
+ * from double to float round to nearest even, as NumPy's. The device must have double
+ * precision (cl_khr_fp64); without it the host builds the G-buffer.
+ *
+ * Speed: a work-item does LANES adjacent pixels, one per vector lane (the reason is
+ * simd.h's: PoCL vectorises no scalar code of this shape, which ran a pixel at a time at
+ * about 3x the time), gathering each lane's triangle and face constants; a work-item whose
+ * pixels are all empty (sky) only writes zeros.
  */
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
 #pragma OPENCL FP_CONTRACT OFF
 
+#define LANES 8
+typedef double8 dvec;
+typedef float8 fvec;
+typedef int8 ivec;
+typedef long8 lvec;
+
+/* Lane k of each: p[i.sk]. */
+#define GATHER(T, p, i) ((T)((p)[(i).s0], (p)[(i).s1], (p)[(i).s2], (p)[(i).s3], \
+                             (p)[(i).s4], (p)[(i).s5], (p)[(i).s6], (p)[(i).s7]))
+#define GD(p, i) GATHER(dvec, p, i)
+#define GF(p, i) GATHER(fvec, p, i)
+#define GI(p, i) GATHER(ivec, p, i)
+
 /* np.maximum(e, 0.0): NaN stays NaN, -0.0 becomes +0.0. */
-inline double clamp_low(double e) { return isnan(e) ? e : (e > 0.0 ? e : 0.0); }
+inline dvec clamp_low(dvec e) { return select(select((dvec)(0.0), e, e > 0.0), e, isnan(e)); }
 
 __kernel void visibility(
     const uint npix, const uint plane, const uint width, const uint ntri, const uint w_is_depth,
@@ -49,83 +69,106 @@ __kernel void visibility(
     __global float* roughness, __global float* metallic, __global uchar* material,
     __global uchar* cover)
 {
-    const uint p = get_global_id(0);
-    if (p >= plane) return;
-    const int t = p < npix ? visible[p] : -1;
-    if (t < 0) {
-        depth[p] = 0.0f;
+    const uint i = get_global_id(0);
+    const uint p0 = i * LANES;              /* plane is a multiple of LANES (PIXEL_PAD) */
+    if (p0 >= plane) return;
+    const ivec lane = (ivec)(0, 1, 2, 3, 4, 5, 6, 7);
+    ivec vis;
+    if (p0 + LANES <= npix) {
+        vis = vload8(0, visible + p0);
+    } else {                                /* the last pixels and the padding */
+        vis = (ivec)(-1);
+        for (uint k = 0; p0 + k < npix && k < LANES; k++)
+            ((int*)&vis)[k] = visible[p0 + k];
+    }
+    const ivec hit = vis >= 0;
+    const fvec fzero = (fvec)(0.0f);
+    if (!any(hit)) {                        /* sky: zeros everywhere */
+        vstore8(fzero, i, depth);
         for (uint d = 0; d < 3; d++) {
-            normal[d * plane + p] = 0.0f;
-            base[d * plane + p] = 0.0f;
+            vstore8(fzero, i, normal + d * plane);
+            vstore8(fzero, i, base + d * plane);
 #if HAS_EMISSIVE
-            emissive[d * plane + p] = 0.0f;
+            vstore8(fzero, i, emissive + d * plane);
 #endif
         }
-        roughness[p] = 0.0f;
-        metallic[p] = 0.0f;
-        material[p] = 0;
-        cover[p] = 0;
+        vstore8(fzero, i, roughness);
+        vstore8(fzero, i, metallic);
+        vstore8((uchar8)(0), i, material);
+        vstore8((uchar8)(0), i, cover);
         return;
     }
+    const ivec t = select((ivec)(0), vis, hit);   /* empty lanes compute on triangle 0, then get zeros */
+    const lvec hitl = convert_long8(hit);
+
     /* The winners' step (raster/resolve.py), in double. */
-    const uint row = p / width;
-    const double X = (double)(p - row * width) + 0.5;
-    const double Y = (double)row + 0.5;
-    double e[3];
-    for (uint j = 0; j < 3; j++) {
-        double by = setup[(3 + j) * ntri + t] * Y;
-        by = by + setup[(6 + j) * ntri + t];
-        e[j] = clamp_low(setup[j * ntri + t] * X + by);
+    const ivec pix = (ivec)((int)p0) + lane;
+    const ivec row = pix / (int)width;
+    const dvec X = convert_double8(pix - row * (int)width) + 0.5;
+    const dvec Y = convert_double8(row) + 0.5;
+    dvec by0 = GD(setup + 3 * ntri, t) * Y, by1 = GD(setup + 4 * ntri, t) * Y, by2 = GD(setup + 5 * ntri, t) * Y;
+    by0 = by0 + GD(setup + 6 * ntri, t);
+    by1 = by1 + GD(setup + 7 * ntri, t);
+    by2 = by2 + GD(setup + 8 * ntri, t);
+    dvec e0 = GD(setup, t) * X, e1 = GD(setup + ntri, t) * X, e2 = GD(setup + 2 * ntri, t) * X;
+    e0 = clamp_low(e0 + by0);
+    e1 = clamp_low(e1 + by1);
+    e2 = clamp_low(e2 + by2);
+    dvec s = e0 + e1;
+    s = s + e2;
+    const lvec bad = !((s > 0.0) && (s < (dvec)(INFINITY)));
+    e0 = select(e0, (dvec)(1.0), bad);
+    e1 = select(e1, (dvec)(1.0), bad);
+    e2 = select(e2, (dvec)(1.0), bad);
+    s = select(s, (dvec)(3.0), bad);
+    dvec z = GD(setup + 9 * ntri, t) / s;
+    e0 = e0 / s;
+    e1 = e1 / s;
+    e2 = e2 / s;
+    const ivec f = GI(tri_face, t);
+    if (!w_is_depth || any(bad & hitl)) {
+        dvec zi = e0 * GD(vdepth, GI(corners, f));
+        zi = zi + e1 * GD(vdepth, GI(corners + nface, f));
+        zi = zi + e2 * GD(vdepth, GI(corners + 2 * nface, f));
+        z = w_is_depth ? select(z, zi, bad) : zi;
     }
-    double s = e[0] + e[1];
-    s = s + e[2];
-    const int bad = !((s > 0.0) && (s < INFINITY));
-    if (bad) {
-        e[0] = e[1] = e[2] = 1.0;
-        s = 3.0;
-    }
-    double z = setup[9 * ntri + t] / s;
-    for (uint j = 0; j < 3; j++)
-        e[j] = e[j] / s;
-    const int f = tri_face[t];
-    if (!w_is_depth || bad) {
-        z = e[0] * vdepth[corners[f]] + e[1] * vdepth[corners[nface + f]];
-        z = z + e[2] * vdepth[corners[2 * nface + f]];
-    }
-    const float b[3] = {(float)e[0], (float)e[1], (float)e[2]};
-    const float zf = (float)z;
+    const fvec b0 = convert_float8(e0), b1 = convert_float8(e1), b2 = convert_float8(e2);
+    const fvec zf = convert_float8(z);
 
     /* build_gbuffer's step (render/gbuffer.py), in float. */
-    float n[3];
-    for (uint d = 0; d < 3; d++) {
-        float acc = corner_normal[d * nface + f] * b[0];
-        acc = acc + 0.0f;
-        acc = acc + corner_normal[(3 + d) * nface + f] * b[1];
-        acc = acc + corner_normal[(6 + d) * nface + f] * b[2];
-        n[d] = acc;
-    }
-    float len2 = n[0] * n[0];
-    len2 = len2 + n[1] * n[1];
-    len2 = len2 + n[2] * n[2];
-    float inv = sqrt(len2);
+    fvec nx = GF(corner_normal, f) * b0, ny = GF(corner_normal + nface, f) * b0;
+    fvec nz = GF(corner_normal + 2 * nface, f) * b0;
+    nx = nx + 0.0f;
+    ny = ny + 0.0f;
+    nz = nz + 0.0f;
+    nx = nx + GF(corner_normal + 3 * nface, f) * b1;
+    ny = ny + GF(corner_normal + 4 * nface, f) * b1;
+    nz = nz + GF(corner_normal + 5 * nface, f) * b1;
+    nx = nx + GF(corner_normal + 6 * nface, f) * b2;
+    ny = ny + GF(corner_normal + 7 * nface, f) * b2;
+    nz = nz + GF(corner_normal + 8 * nface, f) * b2;
+    fvec len2 = nx * nx;
+    len2 = len2 + ny * ny;
+    len2 = len2 + nz * nz;
+    fvec inv = sqrt(len2);
     inv = 1.0f / inv;
-    if (!(len2 > 0.0f))
-        inv = 0.0f;
-    int ok = isfinite(zf);
+    inv = select(fzero, inv, len2 > 0.0f);
+    nx = nx * inv;
+    ny = ny * inv;
+    nz = nz * inv;
+    const ivec ok = hit & isfinite(zf) & isfinite(nx) & isfinite(ny) & isfinite(nz);
+    vstore8(select(fzero, zf, ok), i, depth);
+    vstore8(select(fzero, nx, ok), i, normal);
+    vstore8(select(fzero, ny, ok), i, normal + plane);
+    vstore8(select(fzero, nz, ok), i, normal + 2 * plane);
     for (uint d = 0; d < 3; d++) {
-        n[d] = n[d] * inv;
-        ok = ok && isfinite(n[d]);
-    }
-    depth[p] = ok ? zf : 0.0f;
-    for (uint d = 0; d < 3; d++) {
-        normal[d * plane + p] = ok ? n[d] : 0.0f;
-        base[d * plane + p] = ok ? face_base[d * nface + f] : 0.0f;
+        vstore8(select(fzero, GF(face_base + d * nface, f), ok), i, base + d * plane);
 #if HAS_EMISSIVE
-        emissive[d * plane + p] = ok ? face_emissive[d * nface + f] : 0.0f;
+        vstore8(select(fzero, GF(face_emissive + d * nface, f), ok), i, emissive + d * plane);
 #endif
     }
-    roughness[p] = face_roughness[f];
-    metallic[p] = face_metallic[f];
-    material[p] = face_material[f];
-    cover[p] = ok ? 1 : 2;
+    vstore8(select(fzero, GF(face_roughness, f), hit), i, roughness);
+    vstore8(select(fzero, GF(face_metallic, f), hit), i, metallic);
+    vstore8(convert_uchar8(select((ivec)(0), convert_int8(GATHER(uchar8, face_material, f)), hit)), i, material);
+    vstore8(convert_uchar8(select(select((ivec)(0), (ivec)(2), hit), (ivec)(1), ok)), i, cover);
 }

@@ -19,6 +19,8 @@ from clshade.render.raster import Visibility
 from clshade.resources import kernels_dir
 
 SOURCE = "visibility.cl"
+#: Pixels per work-item (LANES in kernels/visibility.cl); the planes' padding (PIXEL_PAD) is a multiple.
+LANES = 8
 #: The kernel's float division and square root must round as NumPy's do (IEEE, correctly rounded).
 EXACT_OPTIONS = ("-cl-fp32-correctly-rounded-divide-sqrt",)
 
@@ -88,7 +90,7 @@ class DeviceGBuffer:
         self.kernel.set_args(np.uint32(n), np.uint32(plane), np.uint32(w), np.uint32(ntri),
                              np.uint32(visibility.w_is_depth), *inputs, *self.tables,
                              *self.emissive_table, *(outputs[name] for name in order))
-        cl.enqueue_nd_range_kernel(rt.queue, self.kernel, (rt.global_size(plane),), (rt.local_size,))
+        cl.enqueue_nd_range_kernel(rt.queue, self.kernel, (rt.global_size(plane // LANES),), (rt.local_size,))
         for buffer, array in zip(outputs.values(), (*planes.values(), cover)):
             # Mapped and unmapped: the host arrays then hold the result (no copy on a CPU device).
             mapped, _ = cl.enqueue_map_buffer(rt.queue, buffer, cl.map_flags.READ, 0, array.size, array.dtype)
