@@ -1,11 +1,23 @@
-/* visibility.cl — the G-buffer from a visibility buffer, on the device, bit for bit the
- * G-buffer that clshade/render/gbuffer.py:build_gbuffer makes from rasterize_mesh's
+/* visibility.cl — the visibility buffer and the G-buffer from it, on the device, bit for bit
+ * the G-buffer that clshade/render/gbuffer.py:build_gbuffer makes from rasterize_mesh's
  * fragments (scenes without textures, hence without an occlusion channel; the live viewer,
- * clshade/device/visibility.py).
+ * clshade/device/visibility.py). Two kernels, after the host's triangle setup
+ * (clshade/render/raster/batches.py:setup_view):
  *
- * Per pixel p of the frame (the padding pixels past npix too):
- *   tri = visible[p]: the winning triangle of the view's triangle setup, or -1
- *         (clshade/render/raster/visibility.py);
+ * cover — the rasterizer's coverage and depth resolve (raster/tiles.py), one work-item per
+ *   TILE x TILE tile of a triangle's pixel box, one vector lane per column:
+ *         a pixel centre (X, Y) is inside when E_i = A_i X + (B_i Y + C_i) >= thr_i for the
+ *         three edges (thr: the top-left rule's 0 or TIE_EPS); its NDC depth
+ *         z = z_a X + (z_b Y + z_c) is kept within [-1 - eps, 1 + eps], clamped to [-1, 1];
+ *         key = (int64((z + 1) z_scale) << tri_bits) | triangle, and the pixel keeps the
+ *         least key (atom_min: the same minimum in any order).
+ *   The host's grids skip the tiles outside an edge and the edge tests of interior tiles;
+ *   both only leave out tests that fail or pass, so testing every pixel of the box gives
+ *   the same keys.
+ *
+ * visibility — per pixel p (the padding pixels past npix too), from its key:
+ *   tri = key & (2^tri_bits - 1), or none where the key is empty (the key is then reset
+ *         to empty for the next frame);
  *   the winners' step of the rasterizer (raster/resolve.py:winners), in double:
  *         e_j = max(a_j X + (b_j Y + c_j), 0) at the pixel centre (X, Y),
  *         s = e_0 + e_1 + e_2, depth = area2 / s (clip w is the view depth),
@@ -22,8 +34,9 @@
  * Exactness: every operation is the one NumPy performs, in its order, with no contraction
  * into fused multiply-adds (FP_CONTRACT OFF) and correctly rounded float division and
  * square root (the host builds with -cl-fp32-correctly-rounded-divide-sqrt); conversions
- * from double to float round to nearest even, as NumPy's. The device must have double
- * precision (cl_khr_fp64); without it the host builds the G-buffer.
+ * from double to float round to nearest even and from double to integer toward zero, as
+ * NumPy's. The device must have double precision (cl_khr_fp64) and 64-bit atomics
+ * (cl_khr_int64_extended_atomics); without them the host rasterizes.
  *
  * Speed: a work-item does LANES adjacent pixels, one per vector lane (the reason is
  * simd.h's: PoCL vectorises no scalar code of this shape, which ran a pixel at a time at
@@ -31,6 +44,8 @@
  * pixels are all empty (sky) only writes zeros.
  */
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
+#pragma OPENCL EXTENSION cl_khr_int64_base_atomics : enable
+#pragma OPENCL EXTENSION cl_khr_int64_extended_atomics : enable
 #pragma OPENCL FP_CONTRACT OFF
 
 #define LANES 8
@@ -38,6 +53,8 @@ typedef double8 dvec;
 typedef float8 fvec;
 typedef int8 ivec;
 typedef long8 lvec;
+#define EMPTY_KEY LONG_MAX
+#define TILE 8                              /* = LANES: a tile's row is one vector */
 
 /* Lane k of each: p[i.sk]. */
 #define GATHER(T, p, i) ((T)((p)[(i).s0], (p)[(i).s1], (p)[(i).s2], (p)[(i).s3], \
@@ -49,9 +66,67 @@ typedef long8 lvec;
 /* np.maximum(e, 0.0): NaN stays NaN, -0.0 becomes +0.0. */
 inline dvec clamp_low(dvec e) { return select(select((dvec)(0.0), e, e > 0.0), e, isnan(e)); }
 
+__kernel void cover(
+    const uint ntiles, const uint ntri, const uint width, const uint tri_bits, const double z_scale,
+    const double z_lo, const double z_hi,
+    __global const uint* tile_end,          /* (ntri,) tiles of triangles 0..t, inclusive */
+    __global const int* box,                /* (4, ntri): col0, row0, col1, row1 (inclusive) */
+    __global const double* edge,            /* (15, ntri): A0 A1 A2, B0 B1 B2, C0 C1 C2, thr0 thr1 thr2, z_a z_b z_c */
+    __global long* keys)                    /* (plane,) packed keys, EMPTY_KEY where none */
+{
+    const uint i = get_global_id(0);
+    if (i >= ntiles) return;
+    uint lo = 0, hi = ntri - 1;             /* the triangle: the first with tile_end > i */
+    while (lo < hi) {
+        const uint mid = (lo + hi) / 2;
+        if (tile_end[mid] > i) hi = mid; else lo = mid + 1;
+    }
+    const int t = (int)lo;
+    const uint k = i - (t ? tile_end[t - 1] : 0u);
+    const int col0 = box[t], row0 = box[ntri + t], col1 = box[2 * ntri + t], row1 = box[3 * ntri + t];
+    const uint ntx = (uint)((col1 - col0) / TILE) + 1u;
+    const int x0 = col0 + (int)(k % ntx) * TILE, y0 = row0 + (int)(k / ntx) * TILE;
+    const int bw = min(TILE, col1 - x0 + 1), bh = min(TILE, row1 - y0 + 1);
+    const ivec lane = (ivec)(0, 1, 2, 3, 4, 5, 6, 7);
+    const dvec xc = convert_double8((ivec)(x0) + lane) + 0.5;
+    const lvec in_box = convert_long8(lane < bw);
+    double a[3], b[3], c[3], thr[3];
+    for (uint j = 0; j < 3; j++) {
+        a[j] = edge[j * ntri + t];
+        b[j] = edge[(3 + j) * ntri + t];
+        c[j] = edge[(6 + j) * ntri + t];
+        thr[j] = edge[(9 + j) * ntri + t];
+    }
+    const double za = edge[12 * ntri + t], zb = edge[13 * ntri + t], zc = edge[14 * ntri + t];
+    const dvec ax0 = a[0] * xc, ax1 = a[1] * xc, ax2 = a[2] * xc, zx = za * xc;
+    for (int r = 0; r < bh; r++) {
+        const double yc = (double)(y0 + r) + 0.5;
+        double byc0 = b[0] * yc, byc1 = b[1] * yc, byc2 = b[2] * yc, zy = zb * yc;
+        byc0 = byc0 + c[0];
+        byc1 = byc1 + c[1];
+        byc2 = byc2 + c[2];
+        zy = zy + zc;
+        dvec z = zx + zy;
+        const lvec keep = in_box & ((ax0 + byc0) >= thr[0]) & ((ax1 + byc1) >= thr[1]) & ((ax2 + byc2) >= thr[2])
+                          & (z >= z_lo) & (z <= z_hi);
+        if (!any(keep)) continue;
+        z = select(z, (dvec)(-1.0), z < -1.0);
+        z = select(z, (dvec)(1.0), z > 1.0);
+        z = z + 1.0;
+        z = z * z_scale;
+        const lvec key = (convert_long8(z) << (long)tri_bits) | (long)t;
+        __global long* row = keys + (size_t)(y0 + r) * width + x0;
+        for (int x = 0; x < TILE; x++) {
+            const long kx = ((const long*)&key)[x];
+            if (((const long*)&keep)[x] && kx < row[x])
+                atom_min(row + x, kx);
+        }
+    }
+}
+
 __kernel void visibility(
-    const uint npix, const uint plane, const uint width, const uint ntri, const uint w_is_depth,
-    __global const int* visible,            /* (npix,) triangle or -1 */
+    const uint plane, const uint width, const uint ntri, const uint w_is_depth, const uint tri_bits,
+    __global long* keys,                    /* (plane,) cover's keys; left empty again */
     __global const double* setup,           /* (10, ntri): persp a0 a1 a2, b0 b1 b2, c0 c1 c2, area2 */
     __global const int* tri_face,           /* (ntri,) the triangle's face */
     __global const double* vdepth,          /* (V,) view depth of each vertex */
@@ -73,15 +148,10 @@ __kernel void visibility(
     const uint p0 = i * LANES;              /* plane is a multiple of LANES (PIXEL_PAD) */
     if (p0 >= plane) return;
     const ivec lane = (ivec)(0, 1, 2, 3, 4, 5, 6, 7);
-    ivec vis;
-    if (p0 + LANES <= npix) {
-        vis = vload8(0, visible + p0);
-    } else {                                /* the last pixels and the padding */
-        vis = (ivec)(-1);
-        for (uint k = 0; p0 + k < npix && k < LANES; k++)
-            ((int*)&vis)[k] = visible[p0 + k];
-    }
-    const ivec hit = vis >= 0;
+    const lvec key = vload8(i, keys);
+    const lvec hitl = key != (lvec)(EMPTY_KEY);
+    const ivec hit = convert_int8(hitl);
+    const ivec vis = convert_int8(key & (lvec)((1L << tri_bits) - 1));
     const fvec fzero = (fvec)(0.0f);
     if (!any(hit)) {                        /* sky: zeros everywhere */
         vstore8(fzero, i, depth);
@@ -98,8 +168,8 @@ __kernel void visibility(
         vstore8((uchar8)(0), i, cover);
         return;
     }
+    vstore8((lvec)(EMPTY_KEY), i, keys);    /* empty again for the next frame's cover */
     const ivec t = select((ivec)(0), vis, hit);   /* empty lanes compute on triangle 0, then get zeros */
-    const lvec hitl = convert_long8(hit);
 
     /* The winners' step (raster/resolve.py), in double. */
     const ivec pix = (ivec)((int)p0) + lane;

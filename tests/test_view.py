@@ -566,9 +566,10 @@ def test_raster_follows_a_new_geometry(session, monkeypatch):
         g, camera = session._geometry.value, session.last["camera"]
         expected = rasterize(g.vertices, g.faces, camera.view_matrix(), camera.projection_matrix(), camera.width,
                              camera.height, cull_backfaces=g.cull)
-        kept = session._raster.value.fragments()            # the visibility buffer's winners
-        np.testing.assert_array_equal(kept.tri_id, expected.tri_id, err_msg=f"exposure {exposure}")
-        np.testing.assert_array_equal(kept.depth, expected.depth)
+        made = build_gbuffer(session.last["scene"], g, expected, camera)   # the kept raster's G-buffer is of it
+        for name in ("depth", "normal"):
+            np.testing.assert_array_equal(session.last["gbuffer"].plane(name), made.plane(name),
+                                          err_msg=f"exposure {exposure} {name}")
 
 
 def test_camera_only_changes_parse_only_the_camera_and_give_the_full_scene(session, monkeypatch):

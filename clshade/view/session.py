@@ -46,7 +46,7 @@ from clshade.render.gbuffer import GBuffer, build_gbuffer, face_planes, material
 from clshade.render.arrays import PlanePool, keep_freed_memory
 from clshade.render.image import check_output_path, to_display, write_encoded
 from clshade.render.meshes import build_geometry
-from clshade.render.raster import Fragments, RasterMesh, Visibility, rasterize_mesh, rasterize_visibility
+from clshade.render.raster import Fragments, RasterMesh, ViewSetup, rasterize_mesh, setup_view
 from clshade.render.samples import supersampled
 from clshade.render.scene import MAX_RESOLUTION, Scene, camera_from_data, load_scene, parse_scene, scene_from_data
 from clshade.render.shadows import build_shadow_maps
@@ -219,8 +219,9 @@ class ViewSession:
         self._geometry, self._raster, self._shadows = _Kept(), _Kept(), _Kept()
         self._gbuffer, self._shader, self._faces = _Kept(), _Kept(), _Kept()
         self._device_gbuffer = _Kept()
-        # Orbit frames: the rasterizer stops at the visibility buffer and the device makes the
-        # G-buffer (clshade.device.visibility; the same planes as build_gbuffer, bit for bit).
+        # Orbit frames: the host rasterizer stops after the triangle setup and the device makes the
+        # visibility buffer and the G-buffer (clshade.device.visibility; build_gbuffer's planes, bit
+        # for bit).
         self.device_gbuffer = device_gbuffer
         self._planes = PlanePool()      # the G-buffers' planes, their memory used again
         self.last: dict[str, object] = {}
@@ -306,14 +307,15 @@ class ViewSession:
         shader = self._shader_for(scene, gbuffer, camera, shadows, timings)
         return shadows, gbuffer, shader
 
-    def _rasterize(self, geometry, camera) -> Fragments | Visibility:
-        """The visibility buffer where the device makes the G-buffer from it (clshade.device.visibility:
-        no textures, double precision, one face batch), else the fragments."""
+    def _rasterize(self, geometry, camera) -> Fragments | ViewSetup:
+        """The triangle setup where the device does the rest of the raster and the G-buffer
+        (clshade.device.visibility: no textures, doubles and 64-bit atomics, one face batch),
+        else the fragments."""
         mesh, view, proj = self._mesh_of(geometry), camera.view_matrix(), camera.projection_matrix()
         if self.device_gbuffer and device_visibility.supports(self.runtime, geometry):
-            visibility = rasterize_visibility(mesh, view, proj, camera.width, camera.height)
-            if visibility is not None:
-                return visibility
+            setup = setup_view(mesh, view, proj, camera.width, camera.height)
+            if setup is not None:
+                return setup
         return rasterize_mesh(mesh, view, proj, camera.width, camera.height)
 
     def _mesh_of(self, geometry) -> RasterMesh:
@@ -353,7 +355,7 @@ class ViewSession:
         if same_raster and geometry.face_texture is None and kept.extra["values"].shape == values.shape:
             with timings.stage("g-buffer patch"):
                 if groups is None:
-                    pixels = np.flatnonzero(kept.extra["cover"]) if isinstance(fragments, Visibility) \
+                    pixels = np.flatnonzero(kept.extra["cover"]) if isinstance(fragments, ViewSetup) \
                         else fragments.pixels
                     groups = material_pixels(kept.value, pixels, len(values))
                 gbuffer = patched_gbuffer(kept.value, groups, kept.extra["values"], values, table, self._planes)
@@ -361,7 +363,7 @@ class ViewSession:
             mats = list(scene.materials.values())
             faces = self._stage(self._faces, (geometry_key, _face_key(mats)), lambda: face_planes(geometry, mats),
                                 timings, "face tables")
-            if isinstance(fragments, Visibility):   # the winners and the G-buffer on the device
+            if isinstance(fragments, ViewSetup):   # coverage, winners and the G-buffer on the device
                 device = self._stage(self._device_gbuffer, (geometry_key, _face_key(mats)),
                                      lambda: DeviceGBuffer(self.runtime, geometry, faces), timings, "g-buffer kernel")
                 with timings.stage("g-buffer"):

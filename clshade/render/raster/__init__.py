@@ -59,12 +59,12 @@ Modules, in the order a batch of faces goes through them:
   the workers' arrays and the winners' barycentrics and depth (step 6);
 - ``batches``: :func:`rasterize` itself (checks, clip transform, face batches);
 - ``fragments``: the result, :class:`Fragments`;
-- ``visibility``: :func:`rasterize_visibility`'s result, the winning triangle of each pixel
-  before its barycentrics (a visibility buffer, for a pass that interpolates on the device).
+- ``visibility``: :func:`setup_view`'s result, a view's triangle setup for a pass that does
+  steps 5–6 and the G-buffer on its own (the live viewer's visibility buffer on the device).
 """
-from clshade.render.raster.batches import rasterize, rasterize_mesh, rasterize_visibility
+from clshade.render.raster.batches import rasterize, rasterize_mesh, setup_view
 from clshade.render.raster.fragments import Fragments
 from clshade.render.raster.mesh import RasterMesh
-from clshade.render.raster.visibility import Visibility
+from clshade.render.raster.visibility import ViewSetup
 
-__all__ = ["Fragments", "RasterMesh", "Visibility", "rasterize", "rasterize_mesh", "rasterize_visibility"]
+__all__ = ["Fragments", "RasterMesh", "ViewSetup", "rasterize", "rasterize_mesh", "setup_view"]

@@ -10,8 +10,8 @@ from numpy.typing import ArrayLike, NDArray
 from clshade.render.arrays import run_chunked
 from clshade.render.raster.fragments import Fragments, no_fragments
 from clshade.render.raster.mesh import RasterMesh, camera_centre
-from clshade.render.raster.resolve import Resolve, resolved, visible_triangles, winners
-from clshade.render.raster.visibility import Visibility
+from clshade.render.raster.resolve import Resolve, key_layout, resolved, winners
+from clshade.render.raster.visibility import ViewSetup
 from clshade.render.raster.tiles import cover
 from clshade.render.raster.triangles import setup_parallel
 
@@ -92,7 +92,7 @@ def rasterize_mesh(
     frame = _Frame.of(mesh, view, proj, width, height, max_fragments)
     if frame is None:
         return no_fragments(int(height), int(width))
-    state, height, width = frame.state, frame.state.height, frame.state.width
+    state, height, width = frame.resolve_state(max_fragments), frame.height, frame.width
     with np.errstate(all="ignore"):  # non-finite input is dropped, never warned about
         if frame.n_batches == 1:  # the batch's winners are the result
             result = _raster_batch(state, *frame.args, 0, len(mesh), None) or no_fragments(height, width)
@@ -106,50 +106,47 @@ def rasterize_mesh(
     return result
 
 
-def rasterize_visibility(
+def setup_view(
     mesh: RasterMesh,
     view: ArrayLike,
     proj: ArrayLike,
     width: int,
     height: int,
-    max_fragments: int = 8_000_000,
-) -> Visibility | None:
-    """The visibility buffer of :func:`rasterize_mesh`: per pixel the index of the winning
-    triangle of the triangle setup (steps 1–6 without the winners' barycentrics), for a pass
-    that interpolates on its own (clshade.device.visibility: the live viewer's G-buffer on the
-    device). ``Visibility.fragments()`` gives rasterize_mesh's Fragments bit for bit.
+) -> ViewSetup | None:
+    """The triangle setup of :func:`rasterize_mesh` (steps 1–4), for a pass that does coverage,
+    depth resolve and the winners' barycentrics on its own (clshade.device.visibility: the live
+    viewer's visibility buffer and G-buffer on the device, rasterize_mesh's result bit for bit).
     None when the mesh needs more than one face batch (the winners then merge across batches:
-    use rasterize_mesh); an empty view gives a Visibility without triangles."""
-    frame = _Frame.of(mesh, view, proj, width, height, max_fragments)
+    use rasterize_mesh)."""
+    frame = _Frame.of(mesh, view, proj, width, height, 1)
+    tri_bits, z_scale = key_layout(FACE_BATCH)
     if frame is None:
-        return Visibility.empty(int(width), int(height))
+        return ViewSetup(int(width), int(height), None, True, tri_bits, z_scale)
     if frame.n_batches > 1:
-        frame.state.release()
         return None
-    state = frame.state
     clip_t, vdepth, vfinite, _, eye = frame.args
     with np.errstate(all="ignore"):  # non-finite input is dropped, never warned about
         face = mesh.candidates(eye, 0, len(mesh))
-        t = setup_parallel(clip_t, vfinite, vdepth, mesh, mesh.batch(0, len(mesh)), face, state.width,
-                           state.height) if len(face) else None
-        if t is None:
-            state.release()
-            return Visibility.empty(state.width, state.height, frame.w_is_depth)
-        used = cover(state, t)
-        tri = visible_triangles(state, used, int(t.row0.min()) * state.width, (int(t.row1.max()) + 1) * state.width)
-    state.release()
-    return Visibility(state.width, state.height, tri, t, frame.w_is_depth)
+        t = setup_parallel(clip_t, vfinite, vdepth, mesh, mesh.batch(0, len(mesh)), face, frame.width,
+                           frame.height) if len(face) else None
+    return ViewSetup(frame.width, frame.height, t, frame.w_is_depth, tri_bits, z_scale)
 
 
 @dataclass
 class _Frame:
-    """What every batch of one view shares: the resolve state, the vertices' clip
+    """What every batch of one view shares: the image size, the vertices' clip
     coordinates, view depths and finiteness, the camera centre, the face batches."""
-    state: Resolve
+    width: int
+    height: int
     args: tuple                     # (clip_t, vdepth, vfinite, mesh, eye): _raster_batch's
     n_batches: int
     bounds: NDArray[np.int64]
     w_is_depth: bool
+
+    def resolve_state(self, max_fragments: int) -> Resolve:
+        """The depth-resolve state of the view's batches (its key arrays)."""
+        return Resolve(self.width, self.height, min(int(max_fragments), GRID_CHUNK_CELLS), self.w_is_depth,
+                       several_batches=self.n_batches > 1, batch_faces=FACE_BATCH)
 
     @classmethod
     def of(cls, mesh: RasterMesh, view: ArrayLike, proj: ArrayLike, width: int, height: int,
@@ -181,10 +178,8 @@ class _Frame:
             eye = camera_centre(mvp)
         w_is_depth = bool(np.array_equal(proj_m[3], [0.0, 0.0, -1.0, 0.0]))
         n_batches = -(-n_faces // FACE_BATCH)
-        state = Resolve(width, height, min(int(max_fragments), GRID_CHUNK_CELLS), w_is_depth,
-                        several_batches=n_batches > 1, batch_faces=FACE_BATCH)
         bounds = np.linspace(0, n_faces, n_batches + 1).round().astype(int)  # balanced batches
-        return cls(state, (clip_t, vdepth, vfinite, mesh, eye), n_batches, bounds, w_is_depth)
+        return cls(width, height, (clip_t, vdepth, vfinite, mesh, eye), n_batches, bounds, w_is_depth)
 
 
 def _raster_batch(

@@ -22,6 +22,17 @@ _spare_lock = threading.Lock()
 KEY_BITS = 62  # packed keys stay below 2**62: non-negative, no overflow
 
 
+def key_layout(batch_faces: int) -> tuple[int, float]:
+    """(tri_bits, z_scale) of the packed keys of batches of up to `batch_faces` faces:
+    key = (int64((z_ndc + 1) · z_scale) << tri_bits) | triangle, the minimum the nearest."""
+    # Bits of a packed key holding the triangle index: near-plane
+    # clipping at most doubles a batch's `batch_faces` faces.
+    tri_bits = max(1, (2 * batch_faces - 1).bit_length())
+    # The quantisation is the same for every batch (depths are compared
+    # across batches): tri_bits covers the largest possible batch.
+    return tri_bits, float((1 << (KEY_BITS - tri_bits)) - 1) * 0.5
+
+
 class Resolve:
     """Depth-resolve state shared by all face batches."""
 
@@ -41,13 +52,7 @@ class Resolve:
         # to empty (only the touched rows) after each batch.
         self.keys: list[NDArray[np.int64]] = []
         self.key_arrays(1)
-        # Bits of a packed key holding the triangle index: near-plane
-        # clipping at most doubles a batch's `batch_faces` faces.
-        self.tri_bits = max(1, (2 * batch_faces - 1).bit_length())
-        # Key = (quantised NDC depth << tri_bits) | triangle: min key = nearest.
-        # The quantisation is the same for every batch (depths are compared
-        # across batches): tri_bits covers the largest possible batch.
-        self.z_scale = float((1 << (KEY_BITS - self.tri_bits)) - 1) * 0.5
+        self.tri_bits, self.z_scale = key_layout(batch_faces)
 
     def key_arrays(self, count: int) -> list[NDArray[np.int64]]:
         """`count` key arrays (the first is the merge target): spare ones of an earlier call, else new."""
@@ -98,32 +103,6 @@ def resolved(state: Resolve, used: int, lo: int, hi: int) -> tuple[NDArray[np.in
 
     run_tasks([lambda i=i: extract(i) for i in range(len(ranges))])
     return hit, k
-
-
-def visible_triangles(state: Resolve, used: int, lo: int, hi: int) -> NDArray[np.int32]:
-    """(H·W,) int32: the winning triangle of each pixel (its key's low bits), -1 where none, from
-    the `used` workers' key arrays, which are left empty again (covered pixels lie in ``lo:hi``).
-    In chunks of pixels on the worker threads, as resolved()."""
-    keys, *others = state.key_arrays(used)
-    tri = np.empty(state.width * state.height, np.int32)
-    tri[:lo] = -1
-    tri[hi:] = -1
-    ranges = [slice(lo + p.start, lo + p.stop) for p in chunks(hi - lo, 2 * workers_for(hi - lo))]
-    mask = (1 << state.tri_bits) - 1
-
-    def extract(r: slice) -> None:
-        for other in others:
-            np.minimum(keys[r], other[r], out=keys[r])
-            other[r] = EMPTY_KEY
-        k = keys[r]
-        empty = k == EMPTY_KEY
-        np.bitwise_and(k, mask, out=k)
-        tri[r] = k
-        tri[r][empty] = -1
-        k[...] = EMPTY_KEY
-
-    run_tasks([lambda r=r: extract(r) for r in ranges])
-    return tri
 
 
 def winners(

@@ -1,47 +1,34 @@
-"""The visibility buffer: per pixel the triangle that won the depth resolve, before any
-barycentric is computed (Burns & Hunt, "The Visibility Buffer", JCGT 2013). A later pass
-computes the winners' barycentrics, depth and attributes from it and the triangles' setup:
-``fragments()`` here in NumPy (rasterize_mesh's Fragments, bit for bit), the live viewer's
-G-buffer kernel on the device (clshade/device/visibility.py, kernels/visibility.cl)."""
+"""A view's triangle setup for a visibility-buffer pass (Burns & Hunt, "The Visibility
+Buffer", JCGT 2013): the triangles' edge functions, depth planes, pixel boxes and
+perspective-correct weights, with the packed depth keys' layout, from which a later pass does
+the coverage tests, the depth resolve and the winners' barycentrics on its own — the live
+viewer's visibility buffer and G-buffer on the device (clshade/device/visibility.py,
+kernels/visibility.cl), rasterize_mesh's fragments bit for bit."""
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-from numpy.typing import NDArray
-
-from clshade.render.raster.fragments import Fragments, no_fragments
-from clshade.render.raster.resolve import winners
+from clshade.render.raster.tiles import NDC_DEPTH_EPS, TILE
 from clshade.render.raster.triangles import Tris
 
 
 @dataclass
-class Visibility:
-    """One view's visibility buffer.
+class ViewSetup:
+    """One view's triangle setup (setup_view).
 
     Attributes:
         width, height: image size.
-        tri: ``(H·W,)`` int32 index into `tris` of the winning triangle, -1 where none.
-        tris: the triangle setup of the view's one face batch (None: no triangle survived).
+        tris: the triangles of the view's one face batch (None: no triangle survived setup).
         w_is_depth: the projection's clip w is the view depth (any perspective matrix).
+        tri_bits, z_scale: the packed keys' layout (resolve.key_layout): a fragment's key is
+            ``(int64((clip(z_ndc, -1, 1) + 1) · z_scale) << tri_bits) | triangle``, kept when
+            ``-1 - depth_eps <= z_ndc <= 1 + depth_eps``; the least key of a pixel wins.
     """
     width: int
     height: int
-    tri: NDArray[np.int32]
     tris: Tris | None
-    w_is_depth: bool = True
-
-    @classmethod
-    def empty(cls, width: int, height: int, w_is_depth: bool = True) -> Visibility:
-        return cls(width, height, np.full(width * height, -1, np.int32), None, w_is_depth)
-
-    def fragments(self) -> Fragments:
-        """The winners' face, depth and barycentrics: rasterize_mesh's result, bit for bit."""
-        pixels = np.flatnonzero(self.tri >= 0)
-        if self.tris is None or not len(pixels):
-            return no_fragments(self.height, self.width)
-        with np.errstate(all="ignore"):
-            face, depth, bary = winners(self.tris, pixels, self.tri[pixels].astype(np.int64), self.width,
-                                        self.w_is_depth)
-        return Fragments(self.height, self.width, pixels, face.astype(np.int32), depth.astype(np.float32),
-                         bary.astype(np.float32))
+    w_is_depth: bool
+    tri_bits: int
+    z_scale: float
+    depth_eps: float = NDC_DEPTH_EPS
+    tile: int = TILE
