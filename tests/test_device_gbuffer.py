@@ -81,13 +81,27 @@ def test_device_gbuffer_is_build_gbuffers(robot, azimuth, elevation, scale):
 
 
 def test_device_gbuffer_orthographic(robot):
-    """A projection whose clip w is not the view depth: the depth is interpolated from the corners'."""
+    """A projection whose clip w is not the view depth (the depth is interpolated from the corners'),
+    with near and far planes that cut through the scene (fragments beyond them are dropped)."""
     from test_effects import orthographic
     scene, geometry = robot
     camera = orbit_camera(scene, 40.0)
-    proj = orthographic(-3.0, 3.0, -1.7, 1.7, 0.5, 40.0)
-    expected, _ = assert_same(scene, geometry, camera.view_matrix(), proj, camera)
-    assert expected.coverage.any()
+    d = Orbit.of(scene.camera).distance
+    for near, far in ((0.5, 40.0), (d - 1.0, d + 1.5)):
+        expected, _ = assert_same(scene, geometry, camera.view_matrix(), orthographic(-3.0, 3.0, -1.7, 1.7, near, far),
+                                  camera)
+        assert expected.coverage.any()
+
+
+def test_device_gbuffer_far_plane_cuts_the_scene(robot):
+    """A perspective camera whose far plane cuts through the robot and the ground."""
+    scene, geometry = robot
+    camera = dataclasses.replace(orbit_camera(scene, 75.0), far=Orbit.of(scene.camera).distance)
+    full = orbit_camera(scene, 75.0)
+    expected, _ = assert_same(scene, geometry, camera.view_matrix(), camera.projection_matrix(), camera)
+    unclipped = build_gbuffer(scene, geometry, rasterize_mesh(RasterMesh(geometry.vertices, geometry.faces, geometry.cull),
+                                                              full.view_matrix(), full.projection_matrix(), W, H), full)
+    assert 0 < expected.coverage.sum() < unclipped.coverage.sum()
 
 
 def test_device_gbuffer_emission_and_bad_normals(robot):
