@@ -39,9 +39,9 @@
  * (cl_khr_int64_extended_atomics); without them the host rasterizes.
  *
  * Speed: a work-item does LANES adjacent pixels, one per vector lane (the reason is
- * simd.h's: PoCL vectorises no scalar code of this shape, which ran a pixel at a time at
- * about 3x the time), gathering each lane's triangle and face constants; a work-item whose
- * pixels are all empty (sky) only writes zeros.
+ * simd.h's: PoCL vectorises no scalar code of this shape, which then runs a pixel at a
+ * time), gathering each lane's triangle and face constants; a work-item whose pixels are
+ * all empty (sky) only writes zeros.
  */
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
 #pragma OPENCL EXTENSION cl_khr_int64_base_atomics : enable
@@ -149,9 +149,12 @@ __kernel void visibility(
     if (p0 >= plane) return;
     const ivec lane = (ivec)(0, 1, 2, 3, 4, 5, 6, 7);
     const lvec key = vload8(i, keys);
-    const lvec hitl = key != (lvec)(EMPTY_KEY);
+    const lvec tri = key & (lvec)((1L << tri_bits) - 1);
+    /* A key never names a triangle past ntri (cover writes this frame's); checked all the same, so
+     * that a key left over by a bug is an empty pixel, never a read out of bounds. */
+    const lvec hitl = (key != (lvec)(EMPTY_KEY)) & (tri < (lvec)(ntri));
     const ivec hit = convert_int8(hitl);
-    const ivec vis = convert_int8(key & (lvec)((1L << tri_bits) - 1));
+    const ivec vis = convert_int8(tri);
     const fvec fzero = (fvec)(0.0f);
     if (!any(hit)) {                        /* sky: zeros everywhere */
         vstore8(fzero, i, depth);

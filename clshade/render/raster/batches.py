@@ -80,15 +80,6 @@ def rasterize_mesh(
     max_fragments: int = 8_000_000,
 ) -> Fragments:
     """:func:`rasterize` of a :class:`RasterMesh` (the same fragments, bit for bit)."""
-    width, height = int(width), int(height)
-    if width < 1 or height < 1:
-        raise ValueError(f"image size must be positive, got {width}x{height}")
-    if int(max_fragments) < 1:
-        raise ValueError("max_fragments must be >= 1")
-    view_m = np.asarray(view, dtype=np.float64)
-    proj_m = np.asarray(proj, dtype=np.float64)
-    if view_m.shape != (4, 4) or proj_m.shape != (4, 4):
-        raise ValueError("view and proj must be 4x4 matrices")
     frame = _Frame.of(mesh, view, proj, width, height, max_fragments)
     if frame is None:
         return no_fragments(int(height), int(width))
