@@ -485,6 +485,10 @@ def render_view(doc: dict[str, Any]) -> str:
     if all("render_ms_median" in k[x] for x in _VIEW_STEPS):
         lines.append("| **render, whole** (render thread, stages above and the rest) | "
                      + " | ".join(_ms(k[x]["render_ms_median"]) for x in _VIEW_STEPS) + " |")
+    if any("visibility + g-buffer (device)" in k[x]["stage_ms_median"] for x in _VIEW_STEPS):
+        lines += ["", "Orbit frames of a scene without textures: `rasterize` is the host's triangle setup, and "
+                      "`visibility + g-buffer (device)` the coverage tests, depth resolve, winners' barycentrics and "
+                      "G-buffer interpolation on the device (kernels/visibility.cl), bit for bit the host's G-buffer."]
     lines += ["", "Latency: from the page's input (control state sent) to the frame drawn on its canvas "
                   "(putImageData returned; compositing to the screen not included). Server ms: from the state's "
                   "arrival to the frame sent (waiting, rendering, packing, sending). Frames travel as raw RGBA "

@@ -60,6 +60,9 @@ HISTORY = 120
 SAVE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
 #: Colours of the difference view's scale bar on the page.
 RAMP_STEPS = 160
+#: The stage of an orbit frame's visibility buffer and G-buffer on the device (clshade.device.visibility);
+#: its `rasterize` stage is then the host's triangle setup only.
+DEVICE_GBUFFER_STAGE = "visibility + g-buffer (device)"
 #: Per-pixel G-buffer channels a material fills from its own values (G-buffer rebuilt or patched):
 #: (channel, the Material field it takes, its components).
 CHANNEL_FIELDS = (("base", "base_color", 3), ("roughness", "roughness", 1), ("metallic", "metallic", 1))
@@ -366,7 +369,7 @@ class ViewSession:
             if isinstance(fragments, ViewSetup):   # coverage, winners and the G-buffer on the device
                 device = self._stage(self._device_gbuffer, (geometry_key, _face_key(mats)),
                                      lambda: DeviceGBuffer(self.runtime, geometry, faces), timings, "g-buffer kernel")
-                with timings.stage("g-buffer"):
+                with timings.stage(DEVICE_GBUFFER_STAGE):
                     gbuffer, cover = device.build(fragments, table, self._planes)
             else:
                 with timings.stage("g-buffer"):
@@ -415,7 +418,7 @@ class ViewSession:
             stats[model.id] = frame_stats(times[:, 0], times[:, 1]) | dict(frames=len(times))
         return ViewFrame(self.width, self.height, views, timings, stats,
                          {k: m.id for k, m in shown.items()}, scale,
-                         reshade_only=not any(s in timings for s in ("rasterize", "g-buffer")))
+                         reshade_only=not any(s in timings for s in ("rasterize", "g-buffer", DEVICE_GBUFFER_STAGE)))
 
     def oracle(self, controls: Controls) -> dict:
         """For the current view, per shown model: the error against the float64 frame oracle
