@@ -5,7 +5,7 @@
  * (clshade/render/raster/batches.py:setup_view):
  *
  * cover — the rasterizer's coverage and depth resolve (raster/tiles.py), one work-item per
- *   TILE x TILE tile of a triangle's pixel box, one vector lane per column:
+ *   TILE x TILE tile of a triangle's pixel box, a row LANES columns at a time, one per lane:
  *         a pixel centre (X, Y) is inside when E_i = A_i X + (B_i Y + C_i) >= thr_i for the
  *         three edges (thr: the top-left rule's 0 or TIE_EPS); its NDC depth
  *         z = z_a X + (z_b Y + z_c) is kept within [-1 - eps, 1 + eps], clamped to [-1, 1];
@@ -48,17 +48,48 @@
 #pragma OPENCL EXTENSION cl_khr_int64_extended_atomics : enable
 #pragma OPENCL FP_CONTRACT OFF
 
-#define LANES 8
+/* LANES (the host's -DLANES, Runtime.double_lanes): pixels per work-item, one per lane of a
+ * double vector — 8 where the device compiles 512-bit vectors natively, else 4 (pip's PoCL 3.0
+ * on an AVX-512 host compiles for a target without AVX-512, and a program passing double8 to
+ * its builtins there lists no kernels once cached). */
+#if LANES == 8
 typedef double8 dvec;
 typedef float8 fvec;
 typedef int8 ivec;
 typedef long8 lvec;
-#define EMPTY_KEY LONG_MAX
-#define TILE 8                              /* = LANES: a tile's row is one vector */
-
-/* Lane k of each: p[i.sk]. */
+typedef uchar8 cvec;
+#define LANE_IOTA ((ivec)(0, 1, 2, 3, 4, 5, 6, 7))
 #define GATHER(T, p, i) ((T)((p)[(i).s0], (p)[(i).s1], (p)[(i).s2], (p)[(i).s3], \
                              (p)[(i).s4], (p)[(i).s5], (p)[(i).s6], (p)[(i).s7]))
+#define VLOAD vload8
+#define VSTORE vstore8
+#define convert_dvec convert_double8
+#define convert_fvec convert_float8
+#define convert_ivec convert_int8
+#define convert_lvec convert_long8
+#define convert_cvec convert_uchar8
+#elif LANES == 4
+typedef double4 dvec;
+typedef float4 fvec;
+typedef int4 ivec;
+typedef long4 lvec;
+typedef uchar4 cvec;
+#define LANE_IOTA ((ivec)(0, 1, 2, 3))
+#define GATHER(T, p, i) ((T)((p)[(i).s0], (p)[(i).s1], (p)[(i).s2], (p)[(i).s3]))
+#define VLOAD vload4
+#define VSTORE vstore4
+#define convert_dvec convert_double4
+#define convert_fvec convert_float4
+#define convert_ivec convert_int4
+#define convert_lvec convert_long4
+#define convert_cvec convert_uchar4
+#else
+#error "LANES must be 4 or 8"
+#endif
+#define EMPTY_KEY LONG_MAX
+#define TILE 8                              /* raster/tiles.py's TILE: a tile's row is TILE / LANES vectors */
+
+/* Lane k of each: p[i.sk]. */
 #define GD(p, i) GATHER(dvec, p, i)
 #define GF(p, i) GATHER(fvec, p, i)
 #define GI(p, i) GATHER(ivec, p, i)
@@ -87,9 +118,6 @@ __kernel void cover(
     const uint ntx = (uint)((col1 - col0) / TILE) + 1u;
     const int x0 = col0 + (int)(k % ntx) * TILE, y0 = row0 + (int)(k / ntx) * TILE;
     const int bw = min(TILE, col1 - x0 + 1), bh = min(TILE, row1 - y0 + 1);
-    const ivec lane = (ivec)(0, 1, 2, 3, 4, 5, 6, 7);
-    const dvec xc = convert_double8((ivec)(x0) + lane) + 0.5;
-    const lvec in_box = convert_long8(lane < bw);
     double a[3], b[3], c[3], thr[3];
     for (uint j = 0; j < 3; j++) {
         a[j] = edge[j * ntri + t];
@@ -98,28 +126,32 @@ __kernel void cover(
         thr[j] = edge[(9 + j) * ntri + t];
     }
     const double za = edge[12 * ntri + t], zb = edge[13 * ntri + t], zc = edge[14 * ntri + t];
-    const dvec ax0 = a[0] * xc, ax1 = a[1] * xc, ax2 = a[2] * xc, zx = za * xc;
-    for (int r = 0; r < bh; r++) {
-        const double yc = (double)(y0 + r) + 0.5;
-        double byc0 = b[0] * yc, byc1 = b[1] * yc, byc2 = b[2] * yc, zy = zb * yc;
-        byc0 = byc0 + c[0];
-        byc1 = byc1 + c[1];
-        byc2 = byc2 + c[2];
-        zy = zy + zc;
-        dvec z = zx + zy;
-        const lvec keep = in_box & ((ax0 + byc0) >= thr[0]) & ((ax1 + byc1) >= thr[1]) & ((ax2 + byc2) >= thr[2])
-                          & (z >= z_lo) & (z <= z_hi);
-        if (!any(keep)) continue;
-        z = select(z, (dvec)(-1.0), z < -1.0);
-        z = select(z, (dvec)(1.0), z > 1.0);
-        z = z + 1.0;
-        z = z * z_scale;
-        const lvec key = (convert_long8(z) << (long)tri_bits) | (long)t;
-        __global long* row = keys + (size_t)(y0 + r) * width + x0;
-        for (int x = 0; x < TILE; x++) {
-            const long kx = ((const long*)&key)[x];
-            if (((const long*)&keep)[x] && kx < row[x])
-                atom_min(row + x, kx);
+    for (int h = 0; h < bw; h += LANES) {   /* the tile's columns, LANES at a time */
+        const dvec xc = convert_dvec((ivec)(x0 + h) + LANE_IOTA) + 0.5;
+        const lvec in_box = convert_lvec(LANE_IOTA < bw - h);
+        const dvec ax0 = a[0] * xc, ax1 = a[1] * xc, ax2 = a[2] * xc, zx = za * xc;
+        for (int r = 0; r < bh; r++) {
+            const double yc = (double)(y0 + r) + 0.5;
+            double byc0 = b[0] * yc, byc1 = b[1] * yc, byc2 = b[2] * yc, zy = zb * yc;
+            byc0 = byc0 + c[0];
+            byc1 = byc1 + c[1];
+            byc2 = byc2 + c[2];
+            zy = zy + zc;
+            dvec z = zx + zy;
+            const lvec keep = in_box & ((ax0 + byc0) >= thr[0]) & ((ax1 + byc1) >= thr[1])
+                              & ((ax2 + byc2) >= thr[2]) & (z >= z_lo) & (z <= z_hi);
+            if (!any(keep)) continue;
+            z = select(z, (dvec)(-1.0), z < -1.0);
+            z = select(z, (dvec)(1.0), z > 1.0);
+            z = z + 1.0;
+            z = z * z_scale;
+            const lvec key = (convert_lvec(z) << (long)tri_bits) | (long)t;
+            __global long* row = keys + (size_t)(y0 + r) * width + x0 + h;
+            for (int x = 0; x < LANES; x++) {
+                const long kx = ((const long*)&key)[x];
+                if (((const long*)&keep)[x] && kx < row[x])
+                    atom_min(row + x, kx);
+            }
         }
     }
 }
@@ -147,38 +179,37 @@ __kernel void visibility(
     const uint i = get_global_id(0);
     const uint p0 = i * LANES;              /* plane is a multiple of LANES (PIXEL_PAD) */
     if (p0 >= plane) return;
-    const ivec lane = (ivec)(0, 1, 2, 3, 4, 5, 6, 7);
-    const lvec key = vload8(i, keys);
+    const lvec key = VLOAD(i, keys);
     const lvec tri = key & (lvec)((1L << tri_bits) - 1);
     /* A key never names a triangle past ntri (cover writes this frame's); checked all the same, so
      * that a key left over by a bug is an empty pixel, never a read out of bounds. */
     const lvec hitl = (key != (lvec)(EMPTY_KEY)) & (tri < (lvec)(ntri));
-    const ivec hit = convert_int8(hitl);
-    const ivec vis = convert_int8(tri);
+    const ivec hit = convert_ivec(hitl);
+    const ivec vis = convert_ivec(tri);
     const fvec fzero = (fvec)(0.0f);
     if (!any(hit)) {                        /* sky: zeros everywhere */
-        vstore8(fzero, i, depth);
+        VSTORE(fzero, i, depth);
         for (uint d = 0; d < 3; d++) {
-            vstore8(fzero, i, normal + d * plane);
-            vstore8(fzero, i, base + d * plane);
+            VSTORE(fzero, i, normal + d * plane);
+            VSTORE(fzero, i, base + d * plane);
 #if HAS_EMISSIVE
-            vstore8(fzero, i, emissive + d * plane);
+            VSTORE(fzero, i, emissive + d * plane);
 #endif
         }
-        vstore8(fzero, i, roughness);
-        vstore8(fzero, i, metallic);
-        vstore8((uchar8)(0), i, material);
-        vstore8((uchar8)(0), i, cover);
+        VSTORE(fzero, i, roughness);
+        VSTORE(fzero, i, metallic);
+        VSTORE((cvec)(0), i, material);
+        VSTORE((cvec)(0), i, cover);
         return;
     }
-    vstore8((lvec)(EMPTY_KEY), i, keys);    /* empty again for the next frame's cover */
+    VSTORE((lvec)(EMPTY_KEY), i, keys);    /* empty again for the next frame's cover */
     const ivec t = select((ivec)(0), vis, hit);   /* empty lanes compute on triangle 0, then get zeros */
 
     /* The winners' step (raster/resolve.py), in double. */
-    const ivec pix = (ivec)((int)p0) + lane;
+    const ivec pix = (ivec)((int)p0) + LANE_IOTA;
     const ivec row = pix / (int)width;
-    const dvec X = convert_double8(pix - row * (int)width) + 0.5;
-    const dvec Y = convert_double8(row) + 0.5;
+    const dvec X = convert_dvec(pix - row * (int)width) + 0.5;
+    const dvec Y = convert_dvec(row) + 0.5;
     dvec by0 = GD(setup + 3 * ntri, t) * Y, by1 = GD(setup + 4 * ntri, t) * Y, by2 = GD(setup + 5 * ntri, t) * Y;
     by0 = by0 + GD(setup + 6 * ntri, t);
     by1 = by1 + GD(setup + 7 * ntri, t);
@@ -205,8 +236,8 @@ __kernel void visibility(
         zi = zi + e2 * GD(vdepth, GI(corners + 2 * nface, f));
         z = w_is_depth ? select(z, zi, bad) : zi;
     }
-    const fvec b0 = convert_float8(e0), b1 = convert_float8(e1), b2 = convert_float8(e2);
-    const fvec zf = convert_float8(z);
+    const fvec b0 = convert_fvec(e0), b1 = convert_fvec(e1), b2 = convert_fvec(e2);
+    const fvec zf = convert_fvec(z);
 
     /* build_gbuffer's step (render/gbuffer.py), in float. */
     fvec nx = GF(corner_normal, f) * b0, ny = GF(corner_normal + nface, f) * b0;
@@ -230,18 +261,18 @@ __kernel void visibility(
     ny = ny * inv;
     nz = nz * inv;
     const ivec ok = hit & isfinite(zf) & isfinite(nx) & isfinite(ny) & isfinite(nz);
-    vstore8(select(fzero, zf, ok), i, depth);
-    vstore8(select(fzero, nx, ok), i, normal);
-    vstore8(select(fzero, ny, ok), i, normal + plane);
-    vstore8(select(fzero, nz, ok), i, normal + 2 * plane);
+    VSTORE(select(fzero, zf, ok), i, depth);
+    VSTORE(select(fzero, nx, ok), i, normal);
+    VSTORE(select(fzero, ny, ok), i, normal + plane);
+    VSTORE(select(fzero, nz, ok), i, normal + 2 * plane);
     for (uint d = 0; d < 3; d++) {
-        vstore8(select(fzero, GF(face_base + d * nface, f), ok), i, base + d * plane);
+        VSTORE(select(fzero, GF(face_base + d * nface, f), ok), i, base + d * plane);
 #if HAS_EMISSIVE
-        vstore8(select(fzero, GF(face_emissive + d * nface, f), ok), i, emissive + d * plane);
+        VSTORE(select(fzero, GF(face_emissive + d * nface, f), ok), i, emissive + d * plane);
 #endif
     }
-    vstore8(select(fzero, GF(face_roughness, f), hit), i, roughness);
-    vstore8(select(fzero, GF(face_metallic, f), hit), i, metallic);
-    vstore8(convert_uchar8(select((ivec)(0), convert_int8(GATHER(uchar8, face_material, f)), hit)), i, material);
-    vstore8(convert_uchar8(select(select((ivec)(0), (ivec)(2), hit), (ivec)(1), ok)), i, cover);
+    VSTORE(select(fzero, GF(face_roughness, f), hit), i, roughness);
+    VSTORE(select(fzero, GF(face_metallic, f), hit), i, metallic);
+    VSTORE(convert_cvec(select((ivec)(0), convert_ivec(GATHER(cvec, face_material, f)), hit)), i, material);
+    VSTORE(convert_cvec(select(select((ivec)(0), (ivec)(2), hit), (ivec)(1), ok)), i, cover);
 }

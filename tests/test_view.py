@@ -23,7 +23,7 @@ from clshade.render.raster import rasterize
 from clshade.resources import scenes_dir
 from clshade.view.controls import ControlError, parse_controls, parse_message
 from clshade.view.document import dumps
-from clshade.view.session import ViewSession
+from clshade.view.session import DEVICE_GBUFFER_STAGE, ViewSession
 from scene_toml import red_sphere
 
 ROBOT = scenes_dir() / "robot.toml"
@@ -680,3 +680,59 @@ def test_pipelined_frames_show_their_own_state(session):
     for f0, _, az in finishes:
         waiting = [p_az for _, p1, p_az in prepares if p1 < f0 - HANDOFF_S]
         assert not waiting or az >= max(waiting), f"finished azimuth {az} while {max(waiting)} was prepared"
+
+
+# ---------------------------------------------------------------- the device's G-buffer or the host's
+
+
+def _frames(s, states) -> list:
+    return [s.render(parse_controls(controls(s, **state), s.limits)) for state in states]
+
+
+ORBIT_STATES = [{}, dict(materials={"steel": {"roughness": 0.8}}), dict(azimuth=40.0), dict(azimuth=95.0, distance=3.0),
+                dict(azimuth=95.0, distance=3.0, split=True)]
+
+
+def test_the_host_path_shows_the_device_paths_frames(tmp_path):
+    """A session that rasterizes on the host (device_gbuffer=False, the textured scenes' path)
+    shows the frames of one whose device makes the visibility buffer and G-buffer: orbit, a
+    slider (the G-buffer patch), a close view, a split."""
+    device = ViewSession(ROBOT, tmp_path, W, H)
+    host = ViewSession(ROBOT, tmp_path, W, H, device_gbuffer=False)
+    device_frames, host_frames = _frames(device, ORBIT_STATES), _frames(host, ORBIT_STATES)
+    for d, h in zip(device_frames, host_frames):
+        assert d.views.keys() == h.views.keys()
+        for view in d.views:
+            np.testing.assert_array_equal(d.views[view], h.views[view])
+        assert DEVICE_GBUFFER_STAGE not in h.stages
+    assert all(DEVICE_GBUFFER_STAGE in device_frames[i].stages and "g-buffer" in host_frames[i].stages
+               for i in (0, 2, 3))
+
+
+@pytest.mark.parametrize("failure", ["differs", "build fails"])
+def test_a_device_that_fails_its_check_leaves_the_host_path(tmp_path, monkeypatch, failure):
+    """Where the device's first small frame differs from the host's (or its program fails to build),
+    the session turns the device path off, says why in the notes, and shows the host's frames from
+    that first frame on."""
+    from clshade import diagnostics
+    from clshade.view import session as session_module
+
+    if failure == "differs":
+        monkeypatch.setattr(session_module.device_visibility, "verify",
+                            lambda *args: "3 of 5184 pixels differ from the host's in normal")
+        why = "differ from the host's in normal"
+    else:
+        def broken(*args, **kwargs):
+            raise ClshadeError("kernel build failed for visibility")
+        monkeypatch.setattr(session_module, "DeviceGBuffer", broken)
+        why = "kernel build failed for visibility"
+    monkeypatch.setattr(diagnostics, "NOTES", [])
+    s = ViewSession(ROBOT, tmp_path, W, H)
+    host = ViewSession(ROBOT, tmp_path, W, H, device_gbuffer=False)
+    frames = _frames(s, ORBIT_STATES)
+    assert why in (s.device_gbuffer_off or "") and not s.device_gbuffer
+    assert any("visibility buffer is off" in n and why in n for n in diagnostics.NOTES)
+    for f, h in zip(frames, _frames(host, ORBIT_STATES)):
+        assert DEVICE_GBUFFER_STAGE not in f.stages
+        for view in h.views:
+            np.testing.assert_array_equal(f.views[view], h.views[view])

@@ -412,10 +412,27 @@ class Runtime:
         they ran GGX and Phong ~9 % faster than 8 (A/B in one process, 2026-11-23).
         With the library's builtins forced (LIBRARY_MATH) such a device stays at 8."""
         width = int(getattr(self.device, "native_vector_width_float", 8) or 8)
-        if width >= 16 and "PoCL" in self.info.platform_version and "avx512" not in self.info.device and (
-                not host_has_avx512f() or LIBRARY_MATH in self.options):
+        if self.narrow_target and (not host_has_avx512f() or LIBRARY_MATH in self.options):
             width = 8
         return max(int(w) for w in SIMD_WIDTHS if int(w) <= max(width, 1))
+
+    @property
+    def narrow_target(self) -> bool:
+        """PoCL reporting AVX-512's vector widths (16 floats) while compiling for a CPU name
+        without AVX-512 (pip's PoCL 3.0 on an AVX-512 host: its device name then lacks
+        "avx512"). A 512-bit vector passed to its library's builtins (float16, double8,
+        long8) there breaks the program: PoCL's cached copy of it lists no kernels
+        (clCreateKernel: INVALID_KERNEL_NAME; a one-line double8 kernel does it, 2026-11-27)."""
+        width = int(getattr(self.device, "native_vector_width_float", 8) or 8)
+        return width >= 16 and "PoCL" in self.info.platform_version and "avx512" not in self.info.device
+
+    @property
+    def double_lanes(self) -> int:
+        """Doubles per vector in kernels that carry one pixel per lane of a double vector
+        (kernels/visibility.cl): 8 (512 bits) where the device's native double width is 8 and
+        its compiler targets it, else 4 (256 bits: AVX2, and what any device compiles)."""
+        native = int(getattr(self.device, "native_vector_width_double", 0) or 0)
+        return 8 if native >= 8 and not self.narrow_target else 4
 
     @property
     def inline_math(self) -> bool:

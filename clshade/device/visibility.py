@@ -15,20 +15,18 @@ import numpy as np
 
 from clshade.device.runtime import Runtime
 from clshade.render.arrays import PlanePool, aligned_zeros, padded
-from clshade.render.gbuffer import CHANNELS, GBuffer
+from clshade.render.gbuffer import CHANNELS, GBuffer, build_gbuffer, channel_names, material_table
 from clshade.render.meshes import Geometry
-from clshade.render.raster import ViewSetup
+from clshade.render.raster import RasterMesh, ViewSetup, rasterize_mesh, setup_view
+from clshade.render.scene import Camera, Scene
+from clshade.render.raster.resolve import EMPTY_KEY
 from clshade.resources import kernels_dir
 
 SOURCE = "visibility.cl"
-#: Pixels per work-item (LANES in kernels/visibility.cl); the planes' padding (PIXEL_PAD) is a multiple.
-LANES = 8
 #: The kernels' float division and square root must round as NumPy's do (IEEE, correctly rounded).
 EXACT_OPTIONS = ("-cl-fp32-correctly-rounded-divide-sqrt",)
 #: What the kernels need of the device: doubles (the winners' step) and atom_min on 64-bit keys.
 EXTENSIONS = ("cl_khr_fp64", "cl_khr_int64_base_atomics", "cl_khr_int64_extended_atomics")
-#: An empty pixel's key (resolve.EMPTY_KEY, EMPTY_KEY in the kernel).
-EMPTY_KEY = np.iinfo(np.int64).max
 
 
 def supports(runtime: Runtime, geometry: Geometry) -> bool:
@@ -41,15 +39,21 @@ def supports(runtime: Runtime, geometry: Geometry) -> bool:
 class DeviceGBuffer:
     """One geometry's face tables on the device and the kernel that fills a G-buffer's planes."""
 
-    def __init__(self, runtime: Runtime, geometry: Geometry, faces: dict[str, np.ndarray]) -> None:
-        """`faces`: face_planes(geometry, materials) (without tangents)."""
+    def __init__(self, runtime: Runtime, geometry: Geometry, faces: dict[str, np.ndarray],
+                 lanes: int | None = None) -> None:
+        """`faces`: face_planes(geometry, materials) (without tangents); `lanes`: 4 or 8 pixels
+        per work-item (default: the device's, Runtime.double_lanes)."""
         if not supports(runtime, geometry):
             raise ValueError("DeviceGBuffer: textured geometry, or a device without double precision or "
                              "64-bit atomics (rasterize_mesh and build_gbuffer make that G-buffer)")
         self.rt = runtime
-        self.emissive = "emissive0" in faces
+        self.emissive = geometry.has_emission
+        #: The G-buffer's channels (no textures, hence no occlusion; no tangents).
+        self.channels = channel_names(geometry)
         text = (kernels_dir() / SOURCE).read_text(encoding="utf-8")
-        options = EXACT_OPTIONS + (f"-DHAS_EMISSIVE={int(self.emissive)}",)
+        #: Pixels per work-item (LANES in the kernel); the planes' padding (PIXEL_PAD) is a multiple.
+        self.lanes = lanes or runtime.double_lanes
+        options = EXACT_OPTIONS + (f"-DHAS_EMISSIVE={int(self.emissive)}", f"-DLANES={self.lanes}")
         built = runtime.kernel(f"#line 1 \"{SOURCE}\"\n{text}\n", "visibility", options, label="visibility")
         cl = runtime.cl
         program = built.get_info(cl.kernel_info.PROGRAM)
@@ -78,8 +82,7 @@ class DeviceGBuffer:
         w, h = view.width, view.height
         n = w * h
         plane = padded(n)
-        names = [name for name in CHANNELS if name not in ("tangent", "emissive", "occlusion")
-                 or (name == "emissive" and self.emissive)]
+        names = self.channels
         empty = pool.empty if pool is not None else aligned_zeros
         planes = {name: empty((CHANNELS[name][1], plane), CHANNELS[name][0]) for name in names}
         cover = empty((plane,), np.uint8)
@@ -112,7 +115,7 @@ class DeviceGBuffer:
         self.kernel.set_args(np.uint32(plane), np.uint32(w), np.uint32(ntri), np.uint32(view.w_is_depth),
                              np.uint32(view.tri_bits), keys, *inputs[-3:], *self.tables, *self.emissive_table,
                              *(outputs[name] for name in order))
-        cl.enqueue_nd_range_kernel(rt.queue, self.kernel, (rt.global_size(plane // LANES),), (rt.local_size,))
+        cl.enqueue_nd_range_kernel(rt.queue, self.kernel, (rt.global_size(plane // self.lanes),), (rt.local_size,))
         for buffer, array in zip(outputs.values(), (*planes.values(), cover)):
             # Mapped and unmapped: the host arrays then hold the result (no copy on a CPU device).
             mapped, _ = cl.enqueue_map_buffer(rt.queue, buffer, cl.map_flags.READ, 0, array.size, array.dtype,
@@ -132,3 +135,33 @@ class DeviceGBuffer:
             cl.enqueue_fill_buffer(self.rt.queue, self._key_buffer, np.int64(EMPTY_KEY), 0, plane * 8)
             self._key_pixels = plane
         return self._key_buffer
+
+
+#: The frame size of `verify`'s check: small enough to cost a few milliseconds on the host.
+VERIFY_SIZE = (96, 54)
+
+
+def verify(device: DeviceGBuffer, scene: Scene, geometry: Geometry, mesh: RasterMesh, camera: Camera,
+           faces: dict[str, np.ndarray]) -> str | None:
+    """Whether `device` makes the host's G-buffer on this device: one small frame of `camera`'s
+    view (VERIFY_SIZE) both ways, compared bit for bit. None when they agree, else what differs
+    (the live viewer then keeps the host path: a device that rounds otherwise, or a compiler
+    that breaks the program, must not change the picture)."""
+    small = camera.with_size(*VERIFY_SIZE)
+    view, proj = small.view_matrix(), small.projection_matrix()
+    setup = setup_view(mesh, view, proj, small.width, small.height)
+    if setup is None:
+        return None                     # more than one face batch: the device path is not used
+    fragments = rasterize_mesh(mesh, view, proj, small.width, small.height)
+    expected = build_gbuffer(scene, geometry, fragments, small, faces=faces)
+    got, cover = device.build(setup, material_table(scene))
+    if sorted(got.channels) != sorted(expected.channels):
+        return f"channels {sorted(got.channels)}, the host's {sorted(expected.channels)}"
+    for name in expected.channels:
+        a, b = expected.plane(name), got.plane(name)
+        differ = int((a.view(np.uint8) != b.view(np.uint8)).reshape(a.shape[0], -1).any(axis=0).sum())
+        if differ:
+            return f"{differ} of {small.width * small.height} pixels differ from the host's in {name}"
+    if not np.array_equal(np.flatnonzero(cover), fragments.pixels):
+        return "the covered pixels differ from the host's"
+    return None

@@ -308,6 +308,14 @@ def face_planes(geometry: Geometry, mats: list, tangents: bool = False) -> dict[
     return planes
 
 
+def channel_names(geometry: Geometry, tangents: bool = False) -> list[str]:
+    """The channels of `geometry`'s G-buffer, in CHANNELS' order: emission and occlusion where
+    the geometry has them, the tangents where asked for (and the geometry has them)."""
+    tangents = tangents and geometry.tangents is not None
+    return [name for name in CHANNELS if (name != "emissive" or geometry.has_emission)
+            and (name != "occlusion" or geometry.has_occlusion) and (name != "tangent" or tangents)]
+
+
 def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments, camera: Camera | None = None,
                   tangents: bool = False, faces: dict[str, np.ndarray] | None = None,
                   pool: PlanePool | None = None) -> GBuffer:
@@ -327,8 +335,7 @@ def build_gbuffer(scene: Scene, geometry: Geometry, fragments: Fragments, camera
     mats = list(scene.materials.values())
 
     tangents = tangents and geometry.tangents is not None
-    names = [name for name in CHANNELS if (name != "emissive" or geometry.has_emission)
-             and (name != "occlusion" or geometry.has_occlusion) and (name != "tangent" or tangents)]
+    names = channel_names(geometry, tangents)
     zeros = pool.zeros if pool is not None else aligned_zeros
     planes = {name: zeros((CHANNELS[name][1], padded(n)), CHANNELS[name][0]) for name in names}
     depth = planes["depth"][0]                             # 0 where empty

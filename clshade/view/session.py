@@ -39,6 +39,7 @@ from clshade.device.runtime import get_runtime
 from clshade.device import visibility as device_visibility
 from clshade.device.shade import Shader, scene_features
 from clshade.device.visibility import DeviceGBuffer
+from clshade.diagnostics import note
 from clshade.errors import ClshadeError
 from clshade.models import SURFACE_PARAMS, lobes, presets
 from clshade.pipeline import Timings
@@ -226,6 +227,9 @@ class ViewSession:
         # visibility buffer and the G-buffer (clshade.device.visibility; build_gbuffer's planes, bit
         # for bit).
         self.device_gbuffer = device_gbuffer
+        #: Why the device path was turned off (its first frame differed from the host's, or it
+        #: failed to build), else None.
+        self.device_gbuffer_off: str | None = None
         self._planes = PlanePool()      # the G-buffers' planes, their memory used again
         self.last: dict[str, object] = {}
         self._parsed: tuple[dict, Scene] | None = None     # the last document parsed and its scene
@@ -321,6 +325,25 @@ class ViewSession:
                 return setup
         return rasterize_mesh(mesh, view, proj, camera.width, camera.height)
 
+    def _proven_device(self, scene: Scene, geometry, camera, faces) -> DeviceGBuffer | None:
+        """The device's G-buffer kernels for this geometry and its face tables, once they have made
+        the host's G-buffer of a small frame of this view (device_visibility.verify); None, with
+        the device path turned off for the session and the reason noted, when they did not or
+        failed to build."""
+        if self.device_gbuffer_off is not None:
+            return None
+        try:
+            device = DeviceGBuffer(self.runtime, geometry, faces)
+            reason = device_visibility.verify(device, scene, geometry, self._mesh_of(geometry), camera, faces)
+        except (ClshadeError, self.runtime.cl.Error) as exc:
+            device, reason = None, f"{type(exc).__name__}: {exc}"
+        if reason is None:
+            return device
+        self.device_gbuffer, self.device_gbuffer_off = False, reason
+        note("viewer", f"the device's visibility buffer is off on {self.runtime.info.description}, the host "
+                       f"rasterizes: {reason}")
+        return None
+
     def _mesh_of(self, geometry) -> RasterMesh:
         """The RasterMesh of `geometry` (its checks and face planes made once per geometry)."""
         kept = self._geometry.extra
@@ -348,6 +371,7 @@ class ViewSession:
         """The kept G-buffer when only table values changed (new table), patched planes when a
         per-pixel material value changed in an untextured scene, else built from the kept raster."""
         kept = self._gbuffer
+        raster = fragments                  # the prepared raster this G-buffer is kept for
         values = _channel_values(scene)
         table = material_table(scene)
         same_raster = kept.extra.get("fragments") is fragments
@@ -366,15 +390,25 @@ class ViewSession:
             mats = list(scene.materials.values())
             faces = self._stage(self._faces, (geometry_key, _face_key(mats)), lambda: face_planes(geometry, mats),
                                 timings, "face tables")
+            device = None
             if isinstance(fragments, ViewSetup):   # coverage, winners and the G-buffer on the device
                 device = self._stage(self._device_gbuffer, (geometry_key, _face_key(mats)),
-                                     lambda: DeviceGBuffer(self.runtime, geometry, faces), timings, "g-buffer kernel")
+                                     lambda: self._proven_device(scene, geometry, camera, faces), timings,
+                                     "g-buffer kernel")
+            if device is not None:
                 with timings.stage(DEVICE_GBUFFER_STAGE):
                     gbuffer, cover = device.build(fragments, table, self._planes)
             else:
+                if isinstance(fragments, ViewSetup):    # the device path was just turned off
+                    with timings.stage("rasterize"):
+                        host = rasterize_mesh(self._mesh_of(geometry), camera.view_matrix(),
+                                              camera.projection_matrix(), camera.width, camera.height)
+                    cover = np.zeros(camera.width * camera.height, np.uint8)
+                    cover[host.pixels] = 1
+                    fragments = host
                 with timings.stage("g-buffer"):
                     gbuffer = build_gbuffer(scene, geometry, fragments, camera, faces=faces, pool=self._planes)
-        kept.value, kept.extra = gbuffer, dict(fragments=fragments, table=table, values=values, groups=groups,
+        kept.value, kept.extra = gbuffer, dict(fragments=raster, table=table, values=values, groups=groups,
                                                cover=cover)
         return gbuffer
 

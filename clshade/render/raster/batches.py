@@ -13,7 +13,7 @@ from clshade.render.raster.mesh import RasterMesh, camera_centre
 from clshade.render.raster.resolve import Resolve, key_layout, resolved, winners
 from clshade.render.raster.visibility import ViewSetup
 from clshade.render.raster.tiles import cover
-from clshade.render.raster.triangles import setup_parallel
+from clshade.render.raster.triangles import Tris, setup_parallel
 
 #: Maximum faces per batch: bounds the per-triangle working memory (a few
 #: hundred bytes per face) independently of the mesh size.  Small enough for
@@ -117,9 +117,7 @@ def setup_view(
         return None
     clip_t, vdepth, vfinite, _, eye = frame.args
     with np.errstate(all="ignore"):  # non-finite input is dropped, never warned about
-        face = mesh.candidates(eye, 0, len(mesh))
-        t = setup_parallel(clip_t, vfinite, vdepth, mesh, mesh.batch(0, len(mesh)), face, frame.width,
-                           frame.height) if len(face) else None
+        t = _setup_batch(clip_t, vdepth, vfinite, mesh, eye, 0, len(mesh), frame.width, frame.height)
     return ViewSetup(frame.width, frame.height, t, frame.w_is_depth, tri_bits, z_scale)
 
 
@@ -173,6 +171,16 @@ class _Frame:
         return cls(width, height, (clip_t, vdepth, vfinite, mesh, eye), n_batches, bounds, w_is_depth)
 
 
+def _setup_batch(clip_t: NDArray[np.float64], vdepth: NDArray[np.float64], vfinite: NDArray[np.bool_],
+                 mesh: RasterMesh, eye: NDArray[np.float64], f0: int, f1: int, width: int, height: int) -> Tris | None:
+    """The triangle setup of faces ``f0:f1``, the back faces pre-culled for the camera centre
+    `eye` left out; None when no triangle is left."""
+    face = mesh.candidates(eye, f0, f1)
+    if len(face) == 0:
+        return None
+    return setup_parallel(clip_t, vfinite, vdepth, mesh, mesh.batch(f0, f1), face, width, height)
+
+
 def _raster_batch(
     state: Resolve,
     clip_t: NDArray[np.float64],
@@ -188,10 +196,7 @@ def _raster_batch(
     out): their winners as Fragments (``frame`` None, the only batch) or merged into the
     full-frame arrays ``frame`` = (tri_id, depth, bary planes)."""
     width = state.width
-    face = mesh.candidates(eye, f0, f1)
-    if len(face) == 0:
-        return None
-    t = setup_parallel(clip_t, vfinite, vdepth, mesh, mesh.batch(f0, f1), face, width, state.height)
+    t = _setup_batch(clip_t, vdepth, vfinite, mesh, eye, f0, f1, width, state.height)
     if t is None:
         return None
     tri_bits = state.tri_bits
