@@ -35,7 +35,12 @@ PRODUCERS: dict[str, tuple[str, ...]] = {
     "runtimes.json": ("kernels", "clshade/bench/runtimes.py", "clshade/device/health.py"),
     "user_lobes.json": ("kernels", "clshade/glsl.py", "clshade/brdf_explorer.py", "benchmarks/user_lobes.py"),
     "view.json": ("kernels", "clshade/view", "clshade/render", "clshade/device/display.py", "clshade/device/shade.py",
-                  "clshade/device/variants.py", "benchmarks/view_bench.py"),
+                  "clshade/device/variants.py", "clshade/device/visibility.py", "clshade/device/runtime.py",
+                  "benchmarks/view_bench.py"),
+    # The same benchmark on pip's PoCL 3.0, the runtime a fresh install gives (CLSHADE_DEVICE='PoCL 3.0').
+    "view_pocl30.json": ("kernels", "clshade/view", "clshade/render", "clshade/device/display.py",
+                         "clshade/device/shade.py", "clshade/device/variants.py", "clshade/device/visibility.py",
+                         "clshade/device/runtime.py", "benchmarks/view_bench.py"),
     "mutants.json": ("benchmarks/mutants.py", "benchmarks/mutant_plugin.py", "benchmarks/impact.py", "kernels",
                      "clshade", "tests", "scenes", "pyproject.toml"),
 }
