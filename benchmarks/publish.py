@@ -435,8 +435,17 @@ def _ms(x: float | None) -> str:
     return "–" if x is None else f"{x:.1f}"
 
 
-def view_table(doc: dict[str, Any]) -> list[str]:
-    """The viewer's rates and latencies (view.json), one row per kind of step, with the targets."""
+#: The viewer benchmark's results: on the default device, and on pip's PoCL 3.0 (a fresh install's runtime).
+VIEW_RESULTS = ("view", "view_pocl30")
+
+
+def _view_command(doc: dict[str, Any]) -> str:
+    """The command that measured a view_bench result (results before it was recorded: the default one)."""
+    return doc.get("command", "python benchmarks/view_bench.py")
+
+
+def view_table(doc: dict[str, Any], name: str = "view.json") -> list[str]:
+    """The viewer's rates and latencies (benchmarks/results/`name`), one row per kind of step, with the targets."""
     k, t = doc["kinds"], doc["targets"]
     names = {"reshade": "re-shade (roughness slider)", "orbit": "orbit (1° steps)",
              "drag": f"drag (orbit inputs at {doc['drag_hz']:.0f} Hz)"}
@@ -452,7 +461,7 @@ def view_table(doc: dict[str, Any]) -> list[str]:
                      f"{_ms(e['latency_ms']['p95'])} | {_ms(e['server_ms_median'])} | "
                      f"{_ms(e['transfer_and_browser_ms_median'])} | {_ms(e['draw_ms_median'])} | {e['frames']} |")
     m = doc["machine"]
-    lines += ["", f"*From benchmarks/results/view.json (`python benchmarks/view_bench.py`, {doc['date']}, commit "
+    lines += ["", f"*From benchmarks/results/{name} (`{_view_command(doc)}`, {doc['date']}, commit "
                   f"{doc['commit']}, {doc['scene']} at {doc['width']}x{doc['height']}, headless Chromium, device "
                   f"`{doc['device'].split(' [')[0]}`, {m['cores']} cores, load {m['load_average_at_start'][0]:.1f} "
                   f"at start).*"]
@@ -460,12 +469,12 @@ def view_table(doc: dict[str, Any]) -> list[str]:
 
 
 def render_view(doc: dict[str, Any]) -> str:
-    """benchmarks/results/view.md from view.json (benchmarks/view_bench.py)."""
+    """benchmarks/results/view.md from view.json (benchmarks/view_bench.py; view_pocl30.md from view_pocl30.json)."""
     k, m = doc["kinds"], doc["machine"]
     lines = [
         "# Live viewer: frames per second and input-to-frame latency",
         "",
-        f"Measured by `python benchmarks/view_bench.py` on {doc['date']}, commit {doc['commit']}, device "
+        f"Measured by `{_view_command(doc)}` on {doc['date']}, commit {doc['commit']}, device "
         f"`{doc['device']}`, {m['cpu']} ({m['cores']} cores, load {m['load_average_at_start'][0]:.1f} at start); "
         f"{doc['scene']} at {doc['width']}x{doc['height']} in headless Chromium; rendered by "
         "`benchmarks/publish.py`.",
@@ -689,8 +698,10 @@ def renderings() -> dict[Path, Callable[[str], str]]:
         bench = load(BENCH_JSON)
         text = replace_region(text, "bench-table", readme_bench_table(bench), readme)
         text = replace_region(text, "bench-targets", "\n".join(target_rows(bench)), readme)
-        if (RESULTS / "view.json").exists():
-            text = replace_region(text, "view-table", "\n".join(view_table(load(RESULTS / "view.json"))), readme)
+        for name in VIEW_RESULTS:
+            if (RESULTS / f"{name}.json").exists():
+                text = replace_region(text, f"{name.replace('_', '-')}-table",
+                                      "\n".join(view_table(load(RESULTS / f"{name}.json"), f"{name}.json")), readme)
         return text
 
     out[readme] = render_readme
@@ -699,8 +710,9 @@ def renderings() -> dict[Path, Callable[[str], str]]:
     for name, render in (("effects", render_effects), ("raster", render_raster)):
         if (RESULTS / f"{name}.json").exists():
             out[RESULTS / f"{name}.md"] = (lambda r, j: lambda text: r(load(j)))(render, RESULTS / f"{name}.json")
-    if (RESULTS / "view.json").exists():
-        out[RESULTS / "view.md"] = lambda text: render_view(load(RESULTS / "view.json"))
+    for name in VIEW_RESULTS:
+        if (RESULTS / f"{name}.json").exists():
+            out[RESULTS / f"{name}.md"] = (lambda j: lambda text: render_view(load(j)))(RESULTS / f"{name}.json")
     if REPORT_JSON.exists():
         out[ROOT / "benchmarks" / "REPORT.md"] = lambda text: render_report(load(REPORT_JSON))
     if RUNTIMES_JSON.exists():

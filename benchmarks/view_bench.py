@@ -31,6 +31,8 @@ message handling. `benchmarks/publish.py` renders benchmarks/results/view.md fro
 from __future__ import annotations
 
 import argparse
+import os
+import shlex
 import statistics
 import subprocess
 import sys
@@ -160,7 +162,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results" / "view.json")
     parser.add_argument("--markdown-only", action="store_true", help="re-render the Markdown from the JSON")
     args = parser.parse_args(argv)
-    publish(args.out, lambda: measure(args.frames, args.repeats, args.drag_seconds), render_view, args.markdown_only)
+    device = os.environ.get("CLSHADE_DEVICE")
+    command = ((f"CLSHADE_DEVICE={shlex.quote(device)} " if device else "") + "python benchmarks/view_bench.py"
+               + "".join(f" {shlex.quote(a)}" for a in (sys.argv[1:] if argv is None else argv)))
+    publish(args.out, lambda: dict(command=command, **measure(args.frames, args.repeats, args.drag_seconds)),
+            render_view, args.markdown_only)
     return 0
 
 
