@@ -46,7 +46,7 @@ def assert_same(scene, geometry, view, proj, camera, pool=None, device=None, run
     for name in expected.channels:
         a, b = expected.plane(name), got.plane(name)
         assert a.dtype == b.dtype and a.shape == b.shape, name
-        differ = (a.view(np.uint8) != b.view(np.uint8)).reshape(a.shape[0], -1).any(axis=0)
+        differ = (a.view(f"u{a.itemsize}") != b.view(f"u{b.itemsize}")).any(axis=0)     # bit patterns, per pixel
         assert not differ.any(), f"{name}: {int(differ.sum())} pixels differ, first {np.flatnonzero(differ)[:5]}"
     np.testing.assert_array_equal(got.coverage, expected.coverage)
     assert got.nonfinite_pixels == expected.nonfinite_pixels

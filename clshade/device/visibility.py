@@ -159,7 +159,8 @@ def verify(device: DeviceGBuffer, scene: Scene, geometry: Geometry, mesh: Raster
         return f"channels {sorted(got.channels)}, the host's {sorted(expected.channels)}"
     for name in expected.channels:
         a, b = expected.plane(name), got.plane(name)
-        differ = int((a.view(np.uint8) != b.view(np.uint8)).reshape(a.shape[0], -1).any(axis=0).sum())
+        bits = f"u{a.itemsize}"         # compared as bit patterns (NaN, -0), a pixel per column
+        differ = int((a.view(bits) != b.view(bits)).any(axis=0).sum())
         if differ:
             return f"{differ} of {small.width * small.height} pixels differ from the host's in {name}"
     if not np.array_equal(np.flatnonzero(cover), fragments.pixels):
