@@ -24,7 +24,7 @@ sys.path.insert(0, str(ROOT))
 from clshade.verify import plausibility as P  # noqa: E402
 from clshade.verify import reference as R  # noqa: E402
 from clshade.bench.run import Bench, ladder_cases, mark_pareto, report, run_cases, summarize  # noqa: E402
-from clshade.report import plot_fps, plot_ladder  # noqa: E402
+from clshade.report.formats import plot_fps, plot_ladder  # noqa: E402
 from clshade.compare import compare_sheet, sweep_sheet, write_sheet  # noqa: E402
 from clshade.device.evaluate import Samples, constant_materials, eval_brdf  # noqa: E402
 from clshade.models import GROUPS, preset, resolve, resolve_many  # noqa: E402

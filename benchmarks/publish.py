@@ -18,7 +18,7 @@ import sys
 from pathlib import Path
 from typing import Any, Callable
 
-from clshade.report import LOW01_MIN_FRAMES, NUMPY_BASELINE_CODE, low01_fps, numpy_guard_line
+from clshade.report.formats import LOW01_MIN_FRAMES, NUMPY_BASELINE_CODE, low01_fps, numpy_guard_line
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"
@@ -731,10 +731,10 @@ def renderings() -> dict[Path, Callable[[str], str]]:
             replace_region(text, "user-lobes-example", user_lobes_example(load(USER_LOBES_JSON)), guide),
             "user-lobes-table", user_lobes_table(load(USER_LOBES_JSON)), guide)
     if (RESULTS / "perf_1080p.json").exists():
-        from clshade.report import perf_markdown
+        from clshade.report.formats import perf_markdown
         out[RESULTS / "perf_1080p.md"] = lambda text: perf_markdown(load(RESULTS / "perf_1080p.json"))
     if (RESULTS / "aa.json").exists():
-        from clshade.report import aa_markdown
+        from clshade.report.formats import aa_markdown
         out[RESULTS / "aa.md"] = lambda text: aa_markdown(load(RESULTS / "aa.json"))
     for script in ("host_ab", "memory_bench", "startup_bench"):     # each script's own markdown(doc)
         name = script.removesuffix("_bench")

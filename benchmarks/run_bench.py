@@ -24,7 +24,7 @@ sys.path.insert(0, str(ROOT))
 
 from clshade.bench.run import (Bench, frame_stats, ladder_cases, mark_pareto,  # noqa: E402
                                report, run_cases, summarize, with_lights)
-from clshade.report import bench_csv as write_csv, plot_fps, plot_ladder  # noqa: E402
+from clshade.report.formats import bench_csv as write_csv, plot_fps, plot_ladder  # noqa: E402
 from clshade.models import resolve_many  # noqa: E402
 from results_io import load_average  # noqa: E402
 

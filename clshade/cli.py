@@ -572,7 +572,7 @@ def _check_bench_outputs(args: argparse.Namespace, protected: list[Path]) -> Non
     """Every output path (none an input, no two the same; --plot's ladder plot beside it with
     --ladder), and matplotlib for --plot, before the benchmark runs."""
     from clshade.outputs import check_distinct, check_output_file
-    from clshade.report import _pyplot
+    from clshade.report.formats import _pyplot
     ladder_plot = None
     if args.json:
         check_output_file(args.json, "--json", protected=protected)
@@ -612,7 +612,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     from clshade.bench.run import run_bench
     from clshade.models import resolve_many
     from clshade.outputs import write_text_atomic
-    from clshade.report import bench_csv, bench_plots, bench_text
+    from clshade.report.formats import bench_csv, bench_plots, bench_text
     _check_bench_options(args)
     scene = _load_scene(args.scene, args)
     _check_bench_outputs(args, scene.inputs())
@@ -623,7 +623,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     print(bench_text(doc))
     if args.peers:
         from clshade.bench import perf
-        from clshade.report import perf_markdown
+        from clshade.report.formats import perf_markdown
         doc["peers"] = perf.bench_peers(args)
         print()
         print(perf_markdown(doc["peers"]))
@@ -640,7 +640,7 @@ def _check_aa_outputs(prefix: Path, protected: list[Path]) -> None:
     """The four output files (none an input of the scene) and matplotlib (the ladder plot),
     before the long run."""
     from clshade.outputs import check_output_file
-    from clshade.report import _pyplot
+    from clshade.report.formats import _pyplot
     for suffix in (".json", ".md", "_ladder.png", "_crops.png"):
         check_output_file(prefix.with_name(prefix.name + suffix), "-o", protected=protected)
     try:
@@ -657,7 +657,7 @@ def cmd_aa(args: argparse.Namespace) -> int:
     from clshade.outputs import write_text_atomic
     from clshade.render.scene import load_scene
     from clshade.provenance import stamp
-    from clshade.report import aa_markdown, plot_aa
+    from clshade.report.formats import aa_markdown, plot_aa
     from clshade.resources import scenes_dir
     scene = args.scene or str(scenes_dir() / "aa_spheres.toml")
     _check_aa_outputs(Path(args.output), load_scene(scene).inputs())
@@ -707,7 +707,7 @@ def cmd_plausibility(args: argparse.Namespace) -> int:
 def cmd_stability(args: argparse.Namespace) -> int:
     import json
     from clshade.models import resolve_many
-    from clshade.report import stability_text
+    from clshade.report.formats import stability_text
     from clshade.verify import stability
     models = None
     if args.model is not None:

@@ -266,7 +266,7 @@ def test_image_output_that_is_a_folder_refused(capsys, tmp_path, command):
 @pytest.mark.extra
 def test_low01_only_from_1000_frames(tmp_path):
     """Below 1000 frames the 0.1 % low is the slowest frame again: the table prints –, the plot has no bar."""
-    from clshade.report import LOW01_MIN_FRAMES, bench_table, plot_fps
+    from clshade.report.formats import LOW01_MIN_FRAMES, bench_table, plot_fps
     row = dict(label="m", mean_ms=1.0, avg_fps=1000.0, low1_fps=500.0, low01_fps=123.4, median_ms=1.0, p99_ms=2.0,
                host_overhead_ms=0.1, mpixel_per_s=1.0, bytes_per_pixel=48, mean_bytes_per_pixel=40.0,
                lambert_ratio=1.0, copy_ratio=1.0, numpy_ms=1.0, numpy_ratio=1.0, max_rel_error=0.0,

@@ -17,7 +17,7 @@ import clshade
 PACKAGE = Path(clshade.__file__).resolve().parent
 
 RANK = {
-    "clshade": 0, "clshade.errors": 0, "clshade.resources": 0, "clshade.tables": 0,
+    "clshade": 0, "clshade.errors": 0, "clshade.resources": 0, "clshade.report.tables": 0,
     "clshade.models": 1, "clshade.glsl": 1, "clshade.brdf_explorer": 1,
     "clshade.render": 2,
     "clshade.device": 3,

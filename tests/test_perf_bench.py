@@ -103,7 +103,7 @@ def test_committed_perf_tables_are_rendered_from_their_json():
     was typed by hand, and its fill line quotes each runtime's fill medians."""
     import json
     from pathlib import Path
-    from clshade.report import perf_markdown
+    from clshade.report.formats import perf_markdown
     results = Path(__file__).resolve().parents[1] / "benchmarks" / "results"
     if not (results / "perf_1080p.json").exists():
         pytest.skip("no committed perf results (benchmarks/results/perf_1080p.json) in this checkout")
@@ -186,7 +186,7 @@ def test_whole_frames_interleave_runtimes_and_judge_each(runtime):
     frame_targets = [t for t in perf.targets(doc) if "whole frame" in t["target"]]
     assert [(t["runtime"], t["met"]) for t in frame_targets] == [(runtime.info.description, True), ("slow device", False)]
     assert "250 ms" not in frame_targets[1]["cause"] and "G-buffer" in frame_targets[1]["cause"]
-    from clshade.report import perf_whole_frame_markdown
+    from clshade.report.formats import perf_whole_frame_markdown
     table = next(block for block in perf_whole_frame_markdown(doc["whole_frames"]) if block.startswith("| stage "))
     header = table.splitlines()[0]
     assert header.count("median ms") == 2 and "slow device" in header

@@ -8,7 +8,7 @@ def test_clustered_point_labels_do_not_overlap(tmp_path):
     import matplotlib.pyplot as plt
     from matplotlib.text import Text
 
-    from clshade.report import _label_points
+    from clshade.report.formats import _label_points
 
     fig, ax = plt.subplots(figsize=(7, 4.5))
     points = [(5.0 + 0.02 * i, 1e-7 * (1 + 0.05 * i), f"rung number {i}") for i in range(6)]

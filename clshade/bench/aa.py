@@ -27,7 +27,7 @@ black background); the content only translates, so the exact energy is constant
 and every frame-to-frame change is aliasing. Reported per sphere as
 mean |E(t+1) − E(t)| / mean E.
 
-Measuring functions return data; clshade/report.py (aa_markdown, plot_aa) renders
+Measuring functions return data; clshade/report/formats.py (aa_markdown, plot_aa) renders
 it and `crop_sheet` builds the zoomed crops.
 """
 from __future__ import annotations
@@ -51,7 +51,7 @@ from clshade.pipeline import Frame, prepare_frame
 from clshade.render.meshes import Geometry, build_geometry
 from clshade.render.samples import coverage_gbuffer, jittered, sample_offsets
 from clshade.render.scene import Scene, load_scene
-from clshade.tables import cell
+from clshade.report.tables import cell
 from clshade.verify import reference
 
 

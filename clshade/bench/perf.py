@@ -441,7 +441,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", default="benchmarks/results/perf_1080p", help="path stem: writes .json and .md")
     ap.add_argument("--render-only", action="store_true", help="re-render OUT.md (and the targets) from OUT.json")
     a = ap.parse_args(argv)
-    from clshade.report import perf_markdown
+    from clshade.report.formats import perf_markdown
     out = Path(a.out)
     if a.render_only:
         doc = json.loads(out.with_suffix(".json").read_text(encoding="utf-8"))

@@ -9,7 +9,7 @@ import numpy as np
 
 from clshade.errors import ClshadeError
 from clshade.outputs import write_atomic
-from clshade.tables import MISSING, cell, markdown, write_csv
+from clshade.report.tables import MISSING, cell, markdown, write_csv
 
 # ---------------------------------------------------------------- bench
 
