@@ -37,16 +37,17 @@ def rank(module: str) -> int:
     raise KeyError(module)
 
 
-def module_name(path: Path) -> str:
-    rel = path.relative_to(PACKAGE.parent).with_suffix("")
+def module_name(path: Path, package: Path = PACKAGE) -> str:
+    rel = path.relative_to(package.parent).with_suffix("")
     parts = list(rel.parts)
     if parts[-1] == "__init__":
         parts.pop()
     return ".".join(parts)
 
 
-def imports(path: Path, me: str | None = None) -> list[tuple[int, str]]:
-    """(line, module) of every clshade import in the file; `me` is its dotted name."""
+def imports(path: Path, me: str | None = None, submodules: bool = False) -> list[tuple[int, str]]:
+    """(line, module) of every clshade import in the file; `me` is its dotted name. With `submodules`,
+    `from pkg import name` also yields `pkg.name` (the caller keeps it where it is a module)."""
     me = me or module_name(path)
     tree = ast.parse(path.read_text(), str(path))
     found = []
@@ -64,6 +65,8 @@ def imports(path: Path, me: str | None = None) -> list[tuple[int, str]]:
                 found += [(node.lineno, f"clshade.{a.name}") for a in node.names if a.name != "__version__"]
             elif target.startswith("clshade"):
                 found.append((node.lineno, target))
+                if submodules:
+                    found += [(node.lineno, f"{target}.{a.name}") for a in node.names]
         elif isinstance(node, ast.Import):
             found += [(node.lineno, a.name) for a in node.names if a.name.startswith("clshade")]
     return found
@@ -95,3 +98,77 @@ def test_checker_sees_upward_imports(tmp_path: Path) -> None:
     found = imports(fake, "clshade.render.probe")
     assert found == [(1, "clshade.device"), (2, "clshade.verify.reference"), (4, "clshade.bench.run")]
     assert all(rank(target) > rank("clshade.render.probe") for _, target in found)
+
+
+def import_graph(package: Path = PACKAGE) -> dict[str, set[str]]:
+    """Module → the clshade modules it imports (top level or inside a function). An import of a
+    package counts as an import of its __init__; `from pkg import mod` as one of `pkg.mod`."""
+    names = {module_name(p, package) for p in package.rglob("*.py")}
+    graph: dict[str, set[str]] = {}
+    for path in sorted(package.rglob("*.py")):
+        me = module_name(path, package)
+        targets = set()
+        for _, target in imports(path, me, submodules=True):
+            while target not in names and "." in target:   # `clshade.x.y.Name` → the module clshade.x.y
+                target = target.rsplit(".", 1)[0]
+            if target in names and target != me:
+                targets.add(target)
+        graph[me] = targets
+    return graph
+
+
+def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components of more than one module (Tarjan), each sorted."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    found: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in sorted(graph.get(v, ())):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                found.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return found
+
+
+@pytest.mark.text
+def test_no_import_cycles() -> None:
+    """No two modules import each other, directly or through others, lazily or not."""
+    found = cycles(import_graph())
+    assert not found, "import cycles:\n" + "\n".join(" ↔ ".join(c) for c in found)
+
+
+def test_cycle_checker_sees_a_lazy_cycle(tmp_path: Path) -> None:
+    """An injected cycle through a function-local import fails the check; a one-way pair passes."""
+    pkg = tmp_path / "clshade"
+    (pkg / "sub").mkdir(parents=True)
+    (pkg / "__init__.py").write_text("")
+    (pkg / "sub" / "__init__.py").write_text("")
+    (pkg / "a.py").write_text("from clshade.sub import b\n")
+    (pkg / "sub" / "b.py").write_text("import clshade.sub.c\n")
+    (pkg / "sub" / "c.py").write_text("def f():\n    from clshade.a import g\n")
+    (pkg / "d.py").write_text("from clshade import a\n")
+    assert cycles(import_graph(pkg)) == [["clshade.a", "clshade.sub.b", "clshade.sub.c"]]
+    (pkg / "sub" / "c.py").write_text("def f():\n    return 1\n")
+    assert cycles(import_graph(pkg)) == []
