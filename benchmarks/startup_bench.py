@@ -12,7 +12,7 @@ program-binary and tessellation caches (~/.cache/clshade) and Python's bytecode 
 (the child runs without PYTHONDONTWRITEBYTECODE, as an installed package has its .pyc
 files). Then, in interleaved rounds (machine noise hits all alike), three
 fresh processes: the interpreter alone (`python -c pass`), the CLI's start-up
-(`clshade.cli.start_process()`, `import clshade.pipeline` and the argument parser) and the whole render to
+(`clshade.cli.process.start_process()`, `import clshade.pipeline` and the argument parser) and the whole render to
 a PNG; medians and minima over the rounds. The render's own `stages:` line gives the
 per-stage split (median per stage). The machine's load average is recorded: the cores
 are shared, so compare runs only with similar load.
@@ -66,8 +66,8 @@ def measure(repeats: int) -> dict:
         commands = {
             "interpreter": [py, "-c", "pass"],
             # the render process's start-up (clshade.cli.run): its process settings, then the parser
-            "imports": [py, "-c", "import clshade.cli as c; c.start_process(); import clshade.pipeline; "
-                                  "c.build_parser()"],
+            "imports": [py, "-c", "from clshade.cli import parser, process; process.start_process(); "
+                                  "import clshade.pipeline; parser.build_parser()"],
             "render": [py, "-m", "clshade", "render", "scenes/robot.toml", "-o", png],
         }
         for cmd in commands.values():      # warm-up: bytecode and kernel caches

@@ -181,7 +181,7 @@ def test_readme_robot_image_shows_the_float64_truth(tmp_path):
 
 def test_progress_only_on_a_terminal(monkeypatch):
     import io
-    from clshade.cli import progress_bar
+    from clshade.cli.common import progress_bar
 
     class Terminal(io.StringIO):
         def isatty(self):

@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 
 from clshade import budget, cli
+from clshade.errors import ClshadeError
 from hostile_files import exr_header, gltf_triangle, obj_triangle, ply_triangle, png_header, write
 
 SIZE = ["--width", "24", "--height", "16"]
@@ -209,10 +210,10 @@ def test_5_shadow_budget_boundary(monkeypatch):
     assert budget.shadow_texels(1, 8192) == 8192 * 8192 * budget.SHADOW_BYTES_PER_TEXEL
     assert budget.shadow_texels(64, 1024) == budget.shadow_texels(1, 8192)
     for count, size in ((2, 8192), (65, 1024), (1025, 256)):
-        with pytest.raises(cli.ClshadeError, match=f"{count} shadow maps of {size}x{size}"):
+        with pytest.raises(ClshadeError, match=f"{count} shadow maps of {size}x{size}"):
             budget.shadow_texels(count, size)
     monkeypatch.setattr(budget, "available_memory", lambda: 64 << 20)
-    with pytest.raises(cli.ClshadeError, match=r"32 shadow maps of 1024x1024 needs about 0.1\d GiB"):
+    with pytest.raises(ClshadeError, match=r"32 shadow maps of 1024x1024 needs about 0.1\d GiB"):
         budget.shadow_texels(32, 1024)
 
 
@@ -302,7 +303,7 @@ def test_11_texture_library_messages_are_kept_for_debug(tmp_path, capsys):
     from clshade.resources import scenes_dir
     write(tmp_path / "t.png", (scenes_dir() / "textures" / "checker_base.png").read_bytes()[:300])
     scene = texture_scene(tmp_path, "t.png")
-    with pytest.raises(cli.ClshadeError):
+    with pytest.raises(ClshadeError):
         cli.main(["--debug", "render", str(scene), "-o", str(tmp_path / "o.png")])
     err = capsys.readouterr().err
     assert "clshade: debug: OpenImageIO reading t.png: libpng error" in err, err
@@ -439,7 +440,7 @@ def test_4_gltf_images_are_checked_before_decoding():
 
     from clshade.render.textures import texture_from_image
     image = Image.open(io.BytesIO(png_header(8192, 8192, padding=1 << 16)))    # header read, nothing decoded
-    with pytest.raises(cli.ClshadeError, match=r"robot\.baseColorTexture: 8192x8192 texture exceeds the limit"):
+    with pytest.raises(ClshadeError, match=r"robot\.baseColorTexture: 8192x8192 texture exceeds the limit"):
         texture_from_image(image, True, "robot.baseColorTexture")
     small = Image.new("RGB", (4, 2), (255, 0, 0))
     assert texture_from_image(small, True, "small").size == (4, 2)

@@ -161,7 +161,7 @@ def test_the_default_prefers_cpu_devices_then_the_measured_runtime_order():
 
 def test_devices_footnote_names_the_rule_that_chose_the_default() -> None:
     """The starred default is a GPU where no CPU device is healthy (the H100 machine): the footnote says so."""
-    from clshade.cli import default_rule
+    from clshade.cli.commands.devices import default_rule
     assert "CPU device" in default_rule(R.DeviceInfo(0, 0, "PoCL", "OpenCL 3.0 PoCL 3.1", "cpu0", "all | cpu"))
     gpu = default_rule(R.DeviceInfo(0, 0, "NVIDIA CUDA", "OpenCL 3.0 CUDA 13.0.98", "H100", "all | gpu"))
     assert "no CPU device is healthy" in gpu and "gpu" in gpu

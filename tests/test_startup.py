@@ -11,10 +11,13 @@ import sys
 import pytest
 
 from clshade import cli
+from clshade.cli import process
+from clshade.cli.commands import devices
 
 PROBE = """
 import gc, json, sys
 import clshade.cli as cli
+from clshade.cli.commands import devices
 seen = {}
 kept = []
 def probe(args):
@@ -22,7 +25,7 @@ def probe(args):
     kept.extend([] for _ in range(5000))     # objects the command allocates and keeps
     print("command output")
     return 3
-cli.cmd_devices = probe
+devices.cmd_devices = probe
 sys.argv = ["clshade", "devices"]
 status = cli.run()
 young = len(gc.get_objects())     # what a final collection would still traverse
@@ -45,7 +48,7 @@ def test_run_collects_during_the_command_and_freezes_for_exit():
 
 
 def test_main_leaves_the_collector_alone(monkeypatch):
-    monkeypatch.setattr(cli, "cmd_devices", lambda args: 0)
+    monkeypatch.setattr(devices, "cmd_devices", lambda args: 0)
     before = (gc.isenabled(), gc.get_freeze_count())
     assert cli.main(["devices"]) == 0
     assert (gc.isenabled(), gc.get_freeze_count()) == before
@@ -66,16 +69,16 @@ def test_tune_allocator_sets_both_thresholds(monkeypatch):
         mallopt = FakeMallopt()
 
     monkeypatch.setattr(ctypes, "CDLL", lambda name: FakeLibc())
-    assert cli.tune_allocator() is True
+    assert process.tune_allocator() is True
     # glibc's malloc.h: M_TRIM_THRESHOLD = -1, M_MMAP_THRESHOLD = -3; 32 MiB is its largest mmap threshold
-    assert calls == [(-3, 32 << 20), (-1, cli.TRIM_THRESHOLD)]
-    assert cli.TRIM_THRESHOLD >= cli.MMAP_THRESHOLD
+    assert calls == [(-3, 32 << 20), (-1, process.TRIM_THRESHOLD)]
+    assert process.TRIM_THRESHOLD >= process.MMAP_THRESHOLD
 
 
 def test_tune_allocator_without_mallopt(monkeypatch):
     import ctypes
     monkeypatch.setattr(ctypes, "CDLL", lambda name: object())
-    assert cli.tune_allocator() is False
+    assert process.tune_allocator() is False
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc's mallopt")
@@ -84,7 +87,7 @@ def test_tune_allocator_on_this_libc():
     import platform
     if platform.libc_ver()[0] != "glibc":
         pytest.skip("not glibc")
-    code = "import clshade.cli as c; print(c.tune_allocator())"
+    code = "from clshade.cli import process; print(process.tune_allocator())"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert out.stdout.strip() == "True", out.stderr
 
@@ -92,11 +95,12 @@ def test_tune_allocator_on_this_libc():
 THREADS = """
 import json, os, sys
 import clshade.cli as cli
+from clshade.cli.commands import devices
 seen = {}
 def probe(args):
     seen.update(threads=len(os.listdir("/proc/self/task")), env=os.environ.get("OPENBLAS_NUM_THREADS"))
     return 0
-cli.cmd_devices = probe
+devices.cmd_devices = probe
 sys.argv = ["clshade", "devices"]
 cli.run()
 print(json.dumps(seen))

@@ -82,7 +82,9 @@ def bench_csv(rows: list[dict], path: Path | str) -> None:
     write_csv(rows, path, BENCH_CSV_FIRST)
 
 
-def _pyplot():
+def pyplot():
+    """matplotlib's pyplot on the Agg backend (files only, no display); ClshadeError where
+    matplotlib is missing, so that commands can check for it before a long run."""
     try:
         import matplotlib
     except ImportError as exc:
@@ -104,7 +106,7 @@ def _finish(plt, fig, ax, path: Path, title: str, legend_size: int) -> None:
 
 def plot_fps(rows: list[dict], path: Path, title: str) -> None:
     """Bar chart: average FPS with the 1 % low and, from LOW01_MIN_FRAMES frames on, the 0.1 % low per model."""
-    plt = _pyplot()
+    plt = pyplot()
     x = np.arange(len(rows))
     fig, ax = plt.subplots(figsize=(max(6, 0.9 * len(rows) + 2), 4.5))
     w = 0.27
@@ -149,7 +151,7 @@ def _label_points(ax, points: list[tuple[float, float, str]], fontsize: float = 
 
 def plot_ladder(rows: list[dict], path: Path, title: str) -> None:
     """Time vs error (log error axis), Pareto front of each ladder marked with a ring."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(7, 4.5))
     for group in dict.fromkeys(r["group"] for r in rows):
         pts = [r for r in rows if r["group"] == group]
@@ -292,7 +294,7 @@ def plot_aa(doc: dict, path: Path) -> None:
     """Frame time (log) vs each error (log), one panel per pixel set; the Pareto front of
     each model in that panel's error ringed."""
     from clshade.bench.run import pareto
-    plt = _pyplot()
+    plt = pyplot()
     fig, axes = plt.subplots(1, 3, figsize=(13, 4.3))
     rows = doc["ladder"]
     for ax, (key, name) in zip(axes, AA_ERRORS):
