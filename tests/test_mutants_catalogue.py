@@ -167,6 +167,13 @@ def test_a_function_moved_to_another_file_resolves_there_only_if_unambiguous(cat
     assert "in 2 files (b/n.py, c.py): ambiguous" in sites[0].gone
 
 
+def test_a_kernel_function_moved_from_a_header_to_a_cl_file_resolves_there(catalogue, tmp_path):
+    header = C[:C.index("INLINE float\nD_term")]
+    sites = _sites(catalogue, tmp_path, {"kernels/k.h": header, "kernels/shade.cl": C},
+                   [_entry("d", "kernels/k.h", "D_term", "d * d")])
+    assert sites[0].file == "kernels/shade.cl" and C[sites[0].start:sites[0].end] == "d * d"
+
+
 def test_fix_moved_rewrites_only_the_moved_files(catalogue, tmp_path):
     path = _tree(tmp_path, {}, [_entry("a", "old.py", "f", "x"), _entry("b", "old.py", "g", "y")])
     text = "# a comment\n" + path.read_text()

@@ -3,10 +3,10 @@ in it (benchmarks/mutation/anchors.py) and a text that occurs exactly once insid
 
 A mutant resolves in a tree in three steps: its file; the anchor in that file; the text inside the anchor. Where
 the file no longer defines the anchor (the file moved, or the function moved to another file), the tree is searched:
-the mutant resolves to the one file (of the same language, outside tests/ and the results) whose anchor of that name
-holds the text exactly once, and is reported as moved. A mutant that resolves nowhere, or in several files, has its
-anchor *gone*: reported with the reason, never applied. A text found more than once inside its anchor is an error
-in the catalogue (the mutant would be ambiguous), as are malformed entries.
+the mutant resolves to the one file (of the same language, C and OpenCL counting as one; outside tests/ and the
+results) whose anchor of that name holds the text exactly once, and is reported as moved. A mutant that resolves
+nowhere, or in several files, has its anchor *gone*: reported with the reason, never applied. A text found more than
+once inside its anchor is an error in the catalogue (the mutant would be ambiguous), as are malformed entries.
 """
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
-from benchmarks.mutation.anchors import SUFFIXES, AnchorError, regions
+from benchmarks.mutation.anchors import C_SUFFIXES, SUFFIXES, AnchorError, regions
 
 CATALOGUE_FILE = Path(__file__).with_name("catalogue.toml")
 FIELDS = ("name", "file", "anchor", "original", "replacement", "description")
@@ -87,7 +87,7 @@ class Tree:
         self.root = root
         self._texts: dict[str, str | None] = {}
         self._regions: dict[str, list] = {}
-        self._listing: dict[str, list[str]] = {}
+        self._listing: dict[tuple[str, ...], list[str]] = {}
 
     def text(self, rel: str) -> str | None:
         if rel not in self._texts:
@@ -100,17 +100,19 @@ class Tree:
             self._regions[rel] = regions(rel, self.text(rel) or "")
         return self._regions[rel]
 
-    def files(self, suffix: str) -> list[str]:
-        """Every source file of the tree with this suffix, outside the folders never searched."""
-        if suffix not in self._listing:
+    def files(self, like: str) -> list[str]:
+        """Every source file of the tree in the language of the file `like` (C and OpenCL: .cl, .h, .c together),
+        outside the folders never searched."""
+        suffixes = C_SUFFIXES if like.endswith(C_SUFFIXES) else (Path(like).suffix,)
+        if suffixes not in self._listing:
             found = []
             for folder, dirs, names in os.walk(self.root):
                 rel_folder = Path(folder).relative_to(self.root).as_posix()
                 dirs[:] = sorted(d for d in dirs if d not in NOT_SEARCHED and not d.endswith(".egg-info")
                                  and f"{rel_folder}/{d}".removeprefix("./") not in NOT_SEARCHED_PATHS)
-                found += [f"{rel_folder}/{n}".removeprefix("./") for n in sorted(names) if n.endswith(suffix)]
-            self._listing[suffix] = sorted(found)
-        return self._listing[suffix]
+                found += [f"{rel_folder}/{n}".removeprefix("./") for n in names if n.endswith(suffixes)]
+            self._listing[suffixes] = sorted(found)
+        return self._listing[suffixes]
 
     def occurrences(self, rel: str, anchor: str, original: str) -> list[int] | None:
         """Offsets where `original` lies wholly inside the anchor's regions of file `rel`; None where the file
@@ -147,7 +149,7 @@ def resolve(tree: Tree, mutant: Mutant) -> Site:
             return Site(mutant, mutant.file, found[0], found[0] + len(mutant.original))
     missing = f"{mutant.file} not found" if text is None else f"no {mutant.anchor} in {mutant.file}"
     elsewhere = []
-    for rel in tree.files(Path(mutant.file).suffix):
+    for rel in tree.files(mutant.file):
         if rel == mutant.file:
             continue
         try:
