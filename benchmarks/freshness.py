@@ -41,8 +41,7 @@ PRODUCERS: dict[str, tuple[str, ...]] = {
     "view_pocl30.json": ("kernels", "clshade/view", "clshade/render", "clshade/device/display.py",
                          "clshade/device/shade.py", "clshade/device/variants.py", "clshade/device/visibility.py",
                          "clshade/device/runtime.py", "benchmarks/view_bench.py"),
-    "mutants.json": ("benchmarks/mutants.py", "benchmarks/mutant_plugin.py", "benchmarks/impact.py", "kernels",
-                     "clshade", "tests", "scenes", "pyproject.toml"),
+    "mutants.json": ("benchmarks/mutation", "kernels", "clshade", "tests", "scenes", "pyproject.toml"),
 }
 
 # Results measured before the code they depend on last changed, not yet regenerated (expensive: the lead
@@ -50,9 +49,9 @@ PRODUCERS: dict[str, tuple[str, ...]] = {
 # leaves this list. The list lives here, outside every result's producers, so that taking a result off it
 # does not make that result stale again (tests/ produces mutants.json).
 KNOWN_STALE: dict[str, str] = {
-    "mutants.json": "mutation catalogue (benchmarks/mutants.py, hours on 2 cores): 218 of 267 mutants measured "
+    "mutants.json": "mutation catalogue (benchmarks/mutation, hours on 2 cores): 218 of 267 mutants measured "
                     "on f9e9f0c (none survived) by a run that stopped at its time budget; the other 49 (kernel "
-                    "mutants, about 4 min each) listed as not run until mutants.py --resume measures them",
+                    "mutants, about 4 min each) listed as not run until benchmarks.mutation.run --resume measures them",
 }
 
 

@@ -9,6 +9,7 @@ from the checkout.
 from __future__ import annotations
 
 import os
+import sys
 from pathlib import Path
 
 import pytest
@@ -62,14 +63,14 @@ def healthy_devices() -> list:
 
 #: The mutation runner's suites set this too: Hypothesis draws no constants from the source of the modules loaded so
 #: far (its "local constants"), so that what a derandomized property test tries depends neither on which test files
-#: ran before it in the process nor on literals elsewhere in clshade (benchmarks/impact.py relies on that).
+#: ran before it in the process nor on literals elsewhere in clshade (benchmarks/mutation/impact.py relies on that).
 ENV_NO_LOCAL_CONSTANTS = "CLSHADE_TEST_NO_LOCAL_CONSTANTS"
 if os.environ.get(ENV_NO_LOCAL_CONSTANTS) == "1":
     from hypothesis.internal.conjecture import providers as _providers
     from hypothesis.internal.constants_ast import Constants as _Constants
     _providers._get_local_constants = _Constants
 
-#: The mutation runner's suites (benchmarks/mutants.py) set this: `device_runtime` tests run on the default device
+#: The mutation runner's suites (benchmarks/mutation/run.py) set this: `device_runtime` tests run on the default device
 #: only. A mutated kernel or host line acts the same on every runtime, and each runtime would compile every mutated
 #: variant again.
 ENV_ONE_RUNTIME = "CLSHADE_TEST_ONE_RUNTIME"
@@ -94,9 +95,12 @@ def device_runtime(request):
 
 @pytest.fixture(scope="session")
 def checkout() -> Path:
-    """The source checkout (docs/, benchmarks/); tests reading it skip when the tests run without it."""
+    """The source checkout (docs/, benchmarks/), its `benchmarks` package importable; tests reading it skip when the
+    tests run without it."""
     if CHECKOUT is None:
         pytest.skip(f"no source checkout at {ROOT} (tests copied without the repository)")
+    if str(CHECKOUT) not in sys.path:
+        sys.path.append(str(CHECKOUT))      # last: the clshade under test (installed, in CI) still comes first
     return CHECKOUT
 
 

@@ -1,12 +1,11 @@
-"""The mutation runner's test selection (benchmarks/impact.py): a test file is left out of a mutant's run only when
-its recording shows it cannot reach the mutated code. A selection that drops a file which reaches the code would
+"""The mutation runner's test selection (benchmarks/mutation/impact.py): a test file is left out of a mutant's run only
+when its recording shows it cannot reach the mutated code. A selection that drops a file which reaches the code would
 turn kills into survivors silently, so each rule is checked on a small project recorded for real."""
 from __future__ import annotations
 
 import os
 import sys
 import textwrap
-from pathlib import Path
 
 import pytest
 
@@ -14,8 +13,15 @@ pytest.importorskip("coverage", reason="the impact recorder needs coverage (pip 
 
 
 @pytest.fixture(scope="module")
-def impact(bench_script):
-    return bench_script("impact")
+def impact(checkout):
+    from benchmarks.mutation import impact
+    return impact
+
+
+def _lines(impact, text: str, snippet: str) -> range:
+    """The lines a mutant of `snippet` (once in `text`) covers."""
+    start = text.index(snippet)
+    return impact.mutated_lines(text, start, start + len(snippet))
 
 
 MODULE = textwrap.dedent('''\
@@ -88,7 +94,8 @@ def recorded(impact, tmp_path_factory):
 
 def _select(impact, recorded, file: str, original: str) -> set[str]:
     root, got = recorded
-    return set(impact.select(got, file, (root / file).read_text(), original))
+    text = (root / file).read_text()
+    return set(impact.select(got, file, text, _lines(impact, text, original)))
 
 
 def test_the_recording_sees_lines_children_and_reads(recorded):
@@ -118,7 +125,7 @@ def test_an_import_time_mutant_runs_every_importer(impact, recorded):
 
 
 def test_a_lambda_body_counts_as_a_function_body_and_its_line_as_run_at_import(impact, recorded):
-    lines = impact.statement_lines(MODULE, impact.mutated_lines(MODULE, "lambda v: v + 1"))
+    lines = impact.statement_lines(MODULE, _lines(impact, MODULE, "lambda v: v + 1"))
     assert lines == {22}
     # the line also builds the class attribute at import, so coverage sees every importer run it
     assert _select(impact, recorded, "pkg/mod.py", "lambda v: v + 1") == {
@@ -133,7 +140,8 @@ def test_a_file_whose_recording_failed_is_always_run(impact, recorded):
     root, got = recorded
     broken = dict(got)
     broken["tests/test_other.py"] = impact.FileImpact(lines={"tests/test_other.py": {1}}, returncode=2)
-    chosen = impact.select(broken, "pkg/mod.py", (root / "pkg/mod.py").read_text(), "return -x")
+    text = (root / "pkg/mod.py").read_text()
+    chosen = impact.select(broken, "pkg/mod.py", text, _lines(impact, text, "return -x"))
     assert set(chosen) == {"tests/test_child.py", "tests/test_other.py"}
 
 
@@ -142,7 +150,8 @@ def test_a_process_that_did_not_save_counts_whole(impact, recorded):
     killed = dict(got)
     killed["tests/test_other.py"] = impact.FileImpact(lines={"tests/test_other.py": {1}}, whole={"pkg/mod.py"},
                                                      returncode=0)
-    chosen = impact.select(killed, "pkg/mod.py", (root / "pkg/mod.py").read_text(), "return self.size * self.size")
+    text = (root / "pkg/mod.py").read_text()
+    chosen = impact.select(killed, "pkg/mod.py", text, _lines(impact, text, "return self.size * self.size"))
     assert chosen == ["tests/test_other.py"]
 
 

@@ -3,7 +3,7 @@ driven by Selenium): load, orbit, switch models, move a slider, split, differenc
 the canvas equals `clshade render` of the saved scene; bad inputs show an error and the
 page goes on. Skipped, with the reason, where no browser is installed (.ci/install-browser
 installs one). CLSHADE_VIEW_SCREENSHOT=path also saves a screenshot of the page there.
-The page under test is clshade.view.static.view.js (benchmarks/mutants.py runs this file first
+The page under test is clshade.view.static.view.js (benchmarks/mutation/run.py runs this file first
 for its mutants)."""
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """Which test files can a mutant change? Per-test-file impact, recorded once on the snapshot.
 
-The mutation runner (benchmarks/mutants.py) runs, for each mutant, the test files that could fail because of it,
+The mutation runner (benchmarks/mutation/run.py) runs, for each mutant, the test files that could fail because of it,
 instead of the whole suite: the technique Stryker calls per-test coverage analysis. Recording: every test file runs
 alone, in a fresh pytest process, on an unmutated copy of the snapshot, with a recorder loaded into that process and
 into every Python process it starts (a `sitecustomize` on PYTHONPATH): coverage of every Python line under the copy,
@@ -24,7 +24,7 @@ long as the tests are deterministic (Hypothesis runs derandomized in this suite)
 process (a cache filled by one file and read by another is seen, because each file's recording starts cold in its
 own process). What a file-per-process recording sees is a superset of what the one-process suite run sees.
 
-    python benchmarks/impact.py [--json out.json]     # record on the committed HEAD and print the map's size
+    python -m benchmarks.mutation.impact [--json out.json]     # record on the committed HEAD, one line a file
 """
 from __future__ import annotations
 
@@ -38,13 +38,13 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+from benchmarks.mutation.snapshot import snapshot, suite_env
 
 #: The recorder, written as `sitecustomize.py` into a folder that goes first on PYTHONPATH. It reads the folder to
 #: write into from the `current` file beside it (so that a subprocess started with an environment of its own still
 #: records into the test file's folder; test files are recorded one at a time).
 RECORDER = r'''
-"""clshade impact recorder (benchmarks/impact.py): Python lines executed and files opened under the snapshot."""
+"""clshade impact recorder (benchmarks/mutation/impact.py): Python lines run and files opened under the snapshot."""
 import atexit
 import os
 import sys
@@ -183,11 +183,10 @@ def record(copy: Path, python: str, env: dict[str, str], files: list[str] | None
     return impact
 
 
-def mutated_lines(text: str, original: str) -> range:
-    """The 1-based lines of `text` that the snippet `original` spans (it occurs once: the catalogue's rule)."""
-    start = text.index(original)
+def mutated_lines(text: str, start: int, end: int) -> range:
+    """The 1-based lines of `text` that the mutated span text[start:end] covers."""
     first = text.count("\n", 0, start) + 1
-    return range(first, first + original.count("\n") + 1)
+    return range(first, first + text.count("\n", start, end) + 1)
 
 
 def statement_lines(source: str, lines: range) -> set[int] | None:
@@ -213,9 +212,9 @@ def statement_lines(source: str, lines: range) -> set[int] | None:
     return out
 
 
-def select(impact: dict[str, FileImpact], file: str, text: str, original: str) -> list[str]:
-    """The test files that a mutant of `file` (its unmutated `text`, the snippet `original`) can change."""
-    lines = statement_lines(text, mutated_lines(text, original)) if file.endswith(".py") else None
+def select(impact: dict[str, FileImpact], file: str, text: str, mutated: range) -> list[str]:
+    """The test files that a mutant of `file` (its unmutated `text`, the lines `mutated`) can change."""
+    lines = statement_lines(text, mutated) if file.endswith(".py") else None
     chosen = []
     for test, got in impact.items():
         executed = got.lines.get(file, set())
@@ -249,12 +248,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--json", help="write the map here")
     parser.add_argument("files", nargs="*", help="test files (default: every tests/test_*.py)")
     args = parser.parse_args(argv)
-    sys.path.insert(0, str(ROOT / "benchmarks"))
-    import mutants
     with tempfile.TemporaryDirectory(prefix="impact-base-") as tmp:
         copy = Path(tmp) / "repo"
-        mutants.snapshot(copy)
-        env = mutants.suite_env(copy)
+        snapshot(copy)
+        env = suite_env(copy)
         impact = record(copy, sys.executable, env, args.files or None,
                         progress=lambda n, g: print(f"{n:45s} {g.seconds:6.1f} s rc {g.returncode}  "
                                                     f"{len(g.lines)} modules, {len(g.read)} files read",

@@ -1,5 +1,6 @@
-"""pytest plugin for benchmarks/mutants.py: records every failing test of a mutant's suite run
-(and every collection error) with its markers, as JSON at $CLSHADE_MUTANT_REPORT."""
+"""pytest plugin of the mutation runner (benchmarks/mutation/run.py loads it as `-p benchmarks.mutation.plugin`):
+records every failing test of a mutant's suite run (and every collection error) with its markers, as JSON at
+$CLSHADE_MUTANT_REPORT."""
 from __future__ import annotations
 
 import json
