@@ -4,27 +4,8 @@
  * the same float4 output, with no lighting arithmetic. Like shade.cl it
  * reads only the depth of a work-item whose pixels are all empty, and it
  * writes the background where shade.cl does. */
-__kernel void copy(const uint npix, const uint plane,
-    __global const float* depth, __global const GB3* normal, __global const GB3* base
-#if HAS_ROUGHNESS
-    , __global const float* roughness
-#endif
-#if HAS_METALLIC
-    , __global const float* metallic
-#endif
-#if HAS_EMISSIVE
-    , __global const float* emissive
-#endif
-#if HAS_OCCLUSION
-    , __global const float* occlusion
-#endif
-#if HAS_TANGENT
-    , __global const float* tangent
-#endif
-#if HAS_MATERIAL
-    , __global const uchar* material
-#endif
-    , const float4 background, __global float4* out)
+__kernel void copy(const uint npix, const uint plane, GBUFFER_PARAMS,   /* gbuffer.h, as shade.cl */
+    const float4 background, __global float4* out)
 {
     size_t i = get_global_id(0);
     if (SIMD * i >= npix) return;

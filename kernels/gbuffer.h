@@ -15,6 +15,42 @@
 #define GB3 float
 #endif
 
+/* The variant's G-buffer channels as kernel parameters, in the host's argument order
+ * (Variant.channels): shade.cl and copy.cl both declare them as GBUFFER_PARAMS, and the
+ * prefetch below uses these names. The general kernel reads every channel. */
+#if HAS_ROUGHNESS || GENERAL
+#define GB_ROUGHNESS_PARAM , __global const float* roughness
+#else
+#define GB_ROUGHNESS_PARAM
+#endif
+#if HAS_METALLIC || GENERAL
+#define GB_METALLIC_PARAM , __global const float* metallic
+#else
+#define GB_METALLIC_PARAM
+#endif
+#if HAS_EMISSIVE
+#define GB_EMISSIVE_PARAM , __global const float* emissive
+#else
+#define GB_EMISSIVE_PARAM
+#endif
+#if HAS_OCCLUSION
+#define GB_OCCLUSION_PARAM , __global const float* occlusion
+#else
+#define GB_OCCLUSION_PARAM
+#endif
+#if HAS_TANGENT
+#define GB_TANGENT_PARAM , __global const float* tangent
+#else
+#define GB_TANGENT_PARAM
+#endif
+#if HAS_MATERIAL || GENERAL
+#define GB_MATERIAL_PARAM , __global const uchar* material
+#else
+#define GB_MATERIAL_PARAM
+#endif
+#define GBUFFER_PARAMS __global const float* depth, __global const GB3* normal, __global const GB3* base \
+    GB_ROUGHNESS_PARAM GB_METALLIC_PARAM GB_EMISSIVE_PARAM GB_OCCLUSION_PARAM GB_TANGENT_PARAM GB_MATERIAL_PARAM
+
 /* The SIMD pixels' 3-channel values of work-item i. On the device a
  * 3-component channel is planar: x of every pixel, then y, then z, each plane
  * `plane` elements long (the padded pixel count; clshade/device/shade.py uploads

@@ -161,26 +161,9 @@ INLINE Material material_gather(uindex id, mask covered, __constant float4* mate
 __kernel void shade(
     const uint npix, const uint plane, const uint width, const float inv_width2, const float inv_height2,
     const float4 cam_pos, const float4 cam_fwd, const float4 cam_right, const float4 cam_up,
-    __global const float* depth,
-    __global const GB3* normal,
-    __global const GB3* base
-#if HAS_ROUGHNESS
-    , __global const float* roughness
-#endif
-#if HAS_METALLIC
-    , __global const float* metallic
-#endif
-#if HAS_EMISSIVE
-    , __global const float* emissive
-#endif
-#if HAS_OCCLUSION
-    , __global const float* occlusion
-#endif
-#if HAS_TANGENT
-    , __global const float* tangent
-#endif
+    GBUFFER_PARAMS      /* gbuffer.h: depth, normal, base and the variant's channels */
 #if HAS_MATERIAL
-    , __global const uchar* material, __constant float4* materials
+    , __constant float4* materials
 #endif
 #if GENERAL
     , const uint num_lights, __constant float4* lights
