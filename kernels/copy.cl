@@ -11,13 +11,9 @@ __kernel void copy(const uint npix, const uint plane, GBUFFER_PARAMS,   /* gbuff
     if (SIMD * i >= npix) return;
     real w = VLOAD(i, depth);
     PREFETCH_AHEAD(i, w);   /* as shade.cl: the same prefetches (gbuffer.h) */
-    /* The background wherever shade.cl writes it: every lane of a work-item with
-     * no covered pixel (which reads only depth, as there) and the uncovered lanes
-     * of the others. Not 0: on the machine these kernels were tuned on, cache lines
-     * of zeros are written faster than lines of any other value (perf's STREAM
-     * fill rows measure it), and a floor that wrote 0 over the sky ran faster than
-     * the same stores of shade.cl's background could (docs/bench-notes.md,
-     * 2026-11-25). One store4 site, as there (gbuffer.h). */
+    /* The background wherever shade.cl writes it (a sky work-item reads only depth, as there),
+     * not 0: lines of zeros can be written faster than other values, and the floor must store
+     * what shade.cl stores (docs/bench-notes.md). One store4 site, as there (gbuffer.h). */
     vec3 color = v3c(background.xyz);
     real alpha = (real)(background.w);
     if (!all_empty(w)) {
