@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from clshade.device import health, icd, runtime as R
+from clshade.device import health, icd, runtime
 from clshade.errors import ClshadeError
 
 from conftest import SCENES
@@ -36,11 +36,11 @@ note: valid target CPU values are: nocona, core2, penryn, bonnell, atom, silverm
 
 
 def _pocl_devices() -> list:
-    return [(i, d) for i, d in R.list_devices() if "PoCL" in i.platform_version]
+    return [(i, d) for i, d in runtime.list_devices() if "PoCL" in i.platform_version]
 
 
 def _other_healthy() -> list:
-    return [i for i, d in R.healthy_devices(kind=None) if "PoCL" not in i.platform_version]
+    return [i for i, d in runtime.healthy_devices(kind=None) if "PoCL" not in i.platform_version]
 
 
 def _cli(args: list[str], tmp_path: Path, **env_extra: str) -> subprocess.CompletedProcess:
@@ -61,9 +61,9 @@ def test_first_error_line_is_the_compilers_reason():
     assert health.first_error_line(warned) == "error: unknown target CPU 'generic'"
 
 
-PROBE_EVERY_POCL = ("import json; from clshade.device import health, runtime as R; cl = R._cl(); "
+PROBE_EVERY_POCL = ("import json; from clshade.device import health, runtime; cl = runtime._cl(); "
                     "print(json.dumps([[i.description, *map(str, health.probe(cl, i, d).__dict__.values())] "
-                    "for i, d in R.list_devices() if 'PoCL' in i.platform_version]))")
+                    "for i, d in runtime.list_devices() if 'PoCL' in i.platform_version]))")
 
 
 def _probe_in_new_process(tmp_path: Path, **env_extra: str) -> list[tuple[str, bool, str]]:
@@ -100,42 +100,42 @@ def test_probe_fails_where_pocl_rejects_its_builds_and_the_cache_knows(tmp_path)
 
 def _fake_health(monkeypatch, broken: set[str]):
     """Every device whose spec is in `broken` fails the probe; the others pass."""
-    monkeypatch.setattr(R, "device_health", lambda info, device: health.Health(
+    monkeypatch.setattr(runtime, "device_health", lambda info, device: health.Health(
         info.spec not in broken, f"error: fake failure of {info.spec}" if info.spec in broken else ""))
 
 
 def test_the_default_skips_a_broken_device_and_records_it(monkeypatch):
     monkeypatch.delenv("CLSHADE_DEVICE", raising=False)
-    ranked = sorted(R.list_devices(), key=lambda item: R.preference(item[0]))
+    ranked = sorted(runtime.list_devices(), key=lambda item: runtime.preference(item[0]))
     first = ranked[0][0]
     _fake_health(monkeypatch, set())
-    assert R.choose_device(None).info == first
+    assert runtime.choose_device(None).info == first
     _fake_health(monkeypatch, {first.spec})
     if len(ranked) == 1:
         with pytest.raises(ClshadeError, match="no OpenCL device can build programs") as err:
-            R.choose_device(None)
+            runtime.choose_device(None)
         assert first.spec in str(err.value) and "\n" not in str(err.value)
         return
-    chosen = R.choose_device(None)
+    chosen = runtime.choose_device(None)
     assert chosen.info != first and chosen.info == ranked[1][0]
     assert [(i.spec, reason) for i, reason in chosen.skipped] == [(first.spec, f"error: fake failure of {first.spec}")]
 
 
 def test_no_healthy_device_fails_in_one_line(monkeypatch):
     monkeypatch.delenv("CLSHADE_DEVICE", raising=False)
-    _fake_health(monkeypatch, {i.spec for i, _ in R.list_devices()})
+    _fake_health(monkeypatch, {i.spec for i, _ in runtime.list_devices()})
     with pytest.raises(ClshadeError) as err:
-        R.choose_device(None)
+        runtime.choose_device(None)
     text = str(err.value)
     assert "no OpenCL device can build programs" in text and "\n" not in text
-    assert all(f"{i.spec} " in text for i, _ in R.list_devices())
+    assert all(f"{i.spec} " in text for i, _ in runtime.list_devices())
 
 
 def test_an_explicitly_chosen_broken_device_fails_in_one_line(monkeypatch):
-    info, _ = R.list_devices()[0]
+    info, _ = runtime.list_devices()[0]
     _fake_health(monkeypatch, {info.spec})
     with pytest.raises(ClshadeError) as err:
-        R.choose_device(info.spec)
+        runtime.choose_device(info.spec)
     text = str(err.value)
     assert "\n" not in text and info.spec in text and info.description in text
     assert f"fake failure of {info.spec}" in text and "clshade devices" in text     # the reason and the remedy
@@ -143,15 +143,15 @@ def test_an_explicitly_chosen_broken_device_fails_in_one_line(monkeypatch):
 
 def test_the_default_prefers_cpu_devices_then_the_measured_runtime_order():
     def info(platform, version, kind="cpu", p=0):
-        return R.DeviceInfo(p, 0, platform, version, "dev", kind)
+        return runtime.DeviceInfo(p, 0, platform, version, "dev", kind)
     pocl30 = info("Portable Computing Language", "OpenCL 3.0 PoCL 3.0-rc2 Linux", p=0)
     pocl31 = info("Portable Computing Language", "OpenCL 3.0 PoCL 3.1+debian Linux", p=1)
     intel = info("Intel(R) OpenCL", "OpenCL 3.1 LINUX", p=2)
     gpu = info("NVIDIA CUDA", "OpenCL 3.0 CUDA 12.4", kind="gpu", p=3)
-    order = sorted([gpu, intel, pocl30, pocl31], key=R.preference)
+    order = sorted([gpu, intel, pocl30, pocl31], key=runtime.preference)
     assert order[-1] == gpu
     want = []
-    for key in R.RUNTIME_PREFERENCE:
+    for key in runtime.RUNTIME_PREFERENCE:
         want += [d for d in (pocl30, pocl31, intel) if key in f"{d.platform}, {d.platform_version}" and d not in want]
     assert order[:3] == want
     assert [d.runtime for d in (pocl30, pocl31, intel)] == ["PoCL 3.0", "PoCL 3.1", "Intel OpenCL 3.1"]
@@ -162,8 +162,8 @@ def test_the_default_prefers_cpu_devices_then_the_measured_runtime_order():
 def test_devices_footnote_names_the_rule_that_chose_the_default() -> None:
     """The starred default is a GPU where no CPU device is healthy (the H100 machine): the footnote says so."""
     from clshade.cli.commands.devices import default_rule
-    assert "CPU device" in default_rule(R.DeviceInfo(0, 0, "PoCL", "OpenCL 3.0 PoCL 3.1", "cpu0", "all | cpu"))
-    gpu = default_rule(R.DeviceInfo(0, 0, "NVIDIA CUDA", "OpenCL 3.0 CUDA 13.0.98", "H100", "all | gpu"))
+    assert "CPU device" in default_rule(runtime.DeviceInfo(0, 0, "PoCL", "OpenCL 3.0 PoCL 3.1", "cpu0", "all | cpu"))
+    gpu = default_rule(runtime.DeviceInfo(0, 0, "NVIDIA CUDA", "OpenCL 3.0 CUDA 13.0.98", "H100", "all | gpu"))
     assert "no CPU device is healthy" in gpu and "gpu" in gpu
 
 
@@ -199,13 +199,13 @@ def test_the_cli_works_with_every_pocl_build_failing(tmp_path):
 
 
 def test_every_device_broken_fails_the_cli_in_one_line(tmp_path):
-    names = {i.runtime for i, _ in R.list_devices() if "PoCL" not in i.platform_version}
+    names = {i.runtime for i, _ in runtime.list_devices() if "PoCL" not in i.platform_version}
     force = "|".join(sorted(names))
     if len(names) > 1:
         pytest.skip("CLSHADE_FORCE_BROKEN fakes one non-PoCL runtime; more are present")
     env = dict(POCL_EXTRA_BUILD_FLAGS=REJECTED)
     if names:
-        env["CLSHADE_FORCE_BROKEN"] = next(i.device for i, _ in R.list_devices() if "PoCL" not in i.platform_version)
+        env["CLSHADE_FORCE_BROKEN"] = next(i.device for i, _ in runtime.list_devices() if "PoCL" not in i.platform_version)
     done = _cli(["render", str(SCENES / "red_ball.toml"), "-o", str(tmp_path / "x.png"), "--width", "40",
                  "--height", "30"], tmp_path, **env)
     assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1, (force, done.stderr)
@@ -255,8 +255,8 @@ def test_a_new_process_finds_pips_intel_runtime(tmp_path):
 def test_a_device_that_computes_wrong_values_is_broken(monkeypatch):
     """The probe's output is checked, not only its build: expecting another value marks a
     healthy device broken, naming what it computed."""
-    cl = R._cl()
-    info, device = R.healthy_devices(kind=None)[0]
+    cl = runtime._cl()
+    info, device = runtime.healthy_devices(kind=None)[0]
     assert health.run_probe(cl, info, device).ok
     monkeypatch.setattr(health, "PROBE_EXPECTED", health.PROBE_EXPECTED + 1e-3)
     state = health.run_probe(cl, info, device)
@@ -270,10 +270,10 @@ def test_the_default_order_is_the_measured_order(checkout):
     measured = [d for d in doc["devices"] if d["healthy"] and "cpu" in d["kind"]]
     assert len({d["runtime"] for d in measured}) >= 2, "runtimes.json compares fewer than two runtimes"
     by_speed = [d["runtime"] for d in sorted(measured, key=lambda d: d["geomean_median_ms"])]
-    by_preference = [d["runtime"] for d in sorted(measured, key=lambda d: R.preference(
-        R.DeviceInfo(0, 0, d["platform"], d["platform_version"], d["device"], d["kind"])))]
+    by_preference = [d["runtime"] for d in sorted(measured, key=lambda d: runtime.preference(
+        runtime.DeviceInfo(0, 0, d["platform"], d["platform_version"], d["device"], d["kind"])))]
     assert by_preference == by_speed, (by_preference, by_speed)
-    assert doc["runtime_preference"] == list(R.RUNTIME_PREFERENCE)
+    assert doc["runtime_preference"] == list(runtime.RUNTIME_PREFERENCE)
     assert doc["default"]["runtime"] == by_speed[0]
     for d in measured:     # every runtime's images were checked against the oracle in the same run
         assert all(r["max_rel_error"] is not None for r in d["models"].values()), d["runtime"]

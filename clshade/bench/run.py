@@ -37,6 +37,7 @@ from clshade.bench.numpy_baseline import (GUARD_FRAMES, NUMPY_THREADS, SUSPECT_R
 from clshade.bench.peers import VERIFY_RTOL, verify, well_conditioned
 from clshade.device.runtime import Runtime, get_runtime
 from clshade.device.shade import Shader, scene_features
+from clshade.device.timing import timed_dispatch
 from clshade.device.variants import Features
 from clshade.errors import ClshadeError
 from clshade.models import Model, resolve
@@ -161,15 +162,6 @@ def relative_error(image: np.ndarray, idx: np.ndarray, ref: np.ndarray) -> tuple
 # ---------------------------------------------------------------- running
 
 
-def _timed(shader: Shader, dispatch) -> tuple[float, float]:
-    """(device ms from the event profile, wall ms from enqueue to completion)."""
-    t0 = time.perf_counter()
-    event = shader.enqueue(dispatch)
-    event.wait()
-    host = (time.perf_counter() - t0) * 1e3
-    return (event.profile.end - event.profile.start) * 1e-6, host
-
-
 def _wall(fn: Callable[[], object]) -> float:
     """Wall ms of one call."""
     t0 = time.perf_counter()
@@ -231,7 +223,7 @@ def run_cases(cases: list[Case], frames: int, warmup: int, progress: Callable[[i
     numpy_runs = any(c.numpy for c in cases)
     for w in range(warmup):
         for c, d in zip(cases, shade):
-            _timed(c.shader, d)
+            timed_dispatch(c.shader, d)
             if c.numpy and w == 0:
                 _reference_frame(c)
                 if c.baseline is not None:
@@ -239,11 +231,11 @@ def run_cases(cases: list[Case], frames: int, warmup: int, progress: Callable[[i
         if guard is not None and numpy_runs and w == 0:
             guard.lambert.run(), guard.minimal()
         for shader, d in copies.values():
-            _timed(shader, d)
+            timed_dispatch(shader, d)
     schedule, guard_schedule = numpy_schedule(frames, numpy_frames), numpy_schedule(frames, GUARD_FRAMES)
     for r in range(frames):
         for c, d in zip(cases, shade):
-            dev, host = _timed(c.shader, d)
+            dev, host = timed_dispatch(c.shader, d)
             c.device_ms.append(dev)
             c.host_ms.append(host)
             if c.numpy:
@@ -256,7 +248,7 @@ def run_cases(cases: list[Case], frames: int, warmup: int, progress: Callable[[i
                 guard.lambert_ms.append(_wall(guard.lambert.run))
                 guard.minimal_ms.append(_wall(guard.minimal))
         for key, (shader, d) in copies.items():
-            copy_ms[key].append(_timed(shader, d)[0])
+            copy_ms[key].append(timed_dispatch(shader, d)[0])
         if progress is not None:
             progress(r + 1, frames)
     return copy_ms

@@ -12,8 +12,8 @@ V, F, diffuse and empirical term, lobe, lobe sum, radiance per light, ambient
 term and pixel radiance, counted per term on the device); and the precise build
 stays within PRECISE_TOLERANCE of the float64 reference where no floor acts
 (BRDF) and at unit lights (shaded pixels); and every build, fast math included, gives exactly 0
-where no floor acts and the reference is exactly 0 (a fast build that flushed a denormal
-shininess to 0 gave 1 there on NVIDIA, 2026-11-26, while its deviation is reported, not bounded). The shaded pixels are counted on the
+where no floor acts and the reference is exactly 0 (a fast build that flushes a denormal
+shininess to 0 would give 1 there: MIN_SHININESS; its deviation is reported, not bounded). The shaded pixels are counted on the
 raw radiance (-D RAW_RADIANCE: no MAX_RADIANCE clamp, whose fmin would turn a
 NaN into a number); pixels the clamp acts on are counted as saturated; the
 shipped build is checked finite as well. Cases are reported per build as

@@ -31,13 +31,13 @@ from pathlib import Path
 
 import numpy as np
 
-from clshade.bench.run import _timed as timed_dispatch
 from clshade.bench.run import compared_pixels, frame_stats, grazing_pixels, relative_error
 from clshade.compare import difference, false_colour
 from clshade.device.display import Display
 from clshade.device.runtime import get_runtime
 from clshade.device import visibility as device_visibility
 from clshade.device.shade import Shader, scene_features
+from clshade.device.timing import timed_dispatch
 from clshade.device.visibility import DeviceGBuffer
 from clshade.diagnostics import note
 from clshade.errors import ClshadeError
