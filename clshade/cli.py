@@ -61,10 +61,11 @@ def _add_aa_options(p: argparse.ArgumentParser) -> None:
 
 
 def _load_scene(path, args: argparse.Namespace):
-    """The scene file with the --samples / --specular-aa overrides."""
+    """The scene file (render.model checked against the command's registry) with the --samples /
+    --specular-aa overrides."""
     from clshade.render.samples import with_antialiasing
     from clshade.render.scene import load_scene
-    return with_antialiasing(load_scene(path), args.samples, args.specular_aa)
+    return with_antialiasing(load_scene(path, args.registry), args.samples, args.specular_aa)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -137,30 +138,36 @@ def _add_lobe_options(p: argparse.ArgumentParser) -> None:
                    help="a parameter of a .brdf lobe (float, bool 0/1, colour R,G,B); repeatable")
 
 
-def _apply_lobe_options(args: argparse.Namespace) -> None:
-    """Register --lobes folders, the lobe files -m names, and --param values before the command runs."""
-    from clshade import models
+def _lobe_registry(args: argparse.Namespace):
+    """The command's Registry: built-ins, $CLSHADE_LOBES, --lobes folders and --param values (with
+    --param, the lobe files -m names too, to check the names); a scene's render.lobes join it
+    where the scene is read (Registry.with_lobes)."""
+    from clshade.models.lobe import BRDF_FILE
+    from clshade.models.registry import Registry, lobe_path
     values = {}
     for item in getattr(args, "param", []):
         name, sep, value = item.partition("=")
         if not sep or not name.strip():
             raise ClshadeError(f"--param {item!r}: expected NAME=VALUE")
         values[name.strip()] = value.strip()
-    models.set_params(values)
+    registry = Registry.from_env().with_params(values)
     for folder in getattr(args, "lobes", []):
-        models.add_lobes(folder)
+        registry = registry.with_lobes(folder)
+        registry.lobes      # read now: a broken lobe file fails before the command starts
     if values:
-        declared = {p.name for l in models.lobes().values() if l.origin == models.BRDF_FILE for p in l.params}
+        declared = {p.name for l in registry.lobes.values() if l.origin == BRDF_FILE for p in l.params}
         for spec in (getattr(args, "model", None), getattr(args, "models", None)):
             for item in (spec or "").split(","):
-                path = models._lobe_path(item.strip()) if item.strip() else None
+                path = lobe_path(item.strip()) if item.strip() else None
                 if path is not None:
-                    for lobe_id in models.add_lobes(path):
-                        declared |= {p.name for p in models.lobes()[lobe_id].params}
+                    registry = registry.with_lobes(path)
+                    for lobe_id in registry.ids_in(path):
+                        declared |= {p.name for p in registry.lobes[lobe_id].params}
         unknown = sorted(set(values) - declared)
         if unknown and declared:
             raise ClshadeError(f"--param {unknown[0]}: no .brdf lobe in use has that parameter "
                                f"(theirs: {', '.join(sorted(declared))})")
+    return registry
 
 
 def _add_compare(sub: argparse._SubParsersAction) -> None:
@@ -332,7 +339,6 @@ def cmd_render(args: argparse.Namespace) -> int:
     """Render in bands of rows (pipeline.render_streamed): only the output image is
     full-frame, so a frame too large for memory is refused before anything is allocated."""
     import numpy as np
-    from clshade.models import resolve
     from clshade.pipeline import Timings, check_frame_memory, render_streamed
     from clshade.render.image import LINEAR_SUFFIXES, check_output_path, to_display, write_encoded
 
@@ -344,7 +350,8 @@ def cmd_render(args: argparse.Namespace) -> int:
     check_output_path(out, protected)
     exposure = scene.exposure if args.exposure is None else _exposure(args.exposure)
     tonemap = args.tonemap or scene.tonemap
-    model = resolve(_model_spec(args.model, scene.model), args.fresnel, args.workflow)
+    registry = args.registry.with_lobes(*scene.lobes)
+    model = registry.resolve(_model_spec(args.model, scene.model), args.fresnel, args.workflow)
     cam = scene.camera.with_size(_size(args.width, "width"), _size(args.height, "height"))
     linear = out.suffix.lower() in LINEAR_SUFFIXES
     check_frame_memory(cam.width, cam.height, 16 if linear else 3)
@@ -410,8 +417,9 @@ def _explain(model, result) -> None:
 
 def cmd_models(args: argparse.Namespace) -> int:
     import json
-    from clshade.models import GROUPS, lobes, presets
+    from clshade.models.model import GROUPS, presets
     from clshade.verify.plausibility import physically_based
+    lobes = args.registry.lobes
     try:  # measured on the device with a reduced sweep (`clshade check plausibility` for the full one)
         with progress_bar("measuring albedo", "preset") as progress:
             measured: dict[str, bool] = physically_based(progress=progress)
@@ -430,7 +438,7 @@ def cmd_models(args: argparse.Namespace) -> int:
                        "deviations": list(l.deviations),
                        "params": [{"name": p.name, "min": p.low, "max": p.high, "default": p.default,
                                    "description": p.description} for p in l.params]}
-                      for l in lobes().values()],
+                      for l in lobes.values()],
             "groups": {k: list(v) for k, v in GROUPS.items()},
         }
         print(json.dumps(data, indent=2, ensure_ascii=False))
@@ -441,7 +449,7 @@ def cmd_models(args: argparse.Namespace) -> int:
         print(f"  {m.id:32s} {m.label:26s} {m.family:10s} workflow={m.workflow:8s} {pb} (measured)")
     print("\nLobes (combine as diffuse+specular, e.g. oren_nayar+ggx_correlated; append @dielectric or "
           "@conductor for exact Fresnel):")
-    for l in lobes().values():
+    for l in lobes.values():
         params = ", ".join(_param_text(p) for p in l.params) or "no parameters"
         print(f"  {l.id:24s} {l.kind:8s} {l.family:10s} {l.formula}")
         print(f"  {'':24s} params: {params}")
@@ -492,18 +500,18 @@ def cmd_devices(args: argparse.Namespace) -> int:
 
 def cmd_compare(args: argparse.Namespace) -> int:
     from clshade.compare import MAX_TILE, compare_sheet, write_sheet
-    from clshade.models import resolve, resolve_many
     from clshade.render.image import check_output_path
     scene = _load_scene(args.scene, args)
     check_output_path(Path(args.output), scene.inputs())
-    models = resolve_many(args.models)
+    registry = args.registry.with_lobes(*scene.lobes)
+    models = registry.resolve_many(args.models)
     for flag, value, high in (("--tile", args.tile, MAX_TILE), ("--width", args.width, 16384),
                               ("--height", args.height, 16384)):
         if value is not None and not 1 <= value <= high:
             raise ClshadeError(f"{flag} = {value}: must be within [1, {high}]")
     width = args.width or args.tile
     height = args.height or max(1, round(width * scene.camera.height / scene.camera.width))
-    reference = resolve(args.reference) if args.reference else None
+    reference = registry.resolve(args.reference) if args.reference else None
     budget.sheet_pixels(len(models) + (reference is not None), 1, width, height)
     with progress_bar("compare", "model") as progress:
         sheet, tiles = compare_sheet(scene, models, width=width, height=height, reference=reference,
@@ -517,7 +525,6 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     from clshade.compare import MAX_TILE, sweep_sheet, write_sheet
-    from clshade.models import resolve_many
     from clshade.render.image import check_output_path
     from clshade.resources import scenes_dir
     scene = _load_scene(args.scene or scenes_dir() / "red_ball.toml", args)
@@ -532,7 +539,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         raise ClshadeError(f"--roughness: {len(values)} values exceed the limit of {budget.MAX_SWEEP_COLUMNS} columns")
     if not 1 <= args.size <= MAX_TILE:
         raise ClshadeError(f"--size = {args.size}: must be within [1, {MAX_TILE}]")
-    models = resolve_many(args.models)
+    models = args.registry.with_lobes(*scene.lobes).resolve_many(args.models)
     budget.sheet_pixels(len(models), len(values), args.size, args.size)
     with progress_bar("sweep", "column") as progress:
         sheet = sweep_sheet(scene, models, values, size=args.size, device=args.device, progress=progress)
@@ -549,7 +556,7 @@ def cmd_view(args: argparse.Namespace) -> int:
     if not 0 <= args.port <= 65535:
         raise ClshadeError(f"--port = {args.port}: must be within [0, 65535]")
     session = ViewSession(args.scene, args.output_dir, _size(args.width, "width"), _size(args.height, "height"),
-                          device=args.device)
+                          device=args.device, registry=args.registry)
     server = ViewServer(session, args.host, args.port, linger=None if args.keep_running else 3.0)
 
     def ready(url: str) -> None:
@@ -610,21 +617,22 @@ def _check_bench_options(args: argparse.Namespace) -> None:
 def cmd_bench(args: argparse.Namespace) -> int:
     import json
     from clshade.bench.run import run_bench
-    from clshade.models import resolve_many
     from clshade.outputs import write_text_atomic
     from clshade.report.formats import bench_csv, bench_plots, bench_text
     _check_bench_options(args)
     scene = _load_scene(args.scene, args)
     _check_bench_outputs(args, scene.inputs())
+    registry = args.registry.with_lobes(*scene.lobes)
+    models = registry.resolve_many(args.models)
     with progress_bar("bench", "round") as progress:
-        doc = run_bench(scene, resolve_many(args.models), args.frames, args.warmup, width=args.width,
+        doc = run_bench(scene, models, args.frames, args.warmup, width=args.width,
                         height=args.height, lights=args.lights, ladder=args.ladder, numpy_frames=args.numpy_frames,
                         device=args.device, progress=None if args.no_progress else progress)
     print(bench_text(doc))
     if args.peers:
         from clshade.bench import perf
         from clshade.report.formats import perf_markdown
-        doc["peers"] = perf.bench_peers(args)
+        doc["peers"] = perf.bench_peers(args, models, registry)
         print()
         print(perf_markdown(doc["peers"]))
     if args.json:
@@ -653,22 +661,24 @@ def cmd_aa(args: argparse.Namespace) -> int:
     import json
     from clshade.bench.aa import run
     from clshade.compare import write_sheet
-    from clshade.models import resolve_many
     from clshade.outputs import write_text_atomic
     from clshade.render.scene import load_scene
     from clshade.provenance import stamp
     from clshade.report.formats import aa_markdown, plot_aa
     from clshade.resources import scenes_dir
     scene = args.scene or str(scenes_dir() / "aa_spheres.toml")
-    _check_aa_outputs(Path(args.output), load_scene(scene).inputs())
+    loaded = load_scene(scene, args.registry)
+    _check_aa_outputs(Path(args.output), loaded.inputs())
     budget.check_count("--frames", args.frames, budget.MAX_FRAMES, low=1)
     budget.check_count("--temporal-frames", args.temporal_frames, budget.MAX_FRAMES)
     if args.frames < 1 or args.truth_samples < 1 or args.check_samples < 0 or args.temporal_frames < 0:
         raise ClshadeError(f"--frames = {args.frames}, --truth-samples = {args.truth_samples}, --check-samples = "
                            f"{args.check_samples}, --temporal-frames = {args.temporal_frames}: need ≥ 1, ≥ 1, ≥ 0, ≥ 0")
-    doc, sheet = run(scene, resolve_many(args.models), width=_size(args.width, "width"),
+    registry = args.registry.with_lobes(*loaded.lobes)
+    doc, sheet = run(scene, registry.resolve_many(args.models), width=_size(args.width, "width"),
                      height=_size(args.height, "height"), frames=args.frames, truth_samples=args.truth_samples,
-                     check_samples=args.check_samples, temporal_frames=args.temporal_frames, device=args.device)
+                     check_samples=args.check_samples, temporal_frames=args.temporal_frames, device=args.device,
+                     registry=args.registry)
     opts = {"models": args.models, "width": args.width, "height": args.height, "frames": args.frames,
             "truth-samples": args.truth_samples, "check-samples": args.check_samples,
             "temporal-frames": args.temporal_frames}
@@ -689,11 +699,10 @@ def cmd_plausibility(args: argparse.Namespace) -> int:
     import json
     from dataclasses import asdict
     from clshade.verify import plausibility as P
-    from clshade.models import resolve_many
     sweep = P.QUICK if args.quick else P.Sweep()
-    chosen = resolve_many(args.model) if args.model else None
+    chosen = args.registry.resolve_many(args.model) if args.model else None
     with progress_bar("plausibility", "preset") as progress:
-        verdicts = P.evaluate_presets(sweep, args.device, models=chosen, progress=progress)
+        verdicts = P.evaluate_presets(sweep, args.device, models=chosen, progress=progress, registry=args.registry)
     if args.json:
         print(json.dumps({"energy_tol": P.ENERGY_TOL, "reciprocity_tol": P.RECIPROCITY_TOL,
                           "sweep": asdict(sweep), "presets": [v.as_dict() for v in verdicts]},
@@ -706,16 +715,15 @@ def cmd_plausibility(args: argparse.Namespace) -> int:
 
 def cmd_stability(args: argparse.Namespace) -> int:
     import json
-    from clshade.models import resolve_many
     from clshade.report.formats import stability_text
     from clshade.verify import stability
     models = None
     if args.model is not None:
         if not args.model.replace(",", "").strip():
             raise ClshadeError(f"--model = {args.model!r}: no model given; `clshade models` lists them")
-        models = [v for m in resolve_many(args.model) for v in stability.variants_of(m)]
+        models = [v for m in args.registry.resolve_many(args.model) for v in stability.variants_of(m)]
     with progress_bar("stability", "step") as progress:
-        rep = stability.run(models, device=args.device, progress=progress)
+        rep = stability.run(models, device=args.device, progress=progress, registry=args.registry)
     if args.json:
         print(json.dumps(rep.as_dict(), indent=2, ensure_ascii=False, default=str))
     else:
@@ -832,7 +840,7 @@ def _main(argv: list[str] | None, after_parse=None) -> int:
         after_parse()
     try:
         with diagnostics.warnings_captured():
-            _apply_lobe_options(args)
+            args.registry = _lobe_registry(args)
             status = int(args.func(args) or 0)
         sys.stdout.flush()      # a closed pipe shows here, inside the handler, not at exit
         return status

@@ -7,10 +7,12 @@ import pytest
 
 from clshade.device import runtime as R
 from clshade.device.shade import Shader, scene_features
-from clshade.models import resolve
+from clshade.models.registry import Registry
 from clshade.pipeline import prepare_frame
 
 from conftest import SCENES
+
+resolve = Registry().resolve          # the built-in lobes
 
 
 @pytest.fixture(scope="module")
