@@ -8,9 +8,13 @@ import os
 import sys
 from contextlib import contextmanager
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from clshade import __version__, budget
 from clshade.errors import ClshadeError, one_line
+
+if TYPE_CHECKING:
+    from clshade.models.registry import Registry
 
 
 @contextmanager
@@ -138,7 +142,7 @@ def _add_lobe_options(p: argparse.ArgumentParser) -> None:
                    help="a parameter of a .brdf lobe (float, bool 0/1, colour R,G,B); repeatable")
 
 
-def _lobe_registry(args: argparse.Namespace):
+def _lobe_registry(args: argparse.Namespace) -> Registry:
     """The command's Registry: built-ins, $CLSHADE_LOBES, --lobes folders and --param values (with
     --param, the lobe files -m names too, to check the names); a scene's render.lobes join it
     where the scene is read (Registry.with_lobes)."""
