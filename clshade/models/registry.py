@@ -17,7 +17,6 @@ from types import MappingProxyType
 from typing import Mapping
 
 from clshade.errors import ClshadeError
-from clshade.models.brdf_file import load_brdf
 from clshade.models.lobe import USER, Lobe, builtin_lobes, parse_lobe
 from clshade.models.model import FRESNELS, GROUPS, NONE, PRESETS, WORKFLOWS, Model, default_workflow, preset, presets
 
@@ -69,7 +68,7 @@ class Registry:
         found = dict(builtin_lobes())
         values = dict(self.params)
         for path in self._files():
-            lobe = load_brdf(path, values) if path.suffix == ".brdf" else parse_lobe(path, USER)
+            lobe = _read_brdf(path, values) if path.suffix == ".brdf" else parse_lobe(path, USER)
             if lobe.id in found or lobe.id in PRESETS:
                 other = found[lobe.id].path if lobe.id in found else "a preset"
                 raise ClshadeError(f"{path}: lobe id {lobe.id!r} is taken by {other}; rename the file")
@@ -181,6 +180,13 @@ class Registry:
         near = difflib.get_close_matches(part, choices, n=1)
         hint = f"; did you mean {near[0]!r}?" if near else "; `clshade models` lists them"
         return ClshadeError(f"model {spec!r}: unknown model or lobe {part!r}{hint}")
+
+
+def _read_brdf(path: Path, values: Mapping[str, str]) -> Lobe:
+    # Imported here, not at the top: the GLSL translator's ~20 AST classes cost every command's
+    # start-up (scene parsing imports this module) though only a .brdf file needs them.
+    from clshade.models.brdf_file import load_brdf
+    return load_brdf(path, values)
 
 
 def lobe_path(text: str) -> Path | None:
