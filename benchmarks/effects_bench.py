@@ -33,7 +33,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from clshade import models  # noqa: E402
+from clshade.models.registry import Registry  # noqa: E402
 from clshade.pipeline import Timings, prepare_frame  # noqa: E402
 from clshade.device.runtime import get_runtime  # noqa: E402
 from clshade.provenance import stamp  # noqa: E402
@@ -137,7 +137,7 @@ def main(argv: list[str] | None = None) -> int:
     # ---- cases
     cases = []
     for name in MODELS:
-        model = models.resolve(name)
+        model = Registry().resolve(name)
         for key in configs:
             frame = frames[key]
             features = scene_features(frame.scene, geometry=frame.geometry)

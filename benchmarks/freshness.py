@@ -33,7 +33,7 @@ PRODUCERS: dict[str, tuple[str, ...]] = {
     "startup.json": ("benchmarks/startup_bench.py",),
     "raster.json": ("clshade/render/raster", "benchmarks/raster_bench.py"),
     "runtimes.json": ("kernels", "clshade/bench/runtimes.py", "clshade/device/health.py"),
-    "user_lobes.json": ("kernels", "clshade/glsl.py", "clshade/brdf_explorer.py", "benchmarks/user_lobes.py"),
+    "user_lobes.json": ("kernels", "clshade/models/glsl", "clshade/models/brdf_file.py", "benchmarks/user_lobes.py"),
     "view.json": ("kernels", "clshade/view", "clshade/render", "clshade/device/display.py", "clshade/device/shade.py",
                   "clshade/device/variants.py", "clshade/device/visibility.py", "clshade/device/runtime.py",
                   "benchmarks/view_bench.py"),

@@ -141,14 +141,14 @@ def measure(base_ref: str, rounds: int) -> dict:
     from clshade.bench.frame import orbit
     from clshade.device.runtime import get_runtime
     from clshade.device.shade import Shader, scene_features
-    from clshade.models import resolve
+    from clshade.models.registry import Registry
     from clshade.render.scene import load_scene
 
     from clshade.render.gbuffer import GBuffer
 
     new = {"raster": raster, "gbuffer": gbuffer, "meshes": meshes, "image": image}
     scene = load_scene(ROOT / "scenes" / "robot.toml")
-    model = resolve(scene.model)
+    model = Registry().resolve(scene.model)
     rt = get_runtime()
     with tempfile.TemporaryDirectory() as tmp:
         old = load_base(base_ref, Path(tmp))

@@ -31,7 +31,7 @@ from clshade.bench import peers as peer_mod
 from clshade.bench.perf import MODELS, pocl_devices, settle, short
 from clshade.device.runtime import Runtime
 from clshade.device.shade import Shader, scene_features
-from clshade.models import resolve
+from clshade.models.registry import Registry
 from clshade.pipeline import prepare_frame
 from clshade.render.scene import load_scene
 
@@ -77,10 +77,10 @@ def measure(base_kernels: Path, base_label: str, rounds: int, base_simd_no_avx51
             try:
                 with kernels_from(folder):
                     shader = Shader(rt, gb, sc, cam)
-                    dispatches = {(m, e): shader.prepare(resolve(m), feats, entry=e)
+                    dispatches = {(m, e): shader.prepare(Registry().resolve(m), feats, entry=e)
                                   for m in MODELS for e in ("shade", "copy")}
                     for m in MODELS:
-                        image = shader.render(resolve(m), feats)
+                        image = shader.render(Registry().resolve(m), feats)
                         reference.setdefault(m, image)
                         diff = peer_mod.verify(image, reference[m], covered)
                         if diff > SAME_IMAGE_RTOL:

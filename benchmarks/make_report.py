@@ -27,12 +27,14 @@ from clshade.bench.run import Bench, ladder_cases, mark_pareto, report, run_case
 from clshade.report.formats import plot_fps, plot_ladder  # noqa: E402
 from clshade.compare import compare_sheet, sweep_sheet, write_sheet  # noqa: E402
 from clshade.device.evaluate import Samples, constant_materials, eval_brdf  # noqa: E402
-from clshade.models import GROUPS, preset, resolve, resolve_many  # noqa: E402
+from clshade.models.model import GROUPS, preset  # noqa: E402
+from clshade.models.registry import Registry  # noqa: E402
 from clshade.resources import kernels_dir  # noqa: E402
 from clshade.device.runtime import get_runtime  # noqa: E402
 from clshade.provenance import stamp  # noqa: E402
 from results_io import load_average  # noqa: E402
 
+BUILT_IN = Registry()            # the built-in lobes
 OUT = ROOT / "benchmarks"
 IMAGES = OUT / "report"
 FRESNEL_ITEMS = 1 << 20          # work-items of the Fresnel micro-benchmark
@@ -117,7 +119,7 @@ def smith_peak(runtime) -> list[dict]:
             n, v, l = np.array([[0, 0, 1.0]]), np.array([[s, 0, mu]]), np.array([[-s, 0, mu]])
             one = np.ones((1, 3))
             samples = Samples(n, l, v, one, np.array([r]), np.array([1.0]), constant_materials(1))
-            f = {m: float(eval_brdf(resolve(m), samples, runtime)[0, 0]) for m in ("walter_ggx", "ggx_correlated")}
+            f = {m: float(eval_brdf(BUILT_IN.resolve(m), samples, runtime)[0, 0]) for m in ("walter_ggx", "ggx_correlated")}
             rows.append(dict(roughness=r, nv=mu, separable=f["walter_ggx"], correlated=f["ggx_correlated"]))
     return rows
 
@@ -160,13 +162,13 @@ def main() -> int:
     IMAGES.mkdir(parents=True, exist_ok=True)
 
     # Sheets.
-    models = resolve_many("all")
+    models = BUILT_IN.resolve_many("all")
     sheet, tiles = compare_sheet(ROOT / "scenes" / "robot.toml", models, width=256, height=256)
     write_sheet(IMAGES / "robot_sheet.png", sheet)
-    diff, _ = compare_sheet(ROOT / "scenes" / "robot.toml", resolve_many("microfacet,empirical"),
-                            width=200, height=200, reference=resolve("ggx_correlated"))
+    diff, _ = compare_sheet(ROOT / "scenes" / "robot.toml", BUILT_IN.resolve_many("microfacet,empirical"),
+                            width=200, height=200, reference=BUILT_IN.resolve("ggx_correlated"))
     write_sheet(IMAGES / "robot_diff.png", diff)
-    write_sheet(IMAGES / "sweep.png", sweep_sheet(ROOT / "scenes" / "red_ball.toml", resolve_many(
+    write_sheet(IMAGES / "sweep.png", sweep_sheet(ROOT / "scenes" / "red_ball.toml", BUILT_IN.resolve_many(
         "phong,phong_normalized,blinn_phong,blinn_phong_normalized,cook_torrance,walter_ggx,ggx_correlated"),
         size=120))
 
@@ -174,7 +176,7 @@ def main() -> int:
     bench = Bench.prepare(ROOT / "scenes" / "sphere_grid.toml", args.width, args.height, lights=1)
     rt = bench.runtime
     cases = [bench.case(m, label=m.label) for m in models]
-    noise = [bench.case(resolve(NOISE_MODEL), label=f"{NOISE_MODEL} #{k + 2}", numpy=False)
+    noise = [bench.case(BUILT_IN.resolve(NOISE_MODEL), label=f"{NOISE_MODEL} #{k + 2}", numpy=False)
              for k in range(NOISE_REPEATS - 1)]
     guard = bench.guard()
     copy_ms = run_cases(cases + noise, args.frames, args.warmup, guard=guard)
@@ -202,7 +204,7 @@ def main() -> int:
     doc["claims"] = dict(group_mean_ms=mean, group_spread=spread, fresnel_ns=cost, schlick_error=schlick,
                          smith_albedo=albedo, smith_peak=peaks, oren_nayar_sigma0_max_abs_diff=on_diff)
     doc["plausibility"] = [v.as_dict() for v in verdicts]
-    doc["noise"] = dict(model=NOISE_MODEL, mean_ms=[next(r["mean_ms"] for r in rows if r["model"] == resolve(NOISE_MODEL).id)]
+    doc["noise"] = dict(model=NOISE_MODEL, mean_ms=[next(r["mean_ms"] for r in rows if r["model"] == BUILT_IN.resolve(NOISE_MODEL).id)]
                         + [r["mean_ms"] for r in noise_rows])
     doc["seconds"] = round(time.perf_counter() - start, 1)
     doc["load_average"] = dict(start=at_start, end=load_average())

@@ -1,4 +1,4 @@
-"""Regenerate docs/models.md from the kernel headers (clshade.models), with the accuracy
+"""Regenerate docs/models.md from the kernel headers (clshade.models.lobe), with the accuracy
 table, the plausibility table and the named clamps with their measured bias.
 
     python benchmarks/models_doc.py [--out docs/models.md]
@@ -21,7 +21,8 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from clshade.verify import accuracy as A  # noqa: E402
 from clshade.verify import plausibility as P
-from clshade.models import GROUPS, builtin_lobes, presets  # noqa: E402
+from clshade.models.lobe import builtin_lobes  # noqa: E402
+from clshade.models.model import GROUPS, presets  # noqa: E402
 
 
 def lobe_sections() -> list[str]:

@@ -25,7 +25,7 @@ sys.path.insert(0, str(ROOT))
 from clshade.bench.run import (Bench, frame_stats, ladder_cases, mark_pareto,  # noqa: E402
                                report, run_cases, summarize, with_lights)
 from clshade.report.formats import bench_csv as write_csv, plot_fps, plot_ladder  # noqa: E402
-from clshade.models import resolve_many  # noqa: E402
+from clshade.models.registry import Registry  # noqa: E402
 from results_io import load_average  # noqa: E402
 
 OUT = ROOT / "benchmarks" / "results"
@@ -69,7 +69,7 @@ def main() -> int:
     start, at_start = time.perf_counter(), load_average()
     OUT.mkdir(parents=True, exist_ok=True)
     bench = Bench.prepare(ROOT / "scenes" / "sphere_grid.toml", args.width, args.height, lights=1)
-    models = resolve_many("all")
+    models = Registry().resolve_many("all")
 
     cases = [bench.case(m, label=m.label) for m in models]
     guard = bench.guard()

@@ -26,7 +26,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from clshade import models as M  # noqa: E402
+from clshade.models.registry import Registry  # noqa: E402
 from clshade.bench.run import run_bench  # noqa: E402
 from clshade.device.runtime import get_runtime  # noqa: E402
 from clshade.provenance import stamp  # noqa: E402
@@ -49,7 +49,8 @@ def head_commit() -> str | None:
 
 def measure(frames: int, width: int, height: int) -> dict:
     rt = get_runtime()
-    chosen = [M.resolve(m) for m in BUILT_INS] + [M.resolve(str(LOBES / f)) for f in USERS]
+    registry = Registry()
+    chosen = [registry.resolve(m) for m in BUILT_INS] + [registry.resolve(str(LOBES / f)) for f in USERS]
     bench = run_bench(SCENE, chosen, frames, 10, width=width, height=height, numpy_frames=0)
     timed = {row["model"]: row for row in bench["models"]}
     verdicts = {v.preset: v for v in P.evaluate_presets(P.QUICK, models=chosen)}

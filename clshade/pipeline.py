@@ -18,7 +18,7 @@ from clshade.budget import available_memory
 from clshade.errors import ClshadeError
 from clshade.render.gbuffer import GBuffer, build_gbuffer
 from clshade.render.meshes import Geometry, build_geometry
-from clshade.models import Model
+from clshade.models.model import Model
 from clshade.render.raster import Fragments, rasterize
 from clshade.render.samples import check_samples, supersampled
 from clshade.device.runtime import Runtime, get_runtime

@@ -12,7 +12,7 @@ from clshade.bench.run import compared_pixels
 from clshade.cli import main
 from clshade.device.shade import Shader, camera_args, scene_features
 from clshade.errors import ClshadeError
-from clshade.models import resolve
+from clshade.models.registry import Registry
 from clshade.pipeline import prepare_frame, render, render_streamed
 from clshade.render.gbuffer import build_gbuffer
 from clshade.render.image import read_image
@@ -26,6 +26,8 @@ from clshade.verify import reference
 
 from conftest import SCENES
 from scene_toml import plane_facing_camera
+
+resolve = Registry().resolve          # the built-in lobes
 
 GGX = resolve("ggx_correlated")
 W, H = 96, 44

@@ -93,8 +93,9 @@ def test_general_reference_f32_matches_kernel(spec):
     """The general reference in float32 (the frame oracle in single precision, timed as its own
     column) is the same shading as shade.cl (within float32 noise)."""
     from clshade.bench.run import Bench
-    from clshade.models import resolve
+    from clshade.models.registry import Registry
     from clshade.bench.numpy_baseline import shade_reference_f32
+    resolve = Registry().resolve          # the built-in lobes
     bench = Bench.prepare(SCENES / "sphere_grid.toml", 64, 48)
     model = resolve(spec)
     case = bench.case(model)

@@ -7,8 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from clshade.models import resolve
+from clshade.models.registry import Registry
 from clshade.verify import bias
+
+resolve = Registry().resolve          # the built-in lobes
 
 
 @pytest.mark.parametrize("nl", [1e-5, 1e-7, 5e-5])

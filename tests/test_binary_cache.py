@@ -8,10 +8,12 @@ import pytest
 from clshade import cachedir
 from clshade.device.runtime import Runtime
 from clshade.device.shade import Shader, scene_features
-from clshade.models import resolve
+from clshade.models.registry import Registry
 from clshade.pipeline import prepare_frame
 
 from conftest import SCENES
+
+resolve = Registry().resolve          # the built-in lobes
 
 
 @pytest.fixture(scope="module")

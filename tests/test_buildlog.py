@@ -5,7 +5,9 @@ from __future__ import annotations
 
 from clshade.device import variants
 from clshade.device.buildlog import relocate, source_lines
-from clshade.models import resolve
+from clshade.models.registry import Registry
+
+resolve = Registry().resolve          # the built-in lobes
 
 SOURCE = '#define A 1\n#line 1 "a.h"\nint a;\nint b;\n#line 1 "/u/lobe.cl"\nx\n#line 40 "/u/lobe.cl"\ny\n#line 7\nz'
 

@@ -11,13 +11,15 @@ import sys
 import numpy as np
 import pytest
 
-from clshade import models
 from clshade.cli import main
+from clshade.models.registry import Registry
 from clshade.errors import ClshadeError
 from clshade.render.image import read_image, write_image
 from clshade.render.scene import parse_scene
 
 from conftest import ROOT, SCENES
+
+BUILT_IN = Registry()          # the built-in lobes
 
 RED_BALL = str(SCENES / "red_ball.toml")
 
@@ -118,15 +120,15 @@ def test_overwritten_image_keeps_its_mode(tmp_path):
 def test_sweep_one_row_per_model_and_labels(runtime):
     from clshade.compare import GAP, LABEL_HEIGHT, TITLE_HEIGHT, sweep_labels, sweep_sheet, model_title
     roughness = (0.05, 0.15, 0.3, 0.5, 0.7, 0.9)
-    pair = [models.resolve("phong"), models.resolve("ggx_correlated@dielectric")]
+    pair = [BUILT_IN.resolve("phong"), BUILT_IN.resolve("ggx_correlated@dielectric")]
     sheet = sweep_sheet(RED_BALL, pair, roughness, size=8, runtime=runtime)
     assert sheet.shape[1] == GAP + len(roughness) * (8 + GAP)                       # 6 columns, no wrap
     assert sheet.shape[0] == GAP + len(pair) * (TITLE_HEIGHT + 8 + LABEL_HEIGHT + GAP)   # one row each
-    assert sweep_labels(models.resolve("phong"), 0.5, 30.0) == ("r = 0.5", "n = 30")
-    assert sweep_labels(models.resolve("lambert"), 0.5, 30.0) == ("r = 0.5", "")
-    assert sweep_labels(models.resolve("ggx_correlated"), 0.5, 30.0) == ("r = 0.5", "")
-    assert model_title(models.resolve("ggx_correlated@conductor")) == "GGX height-correlated, Conductor Fresnel"
-    assert model_title(models.resolve("lambert")) == "Lambert"
+    assert sweep_labels(BUILT_IN.resolve("phong"), 0.5, 30.0) == ("r = 0.5", "n = 30")
+    assert sweep_labels(BUILT_IN.resolve("lambert"), 0.5, 30.0) == ("r = 0.5", "")
+    assert sweep_labels(BUILT_IN.resolve("ggx_correlated"), 0.5, 30.0) == ("r = 0.5", "")
+    assert model_title(BUILT_IN.resolve("ggx_correlated@conductor")) == "GGX height-correlated, Conductor Fresnel"
+    assert model_title(BUILT_IN.resolve("lambert")) == "Lambert"
 
 
 @pytest.mark.text
@@ -149,11 +151,12 @@ def test_readme_robot_image_shows_the_float64_truth(tmp_path):
     most 1/255 apart on every pixel that faces the viewer, the worst named. Not a comparison
     with an image the same code wrote: a wrong spot cone, falloff or tone map fails it."""
     from clshade.bench.run import compared_pixels
-    from clshade.models import resolve
+    from clshade.models.registry import Registry
     from clshade.pipeline import prepare_frame
     from clshade.render.image import to_display
     from clshade.render.scene import load_scene
     from clshade.verify import reference
+    resolve = Registry().resolve          # the built-in lobes
 
     out = tmp_path / "robot.png"
     cwd = os.getcwd()
@@ -205,11 +208,11 @@ def test_long_commands_report_progress(runtime):
     from clshade.compare import sweep_sheet
     from clshade.verify import stability
     calls = []
-    sweep_sheet(RED_BALL, [models.resolve("lambert")], (0.2, 0.8), size=4, runtime=runtime,
+    sweep_sheet(RED_BALL, [BUILT_IN.resolve("lambert")], (0.2, 0.8), size=4, runtime=runtime,
                 progress=lambda d, t: calls.append((d, t)))
     assert calls == [(1, 2), (2, 2)]
     calls.clear()
-    stability.run([models.resolve("lambert")], runtime=runtime, fast_math=(False,), shading=False, extras=False,
+    stability.run([BUILT_IN.resolve("lambert")], runtime=runtime, fast_math=(False,), shading=False, extras=False,
                   progress=lambda d, t: calls.append((d, t)))
     assert calls == [(1, 1)]
 

@@ -4,16 +4,18 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from clshade import models
 from clshade.cli import main
+from clshade.models.registry import Registry
 from clshade.compare import LABEL_HEIGHT, MAX_COLUMNS, SHEET_BACKGROUND, compare_sheet, difference, false_colour
 from clshade.render.image import read_image
 
 from conftest import SCENES
 
+BUILT_IN = Registry()          # the built-in lobes
+
 
 def test_sheet_groups_labels_and_timings(runtime):
-    chosen = models.resolve_many("lambert,phong,ggx_correlated")
+    chosen = BUILT_IN.resolve_many("lambert,phong,ggx_correlated")
     sheet, tiles = compare_sheet(SCENES / "robot.toml", chosen, width=64, height=64, runtime=runtime)
     assert [t.model.id for t in tiles] == [m.id for m in chosen]
     assert all(t.ms > 0 for t in tiles)
@@ -28,9 +30,9 @@ def test_sheet_groups_labels_and_timings(runtime):
 
 
 def test_difference_view_and_wrapping(runtime):
-    chosen = models.resolve_many("all")
+    chosen = BUILT_IN.resolve_many("all")
     sheet, tiles = compare_sheet(SCENES / "sphere_grid.toml", chosen, width=40, height=18,
-                                 reference=models.resolve("ggx_correlated"), runtime=runtime)
+                                 reference=BUILT_IN.resolve("ggx_correlated"), runtime=runtime)
     assert sheet.shape[1] == 6 + MAX_COLUMNS * (40 + 6)       # rows wrap at MAX_COLUMNS tiles
 
 
@@ -73,7 +75,7 @@ def test_normalized_highlight_brightens_as_it_narrows(runtime):
     for r in (0.3, 0.6):
         mats = {k: dataclasses.replace(m, roughness=r) for k, m in scene.materials.items()}
         frame = prepare_frame(dataclasses.replace(scene, materials=mats), 96, 96)
-        for t in shade_all(frame, models.resolve_many("phong,phong_normalized"), runtime, repeats=1):
+        for t in shade_all(frame, BUILT_IN.resolve_many("phong,phong_normalized"), runtime, repeats=1):
             peaks[(t.model.id, r)] = t.image[..., 2].max()       # blue: specular only (red base)
     assert peaks[("lambert+phong_normalized", 0.3)] > 2 * peaks[("lambert+phong_normalized", 0.6)]
     assert peaks[("lambert+phong", 0.3)] < 1.5 * peaks[("lambert+phong", 0.6)]

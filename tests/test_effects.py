@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from clshade import models
 from clshade.errors import ClshadeError
+from clshade.models.registry import Registry
 from clshade.render.meshes import build_geometry
 from clshade.pipeline import prepare_frame, render
 from clshade.render.raster import rasterize
@@ -20,8 +20,10 @@ from clshade.render.textures import Texture, srgb_decode
 
 from conftest import ASSETS, SCENES
 
-GGX = models.resolve("ggx_correlated")
-LAMBERT = models.resolve("lambert")
+BUILT_IN = Registry()          # the built-in lobes
+
+GGX = BUILT_IN.resolve("ggx_correlated")
+LAMBERT = BUILT_IN.resolve("lambert")
 
 # A plane facing the camera (+Z), lit head-on; UVs run u → +X, v → +Y over it.
 FACING_PLANE = """

@@ -79,7 +79,8 @@ def test_gbuffer_planes_are_shared_with_a_cpu_device(runtime):
     """On a CPU device the shading kernel reads the G-buffer's own (aligned) planes: the device
     buffer's host pointer is the plane's memory, and the render still equals a copied upload."""
     from clshade.device.shade import Shader, scene_features
-    from clshade.models import resolve
+    from clshade.models.registry import Registry
+    resolve = Registry().resolve          # the built-in lobes
 
     if "cpu" not in runtime.info.kind:
         pytest.skip(f"zero-copy sharing is for CPU devices; this one is {runtime.info.kind}")

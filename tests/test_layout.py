@@ -18,7 +18,8 @@ PACKAGE = Path(clshade.__file__).resolve().parent
 
 RANK = {
     "clshade": 0, "clshade.errors": 0, "clshade.resources": 0, "clshade.report.tables": 0,
-    "clshade.models": 1, "clshade.glsl": 1, "clshade.brdf_explorer": 1,
+    "clshade.models": 1, "clshade.models.lobe": 1, "clshade.models.model": 1, "clshade.models.glsl": 1,
+    "clshade.models.brdf_file": 1, "clshade.models.registry": 1,
     "clshade.render": 2,
     "clshade.device": 3,
     "clshade.pipeline": 4,

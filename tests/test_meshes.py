@@ -199,15 +199,15 @@ material = "glow"
 def test_emission_is_a_variant_feature(runtime):
     """A material's `emissive` radiance is added unlit (no lights: the image is exactly it);
     a scene without emission compiles no emissive channel."""
-    from clshade import models
+    from clshade.models.registry import Registry
     from clshade.pipeline import render
     glow = parse_scene(EMISSIVE_BALL.format(ambient=0, emissive="[0.5, 0.25, 0.125]"))
-    out = render(glow, models.resolve("ggx_correlated"), runtime=runtime)
+    out = render(glow, Registry().resolve("ggx_correlated"), runtime=runtime)
     assert out.features.emissive and "emissive" in out.shader.variant(out.model, out.features).channels
     cov = out.image[..., 3] > 0
     assert cov.sum() > 100
     assert np.allclose(out.image[cov][:, :3], [0.5, 0.25, 0.125], rtol=1e-6)
-    dark = render(parse_scene(EMISSIVE_BALL.format(ambient=0, emissive=0)), models.resolve("ggx_correlated"),
+    dark = render(parse_scene(EMISSIVE_BALL.format(ambient=0, emissive=0)), Registry().resolve("ggx_correlated"),
                   runtime=runtime)
     assert not dark.features.emissive
     variant = dark.shader.variant(dark.model, dark.features)
@@ -271,7 +271,7 @@ def _occlusion_quad(path: Path, occlusion: tuple[int, int]) -> Path:
 def test_occlusion_texture_scales_ambient_only(runtime, tmp_path):
     """glTF occlusionTexture multiplies the ambient term: with ambient light only, the left half
     (occlusion 0.25) is a quarter of the right half (1.0); without ambient no channel exists."""
-    from clshade import models
+    from clshade.models.registry import Registry
     from clshade.pipeline import render
     quad = _occlusion_quad(tmp_path / "quad.gltf", (64, 255))
     text = f"""
@@ -289,7 +289,7 @@ mesh = "{quad}"
 mesh_material = true
 material = "m"
 """
-    out = render(parse_scene(text.format(ambient=1.0), tmp_path / "s.toml"), models.resolve("lambert"),
+    out = render(parse_scene(text.format(ambient=1.0), tmp_path / "s.toml"), Registry().resolve("lambert"),
                  runtime=runtime)
     assert out.features.occlusion
     rgb = out.image[..., :3]
@@ -298,7 +298,7 @@ material = "m"
     assert np.allclose(left, right * (64 / 255), rtol=1e-3)      # linear: no sRGB decode
     lit = parse_scene(text.format(ambient=0) + '[[lights]]\ntype = "directional"\ndirection = [0, 0, -1]\n',
                       tmp_path / "s.toml")
-    out = render(lit, models.resolve("lambert"), runtime=runtime)
+    out = render(lit, Registry().resolve("lambert"), runtime=runtime)
     assert not out.features.occlusion
     rgb = out.image[..., :3]
     assert rgb[12:20, 17:25].min() > 0

@@ -12,10 +12,13 @@ import pytest
 import clshade.bench.numpy_baseline as nb
 from clshade.bench.peers import VERIFY_RTOL, verify, well_conditioned
 from clshade.bench.run import Bench, prepare_baseline
-from clshade.models import PRESETS, preset, resolve
+from clshade.models.model import PRESETS, preset
+from clshade.models.registry import Registry
 from clshade.render.scene import Light
 
 from conftest import SCENES
+
+resolve = Registry().resolve          # the built-in lobes
 
 
 @pytest.fixture(scope="module")

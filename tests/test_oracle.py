@@ -14,12 +14,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from clshade.models import resolve
+from clshade.models.registry import Registry
 from clshade.pipeline import render
 from clshade.render.scene import load_scene
 from clshade.resources import scenes_dir
 from clshade.verify import reference as R
 from scene_toml import floor_ball_torus
+
+resolve = Registry().resolve          # the built-in lobes
 
 SCENES = scenes_dir()      # the scenes the imported clshade ships (textures included)
 TOLERANCE = 1e-4        # relative, the bound

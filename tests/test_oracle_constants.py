@@ -6,7 +6,9 @@ from __future__ import annotations
 
 import pytest
 
-from clshade.models import FRESNELS, WORKFLOWS, builtin_lobes, presets, resolve
+from clshade.models.lobe import builtin_lobes
+from clshade.models.model import FRESNELS, WORKFLOWS, presets
+from clshade.models.registry import Registry
 from clshade.resources import constant
 from clshade.verify import reference as R
 
@@ -27,7 +29,7 @@ def test_lobe_families_are_the_registry() -> None:
 
 def test_composition_is_the_registry() -> None:
     models = [m.with_options(fresnel=f, workflow=w) for m in presets() for f in FRESNELS for w in WORKFLOWS]
-    models += [resolve(spec) for spec in ("ggx_correlated", "burley+walter_ggx", "oren_nayar+phong")]
+    models += [Registry().resolve(spec) for spec in ("ggx_correlated", "burley+walter_ggx", "oren_nayar+phong")]
     for model in models:
         assert R.uses_fresnel(model) == model.uses_fresnel, model.id
 
@@ -52,7 +54,7 @@ def test_the_oracle_reads_no_kernel_file() -> None:
     saved = resources._all_defines
     try:
         resources._all_defines = lambda: (_ for _ in ()).throw(AssertionError("the oracle read kernels/"))
-        L = R.radiance(gb, scene, resolve("ggx_correlated"), camera=camera)
+        L = R.radiance(gb, scene, Registry().resolve("ggx_correlated"), camera=camera)
     finally:
         resources._all_defines = saved
     assert np.isfinite(L).all()

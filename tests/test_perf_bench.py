@@ -10,10 +10,12 @@ import pytest
 
 from clshade.bench import bandwidth, frame as whole, peers
 from clshade.device.shade import Shader, scene_features
-from clshade.models import resolve
+from clshade.models.registry import Registry
 from clshade.pipeline import prepare_frame
 from clshade.render.scene import load_scene, parse_scene
 from clshade.resources import scenes_dir
+
+resolve = Registry().resolve          # the built-in lobes
 
 SCENES = scenes_dir()
 

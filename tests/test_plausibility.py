@@ -7,7 +7,7 @@ import math
 import pytest
 
 from clshade.verify import plausibility as P
-from clshade.models import Model
+from clshade.models.model import Model
 
 CLOSED_FORM_TOL = 1.0e-3
 

@@ -10,7 +10,10 @@ from hypothesis import strategies as st
 
 from clshade.verify import reference as R
 from clshade.device.evaluate import Samples, constant_materials, eval_brdf
-from clshade.models import PRESETS, preset, resolve
+from clshade.models.model import PRESETS, preset
+from clshade.models.registry import Registry
+
+resolve = Registry().resolve          # the built-in lobes
 
 BATCH = 512
 # Reciprocity f(l, v) = f(v, l) holds exactly for every preset; in float32 the

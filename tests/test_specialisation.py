@@ -11,11 +11,13 @@ import numpy as np
 import pyopencl as cl
 import pytest
 
-from clshade import models
+from clshade.models.registry import Registry
 from clshade.pipeline import prepare_frame
 from clshade.render.scene import parse_scene
 from clshade.device.shade import Shader, scene_features
 from scene_toml import light, shadowed_floor_and_ball
+
+BUILT_IN = Registry()          # the built-in lobes
 
 # float32 kernels that run the same operations in the same order agree to
 # round-off; what remains is the compiler contracting differently (FMA) in two
@@ -44,7 +46,7 @@ def _close(a: np.ndarray, b: np.ndarray) -> None:
 def test_specialised_equals_general(shader, frame, model):
     """All effects on: the specialised variant (compile-time counts, PCF, baked or
     table constants) equals the general kernel with the same runtime switches."""
-    m = models.resolve(model)
+    m = BUILT_IN.resolve(model)
     features = scene_features(frame.scene, geometry=frame.geometry)
     assert features.shadows and features.ambient and features.num_lights == 3
     special = shader.render(m, features)
@@ -60,7 +62,7 @@ def test_specialised_equals_general(shader, frame, model):
 def test_effect_off_equals_general_neutral(shader, frame, effect, neutral):
     """A variant compiled without an effect equals the general kernel with the effect
     switched to its neutral value, and differs from the one with the effect."""
-    m = models.resolve("ggx_correlated")
+    m = BUILT_IN.resolve("ggx_correlated")
     full = scene_features(frame.scene, geometry=frame.geometry)
     without = replace(full, **neutral)
     special = shader.render(m, without)
@@ -80,14 +82,14 @@ def test_light_counts_are_runtime_in_general(runtime):
     shader = Shader(runtime, frame.gbuffer, frame.scene, frame.camera, frame.shadows)
     features = scene_features(frame.scene)
     assert (features.num_point, features.num_spot) == (8, 8)
-    m = models.resolve("ggx_correlated")
+    m = BUILT_IN.resolve("ggx_correlated")
     _close(shader.render(m, features), shader.render(m, replace(features, general=True)))
 
 
 def test_no_shadow_code_or_arguments_without_shadows(shader, frame, runtime):
     """Shadows off: HAS_SHADOWS=0, shadow.h not assembled, no shadow identifier in the
     source, and the kernel has exactly 3 arguments fewer (size, maps, parameters)."""
-    m = models.resolve("ggx_correlated")
+    m = BUILT_IN.resolve("ggx_correlated")
     on = scene_features(frame.scene)
     off = replace(on, shadows=False, shadow_pcf=1)
     v_off, v_on = shader.variant(m, off), shader.variant(m, on)
@@ -110,7 +112,7 @@ def test_no_shadow_code_or_arguments_without_shadows(shader, frame, runtime):
 
 
 def test_variant_key_includes_effects_and_options(shader, frame):
-    m = models.resolve("ggx_correlated")
+    m = BUILT_IN.resolve("ggx_correlated")
     f = scene_features(frame.scene)
     keys = {shader.variant(m, x).key for x in (f, replace(f, shadows=False), replace(f, ambient=False),
                                                 replace(f, fast_math=True), replace(f, shadow_pcf=5))}
@@ -130,7 +132,7 @@ def test_simd_width_never_changes_results(runtime, monkeypatch, model, variant):
         features = replace(features, half_gbuffer=True)
     elif variant == "general":
         features = replace(features, general=True)
-    m = models.resolve(model)
+    m = BUILT_IN.resolve(model)
     images = {}
     widths = ("1", "4", "8", "16") if runtime.native_simd >= 16 else ("1", "4", "8")
     for simd in widths:
@@ -168,7 +170,7 @@ def test_inline_math_matches_library_math(runtime, model, half):
     from clshade.device.runtime import INLINE_MATH, LIBRARY_MATH, Runtime
     frame = prepare_frame(parse_scene(SCENE))
     features = replace(scene_features(frame.scene, geometry=frame.geometry), half_gbuffer=half)
-    m = models.resolve(model)
+    m = BUILT_IN.resolve(model)
     images = [Shader(Runtime(runtime.info.spec, options=(opt,)), frame.gbuffer, frame.scene, frame.camera,
                      frame.shadows).render(m, features) for opt in (INLINE_MATH, LIBRARY_MATH)]
     _close(images[0], images[1])
@@ -230,7 +232,7 @@ def test_streaming_stores_write_the_image_plain_stores_write(device_runtime, mon
     streaming, plain = switch_pair(runtime, CACHED_STORES, "streaming_stores",
                                    "an x86 CPU device with AVX writes rows with streaming stores")
     for model in ("lambert", "ggx_correlated"):
-        m = models.resolve(model)
+        m = BUILT_IN.resolve(model)
         a, b = (Shader(rt, frame.gbuffer, frame.scene, frame.camera, frame.shadows).render(m, features)
                 for rt in (streaming, plain))
         assert (a[..., 3] == 0).any() and (a[..., 3] == 1).any(), "the frame has sky and covered pixels"
@@ -252,7 +254,7 @@ def test_prefetch_changes_no_pixel(device_runtime):
     """kernels/gbuffer.h's PREFETCH_AHEAD is a hint (x86): with it and without it
     (CLSHADE_NO_PREFETCH) the specialised and the general kernel write the same image,
     bit for bit."""
-    m = models.resolve("ggx_correlated")
+    m = BUILT_IN.resolve("ggx_correlated")
     for feats, shaders in _prefetch_shaders(device_runtime):
         a, b = (sh.render(m, feats) for sh, _ in shaders)
         assert (a[..., 3] == 1).any(), "the frame has covered pixels"
@@ -264,7 +266,7 @@ def test_prefetch_hint_is_in_the_built_programs(device_runtime):
     """The hint is in the built programs (PoCL's binary is LLVM bitcode) exactly where it should
     be: the shading kernel and its copy kernel, which must make the same traffic. A search of
     compiled code for a string: prefetching changes no pixel, so no behavioural test can see it."""
-    m = models.resolve("ggx_correlated")
+    m = BUILT_IN.resolve("ggx_correlated")
     for feats, shaders in _prefetch_shaders(device_runtime):
         for sh, rt in shaders:
             for entry in ("shade",) if feats.general else ("shade", "copy"):
@@ -283,8 +285,8 @@ def test_copy_kernel_writes_the_background_where_shade_does(runtime):
     features = scene_features(frame.scene, geometry=frame.geometry)
     sh = Shader(runtime, frame.gbuffer, frame.scene, frame.camera, frame.shadows)
     for name in ("lambert", "ggx_correlated"):
-        shaded = sh.render(models.resolve(name), features)
-        sh.enqueue(sh.prepare(models.resolve(name), features, entry="copy")).wait()
+        shaded = sh.render(BUILT_IN.resolve(name), features)
+        sh.enqueue(sh.prepare(BUILT_IN.resolve(name), features, entry="copy")).wait()
         copied = sh.read()
         sky = shaded[..., 3] == 0
         assert sky.any() and (~sky).any(), "the frame has sky and covered pixels"
@@ -319,7 +321,7 @@ def test_uniform_channels_are_compiled_in(runtime, model, metallic):
     frame = prepare_frame(parse_scene(uniform_scene(metallic)))
     features = scene_features(frame.scene, geometry=frame.geometry)
     assert dict(features.uniform) == {"roughness": pytest.approx(0.3), "metallic": pytest.approx(float(metallic))}
-    m = models.resolve(model)
+    m = BUILT_IN.resolve(model)
     shader = Shader(runtime, frame.gbuffer, frame.scene, frame.camera, frame.shadows)
     variant = shader.variant(m, features)
     assert not {"roughness", "metallic"} & set(variant.channels)
@@ -370,7 +372,7 @@ def test_unit_normals_only_where_the_gbuffer_promises_them(runtime, frame):
     """Frame G-buffers compile UNIT_NORMALS in (general kernel too); a hand-made G-buffer and
     the half-float one normalise in the kernel."""
     from clshade.render.gbuffer import GBuffer
-    m = models.resolve("ggx_correlated")
+    m = BUILT_IN.resolve("ggx_correlated")
     features = scene_features(frame.scene, geometry=frame.geometry)
     own = Shader(runtime, frame.gbuffer, frame.scene, frame.camera, frame.shadows)
     assert own.variant(m, features).defines().get("UNIT_NORMALS") == "1"

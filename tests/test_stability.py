@@ -2,8 +2,10 @@
 from __future__ import annotations
 
 from clshade.verify import stability
-from clshade.models import resolve
+from clshade.models.registry import Registry
 from clshade.report.formats import stability_text
+
+resolve = Registry().resolve          # the built-in lobes
 
 # docs/stability.md: "where no clamp is active the precise build stays within 3e-4 of the float64 reference".
 DOCUMENTED_PRECISE_DEVIATION = 3e-4

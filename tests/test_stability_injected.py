@@ -12,9 +12,11 @@ import pytest
 
 import clshade.device.variants as variants
 from clshade.device import counts
-from clshade.models import resolve
+from clshade.models.registry import Registry
 from clshade.resources import kernels_dir
 from clshade.verify import stability
+
+resolve = Registry().resolve          # the built-in lobes
 
 # (file, original text, replacement, model whose shading reaches it, term, what is counted)
 INJECTIONS = {

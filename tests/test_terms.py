@@ -89,8 +89,9 @@ def test_power_lobes_skip_only_what_underflows(model_id: str, runtime) -> None:
     computed, equal to float64's; where it is below 2⁻¹²⁶ the lobe is 0, as the power
     itself returns it. Through the model as it renders (eval.cl), n = v = +z, so r·v = n·l."""
     from clshade.device.evaluate import Samples, constant_materials, eval_brdf
-    from clshade.models import resolve
+    from clshade.models.registry import Registry
     from clshade.verify import reference as R
+    resolve = Registry().resolve          # the built-in lobes
     rng = np.random.default_rng(7)
     k = 4000
     cos = rng.uniform(0.05, 0.95, k)                    # r·v (Phong) or n·h (Blinn–Phong)

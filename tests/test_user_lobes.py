@@ -12,7 +12,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from clshade import models
+from clshade.errors import ClshadeError
+from clshade.models.lobe import BRDF_FILE
+from clshade.models.model import NONE
+from clshade.models.registry import LOBES_ENV, Registry
 from clshade.pipeline import prepare_frame, render
 from clshade.render.scene import parse_scene
 from conftest import SCENES
@@ -20,14 +23,7 @@ from scene_toml import two_spheres
 
 LOBES = SCENES / "lobes"
 MATCH_RTOL = 1e-4
-
-
-
-@pytest.fixture(autouse=True)
-def _fresh_registry():
-    models.reset_user_lobes()
-    yield
-    models.reset_user_lobes()
+BUILT_IN = Registry()          # the built-in lobes; a lobe file named as a model is read for that model
 
 
 @pytest.fixture(scope="module")
@@ -48,20 +44,18 @@ def _relative_mismatch(a: np.ndarray, b: np.ndarray) -> float:
     ("ggx_brdf.brdf", "ggx_correlated", {"metallic": "0"}),
 ])
 def test_brdf_file_matches_builtin(frame, runtime, file, builtin, params):
-    models.set_params(params)
-    user = models.resolve(str(LOBES / file))
-    assert user.lobes[0].origin == models.BRDF_FILE
+    user = Registry().with_params(params).resolve(str(LOBES / file))
+    assert user.lobes[0].origin == BRDF_FILE
     got = render(frame.scene, user, frame=frame, runtime=runtime).image
-    want = render(frame.scene, models.resolve(builtin), frame=frame, runtime=runtime).image
+    want = render(frame.scene, BUILT_IN.resolve(builtin), frame=frame, runtime=runtime).image
     assert _relative_mismatch(got, want) <= MATCH_RTOL
 
 
 def test_param_override_changes_the_frame(frame, runtime):
     """--param reaches the kernel: doubling ks of the Blinn–Phong file no longer matches the built-in."""
-    
-    models.set_params({"kd": "0.6", "ks": "0.8"})
-    got = render(frame.scene, models.resolve(str(LOBES / "blinn_phong_brdf.brdf")), frame=frame, runtime=runtime).image
-    want = render(frame.scene, models.resolve("blinn_phong"), frame=frame, runtime=runtime).image
+    registry = Registry().with_params({"kd": "0.6", "ks": "0.8"})
+    got = render(frame.scene, registry.resolve(str(LOBES / "blinn_phong_brdf.brdf")), frame=frame, runtime=runtime).image
+    want = render(frame.scene, BUILT_IN.resolve("blinn_phong"), frame=frame, runtime=runtime).image
     assert _relative_mismatch(got, want) > 1e-2
 
 
@@ -129,7 +123,7 @@ float helper(float x)
 
 
 def test_translated_expressions_follow_glsl(tmp_path, runtime):
-    model = models.resolve(_write_brdf(tmp_path, "expressions", EXPRESSIONS))
+    model = BUILT_IN.resolve(_write_brdf(tmp_path, "expressions", EXPRESSIONS))
     l = _directions()
     f = _eval(model, l)
     a, b, c = (l[:, i].astype(np.float64) for i in range(3))
@@ -140,7 +134,7 @@ def test_translated_expressions_follow_glsl(tmp_path, runtime):
 
 def test_translated_control_flow_is_per_pixel(tmp_path, runtime):
     """if/else, an early return and a helper with two returns act lane by lane, loops run their count."""
-    model = models.resolve(_write_brdf(tmp_path, "control", CONTROL))
+    model = BUILT_IN.resolve(_write_brdf(tmp_path, "control", CONTROL))
     l = _directions(256)
     f = _eval(model, l)
     x, y = np.abs(l[:, 0].astype(np.float64)), l[:, 1].astype(np.float64)
@@ -156,9 +150,9 @@ def test_tangent_frame_reaches_only_lobes_that_read_it(tmp_path, runtime):
     import dataclasses
     from clshade.device.variants import Features, Variant
     from clshade.verify.reference import _orthonormal_basis
-    reads = models.resolve(_write_brdf(tmp_path, "frame", "vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) "
+    reads = BUILT_IN.resolve(_write_brdf(tmp_path, "frame", "vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) "
                                                          "{ return X + 2.0 * Y; }"))
-    ignores = models.resolve(str(LOBES / "ggx_brdf.brdf"))
+    ignores = BUILT_IN.resolve(str(LOBES / "ggx_brdf.brdf"))
     assert "GEOMETRY_TANGENTS" in Variant(reads, Features(), ("depth",)).defines()
     assert "GEOMETRY_TANGENTS" not in Variant(ignores, Features(), ("depth",)).defines()
     from clshade.device.evaluate import eval_brdf
@@ -180,23 +174,23 @@ def test_tangent_frame_reaches_only_lobes_that_read_it(tmp_path, runtime):
 # ------------------------------------------------------------------ errors name the file and the line
 
 def test_translation_reports_what_brdf_reads():
-    """clshade.glsl.translate: X/Y read through a helper count; a parameter of the file is a #define."""
-    import clshade.glsl
+    """clshade.models.glsl.emitter.translate: X/Y read through a helper count; a parameter of the file is a #define."""
+    from clshade.models.glsl.emitter import translate
     shader = ("float aniso(vec3 t) { return t.x; }\n"
               "vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) { return vec3(aniso(Y)) * k; }")
-    tr = clshade.glsl.translate(shader, "t.brdf", {"k": ("float", "G_LIT(2.0)")})
+    tr = translate(shader, "t.brdf", {"k": ("float", "G_LIT(2.0)")})
     assert tr.reads == {"Y"} and "#define u_k G_LIT(2.0)" in tr.code
 
 
 def test_brdf_parameter_lines(tmp_path):
-    """clshade.brdf_explorer: float/color/bool lines, defaults, --param values, material keys."""
-    import clshade.brdf_explorer
+    """clshade.models.brdf_file: float/color/bool lines, defaults, --param values, material keys."""
+    from clshade.models.brdf_file import load_brdf
     path = tmp_path / "p.brdf"
     path.write_text("analytic\n::begin parameters\nfloat n 1 100 10\ncolor tint 1 0.5 0\nbool on 1\n"
                     "float roughness 0 1 0.2\n::end parameters\n::begin shader\n"
                     "vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) { return tint * n * roughness; }\n"
                     "::end shader\n", encoding="utf-8")
-    lobe = clshade.brdf_explorer.load_brdf(path, {"n": "20", "tint": "0.25"})
+    lobe = load_brdf(path, {"n": "20", "tint": "0.25"})
     by_name = {p.name: p for p in lobe.params}
     assert by_name["n"].value == (20.0,) and by_name["n"].default == 10.0
     assert by_name["tint"].value == (0.25, 0.25, 0.25) and by_name["on"].value == (1.0,)
@@ -218,8 +212,8 @@ def test_brdf_parameter_lines(tmp_path):
 ])
 def test_brdf_errors_name_file_and_line(tmp_path, shader, line, message):
     path = _write_brdf(tmp_path, "broken", shader)
-    with pytest.raises(models.ClshadeError) as info:
-        models.resolve(path)
+    with pytest.raises(ClshadeError) as info:
+        BUILT_IN.resolve(path)
     text = str(info.value)
     assert text.startswith(f"{path}:{line}: ") and message in text and "\n" not in text
 
@@ -235,8 +229,8 @@ def test_cl_lobe_header_errors(tmp_path, header, message):
     path = tmp_path / "bad_header.cl"
     path.write_text(f"/*! clshade-model\n * {header}\n */\nINLINE real diffuse_lobe(const Geometry g, const Surface s) "
                     "{ return 1.0f; }\n", encoding="utf-8")
-    with pytest.raises(models.ClshadeError) as info:
-        models.add_lobes(path)
+    with pytest.raises(ClshadeError) as info:
+        Registry().with_lobes(path).lobes
     assert str(info.value).startswith(str(path)) and message in str(info.value)
 
 
@@ -246,8 +240,8 @@ def test_compile_error_is_one_line_with_the_compilers_message(tmp_path, runtime)
                     " * formula: f\n * source: s\n */\nINLINE real diffuse_lobe(const Geometry g, const Surface s) {\n"
                     "    return g.no_such_member;\n}\n", encoding="utf-8")
     from clshade.device.evaluate import eval_brdf
-    with pytest.raises(models.ClshadeError) as info:
-        eval_brdf(models.resolve(str(path)), _samples_like(4), runtime)
+    with pytest.raises(ClshadeError) as info:
+        eval_brdf(BUILT_IN.resolve(str(path)), _samples_like(4), runtime)
     assert str(info.value).startswith(f"{path}:10: no member named 'no_such_member'") and "\n" not in str(info.value)
 
 
@@ -260,8 +254,8 @@ def test_compile_error_names_the_lobe_file_where_the_compiler_ignores_line_marke
                     "    return g.no_such_member;\n}\n", encoding="utf-8")
     nvidia_compiler("no_such_member;", "no member named 'no_such_member' in 'Geometry'")
     from clshade.device.evaluate import eval_brdf
-    with pytest.raises(models.ClshadeError) as info:
-        eval_brdf(models.resolve(str(path)), _samples_like(4), runtime)
+    with pytest.raises(ClshadeError) as info:
+        eval_brdf(BUILT_IN.resolve(str(path)), _samples_like(4), runtime)
     assert str(info.value).startswith(f"{path}:10: no member named 'no_such_member' in 'Geometry'"), str(info.value)
     assert "\n" not in str(info.value) and "<kernel>" not in str(info.value)
 
@@ -280,8 +274,8 @@ def test_stability_check_finds_the_naive_ward_infinity(runtime, checkout):
     """Ward's 1/√((n·l)(n·v)) overflows at n·v = 1e-40 without a floor; the shipped sample floors it."""
     from clshade.verify import stability
     grid = stability.geometry_grid()
-    naive = models.resolve(str(checkout / "tests" / "data" / "lobes" / "ward_naive.brdf"))
-    floored = models.resolve(str(LOBES / "ward.brdf"))
+    naive = BUILT_IN.resolve(str(checkout / "tests" / "data" / "lobes" / "ward_naive.brdf"))
+    floored = BUILT_IN.resolve(str(LOBES / "ward.brdf"))
     bad = stability.run_model(naive, grid, runtime, False, {})
     good = stability.run_model(floored, grid, runtime, False, {})
     assert bad.nonfinite > 0 and good.nonfinite == 0 and good.negative == 0
@@ -293,7 +287,7 @@ def test_double_build_agrees_with_the_python_oracle(runtime):
     formulas) to the rounding of the float constants the shared source holds (π as float: 4e-8)."""
     from clshade.verify import accuracy as A
     for spec in ("blinn_phong", "ggx_correlated@conductor", "cook_torrance"):   # pow, the conductor, exp
-        model = models.resolve(spec)
+        model = BUILT_IN.resolve(spec)
         case = A.model_case(model, 400, np.random.default_rng(2))
         s = case.samples
         n, l, v = (np.asarray(x, np.float64) for x in (s.n, s.l, s.v))
@@ -318,7 +312,7 @@ def _scene_with_lobes(tmp_path, model: str) -> str:
 
 def test_models_lists_the_users_lobes_with_their_paths(capsys, monkeypatch):
     from clshade.cli import main
-    monkeypatch.setenv(models.LOBES_ENV, str(LOBES))
+    monkeypatch.setenv(LOBES_ENV, str(LOBES))
     monkeypatch.setattr("clshade.verify.plausibility.physically_based", lambda **kw: {})
     assert main(["models"]) == 0
     out = capsys.readouterr().out
@@ -328,11 +322,14 @@ def test_models_lists_the_users_lobes_with_their_paths(capsys, monkeypatch):
 
 
 def test_scene_key_names_the_lobe_folder_and_param_overrides(capsys, tmp_path):
+    """render.lobes names the folder of the scene's model; --param reaches that lobe (another frame)."""
     from clshade.cli import main
+    from clshade.render.image import read_image
     scene = _scene_with_lobes(tmp_path, "ward")
     assert main(["render", scene, "-o", str(tmp_path / "w.png"), "--param", "alpha_x=0.3"]) == 0
     assert "ward" in capsys.readouterr().out
-    assert models.lobes()["ward"].params[2].value == (0.3,)
+    assert main(["render", scene, "-o", str(tmp_path / "default.png")]) == 0
+    assert not np.array_equal(read_image(tmp_path / "w.png"), read_image(tmp_path / "default.png"))
 
 
 @pytest.mark.parametrize("argv_tail, message", [
@@ -362,12 +359,12 @@ def test_gbuffer_tangents_reach_an_anisotropic_lobe(runtime):
     import dataclasses
     from clshade.device.shade import Shader
     from clshade.verify import reference as R
-    ward = models.resolve(str(LOBES / "ward.brdf"))
+    ward = BUILT_IN.resolve(str(LOBES / "ward.brdf"))
     done = render(SCENES / "textured.toml", ward, width=120, height=75, runtime=runtime)
     gb, fr = done.frame.gbuffer, done.frame
     assert "tangent" in gb.channels and "tangent" in done.shader.variant(ward, done.features).channels
-    assert "tangent" not in render(fr.scene, models.resolve("ggx_correlated"), frame=fr,
-                                   runtime=runtime).shader.variant(models.resolve("ggx_correlated"), done.features).channels
+    assert "tangent" not in render(fr.scene, BUILT_IN.resolve("ggx_correlated"), frame=fr,
+                                   runtime=runtime).shader.variant(BUILT_IN.resolve("ggx_correlated"), done.features).channels
     want = R.radiance(gb, fr.scene, ward, camera=fr.camera, shadows=fr.shadows)
     px = R.pixels(gb, fr.camera)
     keep = np.sum(px.n * px.v, axis=1) > 0.05
@@ -383,13 +380,13 @@ def test_gbuffer_tangents_reach_an_anisotropic_lobe(runtime):
 def test_aa_splits_a_model_without_diffuse_lobe():
     """`clshade aa` compares a highlight with the diffuse lobe alone: a .brdf file has none (black)."""
     from clshade.bench.aa import diffuse_model
-    ward = models.resolve(str(LOBES / "ward.brdf"))
+    ward = BUILT_IN.resolve(str(LOBES / "ward.brdf"))
     alone = diffuse_model(ward)
-    assert alone.diffuse == models.NONE and alone.specular == models.NONE
+    assert alone.diffuse == NONE and alone.specular == NONE
 
 
 def test_a_folder_names_every_lobe_in_it():
-    chosen = models.resolve_many(f"lambert,{LOBES}/")
+    chosen = BUILT_IN.resolve_many(f"lambert,{LOBES}/")
     ids = [m.id for m in chosen]
     assert ids[0] == "lambert" and {"ward", "ggx_brdf", "lommel_seeliger", "lambert_brdf"} <= set(ids)
     assert all(m.is_users for m in chosen[1:])
@@ -399,7 +396,7 @@ def test_bench_gives_a_user_lobe_the_built_ins_columns(runtime):
     """Time, × copy, × Lambert and the error against its float64 frame (its own double build); no NumPy
     formula exists for it, so that column stays empty."""
     from clshade.bench.run import run_bench
-    doc = run_bench(SCENES / "red_ball.toml", [models.resolve("lambert"), models.resolve(str(LOBES / "ward.brdf"))],
+    doc = run_bench(SCENES / "red_ball.toml", [BUILT_IN.resolve("lambert"), BUILT_IN.resolve(str(LOBES / "ward.brdf"))],
                     3, 1, width=48, height=48, numpy_frames=1)
     lam, ward = doc["models"]
     for key in ("mean_ms", "copy_ratio", "lambert_ratio", "max_rel_error", "mean_rel_error"):
@@ -410,8 +407,9 @@ def test_bench_gives_a_user_lobe_the_built_ins_columns(runtime):
 def test_checks_cover_the_users_lobes_by_default(monkeypatch):
     """`clshade check stability` and `check plausibility` without --model: every preset, then each user lobe."""
     from clshade.verify import stability
-    monkeypatch.setenv(models.LOBES_ENV, str(LOBES))
-    models.reset_user_lobes()
-    ids = [m.id for m in stability.grid_models()]
+    monkeypatch.setenv(LOBES_ENV, str(LOBES))
+    registry = Registry.from_env()
+    ids = [m.id for m in stability.grid_models(registry)]
     assert "lambert+ggx_correlated" in ids and {"ward", "lommel_seeliger", "ggx_brdf"} <= set(ids)
-    assert [m.id for m in models.user_models()] == [i for i in ids if models.resolve(i).is_users]
+    assert [m.id for m in registry.user_models()] == [i for i in ids if registry.resolve(i).is_users]
+    assert [m.id for m in stability.grid_models()] == [i for i in ids if not registry.resolve(i).is_users]

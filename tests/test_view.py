@@ -16,7 +16,7 @@ from clshade.device.display import Display, thresholds
 from clshade.device.runtime import get_runtime
 from clshade.device.variants import Variant
 from clshade.errors import ClshadeError
-from clshade.models import resolve
+from clshade.models.registry import Registry
 from clshade.render.gbuffer import build_gbuffer
 from clshade.render.image import read_image, to_display
 from clshade.render.raster import rasterize
@@ -25,6 +25,8 @@ from clshade.view.controls import ControlError, parse_controls, parse_message
 from clshade.view.document import dumps
 from clshade.view.session import DEVICE_GBUFFER_STAGE, ViewSession
 from scene_toml import red_sphere
+
+resolve = Registry().resolve          # the built-in lobes
 
 ROBOT = scenes_dir() / "robot.toml"
 W, H = 96, 64
@@ -220,7 +222,7 @@ def test_base_document_is_not_changed_by_frames(session):
 
 def test_surface_params_are_the_scene_defaults():
     """The base colour and metallic sliders start from the scene format's own defaults."""
-    from clshade.models import SURFACE_PARAMS
+    from clshade.models.lobe import SURFACE_PARAMS
     from clshade.render.scene import Material
     fields = Material.__dataclass_fields__
     for p in SURFACE_PARAMS:
@@ -579,7 +581,8 @@ def test_camera_only_changes_parse_only_the_camera_and_give_the_full_scene(sessi
     from clshade.render.scene import scene_from_data
     full = []
     real = view_session.scene_from_data
-    monkeypatch.setattr(view_session, "scene_from_data", lambda doc, path: full.append(1) or real(doc, path))
+    monkeypatch.setattr(view_session, "scene_from_data",
+                        lambda doc, path, registry: full.append(1) or real(doc, path, registry))
     steel = {"steel": {"roughness": 0.2}}
     lights = {"0": {"scale": 2.0}}
     steps = [dict(azimuth=3.0), dict(azimuth=7.0, distance=session.orbit.distance * 1.3),

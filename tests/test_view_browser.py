@@ -109,7 +109,7 @@ def test_viewer_end_to_end(browser, served, tmp_path, monkeypatch):
     assert header["reshade_only"] and "rasterize" not in header["stages"]
     assert 0.1 < js(browser, "return window.clshadeView.controls.materials.paint_red.roughness;") < 0.2
 
-    # the surface inputs (clshade.models.SURFACE_PARAMS): base colour, one slider per channel, and
+    # the surface inputs (clshade.models.lobe.SURFACE_PARAMS): base colour, one slider per channel, and
     # metallic; re-shade only, and the paint changes colour on the canvas
     before = canvas(browser)
     for slider, value in (("param_base_color_1", 900), ("param_metallic", 600)):

@@ -46,7 +46,8 @@ from clshade.compare import layout, scene_display
 from clshade.device.resolve import CoverageBlend
 from clshade.device.runtime import Runtime, get_runtime
 from clshade.device.shade import Shader, scene_features
-from clshade.models import NONE, Model, resolve
+from clshade.models.model import NONE, Model
+from clshade.models.registry import Registry
 from clshade.pipeline import Frame, prepare_frame
 from clshade.render.meshes import Geometry, build_geometry
 from clshade.render.samples import coverage_gbuffer, jittered, sample_offsets
@@ -80,7 +81,7 @@ def diffuse_model(model: Model) -> Model:
     for a model without one: a lone specular lobe, a BRDF Explorer file)."""
     if model.diffuse == NONE:
         return dataclasses.replace(model, specular=NONE)
-    return resolve(model.diffuse, None, model.workflow)
+    return Model(model.diffuse, NONE, "schlick", model.workflow, lobes=model.lobes)
 
 
 def specular_model(model: Model) -> Model:
@@ -393,11 +394,12 @@ def crop_sheet(scene: Scene, models: list[Model], images: dict[tuple[str, str], 
 def run(scene_path: str | Path, models: list[Model], *, width: int | None = None, height: int | None = None,
         frames: int = 30, warmup: int = 3, truth_samples: int = TRUTH_SAMPLES,
         check_samples: int | None = CHECK_SAMPLES, temporal_frames: int = TEMPORAL_FRAMES,
-        device: str | None = None) -> tuple[dict, np.ndarray]:
-    """The whole study: ladder, convergence of the truth, temporal table; and the crop sheet."""
+        device: str | None = None, registry: Registry | None = None) -> tuple[dict, np.ndarray]:
+    """The whole study: ladder, convergence of the truth, temporal table; and the crop sheet
+    (the scene read with `registry`, load_scene)."""
     for m in models:
         reference.check_model(m)
-    scene = load_scene(scene_path)
+    scene = load_scene(scene_path, registry)
     scene = dataclasses.replace(scene, camera=scene.camera.with_size(width, height), samples=1, specular_aa=False)
     runtime = get_runtime(device)
     geometry = build_geometry(scene)

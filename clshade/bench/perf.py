@@ -50,7 +50,8 @@ from clshade import __version__
 from clshade.bench import bandwidth, frame as whole, peers as peer_mod
 from clshade.device.runtime import CACHED_STORES, INLINE_MATH, LIBRARY_MATH, NO_PREFETCH, Runtime, healthy_devices
 from clshade.device.shade import Shader, scene_features
-from clshade.models import resolve
+from clshade.models.model import Model
+from clshade.models.registry import Registry
 from clshade.pipeline import prepare_frame
 from clshade.render.scene import load_scene
 
@@ -141,11 +142,13 @@ def cpu_runtimes() -> list[str]:
 
 
 def compare(scene_path: str, models: list, width: int | None, height: int | None, rounds: int, warmup: int,
-            peer_names: tuple[str, ...], devices: list[str] | None = None, library: bool = True) -> dict:
+            peer_names: tuple[str, ...], devices: list[str] | None = None, library: bool = True,
+            registry: Registry | None = None) -> dict:
     """Every runtime in `devices` (default: every healthy CPU runtime) × build (inline math,
     and with `library` the OpenCL library's builtins) × model, their copy kernels and
-    the peers, in the same interleaved rounds; peers verified against the first runtime."""
-    frame = prepare_frame(load_scene(scene_path), width, height)
+    the peers, in the same interleaved rounds; peers verified against the first runtime.
+    The scene is read with `registry` (load_scene)."""
+    frame = prepare_frame(load_scene(scene_path, registry), width, height)
     gb, scene, camera = frame.gbuffer, frame.scene, frame.camera
     feats = scene_features(scene, geometry=frame.geometry)
     builds = ((("default", ()), ("library", (LIBRARY_MATH,)), ("inline", (INLINE_MATH,)),
@@ -306,11 +309,11 @@ def run(scene_path: str, width: int, height: int, rounds: int, warmup: int, fram
     runtimes = [Runtime(spec) for spec in cpu_runtimes()]
 
     def frames_block() -> list[dict]:
-        return whole.whole_frames_on(load_scene(frame_scene), resolve("ggx_correlated"), runtimes, 1920, 1080,
+        return whole.whole_frames_on(load_scene(frame_scene), Registry().resolve("ggx_correlated"), runtimes, 1920, 1080,
                                      -(-frame_frames // 2))
 
     before = frames_block()      # half the whole frames before the kernel rounds, half after
-    doc = compare(scene_path, [resolve(m) for m in MODELS], width, height, rounds, warmup, peer_names)
+    doc = compare(scene_path, [Registry().resolve(m) for m in MODELS], width, height, rounds, warmup, peer_names)
     frames = whole.merge_blocks([before, frames_block()])
     for f in frames:
         f.pop("frames_s")
@@ -329,11 +332,11 @@ def _cpu_name() -> str:
     return platform.processor() or platform.machine()
 
 
-def bench_peers(args) -> dict:
-    """`clshade bench --peers`: the comparison document (the CLI prints its Markdown)."""
-    from clshade.models import resolve_many
-    doc = compare(args.scene, resolve_many(args.models), args.width, args.height, min(args.frames, 200),
-                  args.warmup, tuple(p for p in args.peers.split(",") if p), library=False)
+def bench_peers(args, models: list[Model], registry: Registry) -> dict:
+    """`clshade bench --peers` on the command's `models` and `registry`: the comparison document
+    (the CLI prints its Markdown)."""
+    doc = compare(args.scene, models, args.width, args.height, min(args.frames, 200),
+                  args.warmup, tuple(p for p in args.peers.split(",") if p), library=False, registry=registry)
     doc["targets"] = targets(doc)
     doc["command"] = "clshade bench " + " ".join(__import__("sys").argv[2:])
     return doc

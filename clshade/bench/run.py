@@ -40,7 +40,8 @@ from clshade.device.shade import Shader, scene_features
 from clshade.device.timing import timed_dispatch
 from clshade.device.variants import Features
 from clshade.errors import ClshadeError
-from clshade.models import Model, resolve
+from clshade.models.model import Model, preset
+from clshade.models.registry import Registry
 from clshade.pipeline import Frame, prepare_frame, reads_tangents
 from clshade.render.gbuffer import GBuffer
 from clshade.render.scene import Light, Scene, load_scene
@@ -370,7 +371,7 @@ class Bench:
         """The straw-man guard on the frame (None where the baseline has no Lambert for the scene)."""
         fr = self.frame
         try:
-            lambert = numpy_shader(resolve("lambert"), fr.gbuffer, fr.scene, fr.camera, self.features)
+            lambert = numpy_shader(preset("lambert"), fr.gbuffer, fr.scene, fr.camera, self.features)
         except Unsupported:
             return None
         return Guard(lambert, minimal_lambert(fr.gbuffer, fr.scene))
@@ -394,6 +395,7 @@ class Bench:
 
 def ladder_cases(bench: Bench) -> list[Case]:
     """The approximation ladders, each rung's error against the ladder's exact model."""
+    resolve = Registry().resolve
     ggx = resolve("ggx_correlated")
     ggx_diel = resolve("ggx_correlated@dielectric")
     ggx_cond = resolve("ggx_correlated@conductor")

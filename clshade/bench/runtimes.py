@@ -31,7 +31,7 @@ from clshade.bench.run import compared_pixels, relative_error
 from clshade.device import health
 from clshade.device.runtime import RUNTIME_PREFERENCE, Runtime, choose_device, device_health, list_devices
 from clshade.device.shade import Shader, scene_features
-from clshade.models import resolve
+from clshade.models.registry import Registry
 from clshade.pipeline import prepare_frame
 from clshade.provenance import stamp
 from clshade.render.scene import load_scene
@@ -97,7 +97,7 @@ def measure(scene_path: str, width: int, height: int, rounds: int, warmup: int, 
     feats = scene_features(frame.scene, geometry=frame.geometry)
     vis = (reference.visibility(frame.gbuffer, frame.scene, frame.shadows, frame.camera)
            if feats.shadows else None)
-    models = [resolve(m) for m in MODELS]
+    models = [Registry().resolve(m) for m in MODELS]
     idx = compared_pixels(frame.gbuffer, frame.camera)
     truth = {m.id: reference.radiance(frame.gbuffer, frame.scene, m, visibility=vis,
                                       camera=frame.camera).reshape(-1, 3)[idx] for m in models}

@@ -5,7 +5,7 @@ from __future__ import annotations
 import gc
 import sys
 
-from clshade.cli.parser import apply_lobe_options, build_parser
+from clshade.cli.parser import build_parser, lobe_registry
 from clshade.cli.process import quiet_broken_pipe, resume_gc, start_process
 from clshade.errors import ClshadeError, one_line
 
@@ -56,7 +56,7 @@ def _main(argv: list[str] | None, after_parse=None) -> int:
         after_parse()
     try:
         with diagnostics.warnings_captured():
-            apply_lobe_options(args)
+            args.registry = lobe_registry(args)
             status = int(args.func(args) or 0)
         sys.stdout.flush()      # a closed pipe shows here, inside the handler, not at exit
         return status

@@ -37,7 +37,7 @@ def load_scene_with_overrides(path, args: argparse.Namespace):
     """The scene file with the --samples / --specular-aa overrides."""
     from clshade.render.samples import with_antialiasing
     from clshade.render.scene import load_scene
-    return with_antialiasing(load_scene(path), args.samples, args.specular_aa)
+    return with_antialiasing(load_scene(path, args.registry), args.samples, args.specular_aa)
 
 
 def check_size(value: int | None, name: str) -> int | None:

@@ -3,11 +3,15 @@ groups several commands share (device, model, anti-aliasing, lobes)."""
 from __future__ import annotations
 
 import argparse
+from typing import TYPE_CHECKING
 
 from clshade import __version__
 from clshade.cli.commands import aa, bench, check, compare, devices, render, sweep, view
 from clshade.cli.commands import models as models_command
 from clshade.errors import ClshadeError
+
+if TYPE_CHECKING:
+    from clshade.models.registry import Registry
 
 
 class _Parser(argparse.ArgumentParser):
@@ -103,30 +107,36 @@ def _add_lobe_options(p: argparse.ArgumentParser) -> None:
                    help="a parameter of a .brdf lobe (float, bool 0/1, colour R,G,B); repeatable")
 
 
-def apply_lobe_options(args: argparse.Namespace) -> None:
-    """Register --lobes folders, the lobe files -m names, and --param values before the command runs."""
-    from clshade import models
+def lobe_registry(args: argparse.Namespace) -> Registry:
+    """The command's Registry: built-ins, $CLSHADE_LOBES, --lobes folders and --param values (with
+    --param, the lobe files -m names too, to check the names); a scene's render.lobes join it
+    where the scene is read (Registry.with_lobes)."""
+    from clshade.models.lobe import BRDF_FILE
+    from clshade.models.registry import Registry, lobe_path
     values = {}
     for item in getattr(args, "param", []):
         name, sep, value = item.partition("=")
         if not sep or not name.strip():
             raise ClshadeError(f"--param {item!r}: expected NAME=VALUE")
         values[name.strip()] = value.strip()
-    models.set_params(values)
+    registry = Registry.from_env().with_params(values)
     for folder in getattr(args, "lobes", []):
-        models.add_lobes(folder)
+        registry = registry.with_lobes(folder)
+        registry.lobes      # read now: a broken lobe file fails before the command starts
     if values:
-        declared = {p.name for l in models.lobes().values() if l.origin == models.BRDF_FILE for p in l.params}
+        declared = {p.name for l in registry.lobes.values() if l.origin == BRDF_FILE for p in l.params}
         for spec in (getattr(args, "model", None), getattr(args, "models", None)):
             for item in (spec or "").split(","):
-                path = models._lobe_path(item.strip()) if item.strip() else None
+                path = lobe_path(item.strip()) if item.strip() else None
                 if path is not None:
-                    for lobe_id in models.add_lobes(path):
-                        declared |= {p.name for p in models.lobes()[lobe_id].params}
+                    registry = registry.with_lobes(path)
+                    for lobe_id in registry.ids_in(path):
+                        declared |= {p.name for p in registry.lobes[lobe_id].params}
         unknown = sorted(set(values) - declared)
         if unknown and declared:
             raise ClshadeError(f"--param {unknown[0]}: no .brdf lobe in use has that parameter "
                                f"(theirs: {', '.join(sorted(declared))})")
+    return registry
 
 
 def _add_compare(sub: argparse._SubParsersAction) -> None:

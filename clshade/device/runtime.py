@@ -51,11 +51,10 @@ _BUILD_ERROR = re.compile(r"(?:error: (?P<file>/[^:\n]+):(?P<line>\d+):\d+[^:\n]
                           r"|(?:(?P<file2>/[^:\n]+):(?P<line2>\d+):\d+: error: (?P<message2>[^\n]+))")
 
 
-def _user_file_error(log: str) -> str | None:
+def _user_file_error(log: str, source: str) -> str | None:
     """`file:line: message` of the first compiler error in a user's lobe file (named by its
-    absolute path in the #line markers; clshade's own files are named relative), or None."""
-    from clshade.models import lobes
-    users = {str(l.path) for l in lobes().values() if l.is_users}
+    absolute path in the source's #line markers; clshade's own files are named relative), or None."""
+    users = {f for f in re.findall(r'^#line \d+ "([^"]+)"', source, re.M) if os.path.isabs(f)}
     for m in _BUILD_ERROR.finditer(log):
         file, line, message = (m.group("file"), m.group("line"), m.group("message")) if m.group("file") \
             else (m.group("file2"), m.group("line2"), m.group("message2"))
@@ -280,7 +279,7 @@ class Runtime:
                     program.build(options=list(options))
             except self.cl.RuntimeError as exc:
                 log = relocate(str(exc).strip(), source)     # `<kernel>:N:` (NVIDIA) as file:line
-                where = _user_file_error(log)
+                where = _user_file_error(log, source)
                 if where is not None:       # the user's lobe: one line, the compiler's own words
                     raise ClshadeError(f"{where} (OpenCL C, building {label or name})", detail=log) from exc
                 files = ", ".join(sorted(set(re.findall(r'#line 1 "([^"]+)"', source))))

@@ -38,7 +38,8 @@ from clshade.verify import reference as R
 from clshade.errors import ClshadeError
 from clshade.resources import KernelConstant, constant, kernel_constants  # noqa: F401
 from clshade.device.evaluate import Samples, eval_brdf
-from clshade.models import NONE, Model, presets, resolve
+from clshade.models.model import NONE, Model, presets
+from clshade.models.registry import Registry
 from clshade.resources import kernels_dir
 from clshade.device.runtime import Runtime, get_runtime
 
@@ -333,7 +334,7 @@ def accuracy_models() -> list[Model]:
             out += [model.with_options(fresnel=fr) for fr in ("schlick", "dielectric", "conductor")]
         else:
             out.append(model)
-    out += [resolve(s) for s in ("oren_nayar+ggx_correlated", "lambert+ggx_correlated", "burley+walter_ggx",
+    out += [Registry().resolve(s) for s in ("oren_nayar+ggx_correlated", "lambert+ggx_correlated", "burley+walter_ggx",
                                  "lambert+ggx_smith_schlick", "lambert+ggx_correlated/kdks")]
     unique = {m.id: m for m in reversed(out)}        # lambert+ggx_correlated is the ggx_correlated preset
     return [unique[i] for i in dict.fromkeys(m.id for m in out)]

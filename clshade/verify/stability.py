@@ -53,7 +53,8 @@ import numpy as np
 from clshade.device import counts
 from clshade.device.evaluate import Samples, eval_brdf, eval_brdf_counted
 from clshade.device.runtime import Runtime, get_runtime
-from clshade.models import FRESNELS, WORKFLOWS, Model, presets, user_models
+from clshade.models.model import FRESNELS, WORKFLOWS, Model, preset, presets
+from clshade.models.registry import Registry
 from clshade.provenance import stamp
 from clshade.resources import constant
 from clshade.verify import reference as R
@@ -130,9 +131,10 @@ def variants_of(model: Model) -> list[Model]:
     return [model.with_options(fresnel=f, workflow=w) for w in workflows for f in fresnels]
 
 
-def grid_models() -> list[Model]:
-    """Every preset with every Fresnel and workflow it admits (variants_of); then each of the user's lobes."""
-    return [v for m in presets() + user_models() for v in variants_of(m)]
+def grid_models(registry: Registry | None = None) -> list[Model]:
+    """Every preset with every Fresnel and workflow it admits (variants_of); then each of the user's
+    lobes in `registry` (default: none)."""
+    return [v for m in presets() + (registry or Registry()).user_models() for v in variants_of(m)]
 
 
 def run_model(model: Model, grid: Grid, rt: Runtime, fast_math: bool,
@@ -318,7 +320,6 @@ def continuity(rt: Runtime) -> list[dict[str, Any]]:
     """Largest relative step between neighbouring roughness samples around r = 0.01
     (where the α floor stops acting) and between r = 0 and r = 0.01 (must be 0)."""
     from clshade.device.evaluate import constant_materials
-    from clshade.models import preset
     out = []
     r = np.concatenate([np.linspace(0.0, 0.02, 201), [0.0099999, 0.01, 0.0100001]])
     r.sort()
@@ -458,14 +459,14 @@ class Report:
 
 def run(models: list[Model] | None = None, device: str | None = None, runtime: Runtime | None = None,
         fast_math: tuple[bool, ...] = (False, True), shading: bool = True, extras: bool = True,
-        brdf: bool = True, progress=None) -> Report:
-    """Run the whole grid (both builds), the shading pass, the clamp biases and the continuity checks
-    (`brdf`, `shading`, `extras` switch the parts off); `progress(done, total)` after each model × build
-    (and after the extras)."""
+        brdf: bool = True, progress=None, registry: Registry | None = None) -> Report:
+    """Run the whole grid (both builds; `models` default: grid_models(registry)), the shading pass,
+    the clamp biases and the continuity checks (`brdf`, `shading`, `extras` switch the parts off);
+    `progress(done, total)` after each model × build (and after the extras)."""
     start = time.perf_counter()
     rt = runtime or get_runtime(device)
     grid = geometry_grid()
-    models = [R.check_model(m) for m in models] if models is not None else grid_models()
+    models = [R.check_model(m) for m in models] if models is not None else grid_models(registry)
     results, shades, cache = [], [], {}
     total = len(models) * len(fast_math) + (1 if extras else 0)
     done = 0

@@ -26,22 +26,24 @@ def cmd_aa(args: argparse.Namespace) -> int:
     import json
     from clshade.bench.aa import run
     from clshade.compare import write_sheet
-    from clshade.models import resolve_many
     from clshade.outputs import write_text_atomic
     from clshade.render.scene import load_scene
     from clshade.provenance import stamp
     from clshade.report.formats import aa_markdown, plot_aa
     from clshade.resources import scenes_dir
     scene = args.scene or str(scenes_dir() / "aa_spheres.toml")
-    _check_aa_outputs(Path(args.output), load_scene(scene).inputs())
+    loaded = load_scene(scene, args.registry)
+    _check_aa_outputs(Path(args.output), loaded.inputs())
     budget.check_count("--frames", args.frames, budget.MAX_FRAMES, low=1)
     budget.check_count("--temporal-frames", args.temporal_frames, budget.MAX_FRAMES)
     if args.frames < 1 or args.truth_samples < 1 or args.check_samples < 0 or args.temporal_frames < 0:
         raise ClshadeError(f"--frames = {args.frames}, --truth-samples = {args.truth_samples}, --check-samples = "
                            f"{args.check_samples}, --temporal-frames = {args.temporal_frames}: need ≥ 1, ≥ 1, ≥ 0, ≥ 0")
-    doc, sheet = run(scene, resolve_many(args.models), width=check_size(args.width, "width"),
+    registry = args.registry.with_lobes(*loaded.lobes)
+    doc, sheet = run(scene, registry.resolve_many(args.models), width=check_size(args.width, "width"),
                      height=check_size(args.height, "height"), frames=args.frames, truth_samples=args.truth_samples,
-                     check_samples=args.check_samples, temporal_frames=args.temporal_frames, device=args.device)
+                     check_samples=args.check_samples, temporal_frames=args.temporal_frames, device=args.device,
+                     registry=args.registry)
     opts = {"models": args.models, "width": args.width, "height": args.height, "frames": args.frames,
             "truth-samples": args.truth_samples, "check-samples": args.check_samples,
             "temporal-frames": args.temporal_frames}

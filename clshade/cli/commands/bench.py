@@ -54,21 +54,22 @@ def _check_bench_options(args: argparse.Namespace) -> None:
 def cmd_bench(args: argparse.Namespace) -> int:
     import json
     from clshade.bench.run import run_bench
-    from clshade.models import resolve_many
     from clshade.outputs import write_text_atomic
     from clshade.report.formats import bench_csv, bench_plots, bench_text
     _check_bench_options(args)
     scene = load_scene_with_overrides(args.scene, args)
     _check_bench_outputs(args, scene.inputs())
+    registry = args.registry.with_lobes(*scene.lobes)
+    models = registry.resolve_many(args.models)
     with progress_bar("bench", "round") as progress:
-        doc = run_bench(scene, resolve_many(args.models), args.frames, args.warmup, width=args.width,
+        doc = run_bench(scene, models, args.frames, args.warmup, width=args.width,
                         height=args.height, lights=args.lights, ladder=args.ladder, numpy_frames=args.numpy_frames,
                         device=args.device, progress=None if args.no_progress else progress)
     print(bench_text(doc))
     if args.peers:
         from clshade.bench import perf
         from clshade.report.formats import perf_markdown
-        doc["peers"] = perf.bench_peers(args)
+        doc["peers"] = perf.bench_peers(args, models, registry)
         print()
         print(perf_markdown(doc["peers"]))
     if args.json:

@@ -12,11 +12,10 @@ def cmd_plausibility(args: argparse.Namespace) -> int:
     import json
     from dataclasses import asdict
     from clshade.verify import plausibility as P
-    from clshade.models import resolve_many
     sweep = P.QUICK if args.quick else P.Sweep()
-    chosen = resolve_many(args.model) if args.model else None
+    chosen = args.registry.resolve_many(args.model) if args.model else None
     with progress_bar("plausibility", "preset") as progress:
-        verdicts = P.evaluate_presets(sweep, args.device, models=chosen, progress=progress)
+        verdicts = P.evaluate_presets(sweep, args.device, models=chosen, progress=progress, registry=args.registry)
     if args.json:
         print(json.dumps({"energy_tol": P.ENERGY_TOL, "reciprocity_tol": P.RECIPROCITY_TOL,
                           "sweep": asdict(sweep), "presets": [v.as_dict() for v in verdicts]},
@@ -29,16 +28,15 @@ def cmd_plausibility(args: argparse.Namespace) -> int:
 
 def cmd_stability(args: argparse.Namespace) -> int:
     import json
-    from clshade.models import resolve_many
     from clshade.report.formats import stability_text
     from clshade.verify import stability
     models = None
     if args.model is not None:
         if not args.model.replace(",", "").strip():
             raise ClshadeError(f"--model = {args.model!r}: no model given; `clshade models` lists them")
-        models = [v for m in resolve_many(args.model) for v in stability.variants_of(m)]
+        models = [v for m in args.registry.resolve_many(args.model) for v in stability.variants_of(m)]
     with progress_bar("stability", "step") as progress:
-        rep = stability.run(models, device=args.device, progress=progress)
+        rep = stability.run(models, device=args.device, progress=progress, registry=args.registry)
     if args.json:
         print(json.dumps(rep.as_dict(), indent=2, ensure_ascii=False, default=str))
     else:

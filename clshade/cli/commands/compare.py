@@ -11,18 +11,18 @@ from clshade.errors import ClshadeError
 
 def cmd_compare(args: argparse.Namespace) -> int:
     from clshade.compare import MAX_TILE, compare_sheet, write_sheet
-    from clshade.models import resolve, resolve_many
     from clshade.render.image import check_output_path
     scene = load_scene_with_overrides(args.scene, args)
     check_output_path(Path(args.output), scene.inputs())
-    models = resolve_many(args.models)
+    registry = args.registry.with_lobes(*scene.lobes)
+    models = registry.resolve_many(args.models)
     for flag, value, high in (("--tile", args.tile, MAX_TILE), ("--width", args.width, 16384),
                               ("--height", args.height, 16384)):
         if value is not None and not 1 <= value <= high:
             raise ClshadeError(f"{flag} = {value}: must be within [1, {high}]")
     width = args.width or args.tile
     height = args.height or max(1, round(width * scene.camera.height / scene.camera.width))
-    reference = resolve(args.reference) if args.reference else None
+    reference = registry.resolve(args.reference) if args.reference else None
     budget.sheet_pixels(len(models) + (reference is not None), 1, width, height)
     with progress_bar("compare", "model") as progress:
         sheet, tiles = compare_sheet(scene, models, width=width, height=height, reference=reference,

@@ -10,8 +10,9 @@ from clshade.errors import ClshadeError
 
 def cmd_models(args: argparse.Namespace) -> int:
     import json
-    from clshade.models import GROUPS, lobes, presets
+    from clshade.models.model import GROUPS, presets
     from clshade.verify.plausibility import physically_based
+    lobes = args.registry.lobes
     try:  # measured on the device with a reduced sweep (`clshade check plausibility` for the full one)
         with progress_bar("measuring albedo", "preset") as progress:
             measured: dict[str, bool] = physically_based(progress=progress)
@@ -30,7 +31,7 @@ def cmd_models(args: argparse.Namespace) -> int:
                        "deviations": list(l.deviations),
                        "params": [{"name": p.name, "min": p.low, "max": p.high, "default": p.default,
                                    "description": p.description} for p in l.params]}
-                      for l in lobes().values()],
+                      for l in lobes.values()],
             "groups": {k: list(v) for k, v in GROUPS.items()},
         }
         print(json.dumps(data, indent=2, ensure_ascii=False))
@@ -41,7 +42,7 @@ def cmd_models(args: argparse.Namespace) -> int:
         print(f"  {m.id:32s} {m.label:26s} {m.family:10s} workflow={m.workflow:8s} {pb} (measured)")
     print("\nLobes (combine as diffuse+specular, e.g. oren_nayar+ggx_correlated; append @dielectric or "
           "@conductor for exact Fresnel):")
-    for l in lobes().values():
+    for l in lobes.values():
         params = ", ".join(_param_text(p) for p in l.params) or "no parameters"
         print(f"  {l.id:24s} {l.kind:8s} {l.family:10s} {l.formula}")
         print(f"  {'':24s} params: {params}")

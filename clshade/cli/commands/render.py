@@ -44,7 +44,6 @@ def cmd_render(args: argparse.Namespace) -> int:
     """Render in bands of rows (pipeline.render_streamed): only the output image is
     full-frame, so a frame too large for memory is refused before anything is allocated."""
     import numpy as np
-    from clshade.models import resolve
     from clshade.pipeline import Timings, check_frame_memory, render_streamed
     from clshade.render.image import LINEAR_SUFFIXES, check_output_path, to_display, write_encoded
 
@@ -56,7 +55,8 @@ def cmd_render(args: argparse.Namespace) -> int:
     check_output_path(out, protected)
     exposure = scene.exposure if args.exposure is None else _exposure(args.exposure)
     tonemap = args.tonemap or scene.tonemap
-    model = resolve(_model_spec(args.model, scene.model), args.fresnel, args.workflow)
+    registry = args.registry.with_lobes(*scene.lobes)
+    model = registry.resolve(_model_spec(args.model, scene.model), args.fresnel, args.workflow)
     cam = scene.camera.with_size(check_size(args.width, "width"), check_size(args.height, "height"))
     linear = out.suffix.lower() in LINEAR_SUFFIXES
     check_frame_memory(cam.width, cam.height, 16 if linear else 3)

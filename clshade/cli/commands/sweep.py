@@ -11,7 +11,6 @@ from clshade.errors import ClshadeError
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     from clshade.compare import MAX_TILE, sweep_sheet, write_sheet
-    from clshade.models import resolve_many
     from clshade.render.image import check_output_path
     from clshade.resources import scenes_dir
     scene = load_scene_with_overrides(args.scene or scenes_dir() / "red_ball.toml", args)
@@ -26,7 +25,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         raise ClshadeError(f"--roughness: {len(values)} values exceed the limit of {budget.MAX_SWEEP_COLUMNS} columns")
     if not 1 <= args.size <= MAX_TILE:
         raise ClshadeError(f"--size = {args.size}: must be within [1, {MAX_TILE}]")
-    models = resolve_many(args.models)
+    models = args.registry.with_lobes(*scene.lobes).resolve_many(args.models)
     budget.sheet_pixels(len(models), len(values), args.size, args.size)
     with progress_bar("sweep", "column") as progress:
         sheet = sweep_sheet(scene, models, values, size=args.size, device=args.device, progress=progress)

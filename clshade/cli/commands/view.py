@@ -15,7 +15,7 @@ def cmd_view(args: argparse.Namespace) -> int:
     if not 0 <= args.port <= 65535:
         raise ClshadeError(f"--port = {args.port}: must be within [0, 65535]")
     session = ViewSession(args.scene, args.output_dir, check_size(args.width, "width"),
-                          check_size(args.height, "height"), device=args.device)
+                          check_size(args.height, "height"), device=args.device, registry=args.registry)
     server = ViewServer(session, args.host, args.port, linger=None if args.keep_running else 3.0)
 
     def ready(url: str) -> None:

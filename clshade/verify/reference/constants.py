@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 
-from clshade.models import NONE
+from clshade.models.model import NONE
 
 # A vector shorter than this is treated as zero length: its squared length
 # (<= 1e-300) is at the bottom of the normal float64 range (~2.2e-308), so its

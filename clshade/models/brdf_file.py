@@ -14,7 +14,7 @@ and a shader block `::begin shader … ::end shader` of GLSL defining
 towards the light L and the viewer V, the normal N and the tangent frame X, Y,
 without the cosine. Lines starting with `#` outside the blocks are comments.
 
-The shader is translated by clshade.glsl into a specular lobe of family
+The shader is translated by clshade.models.glsl into a specular lobe of family
 `brdf` (compose.h then adds nothing: f = the file's BRDF). A parameter named
 like a material key (MATERIAL_KEYS: base_color, roughness, shininess, ior,
 f90) is that key, read per pixel; the others are compiled in: the file's
@@ -28,9 +28,11 @@ from __future__ import annotations
 import re
 from dataclasses import replace
 from pathlib import Path
+from typing import Mapping
 
 from clshade.errors import ClshadeError
-from clshade.glsl import translate
+from clshade.models.glsl.emitter import translate
+from clshade.models.lobe import BRDF_FILE, Lobe, Param
 
 FAMILY = "brdf"
 
@@ -79,9 +81,8 @@ def parse_value(kind: str, text: str, where: str):
         raise ClshadeError(f"{where}: {text!r} is not {want}") from None
 
 
-def load_brdf(path: Path, values: dict[str, str]):
+def load_brdf(path: Path, values: Mapping[str, str]) -> Lobe:
     """The Lobe of a .brdf file with its parameters set (defaults, then `values`)."""
-    from clshade.models import BRDF_FILE, Lobe, Param
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
