@@ -572,7 +572,7 @@ def _check_bench_outputs(args: argparse.Namespace, protected: list[Path]) -> Non
     """Every output path (none an input, no two the same; --plot's ladder plot beside it with
     --ladder), and matplotlib for --plot, before the benchmark runs."""
     from clshade.outputs import check_distinct, check_output_file
-    from clshade.report.formats import _pyplot
+    from clshade.report.plots import pyplot
     ladder_plot = None
     if args.json:
         check_output_file(args.json, "--json", protected=protected)
@@ -584,7 +584,7 @@ def _check_bench_outputs(args: argparse.Namespace, protected: list[Path]) -> Non
             plot = Path(args.plot)
             ladder_plot = plot.with_name(plot.stem + "_ladder" + plot.suffix)
             check_output_file(ladder_plot, "--plot (its ladder plot)", PLOT_SUFFIXES, protected=protected)
-        _pyplot()
+        pyplot()
     check_distinct([("--json", args.json), ("--csv", args.csv), ("--plot", args.plot),
                     ("--plot (its ladder plot)", ladder_plot)])
 
@@ -612,7 +612,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     from clshade.bench.run import run_bench
     from clshade.models import resolve_many
     from clshade.outputs import write_text_atomic
-    from clshade.report.formats import bench_csv, bench_plots, bench_text
+    from clshade.report.bench import bench_csv, bench_plots, bench_text
     _check_bench_options(args)
     scene = _load_scene(args.scene, args)
     _check_bench_outputs(args, scene.inputs())
@@ -623,7 +623,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     print(bench_text(doc))
     if args.peers:
         from clshade.bench import perf
-        from clshade.report.formats import perf_markdown
+        from clshade.report.perf import perf_markdown
         doc["peers"] = perf.bench_peers(args)
         print()
         print(perf_markdown(doc["peers"]))
@@ -640,11 +640,11 @@ def _check_aa_outputs(prefix: Path, protected: list[Path]) -> None:
     """The four output files (none an input of the scene) and matplotlib (the ladder plot),
     before the long run."""
     from clshade.outputs import check_output_file
-    from clshade.report.formats import _pyplot
+    from clshade.report.plots import pyplot
     for suffix in (".json", ".md", "_ladder.png", "_crops.png"):
         check_output_file(prefix.with_name(prefix.name + suffix), "-o", protected=protected)
     try:
-        _pyplot()
+        pyplot()
     except ClshadeError as exc:
         raise ClshadeError(f"clshade aa plots the ladder: {exc}") from exc
 
@@ -657,7 +657,7 @@ def cmd_aa(args: argparse.Namespace) -> int:
     from clshade.outputs import write_text_atomic
     from clshade.render.scene import load_scene
     from clshade.provenance import stamp
-    from clshade.report.formats import aa_markdown, plot_aa
+    from clshade.report.aa import aa_markdown, plot_aa
     from clshade.resources import scenes_dir
     scene = args.scene or str(scenes_dir() / "aa_spheres.toml")
     _check_aa_outputs(Path(args.output), load_scene(scene).inputs())
@@ -690,6 +690,7 @@ def cmd_plausibility(args: argparse.Namespace) -> int:
     from dataclasses import asdict
     from clshade.verify import plausibility as P
     from clshade.models import resolve_many
+    from clshade.report.plausibility import plausibility_table
     sweep = P.QUICK if args.quick else P.Sweep()
     chosen = resolve_many(args.model) if args.model else None
     with progress_bar("plausibility", "preset") as progress:
@@ -699,7 +700,7 @@ def cmd_plausibility(args: argparse.Namespace) -> int:
                           "sweep": asdict(sweep), "presets": [v.as_dict() for v in verdicts]},
                          indent=2, ensure_ascii=False))
     else:
-        for line in P.table(verdicts) + [""] + P.describe_method(sweep):
+        for line in [plausibility_table(verdicts), ""] + P.describe_method(sweep):
             print(line)
     return 0 if all(v.non_negative and v.reciprocal for v in verdicts) else 1
 
@@ -707,7 +708,7 @@ def cmd_plausibility(args: argparse.Namespace) -> int:
 def cmd_stability(args: argparse.Namespace) -> int:
     import json
     from clshade.models import resolve_many
-    from clshade.report.formats import stability_text
+    from clshade.report.stability import stability_text
     from clshade.verify import stability
     models = None
     if args.model is not None:
@@ -765,7 +766,7 @@ def run() -> int:
 
 
 def start_process() -> None:
-    """What `run` does before the command line is parsed (benchmarks/startup_bench.py times it
+    """What `run` does before the command line is parsed (benchmarks/measure/startup_bench.py times it
     with the imports): collector paused, allocator tuned, NumPy loaded."""
     gc.disable()
     tune_allocator()

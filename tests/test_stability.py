@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from clshade.verify import stability
 from clshade.models import resolve
-from clshade.report.formats import stability_text
+from clshade.report.stability import stability_text
 
 # docs/stability.md: "where no clamp is active the precise build stays within 3e-4 of the float64 reference".
 DOCUMENTED_PRECISE_DEVIATION = 3e-4
