@@ -9,6 +9,7 @@ from the checkout.
 from __future__ import annotations
 
 import os
+import sys
 from pathlib import Path
 
 import pytest
@@ -21,6 +22,11 @@ ASSETS = ROOT.parent / "shared" / "assets"
 SCENES = scenes_dir()  # the scenes the imported clshade ships (site-packages when installed)
 PACKAGE = Path(clshade.__file__).resolve().parent
 CHECKOUT = ROOT if (ROOT / "pyproject.toml").is_file() else None
+
+# The checkout's `benchmarks` package importable by tests (`import benchmarks.publish.render`): the root is
+# appended, after site-packages, so that `import clshade` still finds the installed package first.
+if CHECKOUT is not None and str(CHECKOUT) not in sys.path:
+    sys.path.append(str(CHECKOUT))
 
 
 def pytest_report_header(config) -> str:
@@ -98,22 +104,6 @@ def checkout() -> Path:
     if CHECKOUT is None:
         pytest.skip(f"no source checkout at {ROOT} (tests copied without the repository)")
     return CHECKOUT
-
-
-@pytest.fixture(scope="session")
-def bench_script(checkout):
-    """benchmarks/<name>.py loaded as the module <name> (registered in sys.modules: dataclasses look their
-    module up there; the scripts import each other by name from benchmarks/)."""
-    import importlib.util
-    import sys
-
-    def load(name: str):
-        spec = importlib.util.spec_from_file_location(name, checkout / "benchmarks" / f"{name}.py")
-        module = importlib.util.module_from_spec(spec)
-        sys.modules[name] = module
-        spec.loader.exec_module(module)
-        return module
-    return load
 
 
 @pytest.fixture(scope="session")

@@ -1,11 +1,9 @@
-#!/usr/bin/env python
 """Warm wall time of `clshade render scenes/robot.toml` end to end, and where it goes
-(issue 14: ≤ 0.6 s on the 2-core development machine).
+(the target: ≤ 0.6 s on the 2-core development machine).
 
 Usage::
 
-    python benchmarks/startup_bench.py [--repeats 9] [--out benchmarks/results/startup.json]
-    python benchmarks/startup_bench.py --markdown-only
+    python -m benchmarks.measure.startup_bench [--repeats 9] [--out benchmarks/results/startup.json]
 
 "Warm": one untimed run first fills PoCL's kernel cache (~/.cache/pocl), clshade's
 program-binary and tessellation caches (~/.cache/clshade) and Python's bytecode caches
@@ -28,9 +26,7 @@ import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "benchmarks"))
-from results_io import publish  # noqa: E402
+from benchmarks.publish.results_io import RESULTS, ROOT, measure_and_write
 
 TARGET_S = 0.6
 
@@ -94,38 +90,12 @@ def measure(repeats: int) -> dict:
     }
 
 
-def markdown(doc: dict) -> str:
-    w = doc["wall_s"]
-    stages = doc["render_stages_ms"]
-    staged = sum(stages.values()) / 1e3
-    lines = ["# Warm `clshade render scenes/robot.toml` (640×640 PNG), end to end", "",
-             f"Measured {doc['date']} on {doc['machine']['cpu']} ({doc['machine']['cores']} cores, shared; "
-             f"1-minute load average {doc['load_average_1min']['min']:.1f}–{doc['load_average_1min']['max']:.1f} "
-             f"during the run) by `python benchmarks/startup_bench.py` ({doc['repeats']} interleaved rounds after a "
-             f"warm-up); device: {doc['machine']['device']}.", "",
-             f"Target (issue 14): ≤ {TARGET_S} s wall. Median render: **{w['render']['median']:.2f} s** "
-             f"(minimum {w['render']['min']:.2f} s): "
-             f"{'meets' if w['render']['median'] <= TARGET_S else 'misses'} the target at this load.", "",
-             "| process | median wall (s) | min wall (s) | median CPU (s, user + system) |", "|---|---:|---:|---:|"]
-    for name, label in (("interpreter", "`python -c pass`"), ("imports", "CLI imports + argument parser"),
-                        ("render", "`clshade render scenes/robot.toml -o robot.png`")):
-        lines.append(f"| {label} | {w[name]['median']:.3f} | {w[name]['min']:.3f} | {doc['cpu_s'][name]['median']:.3f} |")
-    lines += ["", "Render stages (median ms over the rounds, from the command's `stages:` line; "
-              f"they sum to {staged:.2f} s, the rest is interpreter start, imports and exit):", "",
-              "| stage | ms |", "|---|---:|"]
-    lines += [f"| {k} | {v:.1f} |" for k, v in stages.items()]
-    return "\n".join(lines) + "\n"
-
-
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeats", type=int, default=9)
-    parser.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "startup.json"))
-    parser.add_argument("--markdown-only", action="store_true")
+    parser.add_argument("--out", default=str(RESULTS / "startup.json"))
     args = parser.parse_args()
-    doc = publish(Path(args.out), lambda: {"repeats": args.repeats, "target_s": TARGET_S, **measure(args.repeats)},
-                  markdown, args.markdown_only)
-    print(markdown(doc))
+    measure_and_write(args.out, lambda: {"repeats": args.repeats, "target_s": TARGET_S, **measure(args.repeats)})
     return 0
 
 

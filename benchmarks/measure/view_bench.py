@@ -1,4 +1,3 @@
-#!/usr/bin/env python
 """How live `clshade view` feels: re-shade updates per second and orbit frames per second at
 960×540 on scenes/robot.toml, and the time from input to the frame drawn on the page's canvas,
 encoding and transfer included, measured in a real browser (headless Chromium, as the
@@ -6,8 +5,7 @@ end-to-end tests drive it).
 
 Usage::
 
-    python benchmarks/view_bench.py [--frames 60] [--repeats 3] [--out benchmarks/results/view.json]
-    python benchmarks/view_bench.py --markdown-only
+    python -m benchmarks.measure.view_bench [--frames 60] [--repeats 3] [--out benchmarks/results/view.json]
 
 The page itself drives the viewer (window.clshadeView): each step changes the controls the way
 a person does and waits until the frame of that change is drawn, then takes the next step
@@ -26,7 +24,7 @@ on all kinds); rates are medians over blocks, latencies percentiles over all fra
 the page records the latency (input → drawn), the server's time from receiving the state to
 having sent the frame (server_ms: waiting, rendering, packing, sending) and its stages, the
 packing and the draw time; the rest of the latency is transfer both ways and the browser's
-message handling. `benchmarks/publish.py` renders benchmarks/results/view.md from the JSON.
+message handling. `python -m benchmarks.publish` renders benchmarks/results/view.md from the JSON.
 """
 from __future__ import annotations
 
@@ -34,16 +32,13 @@ import argparse
 import os
 import shlex
 import statistics
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "benchmarks"))
-from results_io import publish  # noqa: E402
+from benchmarks.publish.results_io import RESULTS, ROOT, measure_and_write
 
 SCENE = ROOT / "scenes" / "robot.toml"
 WIDTH, HEIGHT = 960, 540
@@ -117,8 +112,6 @@ def measure(frames: int, repeats: int, drag_seconds: float) -> dict:
     from clshade.view import headless
     from clshade.view.server import ServerThread
     from clshade.view.session import ViewSession
-    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True,
-                            text=True).stdout.strip() or None
     with tempfile.TemporaryDirectory(prefix="view-bench-") as tmp:
         session = ViewSession(SCENE, tmp, WIDTH, HEIGHT)
         with ServerThread(session) as url:
@@ -137,7 +130,7 @@ def measure(frames: int, repeats: int, drag_seconds: float) -> dict:
             finally:
                 driver.quit()
         device = session.runtime.info.description
-    out: dict = dict(commit=commit, device=device, scene="scenes/robot.toml", width=WIDTH, height=HEIGHT,
+    out: dict = dict(device=device, scene="scenes/robot.toml", width=WIDTH, height=HEIGHT,
                      frames_per_block=frames, repeats=repeats, drag_hz=DRAG_HZ, drag_seconds=drag_seconds,
                      targets=TARGETS, browser=headless.CHROMIUM, kinds={})
     for kind, runs in blocks.items():
@@ -154,19 +147,16 @@ def measure(frames: int, repeats: int, drag_seconds: float) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from publish import render_view
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--frames", type=int, default=60, help="closed-loop steps per block (default 60)")
     parser.add_argument("--repeats", type=int, default=3, help="interleaved blocks of each kind (default 3)")
     parser.add_argument("--drag-seconds", type=float, default=3.0, help="length of each drag block (default 3 s)")
-    parser.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results" / "view.json")
-    parser.add_argument("--markdown-only", action="store_true", help="re-render the Markdown from the JSON")
+    parser.add_argument("--out", type=Path, default=RESULTS / "view.json")
     args = parser.parse_args(argv)
     device = os.environ.get("CLSHADE_DEVICE")
-    command = ((f"CLSHADE_DEVICE={shlex.quote(device)} " if device else "") + "python benchmarks/view_bench.py"
+    command = ((f"CLSHADE_DEVICE={shlex.quote(device)} " if device else "") + "python -m benchmarks.measure.view_bench"
                + "".join(f" {shlex.quote(a)}" for a in (sys.argv[1:] if argv is None else argv)))
-    publish(args.out, lambda: dict(command=command, **measure(args.frames, args.repeats, args.drag_seconds)),
-            render_view, args.markdown_only)
+    measure_and_write(args.out, lambda: dict(command=command, **measure(args.frames, args.repeats, args.drag_seconds)))
     return 0
 
 

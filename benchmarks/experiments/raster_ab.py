@@ -1,16 +1,15 @@
-#!/usr/bin/env python
 """Two source trees of clshade side by side: are their rasterizer and G-buffer outputs
 bitwise the same, and how do their times compare (interleaved, same frames)?
 
 Usage::
 
-    python benchmarks/raster_ab.py identical OTHER_TREE [--scenes scenes/*.toml]
-    python benchmarks/raster_ab.py time OTHER_TREE [--frames 30] [--rounds 5] [--clock process_time]
+    python -m benchmarks.experiments.raster_ab identical OTHER_TREE [--scenes scenes/*.toml]
+    python -m benchmarks.experiments.raster_ab time OTHER_TREE [--frames 30] [--rounds 5] [--clock process_time]
 
 OTHER_TREE is a checkout of another commit (e.g. `git worktree add /tmp/main main`, or
 `git archive main | tar -x -C DIR`); this script's own tree is the other side. Each tree
-runs in a worker process of its own (PYTHONPATH set to the tree), so the two never share
-an import.
+runs in a worker process of its own (this file run by path, PYTHONPATH set to the tree: the
+other tree need not have this module), so the two never share an import.
 
 - ``identical``: every scene × 4 cameras (the scene's own; an orbit view at 960×540; a close
   view whose near plane cuts the scene; a grazing view with a supersampled, jittered raster):
@@ -19,7 +18,7 @@ an import.
 - ``time``: the robot at 960×540 over `frames` orbit cameras 1° apart (as the viewer makes
   them), rasterize and G-buffer timed separately; the two workers take turns frame by frame
   for `rounds` rounds. Prints medians and the ratio (this tree / other). Timings are printed,
-  not stored: the published figures come from benchmarks/view_bench.py.
+  not stored: the published figures come from benchmarks/measure/view_bench.py.
 """
 from __future__ import annotations
 
@@ -35,7 +34,7 @@ import sys
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 ROBOT = ROOT / "scenes" / "robot.toml"
 
 

@@ -1,6 +1,6 @@
 """Time and check the sample user lobes (scenes/lobes/: BRDF Explorer files and a clshade-format
 lobe) beside built-in models, with the columns a built-in gets, and write
-benchmarks/results/user_lobes.json. JSON only: `python benchmarks/publish.py` renders
+benchmarks/results/user_lobes.json. JSON only: `python -m benchmarks.publish` renders
 benchmarks/results/user_lobes.md and the worked example of docs/user-lobes.md from it.
 
 Per model: device time per frame (mean over interleaved rounds), × copy kernel, × Lambert,
@@ -11,40 +11,28 @@ double-precision build for the user's) and, for built-ins, the double build agai
 plausibility (`clshade check plausibility --quick`); stability counts over the torture grid,
 both builds (`clshade check stability`).
 
-    python benchmarks/user_lobes.py [--frames N] && python benchmarks/publish.py
+    python -m benchmarks.measure.user_lobes [--frames N] && python -m benchmarks.publish
 """
 from __future__ import annotations
 
 import argparse
 import datetime as _dt
-import json
-import subprocess
-import sys
 import time
-from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from benchmarks.publish.results_io import RESULTS, ROOT, write_result
+from clshade import models as M
+from clshade.bench.run import run_bench
+from clshade.device.runtime import get_runtime
+from clshade.verify import accuracy as A
+from clshade.verify import plausibility as P
+from clshade.verify import stability as S
 
-from clshade import models as M  # noqa: E402
-from clshade.bench.run import run_bench  # noqa: E402
-from clshade.device.runtime import get_runtime  # noqa: E402
-from clshade.provenance import stamp  # noqa: E402
-from clshade.verify import accuracy as A  # noqa: E402
-from clshade.verify import plausibility as P  # noqa: E402
-from clshade.verify import stability as S  # noqa: E402
-
-OUT = ROOT / "benchmarks" / "results" / "user_lobes.json"
+OUT = RESULTS / "user_lobes.json"
 LOBES = ROOT / "scenes" / "lobes"
 SCENE = ROOT / "scenes" / "red_ball.toml"
 BUILT_INS = ("lambert", "blinn_phong", "ggx_correlated")
 USERS = ("lambert_brdf.brdf", "blinn_phong_brdf.brdf", "ggx_brdf.brdf", "ward.brdf", "lommel_seeliger.cl")
 ACCURACY_SAMPLES = 20000
-
-
-def head_commit() -> str | None:
-    proc = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "HEAD"], capture_output=True, text=True)
-    return proc.stdout.strip() if proc.returncode == 0 else None
 
 
 def measure(frames: int, width: int, height: int) -> dict:
@@ -73,8 +61,8 @@ def measure(frames: int, width: int, height: int) -> dict:
             grid_cases=sum(r.cases for r in grid_runs), grid_nonfinite=sum(r.nonfinite for r in grid_runs),
             grid_negative=sum(r.negative for r in grid_runs)))
     return dict(schema=1, created=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-                commit=head_commit(), device=rt.info.description,
-                command=f"python benchmarks/user_lobes.py --frames {frames} --width {width} --height {height}",
+                device=rt.info.description,
+                command=f"python -m benchmarks.measure.user_lobes --frames {frames} --width {width} --height {height}",
                 scene=str(SCENE.relative_to(ROOT)), width=width, height=height, frames=frames,
                 accuracy_samples=ACCURACY_SAMPLES, rows=rows)
 
@@ -89,11 +77,9 @@ def main() -> int:
     start = time.perf_counter()
     doc = measure(args.frames, args.width, args.height)
     doc["seconds"] = round(time.perf_counter() - start, 1)
-    doc = stamp(doc, get_runtime().info.description)
-    Path(args.out).write_text(json.dumps(doc, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
-    print(f"wrote {args.out} in {doc['seconds']} s; render with: python benchmarks/publish.py")
+    write_result(args.out, doc, get_runtime().info.description)
     return 0
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    raise SystemExit(main())

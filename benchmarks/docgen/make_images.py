@@ -1,5 +1,5 @@
 """Regenerate the README's images in docs/images/ with the commands the README shows
-under them (`python docs/make_images.py`, from the repository root or anywhere).
+under them (`python -m benchmarks.docgen.make_images [NAME ...]`, from the repository root).
 
 Each entry is the README caption's command without `-o`; the image is written to
 docs/images/NAME. tests/test_cli_polish.py checks the captions quote these commands
@@ -10,7 +10,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 IMAGES = ROOT / "docs" / "images"
 
 # image name → the clshade command (arguments relative to the repository root)

@@ -1,9 +1,8 @@
-#!/usr/bin/env python
 """Benchmark the NumPy rasterizer against Embree first-hit ray casting.
 
 Usage::
 
-    python benchmarks/raster_bench.py [--out benchmarks/results/raster.json]
+    python -m benchmarks.measure.raster_bench [--out benchmarks/results/raster.json]
 
 For each scene (the Stanford bunny from ``../shared/assets`` when present, and
 a displaced 327,680-triangle icosphere) at 1920x1080 it times, in the same
@@ -17,16 +16,12 @@ run and interleaved (so machine noise hits both alike):
 
 It also rasterizes a 1,310,720-triangle mesh and reports the peak memory
 allocated during the call (tracemalloc sees NumPy's allocations).  Results go
-to a JSON file; ``python benchmarks/publish.py`` renders the Markdown table next to it (same name, ``.md``).
+to a JSON file; ``python -m benchmarks.publish`` renders the Markdown table next to it (same name, ``.md``).
 """
 from __future__ import annotations
 
 import argparse
-import json
-import os
-import platform
 import resource
-import sys
 import time
 import tracemalloc
 from pathlib import Path
@@ -34,31 +29,15 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-ROOT = Path(__file__).resolve().parents[1]
-try:
-    from clshade.render.raster import rasterize
-except ImportError:  # running from a checkout without installing
-    sys.path.insert(0, str(ROOT))
-    from clshade.render.raster import rasterize
-from clshade.provenance import stamp  # noqa: E402
-from clshade.render.gbuffer import build_gbuffer  # noqa: E402
-from clshade.render.meshes import Geometry  # noqa: E402
-from clshade.render.scene import parse_scene  # noqa: E402
-from clshade.render.transforms import look_at, perspective, pixel_rays  # noqa: E402
+from benchmarks.publish.results_io import RESULTS, ROOT, write_result
+from clshade.render.gbuffer import build_gbuffer
+from clshade.render.meshes import Geometry
+from clshade.render.raster import rasterize
+from clshade.render.scene import parse_scene
+from clshade.render.transforms import look_at, perspective, pixel_rays
 
 ASSETS = ROOT.parent / "shared" / "assets"
 BUNNY = ASSETS / "stanford-bunny" / "stanford-bunny.obj"
-
-
-def cpu_model() -> str:
-    """CPU model name from /proc/cpuinfo ('' where unavailable)."""
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return ""
 
 
 def scenes(width: int, height: int):
@@ -185,7 +164,7 @@ def bench_memory(width, height):
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results" / "raster.json")
+    ap.add_argument("--out", type=Path, default=RESULTS / "raster.json")
     ap.add_argument("--repeats", type=int, default=7)
     ap.add_argument("--width", type=int, default=1920)
     ap.add_argument("--height", type=int, default=1080)
@@ -200,17 +179,7 @@ def main(argv=None) -> None:
         embreex_version = None
         print("warning: embreex not installed; trimesh falls back to its slow pure-NumPy ray caster")
     data = {
-        "machine": {
-            "processor": platform.processor(),
-            "cpu_model": cpu_model(),
-            "machine": platform.machine(),
-            "platform": platform.platform(),
-            "cpu_count": os.cpu_count(),
-            "python": platform.python_version(),
-            "numpy": np.__version__,
-            "trimesh": trimesh.__version__,
-            "embreex": embreex_version,
-        },
+        "versions": {"trimesh": trimesh.__version__, "embreex": embreex_version},
         "repeats": args.repeats,
         "scenes": [],
         "skipped": [] if BUNNY.is_file() else ["stanford-bunny (assets absent)"],
@@ -219,10 +188,7 @@ def main(argv=None) -> None:
         data["scenes"].append(bench_scene(name, mesh, view, proj, args.width, args.height, args.repeats))
     if not args.no_memory:
         data["memory"] = bench_memory(args.width, args.height)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    data = stamp(data)            # the NumPy rasterizer: measured on the host CPU
-    args.out.write_text(json.dumps(data, indent=2) + "\n")
-    print(f"wrote {args.out}; render the Markdown with: python benchmarks/publish.py")
+    write_result(args.out, data)            # the NumPy rasterizer: measured on the host CPU
 
 
 if __name__ == "__main__":

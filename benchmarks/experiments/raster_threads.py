@@ -1,15 +1,14 @@
-#!/usr/bin/env python
 """Does the rasterizer's triangle setup or coverage gain from the worker threads on this
 machine? Each configuration (setup split or not × coverage grids shared out or not) rasterizes
 the same orbit cameras, frame by frame in turns (a noisy spell falls on all of them), after a
 check that all four give the same fragments bit for bit. Prints medians; stores nothing (the
 thresholds it informs are SETUP_PARALLEL_MIN_FACES in raster/triangles.py and
 COVER_PARALLEL_MIN_CELLS in raster/tiles.py; the viewer's published figures come from
-benchmarks/view_bench.py).
+benchmarks/measure/view_bench.py).
 
 Usage::
 
-    python benchmarks/raster_threads.py [--scene scenes/robot.toml] [--size 960x540] [--frames 60] [--rounds 3]
+    python -m benchmarks.experiments.raster_threads [--scene scenes/robot.toml] [--size 960x540] [--frames 60] [--rounds 3]
 """
 from __future__ import annotations
 
@@ -22,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 CONFIGS = ("setup 1, cover 1", "setup N, cover 1", "setup 1, cover N", "setup N, cover N")
 
 

@@ -1,5 +1,5 @@
 """Measure benchmarks/results/bench_1080p.{json,csv,png} and the ladder plot (JSON only: the Markdown
-bench_1080p.md and README's table are rendered from the JSON by benchmarks/publish.py).
+bench_1080p.md and README's table are rendered from the JSON by `python -m benchmarks.publish`).
 
 scenes/sphere_grid.toml at 1920×1080, one directional light, precise math:
 every preset (FPS, 1 % / 0.1 % lows, copy, NumPy-baseline and general-reference ratios, error,
@@ -7,28 +7,20 @@ the straw-man guard of the NumPy column), the
 approximation ladders, and 1 vs 4 lights per model (3 directional lights added
 to a copy of the scene), 1000 frames per model (the CLI's default).
 
-    python benchmarks/run_bench.py [--frames 1000] [--ladder-frames 200] [--lights-frames 200]
-    python benchmarks/publish.py
+    python -m benchmarks.measure.run_bench [--frames 1000] [--ladder-frames 200] [--lights-frames 200]
+    python -m benchmarks.publish
 """
 from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import sys
 import time
-from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-
-from clshade.bench.run import (Bench, frame_stats, ladder_cases, mark_pareto,  # noqa: E402
-                               report, run_cases, summarize, with_lights)
-from clshade.report.formats import bench_csv as write_csv, plot_fps, plot_ladder  # noqa: E402
-from clshade.models import resolve_many  # noqa: E402
-from results_io import load_average  # noqa: E402
-
-OUT = ROOT / "benchmarks" / "results"
+from benchmarks.publish.results_io import RESULTS, ROOT, load_average, write_result
+from clshade.bench.run import Bench, frame_stats, ladder_cases, mark_pareto, report, run_cases, summarize, with_lights
+from clshade.models import resolve_many
+from clshade.report.bench import bench_csv, plot_fps, plot_ladder
 # numpy_ratio: against the NumPy baseline a NumPy user would write (clshade/bench/numpy_baseline.py). The
 # kernel runs on every core with 8-wide SIMD in one pass over memory; the baseline's ufuncs run on one
 # thread and make a pass per operation: the kernel should be at least 5× faster for every model.
@@ -67,7 +59,6 @@ def main() -> int:
     ap.add_argument("--height", type=int, default=1080)
     args = ap.parse_args()
     start, at_start = time.perf_counter(), load_average()
-    OUT.mkdir(parents=True, exist_ok=True)
     bench = Bench.prepare(ROOT / "scenes" / "sphere_grid.toml", args.width, args.height, lights=1)
     models = resolve_many("all")
 
@@ -88,15 +79,14 @@ def main() -> int:
     doc["targets"] = TARGETS
     doc["seconds"] = round(time.perf_counter() - start, 1)
     doc["load_average"] = dict(start=at_start, end=load_average())
-    stem = OUT / f"bench_{args.height}p"
-    stem.with_suffix(".json").write_text(json.dumps(doc, indent=2, ensure_ascii=False), encoding="utf-8")
-    write_csv(rows, stem.with_suffix(".csv"))
+    stem = RESULTS / f"bench_{args.height}p"
+    write_result(stem.with_suffix(".json"), doc, bench.runtime.info.description)
+    bench_csv(rows, stem.with_suffix(".csv"))
     title = f"sphere_grid {args.width}x{args.height}, 1 light, {bench.runtime.info.device} (PoCL CPU)"
     plot_fps(rows, stem.with_suffix(".png"), title)
     plot_ladder(ladder_rows, stem.with_name(stem.name + "_ladder.png"), title)
 
-    print(f"wrote {stem}.{{json,csv,png}} in {time.perf_counter() - start:.0f} s; "
-          "render the Markdown with: python benchmarks/publish.py", file=sys.stderr)
+    print(f"wrote {stem}.{{csv,png}} in {time.perf_counter() - start:.0f} s", file=sys.stderr)
     return 0
 
 

@@ -1,26 +1,20 @@
 """Measure every term of brdf.h and every model of the accuracy tests against the float64 reference (metric and
 limits: clshade/verify/accuracy.py) and write benchmarks/results/accuracy.json. JSON only:
-`python benchmarks/publish.py` renders docs/accuracy.md from it.
+`python -m benchmarks.publish` renders docs/accuracy.md from it.
 
-    python benchmarks/accuracy_table.py [--samples N] && python benchmarks/publish.py
+    python -m benchmarks.measure.accuracy_table [--samples N] && python -m benchmarks.publish
 """
 from __future__ import annotations
 
 import argparse
 import datetime as _dt
-import json
-import sys
 import time
-from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from benchmarks.publish.results_io import RESULTS, write_result
+from clshade.device.runtime import get_runtime
+from clshade.verify import accuracy as A
 
-from clshade.verify import accuracy as A  # noqa: E402
-from clshade.device.runtime import get_runtime  # noqa: E402
-from clshade.provenance import stamp  # noqa: E402
-
-OUT = ROOT / "benchmarks" / "results" / "accuracy.json"
+OUT = RESULTS / "accuracy.json"
 
 
 def measure(samples: int = A.SAMPLES) -> dict:
@@ -37,7 +31,7 @@ def measure(samples: int = A.SAMPLES) -> dict:
                            median_rel_err=r.median_rel_err, hard_samples=r.hard_samples,
                            hard_max_rel_err=r.hard_max_rel_err))
     return dict(schema=1, created=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-                command="python benchmarks/accuracy_table.py", device=rt.info.description, target=A.TARGET,
+                command="python -m benchmarks.measure.accuracy_table", device=rt.info.description, target=A.TARGET,
                 floor_rel=A.FLOOR_REL, min_cosine=A.MIN_COSINE, min_roughness=A.MIN_ROUGHNESS,
                 min_alpha_cosine=A.MIN_ALPHA_COSINE, max_shininess=A.MAX_SHININESS, terms=terms, models=models)
 
@@ -50,11 +44,9 @@ def main() -> int:
     start = time.perf_counter()
     doc = measure(args.samples)
     doc["seconds"] = round(time.perf_counter() - start, 1)
-    doc = stamp(doc, doc["device"])
-    Path(args.out).write_text(json.dumps(doc, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
-    print(f"wrote {args.out} in {doc['seconds']} s; render docs/accuracy.md with: python benchmarks/publish.py")
+    write_result(args.out, doc, doc["device"])
     return 0
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    raise SystemExit(main())

@@ -3,7 +3,7 @@
  * writes one float, so the time is the term's arithmetic, not memory traffic.
  * TERM: 0 = F_Schlick, 1 = F_Dielectric, 2 = F_Conductor, 3 = the loop alone
  * (subtracted as the baseline). All three colour channels are consumed.
- * Assembled after kernels/simd.h (SIMD = 1) and kernels/brdf.h by benchmarks/make_report.py.
+ * Assembled after kernels/simd.h (SIMD = 1) and kernels/brdf.h by benchmarks/measure/make_report.py.
  */
 __kernel void fresnel_cost(const uint count, const float ior, const float4 eta, const float4 k,
                            const float4 f0, __global float* out)

@@ -1,8 +1,8 @@
 """What each scene effect costs, per lighting model, and what specialisation gains.
 
-    python benchmarks/effects_bench.py [--rounds N] [--width W --height H]
+    python -m benchmarks.measure.effects_bench [--rounds N] [--width W --height H]
 
-Writes benchmarks/results/effects.json (JSON only; `python benchmarks/publish.py` renders effects.md). One G-buffer per scene
+Writes benchmarks/results/effects.json (JSON only; `python -m benchmarks.publish` renders effects.md). One G-buffer per scene
 configuration (lights 1 / 4 / 16 × shadows off / on × textures off / on); every
 case (model × configuration × specialised or general kernel) is dispatched once
 per round, cases interleaved within a round and the rounds repeated, so machine
@@ -21,24 +21,18 @@ same program (its time is measured too, as a check).
 from __future__ import annotations
 
 import argparse
-import json
 import math
-import platform
 import statistics
-import sys
 import time
 from dataclasses import replace
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-
-from clshade import models  # noqa: E402
-from clshade.pipeline import Timings, prepare_frame  # noqa: E402
-from clshade.device.runtime import get_runtime  # noqa: E402
-from clshade.provenance import stamp  # noqa: E402
-from clshade.render.scene import parse_scene  # noqa: E402
-from clshade.device.shade import Shader, scene_features  # noqa: E402
+from benchmarks.publish.results_io import RESULTS, ROOT, write_result
+from clshade import models
+from clshade.device.runtime import get_runtime
+from clshade.device.shade import Shader, scene_features
+from clshade.pipeline import Timings, prepare_frame
+from clshade.render.scene import parse_scene
 
 MODELS = ("lambert", "phong", "ggx_correlated")
 LIGHT_COUNTS = (1, 4, 16)
@@ -46,7 +40,8 @@ ROUNDS = 51                   # odd: the median is one measured frame
 WARMUP = 1                    # untimed dispatches per case (first-touch of buffers)
 SHADOW_MAP_SIZE = 512         # smaller than the scene default: 9 maps at 16 lights
 TARGET_GAIN = 1.5             # the issue's target: GGX, one light, specialised vs general
-OUT = ROOT / "benchmarks" / "results"
+
+
 def scene_text(lights: int, shadows: bool, textures: bool, width: int, height: int) -> str:
     """A floor, a sphere and a box under `lights` lights (sun + alternating spot/point ring)."""
     ring = []
@@ -118,7 +113,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--rounds", type=int, default=ROUNDS)
     ap.add_argument("--width", type=int, default=384)
     ap.add_argument("--height", type=int, default=256)
-    ap.add_argument("--out", type=Path, default=OUT)
+    ap.add_argument("--out", type=Path, default=RESULTS)
     args = ap.parse_args(argv)
     started = time.perf_counter()
     rt = get_runtime()
@@ -189,7 +184,7 @@ def main(argv: list[str] | None = None) -> int:
     gain = ratio(key("ggx_correlated", 1, kernel="general"), key("ggx_correlated", 1))
     result = {
         "schema": "clshade-effects/1",
-        "device": rt.info.description, "host": platform.processor() or platform.machine(),
+        "device": rt.info.description,
         "pixels": args.width * args.height, "size": [args.width, args.height], "rounds": args.rounds,
         "shadow_map_size": SHADOW_MAP_SIZE, "shadow_pcf": 3,
         "target": {"case": "ggx_correlated, 1 light, no shadows", "specialised_gain": round(gain, 3),
@@ -200,12 +195,9 @@ def main(argv: list[str] | None = None) -> int:
         "cases": rows,
         "build_s": round(build_s, 1), "total_s": round(time.perf_counter() - started, 1),
     }
-    args.out.mkdir(parents=True, exist_ok=True)
-    result = stamp(result, get_runtime().info.description)
-    (args.out / "effects.json").write_text(json.dumps(result, indent=2) + "\n")
-    print(f"wrote {args.out / 'effects.json'}; render effects.md with: python benchmarks/publish.py")
+    write_result(args.out / "effects.json", result, get_runtime().info.description)
     return 0
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    raise SystemExit(main())

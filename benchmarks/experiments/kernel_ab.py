@@ -1,4 +1,3 @@
-#!/usr/bin/env python
 """The shading kernels of this checkout against a git ref's (default `main`), A/B in one process:
 the ref's kernels/ folder is extracted to a temporary directory and both sets are built on every
 PoCL runtime of the machine (the ref at its own SIMD width: 8 on a runtime whose compiler target
@@ -9,7 +8,7 @@ pixels), so a speed-up that changed the output stops the run.
 
 Usage::
 
-    python benchmarks/kernel_ab.py [--base main] [--base-simd-no-avx512 8] [--rounds 150]
+    python -m benchmarks.experiments.kernel_ab [--base main] [--base-simd-no-avx512 8] [--rounds 150]
 
 Prints a Markdown table (medians and minima of the OpenCL profiling times); writes nothing.
 """
@@ -28,14 +27,15 @@ import numpy as np
 
 import clshade.device.variants as variants
 from clshade.bench import peers as peer_mod
-from clshade.bench.perf import MODELS, pocl_devices, settle, short
+from clshade.bench.perf import MODELS, cpu_runtimes, settle
 from clshade.device.runtime import Runtime
 from clshade.device.shade import Shader, scene_features
 from clshade.models import resolve
 from clshade.pipeline import prepare_frame
 from clshade.render.scene import load_scene
+from clshade.report.perf import kernel_ab_markdown, short_device
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SAME_IMAGE_RTOL = 1e-5
 
 
@@ -67,7 +67,7 @@ def measure(base_kernels: Path, base_label: str, rounds: int, base_simd_no_avx51
     feats = scene_features(sc, geometry=frame.geometry)
     covered = np.flatnonzero(gb.channels["depth"] > 0)
     configs, reference = [], {}
-    for spec in pocl_devices():
+    for spec in cpu_runtimes():
         rt = Runtime(spec)
         for label, folder in (("this checkout", None), (base_label, base_kernels)):
             simd = rt.simd
@@ -84,10 +84,10 @@ def measure(base_kernels: Path, base_label: str, rounds: int, base_simd_no_avx51
                         reference.setdefault(m, image)
                         diff = peer_mod.verify(image, reference[m], covered)
                         if diff > SAME_IMAGE_RTOL:
-                            raise SystemExit(f"{label} on {short(rt.info.description)}: {m} differs by {diff:.1e}")
+                            raise SystemExit(f"{label} on {short_device(rt.info.description)}: {m} differs by {diff:.1e}")
             finally:
                 os.environ.pop("CLSHADE_SIMD", None)
-            configs.append(dict(runtime=short(rt.info.description), kernels=label, simd=simd, shader=shader,
+            configs.append(dict(runtime=short_device(rt.info.description), kernels=label, simd=simd, shader=shader,
                                 dispatches=dispatches, ms={k: [] for k in dispatches}))
     items = [(c, k) for c in configs for k in c["dispatches"]]
     rng = np.random.default_rng(15)
@@ -106,19 +106,6 @@ def measure(base_kernels: Path, base_label: str, rounds: int, base_simd_no_avx51
                       for c in configs])
 
 
-def markdown(doc: dict) -> str:
-    head = "| runtime | kernels | SIMD | " + " | ".join(f"{m} ms | × copy" for m in MODELS) + " |"
-    lines = [f"{doc['scene']} {doc['width']}×{doc['height']}, {doc['rounds']} interleaved rounds.", ""]
-    for stat in ("median", "minimum"):
-        lines += [f"**{stat}**", "", head, "|" + "---|" * (3 + 2 * len(MODELS))]
-        for row in doc["rows"]:
-            t = row[stat]
-            cells = " | ".join(f"{t[m + ':shade']:.2f} | {t[m + ':shade'] / t[m + ':copy']:.2f}" for m in MODELS)
-            lines.append(f"| {row['runtime']} | {row['kernels']} | {row['simd']} | {cells} |")
-        lines.append("")
-    return "\n".join(lines)
-
-
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--base", default="main", help="git ref whose kernels/ are the B side")
@@ -128,7 +115,7 @@ def main() -> int:
     a = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         doc = measure(extract_kernels(a.base, Path(tmp)), f"{a.base} kernels", a.rounds, a.base_simd_no_avx512)
-    print(markdown(doc))
+    print(kernel_ab_markdown(doc, MODELS))
     return 0
 
 

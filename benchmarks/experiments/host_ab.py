@@ -1,4 +1,3 @@
-#!/usr/bin/env python
 """Host-side stages of a frame, this checkout against a git ref (default `main`), A/B in one
 process: the ref's versions of clshade/render/{arrays,raster,gbuffer,meshes,image} are loaded
 beside the checkout's (importing each other) and timed in interleaved rounds on the same inputs; every pair's
@@ -6,20 +5,21 @@ outputs are checked equal (bytes) before anything is timed.
 
 Usage::
 
-    python benchmarks/host_ab.py [--base main] [--rounds 7] [--out benchmarks/results/host_ab.json]
-    python benchmarks/host_ab.py --markdown-only
+    python -m benchmarks.experiments.host_ab [--base main] [--rounds 7] [--out benchmarks/results/host_ab.json]
 
 First the whole warm render (`clshade render scenes/robot.toml`, fresh processes, the ref
 checked out in a temporary detached worktree). Rows: geometry (robot.toml), rasterize and G-buffer at 640×640 and 1920×1080, the display
 transform and the PNG encode at 640×640, and the whole frame of issue 15 (robot at
 1920×1080: rasterize + G-buffer + upload + shade + read back, the camera orbiting 2° a
 frame, kernel built once before). Medians of process CPU time (user + system, all
-threads: what a shared machine inflates least) and of wall time.
+threads: what a shared machine inflates least) and of wall time. `python -m benchmarks.publish`
+renders host_ab.md from the JSON.
 """
 from __future__ import annotations
 
 import argparse
 import importlib.util
+import os
 import statistics
 import subprocess
 import sys
@@ -29,12 +29,10 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "benchmarks"))
-from results_io import publish  # noqa: E402
+from benchmarks.publish.results_io import RESULTS, ROOT, measure_and_write
 
 MODULES = ("arrays", "raster", "gbuffer", "meshes", "image")   # in import order
-FRAME_TARGET_S = 0.100          # issue 15: whole robot frame at 1920×1080
+FRAME_TARGET_S = 0.100          # the target: whole robot frame at 1920×1080
 ORBIT_DEGREES = 2.0
 
 
@@ -99,7 +97,6 @@ def render_ab(base_ref: str, rounds: int) -> dict:
     """Warm `clshade render scenes/robot.toml` (640×640 PNG) in fresh processes, the ref (a
     detached worktree, imported through PYTHONPATH) and this checkout in interleaved rounds
     after one warm-up each: median wall and CPU (user + system) seconds; decoded pixels equal."""
-    import os
     env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
     with tempfile.TemporaryDirectory() as tmp:
         base_tree = Path(tmp) / "base"
@@ -132,8 +129,6 @@ def render_ab(base_ref: str, rounds: int) -> dict:
 
 
 def measure(base_ref: str, rounds: int) -> dict:
-    import os
-
     import clshade.render.gbuffer as gbuffer
     import clshade.render.image as image
     import clshade.render.meshes as meshes
@@ -196,7 +191,7 @@ def measure(base_ref: str, rounds: int) -> dict:
                     if name.startswith("PNG"):
                         sizes[label] = result
 
-        # Whole frames (issue 15): the camera orbits; kernel built before the timed frames.
+        # Whole frames: the camera orbits; kernel built before the timed frames.
         base_cam = cams[(1920, 1080)]
         features = scene_features(scene, geometry=geometry)
         frames = {"base": [], "new": []}
@@ -232,56 +227,16 @@ def measure(base_ref: str, rounds: int) -> dict:
                                          "wall_ms": 1e3 * med(f[st][1] for f in fr)} for st in fr[0]}
                               for lab, fr in frames.items()},
         "render_robot_640_s": render_ab(base_ref, rounds),
-        "load_average_1min_end": os.getloadavg()[0],
     }
-
-
-def markdown(doc: dict) -> str:
-    m = doc["machine"]
-    e2e = doc["render_robot_640_s"]
-    lines = [f"# Host stages: this checkout against `{doc['base_ref']}` ({doc['base_commit']})", "",
-             f"Measured {doc['date']} on {m['cpu']} ({m['cores']} cores, shared; 1-minute load average "
-             f"{m['load_average_at_start'][0]:.1f} at the start, {doc['load_average_1min_end']:.1f} at the end) by "
-             f"`python benchmarks/host_ab.py` ({doc['rounds']} interleaved rounds in one process, outputs checked "
-             f"byte-equal first); device: {m['device']}.", "",
-             "Warm `clshade render scenes/robot.toml` (640×640 PNG), fresh processes, interleaved, same decoded "
-             f"pixels: median CPU {e2e['base']['cpu']:.3f} s → {e2e['new']['cpu']:.3f} s "
-             f"({e2e['base']['cpu'] / e2e['new']['cpu']:.2f}×), median wall {e2e['base']['wall']:.3f} s → "
-             f"{e2e['new']['wall']:.3f} s ({e2e['base']['wall'] / e2e['new']['wall']:.2f}×).", "",
-             "| stage | base CPU ms | new CPU ms | CPU ratio | base wall ms | new wall ms |", "|---|---:|---:|---:|---:|---:|"]
-    for name, v in doc["stages"].items():
-        b, n = v["base"], v["new"]
-        lines.append(f"| {name} | {b['cpu_ms']:.1f} | {n['cpu_ms']:.1f} | {b['cpu_ms'] / n['cpu_ms']:.2f}× | "
-                     f"{b['wall_ms']:.1f} | {n['wall_ms']:.1f} |")
-    sizes = doc["png_bytes"]
-    lines += ["", "The geometry row is a repeated build in one process (identical primitives share one "
-              "tessellation after the first build); a fresh process pays the first build. Ratios within "
-              "about ±10 % of 1 are within the noise of a shared machine at this load."]
-    lines += ["", f"PNG file of the 640×640 robot: {sizes['base']} bytes (base) → {sizes['new']} bytes (new); "
-              "same pixels.", "",
-              f"Whole frame, robot at 1920×1080, camera orbiting {doc['orbit_degrees']:g}° a frame (issue 15 target "
-              f"≤ {doc['frame_target_s'] * 1e3:.0f} ms), medians:", "",
-              "| stage | base CPU ms | new CPU ms | base wall ms | new wall ms |", "|---|---:|---:|---:|---:|"]
-    wf = doc["whole_frame_1080p"]
-    for st in wf["new"]:
-        lines.append(f"| {st} | {wf['base'][st]['cpu_ms']:.1f} | {wf['new'][st]['cpu_ms']:.1f} | "
-                     f"{wf['base'][st]['wall_ms']:.1f} | {wf['new'][st]['wall_ms']:.1f} |")
-    frame = wf["new"]["frame"]
-    met = frame["wall_ms"] <= doc["frame_target_s"] * 1e3
-    lines += ["", f"Target ≤ {doc['frame_target_s'] * 1e3:.0f} ms per whole frame: "
-              f"**{'met' if met else 'missed'}** (median {frame['wall_ms']:.0f} ms wall, {frame['cpu_ms']:.0f} ms CPU)."]
-    return "\n".join(lines) + "\n"
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--base", default="main", help="git ref to compare with (default main)")
     parser.add_argument("--rounds", type=int, default=7)
-    parser.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "host_ab.json"))
-    parser.add_argument("--markdown-only", action="store_true")
+    parser.add_argument("--out", default=str(RESULTS / "host_ab.json"))
     args = parser.parse_args()
-    doc = publish(Path(args.out), lambda: measure(args.base, args.rounds), markdown, args.markdown_only)
-    print(markdown(doc))
+    measure_and_write(args.out, lambda: measure(args.base, args.rounds))
     return 0
 
 

@@ -1,17 +1,15 @@
-#!/usr/bin/env python
-"""Peak host memory of `clshade render` by frame size (issue 14: ≤ 64 B/px + a fixed base).
+"""Peak host memory of `clshade render` by frame size (the limit: ≤ 64 B/px + a fixed base).
 
 Usage::
 
-    python benchmarks/memory_bench.py [--sizes 512,2048,4096,16384] [--out benchmarks/results/memory.json]
-    python benchmarks/memory_bench.py --markdown-only      # re-render memory.md from memory.json
+    python -m benchmarks.measure.memory_bench [--sizes 512,2048,4096,16384] [--out benchmarks/results/memory.json]
 
 Each size renders scenes/robot.toml to a PNG in a fresh process (`python -m clshade render`);
 its peak resident set (ru_maxrss from wait4, the kernel's own count) and wall time are
 recorded, with the exit status and the first stderr line (a refusal is a result too). The
 bytes per pixel are the slope between two sizes, (peak_b − peak_a) / (pixels_b − pixels_a),
 and the whole-process figure peak / pixels; the fixed base is the smallest size's peak.
-Results go to JSON and a Markdown table rendered from it (same name, .md).
+Results go to JSON; `python -m benchmarks.publish` renders the Markdown table (same name, .md).
 """
 from __future__ import annotations
 
@@ -24,9 +22,7 @@ import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "benchmarks"))
-from results_io import publish  # noqa: E402
+from benchmarks.publish.results_io import RESULTS, ROOT, measure_and_write
 
 SCENE = ROOT / "scenes" / "robot.toml"
 LIMIT_BYTES_PER_PIXEL = 64
@@ -63,32 +59,10 @@ def summarize(rows: list[dict]) -> dict:
     return {"base_size": base["size"] if base else None, "base_peak_rss_bytes": base["peak_rss_bytes"] if base else None}
 
 
-def markdown(doc: dict) -> str:
-    lines = [f"# Peak host memory of `clshade render scenes/robot.toml` (PNG)", "",
-             f"Measured {doc['date']} on {doc['machine']['cpu']} ({doc['machine']['cores']} cores, "
-             f"{doc['machine']['memory_bytes'] / 2**30:.0f} GiB; load average at start "
-             f"{', '.join(f'{x:.1f}' for x in doc['machine']['load_average_at_start'])}) by "
-             f"`python benchmarks/memory_bench.py`; device: {doc['machine']['device']}.", "",
-             f"Limit (issue 14): peak ≤ {LIMIT_BYTES_PER_PIXEL} B/px × pixels + the fixed base "
-             f"(the peak of the {doc['summary']['base_size']}² render).", "",
-             "| size | exit | peak RSS (MiB) | B/px above base | B/px whole process | within limit | wall (s) | note |",
-             "|---:|---:|---:|---:|---:|:---:|---:|---|"]
-    for r in doc["rows"]:
-        above = r.get("bytes_per_pixel_above_base")
-        limit = r.get("within_limit")
-        lines.append(f"| {r['size']}² | {r['exit_status']} | {r['peak_rss_bytes'] / 2**20:.0f} | "
-                     f"{'' if above is None else f'{above:.1f}'} | {r['bytes_per_pixel_whole_process']:.1f} | "
-                     f"{'' if limit is None else ('yes' if limit else 'no')} | {r['wall_s']:.1f} | {r['stderr']} |")
-    lines += ["", "Stages per size (ms, from the command's own `stages:` line):", ""]
-    lines += [f"- {r['size']}²: {r['stages'] or '(none: refused)'}" for r in doc["rows"]]
-    return "\n".join(lines) + "\n"
-
-
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--sizes", default="512,2048,4096,16384")
-    parser.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "memory.json"))
-    parser.add_argument("--markdown-only", action="store_true")
+    parser.add_argument("--out", default=str(RESULTS / "memory.json"))
     args = parser.parse_args()
 
     def measure() -> dict:
@@ -97,9 +71,10 @@ def main() -> int:
             for size in (int(s) for s in args.sizes.split(",")):
                 rows.append(run_one(size, Path(tmp)))
                 print(json.dumps(rows[-1]), flush=True)
-        return {"scene": "scenes/robot.toml", "rows": rows, "summary": summarize(rows)}
+        return {"scene": "scenes/robot.toml", "limit_bytes_per_pixel": LIMIT_BYTES_PER_PIXEL, "rows": rows,
+                "summary": summarize(rows)}
 
-    publish(Path(args.out), measure, markdown, args.markdown_only)
+    measure_and_write(args.out, measure)
     return 0
 
 

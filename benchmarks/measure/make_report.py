@@ -3,38 +3,31 @@
 The study reproduced: comparison sheets, the FPS table with lows, accuracy against time, the plausibility
 table, the data of each of the study's claims, and a noise band: the GGX height-correlated kernel timed
 NOISE_REPEATS times in the same rounds as the models. JSON only: benchmarks/REPORT.md is rendered from it by
-benchmarks/publish.py.
+`python -m benchmarks.publish`.
 
-    python benchmarks/make_report.py [--frames 1000] [--width 1920] [--height 1080]
-    python benchmarks/publish.py
+    python -m benchmarks.measure.make_report [--frames 1000] [--width 1920] [--height 1080]
+    python -m benchmarks.publish
 """
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from benchmarks.publish.results_io import ROOT, load_average, write_result
+from clshade.bench.run import Bench, ladder_cases, mark_pareto, report, run_cases, summarize
+from clshade.compare import compare_sheet, sweep_sheet, write_sheet
+from clshade.device.evaluate import Samples, constant_materials, eval_brdf
+from clshade.device.runtime import get_runtime
+from clshade.models import GROUPS, preset, resolve, resolve_many
+from clshade.report.bench import plot_fps, plot_ladder
+from clshade.resources import kernels_dir
+from clshade.verify import plausibility
+from clshade.verify import reference
 
-from clshade.verify import plausibility as P  # noqa: E402
-from clshade.verify import reference as R  # noqa: E402
-from clshade.bench.run import Bench, ladder_cases, mark_pareto, report, run_cases, summarize  # noqa: E402
-from clshade.report.formats import plot_fps, plot_ladder  # noqa: E402
-from clshade.compare import compare_sheet, sweep_sheet, write_sheet  # noqa: E402
-from clshade.device.evaluate import Samples, constant_materials, eval_brdf  # noqa: E402
-from clshade.models import GROUPS, preset, resolve, resolve_many  # noqa: E402
-from clshade.resources import kernels_dir  # noqa: E402
-from clshade.device.runtime import get_runtime  # noqa: E402
-from clshade.provenance import stamp  # noqa: E402
-from results_io import load_average  # noqa: E402
-
-OUT = ROOT / "benchmarks"
-IMAGES = OUT / "report"
+IMAGES = ROOT / "benchmarks" / "report"
+FRESNEL_SOURCE = ROOT / "benchmarks" / "experiments" / "kernels" / "fresnel_cost.cl"
 FRESNEL_ITEMS = 1 << 20          # work-items of the Fresnel micro-benchmark
 FRESNEL_REPEAT = 64              # term evaluations per work-item
 FRESNEL_ROUNDS = 9               # interleaved timing rounds; medians reported
@@ -50,7 +43,7 @@ def fresnel_cost(runtime) -> dict[str, float]:
     """ns per evaluation of each Fresnel term (compute-bound kernel, loop baseline subtracted)."""
     cl = runtime.cl
     source = "".join((kernels_dir() / name).read_text() for name in ("simd.h", "brdf.h")) + \
-        (OUT / "kernels" / "fresnel_cost.cl").read_text()
+        FRESNEL_SOURCE.read_text()
     out = runtime.empty(FRESNEL_ITEMS * 4)
     kernels = {}
     for term, name in enumerate(("schlick", "dielectric", "conductor", "loop")):
@@ -77,8 +70,8 @@ def schlick_error() -> dict[str, float]:
     c = np.linspace(1e-4, 1.0, 100_001)
     w = 2 * c                                                 # cosine-weighted hemispherical average
     out = {}
-    for name, exact, f0 in (("dielectric (IOR 1.5)", R.f_dielectric(c, 1.5), ((1.5 - 1) / 2.5) ** 2),
-                            ("conductor (gold)", R.f_conductor(c, GOLD[0], GOLD[1]), None)):
+    for name, exact, f0 in (("dielectric (IOR 1.5)", reference.f_dielectric(c, 1.5), ((1.5 - 1) / 2.5) ** 2),
+                            ("conductor (gold)", reference.f_conductor(c, GOLD[0], GOLD[1]), None)):
         exact = np.asarray(exact, float).reshape(len(c), -1)
         f0 = exact[-1] if f0 is None else np.array([f0])
         approx = f0 + (1 - f0) * (1 - c[:, None]) ** 5
@@ -101,9 +94,9 @@ def smith_albedo() -> list[dict]:
             v = (np.sqrt(1 - mu * mu), 0.0, mu)
             vals = {}
             for lobe in ("walter_ggx", "ggx_correlated"):
-                fn = lambda n, l, vv, lobe=lobe, r=r: R.brdf("none", lobe, n, l, vv, base_color=1.0,  # noqa: E731
+                fn = lambda n, l, vv, lobe=lobe, r=r: reference.brdf("none", lobe, n, l, vv, base_color=1.0,  # noqa: E731
                                                            roughness=r, f0=1.0)[..., 0]
-                vals[lobe] = float(R.directional_albedo(fn, v=v))
+                vals[lobe] = float(reference.directional_albedo(fn, v=v))
             rows.append(dict(roughness=r, nv=mu, separable=vals["walter_ggx"], correlated=vals["ggx_correlated"]))
     return rows
 
@@ -189,7 +182,7 @@ def main() -> int:
     doc = report(bench, rows, args.frames, args.warmup, ladder_rows, guard=guard)
 
     # Plausibility and the claims.
-    verdicts = P.evaluate_presets(P.Sweep(), None)
+    verdicts = plausibility.evaluate_presets(plausibility.Sweep(), None)
     cost = fresnel_cost(rt)
     schlick = schlick_error()
     albedo = smith_albedo()
@@ -206,12 +199,10 @@ def main() -> int:
                         + [r["mean_ms"] for r in noise_rows])
     doc["seconds"] = round(time.perf_counter() - start, 1)
     doc["load_average"] = dict(start=at_start, end=load_average())
-    doc = stamp(doc, get_runtime().info.description)
-    (IMAGES / "report.json").write_text(json.dumps(doc, indent=2, ensure_ascii=False, default=float), encoding="utf-8")
-    print(f"wrote {IMAGES}/report.json and images in {time.perf_counter() - start:.0f} s; "
-          "render benchmarks/REPORT.md with: python benchmarks/publish.py")
+    write_result(IMAGES / "report.json", doc, get_runtime().info.description)
+    print(f"wrote the images of {IMAGES} in {time.perf_counter() - start:.0f} s")
     return 0
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    raise SystemExit(main())
