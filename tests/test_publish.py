@@ -15,7 +15,7 @@ from clshade.report.tables import MISSING
 
 publish = pytest.importorskip("benchmarks.publish.render", reason="needs the source checkout's benchmarks/")
 from benchmarks.publish import freshness  # noqa: E402
-from benchmarks.publish.registry import RESULTS, Rendering, Result  # noqa: E402
+from benchmarks.publish.registry import Rendering, Result  # noqa: E402
 
 BENCH_JSON = "benchmarks/results/bench_1080p.json"
 REPORT_JSON = "benchmarks/report/report.json"

@@ -7,7 +7,8 @@ from clshade.report.plots import label_points, pyplot, write_figure
 from clshade.report.tables import cell, markdown
 
 # (error key, panel name, Pareto mark of the rows: clshade.bench.aa marks each panel's front)
-AA_ERRORS = (("frame_rel_error", "whole frame", "pareto"), ("silhouette_rel_error", "silhouette pixels", "pareto_silhouette"),
+AA_ERRORS = (("frame_rel_error", "whole frame", "pareto"),
+             ("silhouette_rel_error", "silhouette pixels", "pareto_silhouette"),
              ("highlight_rel_error", "highlight pixels", "pareto_highlight"))
 
 

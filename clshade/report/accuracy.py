@@ -9,9 +9,10 @@ def accuracy_markdown(doc: dict) -> str:
     terms = markdown(["term (brdf.h)", "samples", "max rel err", "median"],
                      [[t["name"], t["samples"], f"{t['max_rel_err']:.2e}", f"{t['median_rel_err']:.1e}"]
                       for t in doc["terms"]])
+    hard = lambda m: (MISSING if m["hard_max_rel_err"] is None  # noqa: E731
+                      else f"{m['hard_samples']}, {m['hard_max_rel_err']:.2e}")
     models = markdown(["model", "samples", "max rel err", "median", "outside the limits: samples, max rel err"],
-                      [[m["model"], m["samples"], f"{m['max_rel_err']:.2e}", f"{m['median_rel_err']:.1e}",
-                        MISSING if m["hard_max_rel_err"] is None else f"{m['hard_samples']}, {m['hard_max_rel_err']:.2e}"]
+                      [[m["model"], m["samples"], f"{m['max_rel_err']:.2e}", f"{m['median_rel_err']:.1e}", hard(m)]
                        for m in doc["models"]])
     lines = ["# Accuracy of the kernels against the float64 reference", "",
              f"Rendered by `python -m benchmarks.publish` from benchmarks/results/accuracy.json (measured "

@@ -87,8 +87,8 @@ def startup_markdown(doc: dict) -> str:
              f"(minimum {w['render']['min']:.2f} s): "
              f"{'meets' if w['render']['median'] <= doc['target_s'] else 'misses'} the target at this load.", "",
              markdown(["process", "median wall (s)", "min wall (s)", "median CPU (s, user + system)"],
-                      [[label, f"{w[name]['median']:.3f}", f"{w[name]['min']:.3f}", f"{doc['cpu_s'][name]['median']:.3f}"]
-                       for name, label in labels]),
+                      [[label, f"{w[name]['median']:.3f}", f"{w[name]['min']:.3f}",
+                        f"{doc['cpu_s'][name]['median']:.3f}"] for name, label in labels]),
              "", "Render stages (median ms over the rounds, from the command's `stages:` line; "
              f"they sum to {staged:.2f} s, the rest is interpreter start, imports and exit):", "",
              markdown(["stage", "ms"], [[k, f"{v:.1f}"] for k, v in stages.items()])]

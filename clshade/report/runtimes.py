@@ -24,10 +24,9 @@ def runtimes_markdown(doc: dict) -> str:
                         yn(d.get("inline_math")), yn(d.get("streaming_stores")), yn(d.get("prefetch")), yn(d["fp64"])]
                        for d in doc["devices"]])]
     healthy = [d for d in doc["devices"] if d["healthy"]]
-    rows = [[m, *(c for d in healthy for c in (f"{d['models'][m]['median_ms']:.2f} ({d['models'][m]['copy_ratio']:.2f})",
-                                              f"{d['models'][m]['max_rel_error']:.1e} / "
-                                              f"{d['models'][m]['mean_rel_error']:.1e}"))]
-            for m in doc["models"]]
+    def cells(r: dict) -> tuple[str, str]:
+        return (f"{r['median_ms']:.2f} ({r['copy_ratio']:.2f})", f"{r['max_rel_error']:.1e} / {r['mean_rel_error']:.1e}")
+    rows = [[m, *(c for d in healthy for c in cells(d["models"][m]))] for m in doc["models"]]
     rows.append(["geometric mean of the medians", *(c for d in healthy for c in (f"{d['geomean_median_ms']:.2f}", ""))])
     lines += ["", markdown(["model", *(h for d in healthy for h in (f"{d['runtime']} ms (× copy)",
                                                                      "max / mean rel. error"))], rows)]

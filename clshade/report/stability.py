@@ -95,13 +95,13 @@ def stability_tables(doc: dict) -> str:
     rows = []
     for m in doc["models"]:
         s = shaded.get((m["model"], m["fast_math"]), {})
-        rows.append([m["model"], "fast" if m["fast_math"] else "precise", f"{m['cases']:,}", f"{m['distinct_inputs']:,}",
-                     cell(m["max_deviation"], ".2e"), cell(m.get("max_deviation_unclamped"), ".2e"),
+        rows.append([m["model"], "fast" if m["fast_math"] else "precise", f"{m['cases']:,}",
+                     f"{m['distinct_inputs']:,}", cell(m["max_deviation"], ".2e"), cell(m.get("max_deviation_unclamped"), ".2e"),
                      s.get("pixels", MISSING), cell(s.get("max_deviation"), ".2e")])
     out += ["Largest deviation from the float64 reference, |f32 − f64| / max(|f64|, 0.001): BRDF evaluations "
             "(all inputs; cosines ≥ 1e-4 and no floor active) and shaded pixels against the frame oracle:", "",
-            markdown(["model", "build", "evaluations", "distinct", "max dev (all)", "max dev (no floor)", "shaded pixels",
-                      "max dev (shaded)"], rows)]
+            markdown(["model", "build", "evaluations", "distinct", "max dev (all)", "max dev (no floor)",
+                      "shaded pixels", "max dev (shaded)"], rows)]
     out += ["", "Continuity:", ""] + [f"- {c['model']}, {escape(c['check'])}: largest relative step "
                                        f"{c['max_relative_step']:.3g} ({escape(c['where'])})" for c in doc["continuity"]]
     out += ["", f"*From benchmarks/results/stability.json (measured {doc['created']} by "

@@ -25,8 +25,8 @@ def steps_table(doc: dict) -> str:
     rows = []
     for kind in STEPS:
         e = k[kind]
-        goal = MISSING if target[kind] is None else (f"≥ {target[kind]:.0f} " +
-                                                     ("met" if e["rate_per_s_median"] >= target[kind] else "**not met**"))
+        met = target[kind] is not None and e["rate_per_s_median"] >= target[kind]
+        goal = MISSING if target[kind] is None else f"≥ {target[kind]:.0f} " + ("met" if met else "**not met**")
         rows.append([names[kind], f"{e['rate_per_s_median']:.1f}", goal, _ms(e["latency_ms"]["median"]),
                      _ms(e["latency_ms"]["p95"]), _ms(e["server_ms_median"]), _ms(e["transfer_and_browser_ms_median"]),
                      _ms(e["draw_ms_median"]), e["frames"]])
@@ -37,10 +37,10 @@ def steps_table(doc: dict) -> str:
 def view_table(doc: dict, name: str = "view.json") -> str:
     """README's table of a viewer result (benchmarks/results/`name`): steps_table and its footnote."""
     m = doc["machine"]
-    return "\n".join([steps_table(doc), "", f"*From benchmarks/results/{name} (`{doc['command']}`, {doc['date']}, commit "
-                                 f"{_commit(doc)}, {doc['scene']} at {doc['width']}x{doc['height']}, headless Chromium, "
-                                 f"device `{doc['device'].split(' [')[0]}`, {m['cores']} cores, load "
-                                 f"{doc['load_average']['start'][0]:.1f} at start).*"])
+    return "\n".join([steps_table(doc), "", f"*From benchmarks/results/{name} (`{doc['command']}`, {doc['date']}, "
+                                             f"commit {_commit(doc)}, {doc['scene']} at {doc['width']}x{doc['height']}, "
+                                             f"headless Chromium, device `{doc['device'].split(' [')[0]}`, {m['cores']} "
+                                             f"cores, load {doc['load_average']['start'][0]:.1f} at start).*"])
 
 
 def view_markdown(doc: dict) -> str:
