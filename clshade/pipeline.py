@@ -133,7 +133,7 @@ def render(scene: Scene | str | Path, model: Model, *, width: int | None = None,
 BAND_PIXELS = 1 << 19
 #: The allowance for everything that does not scale with the frame — interpreter, NumPy,
 #: PoCL, geometry, one band's working set — when deciding whether a frame fits.
-#: benchmarks/memory_bench.py measures the real peaks (benchmarks/results/memory.md).
+#: benchmarks/measure/memory_bench.py measures the real peaks (benchmarks/results/memory.md).
 STREAM_BASE_BYTES = 320 << 20
 
 

@@ -23,6 +23,11 @@ SCENES = scenes_dir()  # the scenes the imported clshade ships (site-packages wh
 PACKAGE = Path(clshade.__file__).resolve().parent
 CHECKOUT = ROOT if (ROOT / "pyproject.toml").is_file() else None
 
+# The checkout's `benchmarks` package importable by tests (`import benchmarks.publish.render`): the root is
+# appended, after site-packages, so that `import clshade` still finds the installed package first.
+if CHECKOUT is not None and str(CHECKOUT) not in sys.path:
+    sys.path.append(str(CHECKOUT))
+
 
 def pytest_report_header(config) -> str:
     devices = ", ".join(f"{i.spec} {i.runtime} ({i.kind})" for i in healthy_devices())
@@ -95,29 +100,11 @@ def device_runtime(request):
 
 @pytest.fixture(scope="session")
 def checkout() -> Path:
-    """The source checkout (docs/, benchmarks/), its `benchmarks` package importable; tests reading it skip when the
-    tests run without it."""
+    """The source checkout (docs/, benchmarks/, importable as above); tests reading it skip when the tests run
+    without it."""
     if CHECKOUT is None:
         pytest.skip(f"no source checkout at {ROOT} (tests copied without the repository)")
-    if str(CHECKOUT) not in sys.path:
-        sys.path.append(str(CHECKOUT))      # last: the clshade under test (installed, in CI) still comes first
     return CHECKOUT
-
-
-@pytest.fixture(scope="session")
-def bench_script(checkout):
-    """benchmarks/<name>.py loaded as the module <name> (registered in sys.modules: dataclasses look their
-    module up there; the scripts import each other by name from benchmarks/)."""
-    import importlib.util
-    import sys
-
-    def load(name: str):
-        spec = importlib.util.spec_from_file_location(name, checkout / "benchmarks" / f"{name}.py")
-        module = importlib.util.module_from_spec(spec)
-        sys.modules[name] = module
-        spec.loader.exec_module(module)
-        return module
-    return load
 
 
 @pytest.fixture(scope="session")

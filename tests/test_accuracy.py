@@ -3,7 +3,7 @@ float64 reference (clshade.verify.reference.brdf): ≥ 1e5 random samples each, 
 error ≤ 1e-4 inside the limits documented in clshade/verify/accuracy.py.
 
 Run with `pytest -s tests/test_accuracy.py` to see the per-model figures;
-benchmarks/accuracy_table.py writes them to docs/accuracy.md.
+benchmarks/measure/accuracy_table.py measures them for docs/accuracy.md.
 """
 from __future__ import annotations
 

@@ -101,11 +101,11 @@ def test_opencl_fill_times_zeros_and_ones_and_checks_them(runtime, monkeypatch):
 
 @pytest.mark.snapshot
 def test_committed_perf_tables_are_rendered_from_their_json():
-    """benchmarks/results/perf_1080p.md is report.perf_markdown() of the committed JSON, so no figure in it
+    """benchmarks/results/perf_1080p.md is clshade.report.perf.perf_markdown() of the committed JSON, so no figure in it
     was typed by hand, and its fill line quotes each runtime's fill medians."""
     import json
     from pathlib import Path
-    from clshade.report.formats import perf_markdown
+    from clshade.report.perf import perf_markdown
     results = Path(__file__).resolve().parents[1] / "benchmarks" / "results"
     if not (results / "perf_1080p.json").exists():
         pytest.skip("no committed perf results (benchmarks/results/perf_1080p.json) in this checkout")
@@ -188,7 +188,7 @@ def test_whole_frames_interleave_runtimes_and_judge_each(runtime):
     frame_targets = [t for t in perf.targets(doc) if "whole frame" in t["target"]]
     assert [(t["runtime"], t["met"]) for t in frame_targets] == [(runtime.info.description, True), ("slow device", False)]
     assert "250 ms" not in frame_targets[1]["cause"] and "G-buffer" in frame_targets[1]["cause"]
-    from clshade.report.formats import perf_whole_frame_markdown
+    from clshade.report.perf import perf_whole_frame_markdown
     table = next(block for block in perf_whole_frame_markdown(doc["whole_frames"]) if block.startswith("| stage "))
     header = table.splitlines()[0]
     assert header.count("median ms") == 2 and "slow device" in header
@@ -264,7 +264,7 @@ def test_peer_refuses_models_it_does_not_implement():
 
 def test_runtime_labels_name_what_the_device_string_says():
     """A runtime that is not PoCL keeps its own platform version (Intel's CPU runtime was 'PoCL ?, LLVM ?')."""
-    from clshade.bench.perf import short
-    assert short("AMD EPYC [OpenCL 3.1 LINUX]") == "AMD EPYC (OpenCL 3.1 LINUX)"
-    assert short("pthread-AMD EPYC [OpenCL 3.0 PoCL 3.0-rc2  Linux, Release, RELOC, LLVM 14.0.6, SLEEF]") == \
+    from clshade.report.perf import short_device
+    assert short_device("AMD EPYC [OpenCL 3.1 LINUX]") == "AMD EPYC (OpenCL 3.1 LINUX)"
+    assert short_device("pthread-AMD EPYC [OpenCL 3.0 PoCL 3.0-rc2  Linux, Release, RELOC, LLVM 14.0.6, SLEEF]") == \
         "pthread-AMD EPYC (PoCL 3.0-rc2, LLVM 14.0.6)"

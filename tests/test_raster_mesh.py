@@ -201,7 +201,7 @@ def test_grid_grouping_and_depth_shortcut_change_no_pixel(monkeypatch):
 
 def test_a_one_view_mesh_copies_and_keeps_nothing():
     """rasterize() (one view) wraps the caller's arrays without copying and keeps no batch: its
-    memory stays that of a batch of faces (benchmarks/raster_bench.py measures it)."""
+    memory stays that of a batch of faces (benchmarks/measure/raster_bench.py measures it)."""
     sphere = trimesh.creation.icosphere(subdivisions=2)
     vertices, faces = np.array(sphere.vertices), np.array(sphere.faces, dtype=np.int64)
     once = RasterMesh(vertices, faces, keep=False)

@@ -8,14 +8,14 @@ def test_clustered_point_labels_do_not_overlap(tmp_path):
     import matplotlib.pyplot as plt
     from matplotlib.text import Text
 
-    from clshade.report.formats import _label_points
+    from clshade.report.plots import label_points
 
     fig, ax = plt.subplots(figsize=(7, 4.5))
     points = [(5.0 + 0.02 * i, 1e-7 * (1 + 0.05 * i), f"rung number {i}") for i in range(6)]
     points += [(10.0, 4e-8, "far away"), (5.1, 1e-2, "alone at the top")]
     ax.scatter([p[0] for p in points], [p[1] for p in points])
     ax.set_yscale("log")
-    _label_points(ax, points)
+    label_points(ax, points)
     fig.canvas.draw()
     renderer = fig.canvas.get_renderer()
     boxes = [Text.get_window_extent(t, renderer) for t in ax.texts]      # the texts, not their leader lines

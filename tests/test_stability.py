@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from clshade.verify import stability
 from clshade.models.registry import Registry
-from clshade.report.formats import stability_text
+from clshade.report.stability import stability_text
 
 resolve = Registry().resolve          # the built-in lobes
 

@@ -26,7 +26,7 @@ nothing, and is listed apart in each mutant's row.
     python -m benchmarks.mutation.run --check                       # resolve every mutant; list moved and gone ones
     python -m benchmarks.mutation.run --fix-moved                   # the same, and write the moved ones' files
 
-Writes JSON only; `python benchmarks/publish.py` renders benchmarks/results/mutants.md from it.
+Writes JSON only; `python -m benchmarks.publish` renders benchmarks/results/mutants.md from it.
 """
 from __future__ import annotations
 

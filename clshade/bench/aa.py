@@ -27,7 +27,7 @@ black background); the content only translates, so the exact energy is constant
 and every frame-to-frame change is aliasing. Reported per sphere as
 mean |E(t+1) − E(t)| / mean E.
 
-Measuring functions return data; clshade/report/formats.py (aa_markdown, plot_aa) renders
+Measuring functions return data; clshade/report/aa.py (aa_markdown, plot_aa) renders
 it and `crop_sheet` builds the zoomed crops.
 """
 from __future__ import annotations
@@ -41,7 +41,7 @@ import numpy as np
 
 from clshade import __version__
 from clshade.bench import CHECK_SAMPLES, TEMPORAL_FRAMES, TRUTH_SAMPLES
-from clshade.bench.run import REL_ERROR_FLOOR, machine_info, mark_pareto
+from clshade.bench.run import REL_ERROR_FLOOR, device_record, mark_pareto
 from clshade.compare import layout, scene_display
 from clshade.device.resolve import CoverageBlend
 from clshade.device.runtime import Runtime, get_runtime
@@ -243,6 +243,9 @@ def ladder(scene: Scene, geometry: Geometry, models: list[Model], truths: dict[s
         row["mean_rel_error"] = row["frame_rel_error"]
         rows.append(row)
     mark_pareto(rows)
+    # The fronts of the plot's other panels (errors floored as drawn on its log axes).
+    mark_pareto(rows, "silhouette_rel_error", "pareto_silhouette", floor=1e-9)
+    mark_pareto(rows, "highlight_rel_error", "pareto_highlight", floor=1e-9)
     return rows, images
 
 
@@ -413,7 +416,7 @@ def run(scene_path: str | Path, models: list[Model], *, width: int | None = None
     temp = temporal(scene, geometry, models, runtime, temporal_frames) if temporal_frames > 1 else []
     doc = dict(clshade=__version__, date=time.strftime("%Y-%m-%d", time.gmtime()),
                scene=Path(scene_path).name, width=scene.camera.width, height=scene.camera.height,
-               frames=frames, warmup=warmup, **machine_info(runtime),
+               frames=frames, warmup=warmup, device=device_record(runtime),
                definitions=dict(
                    frame_time="device time of one frame: shading kernel start to resolve kernel end, mean over "
                               "frames interleaved across rungs; raster_ms: host rasterisation + G-buffer, median "

@@ -21,8 +21,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import os
-import platform
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -418,17 +416,12 @@ def ladder_cases(bench: Bench) -> list[Case]:
     return out
 
 
-def machine_info(runtime: Runtime) -> dict[str, object]:
-    """Machine and OpenCL device description for the JSON."""
-    return dict(
-        machine=dict(processor=platform.processor() or platform.machine(), machine=platform.machine(),
-                     cpu_count=os.cpu_count(), os=platform.platform(), python=platform.python_version(),
-                     numpy=np.__version__),
-        device=dict(name=runtime.info.device, platform=runtime.info.platform,
-                    platform_version=runtime.info.platform_version, kind=runtime.info.kind,
-                    local_size=runtime.local_size, compute_units=int(runtime.device.max_compute_units)),
-        numpy_threads=NUMPY_THREADS,
-    )
+def device_record(runtime: Runtime) -> dict[str, object]:
+    """The OpenCL device of a results JSON (docs/bench-schema.md, *Device*); the machine record is
+    clshade.provenance.stamp's."""
+    return dict(name=runtime.info.device, platform=runtime.info.platform,
+                platform_version=runtime.info.platform_version, kind=runtime.info.kind,
+                local_size=runtime.local_size, compute_units=int(runtime.device.max_compute_units))
 
 
 def report(bench: Bench, rows: list[dict], frames: int, warmup: int, ladder: list[dict] | None = None,
@@ -436,7 +429,7 @@ def report(bench: Bench, rows: list[dict], frames: int, warmup: int, ladder: lis
     """The JSON document (docs/bench-schema.md)."""
     fr = bench.frame
     return stamp(dict(schema=SCHEMA, clshade_version=__version__, created=time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-                **machine_info(bench.runtime),
+                device=device_record(bench.runtime), numpy_threads=NUMPY_THREADS,
                 scene=str(fr.scene.path) if fr.scene.path else None, width=fr.camera.width // fr.scene.samples,
                 height=fr.camera.height // fr.scene.samples, samples=fr.scene.samples,
                 specular_aa=fr.scene.specular_aa,
@@ -450,12 +443,16 @@ def report(bench: Bench, rows: list[dict], frames: int, warmup: int, ladder: lis
 
 
 
-def mark_pareto(rows: list[dict]) -> None:
-    """Set row['pareto'] within each ladder group (time vs mean error)."""
+def mark_pareto(rows: list[dict], error: str = "mean_rel_error", key: str = "pareto", floor: float = 0.0) -> None:
+    """Set row[key] within each ladder group: on the front of time vs max(row[error], floor)
+    (None where that error is None)."""
     for group in dict.fromkeys(r["group"] for r in rows):
-        pts = [r for r in rows if r["group"] == group]
-        for r, front in zip(pts, pareto([(r["mean_ms"], r["mean_rel_error"]) for r in pts])):
-            r["pareto"] = front
+        pts = [r for r in rows if r["group"] == group and r[error] is not None]
+        for r, front in zip(pts, pareto([(r["mean_ms"], max(r[error], floor)) for r in pts])):
+            r[key] = front
+        for r in rows:
+            if r["group"] == group and r[error] is None:
+                r[key] = None
 
 
 def run_bench(scene: Scene | str | Path, models: list[Model], frames: int, warmup: int, *, width: int | None = None,

@@ -8,7 +8,7 @@ import sys
 
 
 def start_process() -> None:
-    """What `run` does before the command line is parsed (benchmarks/startup_bench.py times it
+    """What `run` does before the command line is parsed (benchmarks/measure/startup_bench.py times it
     with the imports): collector paused, allocator tuned, NumPy loaded."""
     gc.disable()
     tune_allocator()

@@ -22,9 +22,14 @@ def cell(x: object, spec: str = "") -> str:
     return MISSING if x is None else format(x, spec)
 
 
-def markdown(header: Sequence[str], rows: Iterable[Sequence[object]]) -> str:
-    """A GitHub Markdown pipe table; cells are used as given (no number parsing)."""
-    return tabulate([[str(c) for c in r] for r in rows], headers=list(header), tablefmt="github",
+def escape(text: object) -> str:
+    """Text safe in a Markdown table cell or list item: a `|` would end the cell."""
+    return str(text).replace("|", "\\|")
+
+
+def markdown(header: Sequence[object], rows: Iterable[Sequence[object]]) -> str:
+    """A GitHub Markdown pipe table; cells are used as given (no number parsing), `|` escaped."""
+    return tabulate([[escape(c) for c in r] for r in rows], headers=[escape(h) for h in header], tablefmt="github",
                     disable_numparse=True)
 
 

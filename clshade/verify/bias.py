@@ -1,7 +1,7 @@
 """The bias of each named floor of the kernels, measured through the whole shade path.
 
 One function, :func:`floor_bias`, is the only measurement of these biases; every
-doc quotes its figures (`clshade check stability` and benchmarks/models_doc.py call it).
+doc quotes its figures (`clshade check stability` and benchmarks/docgen/models_doc.py call it).
 
 How: a one-row G-buffer of flat pixels (n = +z exactly) is shaded by the real
 shading kernel (kernels/shade.cl, the scene's specialised variant) under one

@@ -327,23 +327,7 @@ def albedo(model: Model, setting: Setting, view_cos: float = 1.0, order: int = 2
     return m.albedo[0][0], m.albedo_error[0][0]
 
 
-# ---- table and CLI -------------------------------------------------------------------
-
-TABLE_HEADER = ("| preset | family | min f | max reciprocity err | max albedo per lobe (at) | composed albedo (at) "
-                "| quadrature err | non-neg | reciprocal | energy | physically based |")
-
-
-def table(verdicts: list[Verdict]) -> list[str]:
-    """The plausibility table as Markdown lines, physically based models first."""
-    yes = lambda b: "yes" if b else "**no**"   # noqa: E731
-    lines = [TABLE_HEADER, "|" + "---|" * (TABLE_HEADER.count("|") - 1)]
-    for v in sorted(verdicts, key=lambda v: (not v.physically_based, v.family, v.preset)):
-        lobe_text = "; ".join(f"{k} {a:.5f} ({at})" for k, (a, at) in v.lobes.items())
-        lines.append(f"| {v.preset} | {v.family} | {v.min_f:.3g} | {v.max_reciprocity_error:.1e} | "
-                     f"{lobe_text} | {v.composed_albedo:.5f} ({v.composed_albedo_at}) | "
-                     f"{v.quadrature_error:.1e} | {yes(v.non_negative)} | {yes(v.reciprocal)} | "
-                     f"{yes(v.energy_conserving)} | {yes(v.physically_based)} |")
-    return lines
+# ---- the method in words ---------------------------------------------------------
 
 
 def describe_method(sweep: Sweep = Sweep()) -> list[str]:

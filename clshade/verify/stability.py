@@ -42,8 +42,6 @@ n = v by design; for n·v ≤ 0 the kernel floors n·v at MIN_N_DOT_V by design
 from __future__ import annotations
 
 import math
-import os
-import platform
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -444,8 +442,7 @@ class Report:
                                       clamped_build_nonfinite=sum(s.clamped_nonfinite for s in self.shading),
                                       pixels=sum(s.pixels for s in self.shading)),
                     device=self.device, seconds=self.seconds, created=self.created,
-                    machine=dict(machine=platform.machine(), processor=platform.processor() or platform.machine(),
-                                 cpu_count=os.cpu_count(), os=platform.platform()), grid=dict(
+                    grid=dict(
                         roughness=ROUGHNESS_GRID, roughness_reading="each value as r and as α = r²",
                         shininess=SHININESS_GRID, cosines=COSINE_GRID, ior=IOR_GRID,
                         light_intensities=LIGHT_INTENSITIES, normals=list(NORMAL_SCALES),

@@ -13,7 +13,7 @@ def _check_aa_outputs(prefix: Path, protected: list[Path]) -> None:
     """The four output files (none an input of the scene) and matplotlib (the ladder plot),
     before the long run."""
     from clshade.outputs import check_output_file
-    from clshade.report.formats import pyplot
+    from clshade.report.plots import pyplot
     for suffix in (".json", ".md", "_ladder.png", "_crops.png"):
         check_output_file(prefix.with_name(prefix.name + suffix), "-o", protected=protected)
     try:
@@ -29,7 +29,7 @@ def cmd_aa(args: argparse.Namespace) -> int:
     from clshade.outputs import write_text_atomic
     from clshade.render.scene import load_scene
     from clshade.provenance import stamp
-    from clshade.report.formats import aa_markdown, plot_aa
+    from clshade.report.aa import aa_markdown, plot_aa
     from clshade.resources import scenes_dir
     scene = args.scene or str(scenes_dir() / "aa_spheres.toml")
     loaded = load_scene(scene, args.registry)

@@ -16,7 +16,7 @@ def _check_bench_outputs(args: argparse.Namespace, protected: list[Path]) -> Non
     """Every output path (none an input, no two the same; --plot's ladder plot beside it with
     --ladder), and matplotlib for --plot, before the benchmark runs."""
     from clshade.outputs import check_distinct, check_output_file
-    from clshade.report.formats import pyplot
+    from clshade.report.plots import pyplot
     ladder_plot = None
     if args.json:
         check_output_file(args.json, "--json", protected=protected)
@@ -55,7 +55,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     import json
     from clshade.bench.run import run_bench
     from clshade.outputs import write_text_atomic
-    from clshade.report.formats import bench_csv, bench_plots, bench_text
+    from clshade.report.bench import bench_csv, bench_plots, bench_text
     _check_bench_options(args)
     scene = load_scene_with_overrides(args.scene, args)
     _check_bench_outputs(args, scene.inputs())
@@ -68,7 +68,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     print(bench_text(doc))
     if args.peers:
         from clshade.bench import perf
-        from clshade.report.formats import perf_markdown
+        from clshade.report.perf import perf_markdown
         doc["peers"] = perf.bench_peers(args, models, registry)
         print()
         print(perf_markdown(doc["peers"]))

@@ -11,6 +11,7 @@ from clshade.errors import ClshadeError
 def cmd_plausibility(args: argparse.Namespace) -> int:
     import json
     from dataclasses import asdict
+    from clshade.report.plausibility import plausibility_table
     from clshade.verify import plausibility as P
     sweep = P.QUICK if args.quick else P.Sweep()
     chosen = args.registry.resolve_many(args.model) if args.model else None
@@ -21,14 +22,14 @@ def cmd_plausibility(args: argparse.Namespace) -> int:
                           "sweep": asdict(sweep), "presets": [v.as_dict() for v in verdicts]},
                          indent=2, ensure_ascii=False))
     else:
-        for line in P.table(verdicts) + [""] + P.describe_method(sweep):
+        for line in [plausibility_table(verdicts), ""] + P.describe_method(sweep):
             print(line)
     return 0 if all(v.non_negative and v.reciprocal for v in verdicts) else 1
 
 
 def cmd_stability(args: argparse.Namespace) -> int:
     import json
-    from clshade.report.formats import stability_text
+    from clshade.report.stability import stability_text
     from clshade.verify import stability
     models = None
     if args.model is not None:
