@@ -7,9 +7,12 @@ import shutil
 import subprocess
 from pathlib import Path
 
-from benchmarks import freshness
+from benchmarks.publish import freshness
+from benchmarks.publish.registry import RESULTS
 
 ROOT = Path(__file__).resolve().parents[2]
+# The code whose change makes mutants.json stale (its results-registry entry).
+MUTANTS_PRODUCERS = next(r.producers for r in RESULTS if r.name == "mutants.json")
 COPY_IGNORE = shutil.ignore_patterns(".venv", ".git", "__pycache__", "*.egg-info", "build", "dist",
                                      ".pytest_cache", ".hypothesis", "out")
 
@@ -20,12 +23,12 @@ def head_commit(root: Path = ROOT) -> str | None:
 
 def code_commit(root: Path = ROOT) -> str | None:
     """The commit the results name: the last one up to HEAD that changed the catalogue's code
-    (freshness.PRODUCERS["mutants.json"]). HEAD's tree holds that code as it was there, so a run
+    (MUTANTS_PRODUCERS). HEAD's tree holds that code as it was there, so a run
     resumed after commits of results only names the same commit (and goes on where it stopped)."""
     head = freshness.git(root, "rev-parse", "HEAD")
     if not head:
         return None
-    return freshness.git(root, "log", "-1", "--format=%H", "HEAD", "--", *freshness.PRODUCERS["mutants.json"]) or head
+    return freshness.git(root, "log", "-1", "--format=%H", "HEAD", "--", *MUTANTS_PRODUCERS) or head
 
 
 def snapshot(dest: Path, root: Path = ROOT) -> None:
