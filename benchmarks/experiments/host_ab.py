@@ -9,7 +9,7 @@ Usage::
 
 First the whole warm render (`clshade render scenes/robot.toml`, fresh processes, the ref
 checked out in a temporary detached worktree). Rows: geometry (robot.toml), rasterize and G-buffer at 640×640 and 1920×1080, the display
-transform and the PNG encode at 640×640, and the whole frame of issue 15 (robot at
+transform and the PNG encode at 640×640, and a whole frame (robot at
 1920×1080: rasterize + G-buffer + upload + shade + read back, the camera orbiting 2° a
 frame, kernel built once before). Medians of process CPU time (user + system, all
 threads: what a shared machine inflates least) and of wall time. `python -m benchmarks.publish`

@@ -1,4 +1,4 @@
-"""Anti-aliasing as an accuracy-vs-time ladder (issue 16).
+"""Anti-aliasing as an accuracy-vs-time ladder.
 
 A pixel's true value is the mean of the radiance over its area (a box filter).
 The ground truth is that integral estimated by a dense ordered grid of samples
