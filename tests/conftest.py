@@ -20,10 +20,13 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import clshade
+from clshade import cli
 from clshade.resources import scenes_dir
+from scene_toml import small_red_sphere
 
 ROOT = Path(__file__).resolve().parents[1]
 ASSETS = ROOT.parent / "shared" / "assets"
@@ -169,7 +172,6 @@ def scratch_repo(tmp_path):
 
 def run_cli(capsys, args: list[str]) -> tuple[int, str, str]:
     """`clshade ARGS` in-process: (exit status, stdout, stderr)."""
-    from clshade import cli
     code = cli.main(args)
     out, err = capsys.readouterr()
     return code, out, err
@@ -194,7 +196,6 @@ def refused(capsys, args: list[str], *needles: str) -> str:
 
 def write_scene(folder: Path, text: str | None = None, name: str = "scene.toml") -> Path:
     """`text` (default: scene_toml.small_red_sphere()) written to folder/name."""
-    from scene_toml import small_red_sphere
     path = folder / name
     path.write_text(small_red_sphere() if text is None else text)
     return path
@@ -212,7 +213,7 @@ def render_refused(folder: Path, capsys, text: str, *needles: str, extra: list[s
     return err
 
 
-def cli_image(capsys, scene: Path, out: Path):
+def cli_image(capsys, scene: Path, out: Path) -> np.ndarray:
     """`clshade render SCENE -o OUT` in-process must succeed with nothing on stderr; returns the image read
     back."""
     from clshade.render.image import read_image
@@ -246,8 +247,6 @@ def oracle_errors(scene_path, model_spec: str, runtime=None) -> dict[str, float]
     frame oracle on the same G-buffer: the compared and covered pixel counts, the largest relative error on the
     compared pixels, the largest absolute difference on the background, and how many compared pixels a shadow
     darkens."""
-    import numpy as np
-
     from clshade.models.registry import Registry
     from clshade.pipeline import render
     from clshade.verify import reference
