@@ -1,4 +1,5 @@
-"""End-to-end pipeline: scene → rasterizer → G-buffer → OpenCL → image."""
+"""End-to-end pipeline (clshade/pipeline.py): scene → rasterizer → G-buffer → OpenCL → image; an empty
+scene renders its background, and NaN reaching the G-buffer is counted and shades as background."""
 from __future__ import annotations
 
 import math
@@ -7,14 +8,14 @@ import numpy as np
 import pytest
 
 from clshade.cli import main
-from clshade.models.model import PRESETS, presets
+from clshade.models.model import presets
 from clshade.models.registry import Registry
 from clshade.render.image import read_image
 from clshade.pipeline import prepare_frame, render
 from clshade.render.scene import parse_scene
 
-from conftest import SCENES
-from scene_toml import plane_facing_camera, point_and_spot
+from conftest import SCENES, run_cli, write_scene
+from scene_toml import plane_facing_camera, point_and_spot, small_red_sphere
 
 BUILT_IN = Registry()          # the built-in lobes
 
@@ -110,16 +111,6 @@ def test_cli_models_and_devices(capsys):
     assert "*" in capsys.readouterr().out
 
 
-def test_model_specs_resolve():
-    m = BUILT_IN.resolve("oren_nayar+ggx_correlated")
-    assert (m.diffuse, m.specular, m.workflow) == ("oren_nayar", "ggx_correlated", "metallic")
-    assert BUILT_IN.resolve("phong").workflow == "kdks"
-    assert BUILT_IN.resolve("cook_torrance@conductor").fresnel == "conductor"
-    assert len(BUILT_IN.resolve_many("all")) == len(PRESETS)
-    with pytest.raises(Exception, match="did you mean 'ggx_correlated'"):
-        BUILT_IN.resolve("ggx_corelated")
-
-
 @pytest.mark.parametrize("half, width, height", [(False, 83, 37), (True, 83, 37), (False, 7, 9)])
 def test_odd_sized_frame_matches_the_oracle_pixel_by_pixel(runtime, half, width, height):
     """83×37 (rows wrap inside the SIMD work-items, the last work-item is padded) and 7×9 (narrower than a
@@ -154,3 +145,38 @@ def test_ambient_weight_ka_and_k_d_k_s_weights(runtime, spec):
     want = radiance(frame.gbuffer, frame.scene, model, camera=frame.camera)
     rel = np.abs(image - want) / np.maximum(np.abs(want), 1e-3 * np.abs(want).max())
     assert rel.max() <= 1e-4, rel.max()
+
+
+def test_empty_scene_renders_background(tmp_path, capsys):
+    scene = write_scene(tmp_path, small_red_sphere(objects=False))
+    out = tmp_path / "empty.exr"
+    code, stdout, err = run_cli(capsys, ["render", str(scene), "-o", str(out)])
+    assert code == 0, err
+    image = read_image(out)
+    assert image.shape == (16, 24, 4)
+    np.testing.assert_allclose(image[..., :3], np.broadcast_to([0.1, 0.2, 0.3], (16, 24, 3)), rtol=1e-6)
+
+
+def test_nonfinite_gbuffer_inputs_are_counted_and_contained(tmp_path, capsys, monkeypatch):
+    """NaN reaching the G-buffer (here: a NaN normal injected after build_geometry) is
+    counted, its pixels shade as background, no other pixel changes, and the CLI warns."""
+    from clshade import pipeline
+    scene = write_scene(tmp_path)
+    clean = tmp_path / "clean.exr"
+    assert run_cli(capsys, ["render", str(scene), "-o", str(clean)])[0] == 0
+    real = pipeline.build_geometry
+
+    def poisoned(sc):
+        g = real(sc)
+        g.normals[::2] = np.nan
+        return g
+    monkeypatch.setattr(pipeline, "build_geometry", poisoned)
+    out = tmp_path / "poisoned.exr"
+    code, _, err = run_cli(capsys, ["render", str(scene), "-o", str(out)])
+    assert code == 0, err
+    a, b = read_image(clean), read_image(out)
+    assert np.isfinite(b).all()
+    changed = np.any(a != b, axis=-1)
+    count = int(err.split("warning: ")[1].split()[0])
+    assert 0 < count == int(changed.sum())
+    np.testing.assert_allclose(b[changed][:, :3], np.broadcast_to([0.1, 0.2, 0.3], (count, 3)), rtol=1e-6)

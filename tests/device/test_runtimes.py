@@ -1,4 +1,4 @@
-"""Device health and OpenCL runtimes (issue 24).
+"""Device health and OpenCL runtimes.
 
 A device is used only after it has built and run a probe program. Where pip's PoCL cannot
 compile (an AMD family-26 CPU, newer than its LLVM 14: "unknown target CPU 'generic'"), the
@@ -20,11 +20,11 @@ import pytest
 from clshade.device import health, icd, runtime
 from clshade.errors import ClshadeError
 
-from conftest import SCENES
+from conftest import SCENES, assert_one_line_error, run_cli, write_scene
 
 REJECTED = "--clshade-rejects-this"       # an option PoCL's compiler rejects: every PoCL build fails
 
-# The log pyopencl raised on the AMD EPYC of family 26 (issue 24), as printed there.
+# The log pyopencl raised on an AMD EPYC of family 26, as printed there.
 ZEN5_LOG = """clBuildProgram failed: BUILD_PROGRAM_FAILURE - clBuildProgram failed: BUILD_PROGRAM_FAILURE
 
 Build on <pyopencl.Device 'pthread-AMD EPYC' on 'Portable Computing Language' at 0x55d0c3a1e2b0>:
@@ -155,7 +155,7 @@ def test_the_default_prefers_cpu_devices_then_the_measured_runtime_order():
         want += [d for d in (pocl30, pocl31, intel) if key in f"{d.platform}, {d.platform_version}" and d not in want]
     assert order[:3] == want
     assert [d.runtime for d in (pocl30, pocl31, intel)] == ["PoCL 3.0", "PoCL 3.1", "Intel OpenCL 3.1"]
-    # NVIDIA's platform version "OpenCL 3.0 CUDA 13.0.98" (H100, 2026-11-26): the CUDA version, not OpenCL's
+    # NVIDIA's platform version "OpenCL 3.0 CUDA 13.0.98" (on an H100): the CUDA version, not OpenCL's
     assert info("NVIDIA CUDA", "OpenCL 3.0 CUDA 13.0.98", kind="gpu").runtime == "NVIDIA CUDA 13.0"
 
 
@@ -277,3 +277,18 @@ def test_the_default_order_is_the_measured_order(checkout):
     assert doc["default"]["runtime"] == by_speed[0]
     for d in measured:     # every runtime's images were checked against the oracle in the same run
         assert all(r["max_rel_error"] is not None for r in d["models"].values()), d["runtime"]
+
+
+def test_no_opencl_platform(tmp_path, capsys, monkeypatch):
+    """No OpenCL platform, or an ICD loader that fails: one line naming what to install, nothing written."""
+    import pyopencl as cl
+    scene = write_scene(tmp_path)
+    before = set(os.listdir(tmp_path))
+    for fake in (lambda: [], lambda: (_ for _ in ()).throw(cl.LogicError("clGetPlatformIDs", -1001, "no ICD"))):
+        monkeypatch.setattr(cl, "get_platforms", fake)
+        # A device spec nobody else uses, so the cached runtime is not reused.
+        code, _, err = run_cli(capsys, ["render", str(scene), "-o", str(tmp_path / "o.png"),
+                                        "--device", "no-such-device-for-test"])
+        assert_one_line_error(code, err, "pocl")
+        assert "install" in err
+    assert set(os.listdir(tmp_path)) == before

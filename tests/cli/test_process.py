@@ -1,6 +1,8 @@
-"""The process entry point (clshade.cli.run): the garbage collector paused only while the
-CLI starts up, frozen for a quick exit, the allocator tuned; `main` (the in-process entry
-the tests use) leaves the interpreter's state alone."""
+"""The process entry point and its settings (clshade.cli.run, clshade/cli/process.py): the garbage
+collector paused only while the CLI starts up, frozen for a quick exit, the allocator tuned, BLAS
+single-threaded unless the user says; a reader that leaves the pipe early ends the command quietly
+(exit status 141, nothing on stderr); `main` (the in-process entry the tests use) leaves the
+interpreter's state alone."""
 from __future__ import annotations
 
 import gc
@@ -13,6 +15,8 @@ import pytest
 from clshade import cli
 from clshade.cli import process
 from clshade.cli.commands import devices
+
+from conftest import ROOT
 
 PROBE = """
 import gc, json, sys
@@ -122,3 +126,29 @@ def test_numpy_blas_is_single_threaded_unless_the_user_says(user_setting, monkey
     seen = json.loads(proc.stdout.splitlines()[-1])
     assert seen["env"] == user_setting
     assert seen["threads"] == (1 if user_setting is None else int(user_setting))
+
+
+# ---------------------------------------------------------------- a reader that left: quiet
+
+def test_broken_pipe_in_process(monkeypatch, capsys):
+    class Closed:
+        def write(self, text):
+            raise BrokenPipeError(32, "Broken pipe")
+
+        def flush(self):
+            raise BrokenPipeError(32, "Broken pipe")
+
+    monkeypatch.setattr(sys, "stdout", Closed())
+    assert cli.main(["devices"]) == 141
+    assert capsys.readouterr().err == ""
+
+
+def test_broken_pipe_real_pipe():
+    """`clshade devices | <reader that already left>`: no traceback, no 'Exception ignored'."""
+    proc = subprocess.Popen([sys.executable, "-m", "clshade", "devices"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, cwd=ROOT)
+    proc.stdout.close()                      # the reader leaves before the first line
+    err = proc.stderr.read().decode()
+    proc.wait(timeout=120)
+    assert err == ""
+    assert proc.returncode == 141

@@ -91,8 +91,8 @@ def test_above_bound_fails_the_precise_build_only() -> None:
 
 def test_a_fast_build_nonzero_where_the_reference_is_zero_fails() -> None:
     """Fast math's deviation is reported, not bounded, but a fast build that takes another branch
-    (NVIDIA's flushed denormal shininess: Phong's 0ⁿ as 1 where the reference is 0, H100,
-    2026-11-26) fails the check: here the fast build of a patched brdf.h reads every shininess as 0."""
+    (NVIDIA's flushed denormal shininess: Phong's 0ⁿ as 1 where the reference is 0, as on an
+    H100) fails the check: here the fast build of a patched brdf.h reads every shininess as 0."""
     import tempfile
 
     with tempfile.TemporaryDirectory() as folder, pytest.MonkeyPatch.context() as monkeypatch:

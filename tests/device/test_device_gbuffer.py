@@ -154,7 +154,7 @@ def test_device_gbuffer_is_build_gbuffers(robot, device_runtime, azimuth, elevat
 def test_device_gbuffer_orthographic(robot, device_runtime):
     """A projection whose clip w is not the view depth (the depth is interpolated from the corners'),
     with near and far planes that cut through the scene (fragments beyond them are dropped)."""
-    from test_effects import orthographic
+    from clshade.render.transforms import orthographic
     scene, geometry = robot
     camera = orbit_camera(scene, 40.0)
     d = Orbit.of(scene.camera).distance

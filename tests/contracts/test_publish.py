@@ -90,7 +90,7 @@ def test_every_results_markdown_is_rendered_by_publish(checkout):
 @pytest.mark.parametrize("notes", ["docs/bench-notes.md", "docs/effects-notes.md"])
 def test_dated_notes_say_they_are_history(checkout, notes):
     """Notes with hand-written measured figures say, before any figure, that they are dated history
-    no published table quotes (issue 25): current numbers come only from the rendered tables."""
+    no published table quotes: current numbers come only from the rendered tables."""
     text = (checkout / notes).read_text(encoding="utf-8")
     head = text.split("\n\n", 2)[1]
     assert head.startswith("> **Dated history — not a published result.**"), head[:120]

@@ -1,6 +1,8 @@
-"""The lobe registry is an object, not process state: two scenes with different lobe folders,
-read and rendered in one process, each see their own lobes only, even where both folders hold
-a lobe of the same id with different code."""
+"""Models and the lobe registry (clshade/models/model.py, registry.py): model specs resolve to their
+lobes, workflow and Fresnel term, and a malformed or unknown spec is refused in one line naming what is
+wrong, from the command line and from the scene. The registry is an object, not process state: two
+scenes with different lobe folders, read and rendered in one process, each see their own lobes only,
+even where both folders hold a lobe of the same id with different code."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -9,9 +11,48 @@ import numpy as np
 import pytest
 
 from clshade.errors import ClshadeError
+from clshade.models.model import PRESETS
 from clshade.models.registry import Registry
 from clshade.render.scene import load_scene
-from scene_toml import two_spheres
+
+from conftest import refused, render_refused, write_scene
+from scene_toml import small_red_sphere, two_spheres
+
+BUILT_IN = Registry()          # the built-in lobes
+
+
+# ---------------------------------------------------------------- model specs
+
+def test_model_specs_resolve():
+    m = BUILT_IN.resolve("oren_nayar+ggx_correlated")
+    assert (m.diffuse, m.specular, m.workflow) == ("oren_nayar", "ggx_correlated", "metallic")
+    assert BUILT_IN.resolve("phong").workflow == "kdks"
+    assert BUILT_IN.resolve("cook_torrance@conductor").fresnel == "conductor"
+    assert len(BUILT_IN.resolve_many("all")) == len(PRESETS)
+    with pytest.raises(Exception, match="did you mean 'ggx_correlated'"):
+        BUILT_IN.resolve("ggx_corelated")
+
+
+@pytest.mark.parametrize("model, fault", [
+    ("+", "empty lobe name"), ("lambert+", "empty lobe name"), ("+lambert", "empty lobe name"),
+    ("lambert++phong", "empty lobe name"), ("lambert@conductor", "lambert has no Fresnel term"),
+    ("oren_nayar@dielectric", "oren_nayar has no Fresnel term")])
+def test_malformed_model_specs_are_refused(tmp_path, capsys, model, fault):
+    """Refused with the spec and what is wrong with it, from the command line and from the scene."""
+    scene = write_scene(tmp_path)
+    refused(capsys, ["render", str(scene), "-m", model, "-o", str(tmp_path / "o.png")], repr(model), fault)
+    text = small_red_sphere(render_keys=dict(model=model))
+    refused(capsys, ["render", str(write_scene(tmp_path, text)), "-o", str(tmp_path / "o.png")],
+            f"render.model = {model!r}", "scene.toml", fault)
+    assert not (tmp_path / "o.png").exists()
+
+
+def test_unknown_model_in_the_scene_names_file_and_key(tmp_path, capsys):
+    render_refused(tmp_path, capsys, small_red_sphere(render_keys=dict(model="ggx_corelated")),
+                   "render.model = 'ggx_corelated'", "unknown model")
+
+
+# ---------------------------------------------------------------- one registry per command, not per process
 
 
 def _diffuse_lobe(folder: Path, ident: str, value: float) -> None:
@@ -66,9 +107,8 @@ def test_scenes_do_not_see_each_others_lobes(two_scenes):
 def test_a_scene_naming_the_other_scenes_lobe_is_refused(two_scenes, tmp_path):
     path_a, path_b = two_scenes
     load_scene(path_a)
-    text = path_b.read_text(encoding="utf-8").replace('model = "tint"', 'model = "glow"')
     other = tmp_path / "b_glow.toml"
-    other.write_text(text, encoding="utf-8")
+    other.write_text(two_spheres(16, 16, lobes=str(tmp_path / "lobes_b"), model="glow"), encoding="utf-8")
     with pytest.raises(ClshadeError, match=r"render\.model = 'glow': unknown model or lobe 'glow'"):
         load_scene(other)
 
@@ -98,5 +138,5 @@ def test_the_cli_builds_a_registry_per_command(two_scenes, tmp_path, capsys):
     path_a, path_b = two_scenes
     assert main(["render", str(path_a), "-m", "glow", "-o", str(tmp_path / "a.png")]) == 0
     capsys.readouterr()
-    assert main(["render", str(path_b), "-m", "glow", "-o", str(tmp_path / "b.png")]) == 2
-    assert "unknown model or lobe 'glow'" in capsys.readouterr().err
+    refused(capsys, ["render", str(path_b), "-m", "glow", "-o", str(tmp_path / "b.png")],
+            "unknown model or lobe 'glow'")

@@ -27,7 +27,7 @@ MIN_COSINE = 1e-3
 # Albedo ≤ 1 + ALBEDO_TOL + the quadrature's own error estimate (clshade.verify.reference.directional_albedo:
 # composite Gauss–Legendre graded towards the mirror direction; its estimate is |order 2k − order k|).
 # ALBEDO_TOL covers float32 evaluation only: the largest measured albedo of an energy-conserving preset is
-# normalized Phong's 1 + 8.6e-7 (2026-11-23).
+# normalized Phong's, measured at 1 + 8.6e-7.
 ALBEDO_TOL = 1e-4
 SETTINGS = settings(max_examples=4, deadline=None, derandomize=True,
                     suppress_health_check=[HealthCheck.too_slow])
@@ -104,7 +104,7 @@ def test_albedo_at_most_one(name: str, cos_v: float, rough: float, shininess: fl
 
 def test_oren_nayar_is_not_energy_conserving() -> None:
     """The documented verdict (docs/models.md): Oren–Nayar's albedo exceeds 1 at small σ and a grazing view
-    (measured 1.0129 at σ = 0.2, n·v = 0.05; 2026-11-23)."""
+    (measured 1.0129 at σ = 0.2, n·v = 0.05)."""
     albedo, err = _albedo("oren_nayar", 0.05, 0.2, 0.0, 0.0)
     assert albedo > 1.0 + 10 * (ALBEDO_TOL + err), albedo
 
@@ -120,7 +120,7 @@ def test_half_vector_below_the_surface_stays_finite(model_id: str) -> None:
     """A back-lit silhouette: light grazing above the surface, the view just below it (an
     interpolated normal), l ≈ −v. The half vector points below the surface; make_geometry
     clamps n·h to 0 and must treat sin²θh as 1 with it (kernels/surface.h), or GGX's D
-    divides by ~0: Inf at roughness 0 (found in review, 2026-11-25). Finite, non-negative,
+    divides by ~0: Inf at roughness 0. Finite, non-negative,
     and below 1e3 sr⁻¹ (with h perpendicular to n, D is α²/π)."""
     rng = np.random.default_rng(11)
     k = 200_000

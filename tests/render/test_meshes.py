@@ -1,6 +1,8 @@
 """Loaded meshes: every format without stderr noise, shading normals (file normals kept,
 crease splitting otherwise, `smooth` / `crease_angle`), glTF metallic-roughness factors
-without UVs. The mesh files are written at test time by scenes/make_meshes.py."""
+without UVs, emission and occlusion, the primitives; a bad mesh file (missing, unreadable,
+empty, a face index out of range) refused in one line, NaN in a mesh file rendered finite.
+The mesh files are written at test time by scenes/make_meshes.py."""
 from __future__ import annotations
 
 import importlib.util
@@ -18,7 +20,10 @@ from clshade.pipeline import prepare_frame
 from clshade.render.meshes import build_geometry
 from clshade.render.scene import parse_scene
 
-from conftest import ROOT, SCENES
+from conftest import (ORACLE_BOUND, ROOT, SCENES, cli_image, oracle_errors, refused, render_refused, run_cli,
+                      write_scene)
+from hostile_files import gltf_triangle, ply_triangle, write
+from scene_toml import camera, light, material, obj, render, scene, small_red_sphere
 
 _spec = importlib.util.spec_from_file_location("make_meshes", SCENES / "make_meshes.py")
 make_meshes = importlib.util.module_from_spec(_spec)
@@ -32,27 +37,18 @@ def meshes(tmp_path_factory) -> Path:
     return folder
 
 
-def _scene(folder: Path, objects: str, width: int = 64, height: int = 64) -> str:
-    return f"""
-[camera]
-position = [0.0, 1.5, 4.0]
-target = [0.0, 0.0, 0.0]
-width = {width}
-height = {height}
-
-[[lights]]
-type = "directional"
-direction = [0.0, -1.0, -1.0]
-
-[materials.m]
-base_color = [0.8, 0.8, 0.8]
-{objects}
-"""
+def _scene(*objects: str, width: int = 64, height: int = 64, position: list | None = None) -> str:
+    """The objects (scene_toml.obj tables) in a frame seen from above the front, lit from above, with a
+    grey material `m`."""
+    return scene(camera(position=position or [0.0, 1.5, 4.0], target=[0.0, 0.0, 0.0], width=width, height=height),
+                 light("directional", direction=[0.0, -1.0, -1.0]),
+                 material("m", base_color=[0.8, 0.8, 0.8]),
+                 objects)
 
 
-def _geometry(folder: Path, obj: str):
-    text = _scene(folder, obj)
-    return build_geometry(parse_scene(text, folder / "scene.toml"))
+def _geometry(folder: Path, **keys):
+    """The geometry of one object of these keys, of material `m`."""
+    return build_geometry(parse_scene(_scene(obj(**keys, material="m")), folder / "scene.toml"))
 
 
 def test_every_format_renders_with_empty_stderr(meshes, tmp_path):
@@ -75,7 +71,7 @@ def test_every_format_renders_with_empty_stderr(meshes, tmp_path):
 def test_ply_cube_has_sharp_edges(meshes):
     """An 8-vertex cube (shared vertices, no normals) shades flat per face: every corner
     normal is an axis, not the diagonal an averaged normal would be."""
-    g = _geometry(meshes, f'[[objects]]\nmesh = "{meshes}/cube.ply"\nmaterial = "m"')
+    g = _geometry(meshes, mesh=f"{meshes}/cube.ply")
     assert len(g.faces) == 12
     assert np.allclose(np.abs(g.normals).max(axis=1), 1.0, atol=1e-6)
     # each corner's normal is its own face's normal
@@ -88,7 +84,7 @@ def test_ply_cube_has_sharp_edges(meshes):
 def test_stl_soup_is_smooth_not_faceted(meshes):
     """A binary STL repeats every vertex per triangle (process=False keeps it that way):
     the side of the tube still gets radial (smooth) normals, the caps flat ones."""
-    g = _geometry(meshes, f'[[objects]]\nmesh = "{meshes}/tube.stl"\nmaterial = "m"')
+    g = _geometry(meshes, mesh=f"{meshes}/tube.stl")
     v, n = g.vertices, g.normals.astype(float)
     side = np.abs(n[:, 1]) < 0.5
     radial = v[side] * [1, 0, 1]
@@ -100,22 +96,21 @@ def test_stl_soup_is_smooth_not_faceted(meshes):
 
 
 def test_smooth_and_crease_angle_keys(meshes):
-    cube = f'[[objects]]\nmesh = "{meshes}/cube.ply"\nmaterial = "m"\n'
-    smooth = _geometry(meshes, cube + "smooth = true")
+    cube = f"{meshes}/cube.ply"
+    smooth = _geometry(meshes, mesh=cube, smooth=True)
     # one normal per position: the corner diagonals
     assert np.allclose(np.abs(smooth.normals), 1 / np.sqrt(3), atol=1e-6)
-    wide = _geometry(meshes, cube + "crease_angle = 100")
+    wide = _geometry(meshes, mesh=cube, crease_angle=100)
     assert np.allclose(np.abs(wide.normals), 1 / np.sqrt(3), atol=1e-6)
-    flat_sphere = _geometry(meshes, '[[objects]]\nprimitive = "sphere"\nsubdivisions = 1\nmaterial = "m"\n'
-                                    'smooth = false')
+    flat_sphere = _geometry(meshes, primitive="sphere", subdivisions=1, smooth=False)
     tri = flat_sphere.vertices[flat_sphere.faces]
     face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     face_n /= np.linalg.norm(face_n, axis=1, keepdims=True)
     assert np.allclose(flat_sphere.normals[flat_sphere.faces], face_n[:, None, :], atol=1e-5)
     with pytest.raises(ClshadeError, match="smooth or crease_angle"):
-        _geometry(meshes, cube + "smooth = true\ncrease_angle = 10")
+        _geometry(meshes, mesh=cube, smooth=True, crease_angle=10)
     with pytest.raises(ClshadeError, match="crease_angle"):
-        _geometry(meshes, cube + "crease_angle = 200")
+        _geometry(meshes, mesh=cube, crease_angle=200)
 
 
 def test_file_normals_are_kept(tmp_path):
@@ -125,16 +120,15 @@ def test_file_normals_are_kept(tmp_path):
     lines = [f"v {x} {y} {z}" for x, y, z in v] + [f"vn {tilted[0]} {tilted[1]} {tilted[2]}"]
     lines += [f"f {a + 1}//1 {b + 1}//1 {c + 1}//1" for a, b, c in f]
     (tmp_path / "box.obj").write_text("\n".join(lines) + "\n")
-    obj = f'[[objects]]\nmesh = "{tmp_path}/box.obj"\nmaterial = "m"\n'
-    kept = _geometry(tmp_path, obj)
+    kept = _geometry(tmp_path, mesh=f"{tmp_path}/box.obj")
     assert np.allclose(kept.normals, tilted, atol=1e-6)
-    recomputed = _geometry(tmp_path, obj + "crease_angle = 30")
+    recomputed = _geometry(tmp_path, mesh=f"{tmp_path}/box.obj", crease_angle=30)
     assert np.allclose(np.abs(recomputed.normals).max(axis=1), 1.0, atol=1e-6)
 
 
 def test_gltf_normals_are_kept(meshes):
     """glTF NORMAL is used: the uv-sphere's exact normals, not face-averaged ones."""
-    g = _geometry(meshes, f'[[objects]]\nmesh = "{meshes}/spheres.gltf"\nmaterial = "m"')
+    g = _geometry(meshes, mesh=f"{meshes}/spheres.gltf")
     offset = g.vertices - np.c_[np.round(g.vertices[:, 0]), np.zeros((len(g.vertices), 2))]
     exact = offset / np.linalg.norm(offset, axis=1, keepdims=True)
     assert np.allclose(g.normals, exact, atol=1e-5)
@@ -144,9 +138,9 @@ def test_gltf_factors_without_uvs(meshes):
     """MetalRoughSpheres-like: five primitives, each its own baseColor/metallic/roughness
     factors and no UVs. Every sphere's G-buffer pixels carry its own factors (baseColor
     to trimesh's 1/255 quantisation); the scene material's values must not leak in."""
-    objects = (f'[[objects]]\nmesh = "{meshes}/spheres.gltf"\nmesh_material = true\n'
-               'material = { base_color = [0.5, 0.5, 0.5], roughness = 0.55, metallic = 0.45 }')
-    text = _scene(meshes, objects, 200, 60).replace("position = [0.0, 1.5, 4.0]", "position = [0.0, 0.0, 4.0]")
+    spheres = obj(mesh=f"{meshes}/spheres.gltf", mesh_material=True,
+                  material=dict(base_color=[0.5, 0.5, 0.5], roughness=0.55, metallic=0.45))
+    text = _scene(spheres, width=200, height=60, position=[0.0, 0.0, 4.0])
     frame = prepare_frame(parse_scene(text, meshes / "scene.toml"))
     g, gb = frame.geometry, frame.gbuffer
     tri = frame.fragments.tri_id.reshape(-1)
@@ -168,8 +162,8 @@ def test_gltf_factor_defaults(tmp_path):
     doc = json.loads(path.read_text())
     doc["materials"][0]["pbrMetallicRoughness"] = {}
     path.write_text(json.dumps(doc))
-    objects = f'[[objects]]\nmesh = "{path}"\nmesh_material = true\nmaterial = {{ roughness = 0.3 }}'
-    frame = prepare_frame(parse_scene(_scene(tmp_path, objects), tmp_path / "scene.toml"))
+    one = obj(mesh=str(path), mesh_material=True, material=dict(roughness=0.3))
+    frame = prepare_frame(parse_scene(_scene(one), tmp_path / "scene.toml"))
     cov = frame.gbuffer.coverage.reshape(-1)
     assert cov.sum() > 50
     assert np.allclose(frame.gbuffer.channels["base"].reshape(-1, 3)[cov], 1.0)
@@ -179,21 +173,11 @@ def test_gltf_factor_defaults(tmp_path):
 
 # ---------------------------------------------------------------- emission and ambient occlusion
 
-EMISSIVE_BALL = """
-[camera]
-position = [0.0, 0.0, 3.0]
-width = 48
-height = 48
-[render]
-ambient = {ambient}
-[materials.glow]
-base_color = [0.5, 0.5, 0.5]
-emissive = {emissive}
-[[objects]]
-primitive = "sphere"
-subdivisions = 2
-material = "glow"
-"""
+def _emissive_ball(emissive) -> str:
+    """A grey sphere of this `emissive` radiance, no lights and no ambient."""
+    return scene(camera(position=[0.0, 0.0, 3.0], width=48, height=48), render(ambient=0),
+                 material("glow", base_color=[0.5, 0.5, 0.5], emissive=emissive),
+                 obj(primitive="sphere", subdivisions=2, material="glow"))
 
 
 def test_emission_is_a_variant_feature(runtime):
@@ -201,13 +185,13 @@ def test_emission_is_a_variant_feature(runtime):
     a scene without emission compiles no emissive channel."""
     from clshade.models.registry import Registry
     from clshade.pipeline import render
-    glow = parse_scene(EMISSIVE_BALL.format(ambient=0, emissive="[0.5, 0.25, 0.125]"))
+    glow = parse_scene(_emissive_ball([0.5, 0.25, 0.125]))
     out = render(glow, Registry().resolve("ggx_correlated"), runtime=runtime)
     assert out.features.emissive and "emissive" in out.shader.variant(out.model, out.features).channels
     cov = out.image[..., 3] > 0
     assert cov.sum() > 100
     assert np.allclose(out.image[cov][:, :3], [0.5, 0.25, 0.125], rtol=1e-6)
-    dark = render(parse_scene(EMISSIVE_BALL.format(ambient=0, emissive=0)), Registry().resolve("ggx_correlated"),
+    dark = render(parse_scene(_emissive_ball(0)), Registry().resolve("ggx_correlated"),
                   runtime=runtime)
     assert not dark.features.emissive
     variant = dark.shader.variant(dark.model, dark.features)
@@ -217,8 +201,8 @@ def test_emission_is_a_variant_feature(runtime):
 
 def test_gltf_emissive_factor(meshes):
     """The glTF emissiveFactor reaches the emissive channel of its own primitive only."""
-    objects = f'[[objects]]\nmesh = "{meshes}/spheres.gltf"\nmesh_material = true\nmaterial = "m"'
-    text = _scene(meshes, objects, 200, 60).replace("position = [0.0, 1.5, 4.0]", "position = [0.0, 0.0, 4.0]")
+    spheres = obj(mesh=f"{meshes}/spheres.gltf", mesh_material=True, material="m")
+    text = _scene(spheres, width=200, height=60, position=[0.0, 0.0, 4.0])
     frame = prepare_frame(parse_scene(text, meshes / "scene.toml"))
     g, gb = frame.geometry, frame.gbuffer
     assert g.has_emission
@@ -268,36 +252,26 @@ def _occlusion_quad(path: Path, occlusion: tuple[int, int]) -> Path:
     return path
 
 
+def _quad_scene(quad: Path, ambient: float, lights: list[str]) -> str:
+    """The occlusion quad filling a 64×32 frame, under this ambient and these lights."""
+    return scene(camera(position=[0.0, 0.0, 2.0], fov=40.0, width=64, height=32), render(ambient=ambient),
+                 material("m", roughness=1.0), obj(mesh=str(quad), mesh_material=True, material="m"), lights)
+
+
 def test_occlusion_texture_scales_ambient_only(runtime, tmp_path):
     """glTF occlusionTexture multiplies the ambient term: with ambient light only, the left half
     (occlusion 0.25) is a quarter of the right half (1.0); without ambient no channel exists."""
     from clshade.models.registry import Registry
     from clshade.pipeline import render
     quad = _occlusion_quad(tmp_path / "quad.gltf", (64, 255))
-    text = f"""
-[camera]
-position = [0.0, 0.0, 2.0]
-fov = 40.0
-width = 64
-height = 32
-[render]
-ambient = {{ambient}}
-[materials.m]
-roughness = 1.0
-[[objects]]
-mesh = "{quad}"
-mesh_material = true
-material = "m"
-"""
-    out = render(parse_scene(text.format(ambient=1.0), tmp_path / "s.toml"), Registry().resolve("lambert"),
+    out = render(parse_scene(_quad_scene(quad, 1.0, []), tmp_path / "s.toml"), Registry().resolve("lambert"),
                  runtime=runtime)
     assert out.features.occlusion
     rgb = out.image[..., :3]
     left, right = rgb[12:20, 17:25], rgb[12:20, 39:47]   # u in (0.125, 0.375) and (0.625, 0.875)
     assert right.min() > 0
     assert np.allclose(left, right * (64 / 255), rtol=1e-3)      # linear: no sRGB decode
-    lit = parse_scene(text.format(ambient=0) + '[[lights]]\ntype = "directional"\ndirection = [0, 0, -1]\n',
-                      tmp_path / "s.toml")
+    lit = parse_scene(_quad_scene(quad, 0, [light("directional", direction=[0, 0, -1])]), tmp_path / "s.toml")
     out = render(lit, Registry().resolve("lambert"), runtime=runtime)
     assert not out.features.occlusion
     rgb = out.image[..., :3]
@@ -309,34 +283,17 @@ material = "m"
 def test_emission_and_occlusion_match_the_oracle(tmp_path, model):
     """Kernel vs the float64 frame oracle (reference.radiance) on a scene with lights, ambient,
     an occlusion-textured glTF quad and an emissive sphere: both terms are in both."""
-    from test_oracle import TOLERANCE, compare
     quad = _occlusion_quad(tmp_path / "quad.gltf", (64, 255))
     path = tmp_path / "glow.toml"
-    path.write_text(f"""
-[camera]
-position = [0.0, 0.0, 3.0]
-fov = 50.0
-[render]
-ambient = [0.6, 0.5, 0.4]
-[[lights]]
-type = "point"
-position = [1.0, 1.5, 2.0]
-intensity = 4.0
-[materials.m]
-roughness = 0.6
-[[objects]]
-mesh = "{quad}"
-mesh_material = true
-material = "m"
-[[objects]]
-primitive = "sphere"
-radius = 0.3
-translate = [0.4, 0.0, 0.5]
-material = {{ base_color = [0.2, 0.3, 0.4], emissive = [0.7, 0.2, 0.1] }}
-""")
-    res = compare(path, model)
+    path.write_text(scene(camera(position=[0.0, 0.0, 3.0], fov=50.0), render(ambient=[0.6, 0.5, 0.4]),
+                          light("point", position=[1.0, 1.5, 2.0], intensity=4.0),
+                          material("m", roughness=0.6),
+                          obj(mesh=str(quad), mesh_material=True, material="m"),
+                          obj(primitive="sphere", radius=0.3, translate=[0.4, 0.0, 0.5],
+                              material=dict(base_color=[0.2, 0.3, 0.4], emissive=[0.7, 0.2, 0.1]))))
+    res = oracle_errors(path, model)
     assert res["pixels"] > 0.5 * res["covered"], res
-    assert res["max"] <= TOLERANCE, res
+    assert res["max"] <= ORACLE_BOUND, res
 
 
 @pytest.mark.parametrize("kind, args, volume, lo, hi", [
@@ -366,8 +323,8 @@ def test_gbuffer_normals_unit_and_nonfinite_pixels_uncovered(meshes):
     zeroed and leave the coverage (the CLI's covered-pixel count)."""
     from clshade.render.gbuffer import build_gbuffer
     from clshade.render.raster import rasterize
-    scene = parse_scene(_scene(meshes, '[[objects]]\nprimitive = "sphere"\nsubdivisions = 1\nmaterial = "m"\n'
-                                       'smooth = true'), meshes / "scene.toml")
+    scene = parse_scene(_scene(obj(primitive="sphere", subdivisions=1, material="m", smooth=True)),
+                        meshes / "scene.toml")
     g = build_geometry(scene)
     cam = scene.camera
     frags = rasterize(g.vertices, g.faces, cam.view_matrix(), cam.projection_matrix(), cam.width, cam.height,
@@ -389,23 +346,11 @@ def test_water_bottle_brings_emission_and_occlusion(assets, tmp_path):
     """Khronos' WaterBottle (emissive and occlusion-roughness-metallic textures): with its glTF
     materials the G-buffer gets emissive and occlusion channels from the textures."""
     path = tmp_path / "bottle.toml"
-    path.write_text(f"""
-[camera]
-position = [0.0, 0.05, 0.45]
-width = 64
-height = 80
-[render]
-ambient = 0.4
-[[lights]]
-type = "directional"
-direction = [-0.5, -0.3, -1.0]
-[materials.m]
-roughness = 0.5
-[[objects]]
-mesh = "{assets / 'gltf' / 'WaterBottle' / 'WaterBottle.gltf'}"
-mesh_material = true
-material = "m"
-""")
+    path.write_text(scene(camera(position=[0.0, 0.05, 0.45], width=64, height=80), render(ambient=0.4),
+                          light("directional", direction=[-0.5, -0.3, -1.0]),
+                          material("m", roughness=0.5),
+                          obj(mesh=str(assets / "gltf" / "WaterBottle" / "WaterBottle.gltf"), mesh_material=True,
+                              material="m")))
     from clshade.device.shade import scene_features
     frame = prepare_frame(parse_scene(path.read_text(), path))
     features = scene_features(frame.scene, geometry=frame.geometry)
@@ -416,3 +361,79 @@ material = "m"
     assert cov.sum() > 500
     assert occlusion.min() < 0.9 and occlusion.max() <= 1.0       # the texture, not the constant 1
     assert 0 < (emissive.max(axis=1) > 0).sum() < cov.sum()         # the emissive label, not the whole bottle
+
+
+# ---------------------------------------------------------------- bad mesh files, refused in one line
+
+def _mesh_scene(mesh: str) -> str:
+    return small_red_sphere(shape=dict(mesh=mesh))
+
+
+def test_missing_mesh(tmp_path, capsys):
+    render_refused(tmp_path, capsys, _mesh_scene("nowhere.obj"), "objects[0].mesh", "nowhere.obj", "not found")
+
+
+def test_unreadable_mesh(tmp_path, capsys):
+    (tmp_path / "garbage.ply").write_bytes(b"\x00\xff not a ply file \x01" * 10)
+    render_refused(tmp_path, capsys, _mesh_scene("garbage.ply"), "objects[0].mesh", "garbage.ply")
+
+
+def test_unsupported_mesh_format(tmp_path, capsys):
+    (tmp_path / "thing.xyz").write_text("0 0 0\n")
+    render_refused(tmp_path, capsys, _mesh_scene("thing.xyz"), "objects[0].mesh", "unsupported mesh format .xyz")
+
+
+def test_empty_mesh(tmp_path, capsys):
+    (tmp_path / "empty.obj").write_text("")
+    render_refused(tmp_path, capsys, _mesh_scene("empty.obj"), "objects[0].mesh", "empty.obj")
+
+
+@pytest.mark.parametrize("name, content, index", [
+    ("big.ply", ply_triangle((0, 1, 500)), "500"),
+    ("edge.ply", ply_triangle((0, 1, 3)), "3"),           # one past the last vertex
+    ("negative.ply", ply_triangle((0, 1, -1)), "-1"),
+    ("accessor.gltf", gltf_triangle((0, 1, 500)), "500"),
+])
+def test_out_of_range_face_indices(tmp_path, capsys, name, content, index):
+    write(tmp_path / name, content)
+    refused(capsys, ["render", str(write_scene(tmp_path, _mesh_scene(name))), "-o", str(tmp_path / "o.png")],
+            "objects[0].mesh", name, f"face index {index} is out of range", "3 vertices")
+
+
+def test_in_range_faces_still_render(tmp_path, capsys):
+    for name, content in (("ok.ply", ply_triangle((0, 1, 2))), ("ok.gltf", gltf_triangle((0, 1, 2)))):
+        write(tmp_path / name, content)
+        image = cli_image(capsys, write_scene(tmp_path, _mesh_scene(name)), tmp_path / f"{name}.exr")
+        assert image[..., 3].sum() > 0
+
+
+@pytest.mark.parametrize("face", [(0, 1, 2), (1, 0, 2), (1, 2, 0), ("1/0", "2/1", "3/1"), ("1//0", "2//1", "3//1")])
+def test_obj_face_index_zero_is_refused(tmp_path, capsys, face):
+    text = "v -1 -1 0\nv 1 -1 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\nf {} {} {}\n".format(*face)
+    write(tmp_path / "zero.obj", text)
+    refused(capsys, ["render", str(write_scene(tmp_path, _mesh_scene("zero.obj"))), "-o", str(tmp_path / "o.png")],
+            "objects[0].mesh", "zero.obj", "line 6: face index 0")
+
+
+def test_obj_indices_that_contain_zero_digits_are_accepted(tmp_path, capsys):
+    text = "".join(f"v {i % 7} {i // 7} 0\n" for i in range(12)) + "f 10 11 12\nf -1 -2 -3\n"
+    write(tmp_path / "ten.obj", text)
+    image = cli_image(capsys, write_scene(tmp_path, _mesh_scene("ten.obj")), tmp_path / "ten.exr")
+    assert np.isfinite(image).all()
+
+
+def test_nonfinite_mesh_renders_finite(tmp_path, capsys):
+    """A NaN vertex and a NaN vertex normal in a mesh file: the render completes, is finite
+    (the rasterizer drops the NaN face) and the CLI warns about the NaN-normal pixels."""
+    from clshade.render.image import read_image
+    (tmp_path / "nan.obj").write_text(
+        "v -1 -1 0\nv 1 -1 0\nv 0 1 0\nv 2 1 0\nv 1 1 0\nv 0 0 nan\n"
+        "vn 0 0 1\nvn 0 0 1\nvn 0 0 1\nvn nan nan nan\nvn 0 0 1\n"
+        "f 1//1 2//2 3//3\nf 2//2 4//4 5//5\nf 1//1 2//2 6//1\n")
+    scene = write_scene(tmp_path, _mesh_scene("nan.obj"))
+    out = tmp_path / "nan.exr"
+    code, _, err = run_cli(capsys, ["render", str(scene), "-o", str(out)])
+    assert code == 0, err
+    image = read_image(out)
+    assert np.isfinite(image).all() and image[..., 3].any()
+    assert "pixels had non-finite G-buffer inputs" in err, err

@@ -93,7 +93,7 @@ def test_denormal_shininess_shades_alike_with_denormals_flushed_or_kept(runtime)
     """A denormal shininess (1e-40: the torture grid's) reads as 0 in a build that flushes denormals
     (NVIDIA's -cl-fast-relaxed-math; here -cl-denorms-are-zero, which PoCL honours), so 0ⁿ behind the
     mirror (r·v ≤ 0) took its n = 0 branch there (1) and its n > 0 branch (0) elsewhere: the H100
-    fast Phong build deviated from the float64 reference by 1000 (2026-11-26). Every build and the
+    fast Phong build deviated from the float64 reference by 1000. Every build and the
     reference must give the same lobe for n below MIN_SHININESS (FLT_MIN), at, behind and off the mirror.
     Each case fills 16 lanes, so that a work-item of SIMD ≤ 16 holds one case (the skip test decides per work-item)."""
     import numpy as np

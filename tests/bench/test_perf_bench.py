@@ -1,4 +1,4 @@
-"""The performance bench's measuring parts (issue 15): STREAM accounting, the
+"""The performance bench's measuring parts: STREAM accounting, the
 orbiting camera of whole frames, and the peers' output against clshade's."""
 from __future__ import annotations
 
@@ -13,11 +13,10 @@ from clshade.device.shade import Shader, scene_features
 from clshade.models.registry import Registry
 from clshade.pipeline import prepare_frame
 from clshade.render.scene import load_scene, parse_scene
-from clshade.resources import scenes_dir
+
+from conftest import ROOT, SCENES
 
 resolve = Registry().resolve          # the built-in lobes
-
-SCENES = scenes_dir()
 
 
 def test_stream_counts_bytes_as_stream_does(monkeypatch):
@@ -104,9 +103,8 @@ def test_committed_perf_tables_are_rendered_from_their_json():
     """benchmarks/results/perf_1080p.md is clshade.report.perf.perf_markdown() of the committed JSON, so no figure in it
     was typed by hand, and its fill line quotes each runtime's fill medians."""
     import json
-    from pathlib import Path
     from clshade.report.perf import perf_markdown
-    results = Path(__file__).resolve().parents[1] / "benchmarks" / "results"
+    results = ROOT / "benchmarks" / "results"
     if not (results / "perf_1080p.json").exists():
         pytest.skip("no committed perf results (benchmarks/results/perf_1080p.json) in this checkout")
     doc = json.loads((results / "perf_1080p.json").read_text(encoding="utf-8"))

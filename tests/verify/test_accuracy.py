@@ -2,7 +2,7 @@
 float64 reference (clshade.verify.reference.brdf): ≥ 1e5 random samples each, max relative
 error ≤ 1e-4 inside the limits documented in clshade/verify/accuracy.py.
 
-Run with `pytest -s tests/test_accuracy.py` to see the per-model figures;
+Run with `pytest -s tests/verify/test_accuracy.py` to see the per-model figures;
 benchmarks/measure/accuracy_table.py measures them for docs/accuracy.md.
 """
 from __future__ import annotations

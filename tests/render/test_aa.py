@@ -1,7 +1,9 @@
-"""Anti-aliasing (issue 16): supersampling, its device resolve, specular AA, the ladder's truth."""
+"""Anti-aliasing: supersampling (clshade/render/samples.py) and its device resolve, MSAA, specular AA, their
+scene keys and commands, and the truth of `clshade aa`'s ladder (clshade/bench/aa.py)."""
 from __future__ import annotations
 
 import dataclasses
+import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -24,8 +26,8 @@ from clshade.render.scene import load_scene, parse_scene
 from clshade.render.transforms import perspective
 from clshade.verify import reference
 
-from conftest import SCENES
-from scene_toml import plane_facing_camera
+from conftest import ORACLE_BOUND, SCENES
+from scene_toml import camera, plane_facing_camera, scene, table
 
 resolve = Registry().resolve          # the built-in lobes
 
@@ -33,8 +35,6 @@ GGX = resolve("ggx_correlated")
 W, H = 96, 44
 # Two renderings of the same samples: equal to float32 rounding of a few operations.
 SAME_PIXEL = 1e-5
-# The kernels against the float64 frame oracle (tests/test_oracle.py).
-ORACLE_BOUND = 1e-4
 
 
 def assert_every_pixel(err: np.ndarray, bound: float, what: str, index: np.ndarray | None = None) -> None:
@@ -339,15 +339,9 @@ def test_specular_aa_is_absent_from_kernels_of_scenes_that_do_not_ask(spheres, r
 # ---------------------------------------------------------------- scene key and CLI
 
 
-BASE = """
-[camera]
-position = [0.0, 0.0, 3.0]
-width = 32
-height = 24
-
-[render]
-{line}
-"""
+def _render_keys(lines: str) -> str:
+    """A 32×24 camera and a [render] table of these `key = value` lines."""
+    return scene(camera(position=[0.0, 0.0, 3.0], width=32, height=24), table("render", **tomllib.loads(lines)))
 
 
 @pytest.mark.parametrize("line, key, value", [("samples = 0", "render.samples", "0"),
@@ -358,13 +352,13 @@ height = 24
 def test_scene_keys_are_validated(tmp_path, line, key, value):
     path = tmp_path / "s.toml"
     with pytest.raises(ClshadeError) as exc:
-        parse_scene(BASE.format(line=line), path)
+        parse_scene(_render_keys(line), path)
     msg = str(exc.value)
     assert str(path) in msg and key in msg and value in msg
 
 
 def test_scene_keys_are_read():
-    s = parse_scene(BASE.format(line="samples = 3\nspecular_aa = true"), Path("s.toml"))
+    s = parse_scene(_render_keys("samples = 3\nspecular_aa = true"), Path("s.toml"))
     assert s.samples == 3 and s.specular_aa
 
 

@@ -10,7 +10,7 @@ The CLI runs in-process on 32×32 frames (a few ms per example once the kernels 
 file descriptors 1 and 2 are captured as well as sys.stdout/sys.stderr, so what C libraries
 print counts. Profiles (CLSHADE_HYPOTHESIS_PROFILE): `hostile-ci` (default, a few hundred
 examples in all) and `hostile-long` (ten times as many, for a benchmark-style run:
-`CLSHADE_HYPOTHESIS_PROFILE=hostile-long python -m pytest tests/test_hostile_properties.py`).
+`CLSHADE_HYPOTHESIS_PROFILE=hostile-long python -m pytest tests/contracts/test_hostile_properties.py`).
 The examples each test ran are counted in EXAMPLES and printed at the end of the module.
 """
 from __future__ import annotations
