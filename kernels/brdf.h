@@ -72,7 +72,7 @@ INLINE real safe_sqrt(real x) { return sqrt(fmax(x, 0.0f)); }
 
 /* log2 x for normal x > 0 in straight-line lane-wise code (PoCL's float8 log2 is not vectorised):
  * x = m·2^e, m in [√½, √2), ln m = f − f²/2 + f³·P(f), f = m − 1, P the minimax polynomial of
- * Cephes logf (S. Moshier): ≤ 2 ulp of ln m against float64 (tests/test_terms.py). */
+ * Cephes logf (S. Moshier): ≤ 2 ulp of ln m against float64 (tests/device/test_terms.py). */
 INLINE real log2_lanes(real x) {
 #ifdef REAL_DOUBLE
     return log2(x);     /* the double build: the library's, to double precision */
@@ -99,7 +99,7 @@ INLINE real log2_lanes(real x) {
 
 /* eˣ in straight-line lane-wise code (PoCL's precise float8 exp is slow), x ≤ 88, 0 below −87:
  * x = k ln 2 + r (Cody–Waite, ln 2 in two parts), eʳ by Cephes expf's minimax polynomial
- * (S. Moshier), 2ᵏ built in the exponent bits: ≤ 2 ulp against float64 (tests/test_terms.py). */
+ * (S. Moshier), 2ᵏ built in the exponent bits: ≤ 2 ulp against float64 (tests/device/test_terms.py). */
 INLINE real exp_lanes(real x) {
 #ifdef REAL_DOUBLE
     return exp(x);
@@ -122,7 +122,7 @@ INLINE real exp_lanes(real x) {
 
 /* 2ˣ in straight-line lane-wise code (pip's PoCL 3.0 calls its float8 exp2 out of line: simd.h),
  * x ≤ 127: x = k + r, k = rint(x), |r| ≤ ½; 2ʳ = 1 + r·P(r), P Cephes exp2f's minimax polynomial
- * (S. Moshier), 2ᵏ built in the exponent bits: ≤ 2 ulp against float64 (tests/test_terms.py). */
+ * (S. Moshier), 2ᵏ built in the exponent bits: ≤ 2 ulp against float64 (tests/device/test_terms.py). */
 INLINE real exp2_lanes(real x) {
 #ifdef REAL_DOUBLE
     return exp2(x);
@@ -265,7 +265,7 @@ INLINE real fresnel_conductor_channel_unclamped(real c, real eta, real k) {
     real t1 = a2b2 + c2;
     /* a² = (a2b2 + t0)/2 and b² = (a2b2 − t0)/2, each from whichever form does
      * not cancel, using (a2b2 + t0)(a2b2 − t0) = 4η²k²: the difference form lost
-     * 4.5e-4 relative in F for η < 1 and k → 0 (measured, tests/test_terms.py). */
+     * 4.5e-4 relative in F for η < 1 and k → 0 (measured, tests/device/test_terms.py). */
     real big = 0.5f * (a2b2 + fabs(t0));
     real small = (2.0f * eta * eta * k * k) / fmax(a2b2 + fabs(t0), FLT_MIN);
     real a = sqrt(t0 >= 0.0f ? big : small);

@@ -140,7 +140,7 @@ INLINE void store8_rows(__global float* o, float8 x, float8 y, float8 z, float8 
 
 /* Write the SIMD pixels of work-item i as float4 (r, g, b, a), from one call site per kernel:
  * LLVM merges two sites' last stores and drops their streaming mark, leaving every line half
- * cached (tests/test_specialisation.py checks there is one). */
+ * cached (tests/device/test_specialisation.py checks there is one). */
 INLINE void store4(size_t i, __global float4* out, vec3 c, real a) {
 #if SIMD == 8
     store8_rows((__global float*)(out + 8 * i), c.x, c.y, c.z, a);

@@ -34,7 +34,7 @@
  *   GENERAL                        the general kernel: every channel read, the
  *                                  light count, ambient and shadows runtime
  *                                  switches; the reference every specialised
- *                                  variant must match (tests/test_specialisation.py)
+ *                                  variant must match (tests/device/test_specialisation.py)
  *
  * Channel layout (struct of arrays, one entry per pixel, row 0 at the top;
  * `plane` = npix padded to a multiple of 16 (render/arrays.py PIXEL_PAD) ≥ SIMD, see

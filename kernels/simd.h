@@ -129,7 +129,7 @@ typedef uint16 uindex;
 #if SIMD == 16
 /* float16 arguments without AVX-512 "change the ABI" (clang -Wpsabi): every
  * function here is inlined, so no call passes one; the warning would otherwise
- * print on every build (tests/test_meshes.py wants an empty stderr). */
+ * print on every build (tests/render/test_meshes.py wants an empty stderr). */
 #pragma clang diagnostic ignored "-Wpsabi"
 #endif
 

@@ -2,7 +2,7 @@
 under them (`python -m benchmarks.docgen.make_images [NAME ...]`, from the repository root).
 
 Each entry is the README caption's command without `-o`; the image is written to
-docs/images/NAME. tests/test_cli_polish.py checks the captions quote these commands
+docs/images/NAME. tests/contracts/test_readme_images.py checks the captions quote these commands
 and that docs/images/robot.png is what its command renders today.
 """
 from __future__ import annotations

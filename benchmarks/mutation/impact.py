@@ -160,7 +160,7 @@ def _collect(folder: Path, root: Path) -> FileImpact:
 def record(copy: Path, python: str, env: dict[str, str], files: list[str] | None = None,
            progress=None) -> dict[str, FileImpact]:
     """Run each test file of `copy` alone with the recorder; test file (relative path) → what it reached."""
-    files = files or sorted(str(p.relative_to(copy)) for p in (copy / "tests").glob("test_*.py"))
+    files = files or sorted(str(p.relative_to(copy)) for p in (copy / "tests").rglob("test_*.py"))
     impact: dict[str, FileImpact] = {}
     with tempfile.TemporaryDirectory(prefix="clshade-impact-") as tmp:
         recorder = Path(tmp) / "recorder"
@@ -246,7 +246,7 @@ def main(argv: list[str] | None = None) -> int:
     import argparse
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--json", help="write the map here")
-    parser.add_argument("files", nargs="*", help="test files (default: every tests/test_*.py)")
+    parser.add_argument("files", nargs="*", help="test files (default: every test_*.py under tests/)")
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory(prefix="impact-base-") as tmp:
         copy = Path(tmp) / "repo"

@@ -83,7 +83,7 @@ def check(sites: list[Site]) -> int:
 def test_order(root: Path, file: str) -> list[str]:
     """Every test file, those that name the mutated module (or kernel file: `glsl.h`) first (the likeliest
     to fail), then the rest in the usual order."""
-    files = sorted((root / "tests").glob("test_*.py"))
+    files = sorted((root / "tests").rglob("test_*.py"))
     module = file.removesuffix(".py").replace("/", ".")       # clshade.render.image
     if file.startswith("kernels/"):
         module = file.removeprefix("kernels/")                 # glsl.h, models/phong.cl

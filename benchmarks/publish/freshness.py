@@ -4,7 +4,7 @@ Every results JSON names the commit it was measured on (its "provenance", writte
 clshade.provenance.stamp; a file written before that existed counts as measured at the
 commit that last changed the file). A result is *stale* when a later commit changed the
 code that produced it: its producers in the results registry (benchmarks/publish/registry.py).
-tests/test_freshness.py fails on a stale result.
+tests/contracts/test_freshness.py fails on a stale result.
 
     python -m benchmarks.publish.freshness      # list every result: fresh, or the commits since
 """
@@ -20,7 +20,7 @@ from benchmarks.publish.registry import RESULTS, Result
 ROOT = Path(__file__).resolve().parents[2]
 
 # Results measured before the code they depend on last changed, not yet regenerated (expensive: the lead
-# reruns them); tests/test_freshness.py marks them xfail, strict: a regenerated one fails there until it
+# reruns them); tests/contracts/test_freshness.py marks them xfail, strict: a regenerated one fails there until it
 # leaves this list. The list lives here, outside every result's producers, so that taking a result off it
 # does not make that result stale again (tests/ produces mutants.json).
 KNOWN_STALE: dict[str, str] = {

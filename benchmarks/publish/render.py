@@ -5,7 +5,7 @@ Generators (benchmarks/measure/, benchmarks/experiments/host_ab.py, the mutation
 (benchmarks/publish/registry.py) says it renders: whole Markdown files (benchmarks/REPORT.md, every
 benchmarks/results/*.md, docs/accuracy.md) and the regions of README.md and docs/*.md between
 `<!-- publish:NAME -->` and `<!-- /publish:NAME -->` markers, README's list of the commands included.
-tests/test_publish.py re-renders and compares, so a number edited by hand in a published table fails the suite.
+tests/contracts/test_publish.py re-renders and compares, so a number edited by hand in a published table fails the suite.
 
     python -m benchmarks.publish          # rewrite the files
     python -m benchmarks.publish --check  # exit 1 when a file differs from its rendering

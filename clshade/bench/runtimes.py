@@ -7,7 +7,7 @@ protocol (`measure`: noise hits every runtime alike), and its image is compared 
 frame oracle on the same pixels as `clshade bench`. The runtimes are ranked by the geometric mean
 of their models' median kernel times; the document says which device the default selection picks
 and whether it is the fastest (the order of clshade.device.runtime.RUNTIME_PREFERENCE;
-tests/test_runtimes.py checks the committed result). benchmarks/measure/runtimes.py writes it,
+tests/device/test_runtimes.py checks the committed result). benchmarks/measure/runtimes.py writes it,
 clshade.report.runtimes renders it.
 """
 from __future__ import annotations

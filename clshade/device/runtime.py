@@ -122,7 +122,7 @@ def _pocl_version(version: str) -> tuple[int, ...]:
 
 #: The default device's runtime, in order of preference among healthy CPU devices: the order of the
 #: runtimes' kernel times on the same frame in benchmarks/results/runtimes.json (fastest first;
-#: tests/test_runtimes.py fails when the measured order there disagrees). A substring of
+#: tests/device/test_runtimes.py fails when the measured order there disagrees). A substring of
 #: "platform, platform version"; runtimes matching none come after these.
 RUNTIME_PREFERENCE = ("PoCL 3.1", "PoCL 3.0", "Intel(R) OpenCL")
 

@@ -12,7 +12,7 @@ program per model that reads every channel and takes the light list (with a
 kind per light), the ambient switch and the shadow switch as runtime
 arguments; a general Features keeps the scene's effects as the values of those
 switches. Specialisation must never change results: every specialised variant
-equals the general kernel with the same switches (tests/test_specialisation.py).
+equals the general kernel with the same switches (tests/device/test_specialisation.py).
 """
 from __future__ import annotations
 

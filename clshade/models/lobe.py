@@ -41,7 +41,7 @@ USES = frozenset({"roughness", "metallic", "fresnel", "shininess", "kd", "ks", "
                   "vectors", "tangents"})
 # The surface inputs every model reads besides its lobes' parameters (kernels/surface.h
 # make_surface, per pixel in the G-buffer), declared as a lobe declares its parameters. The
-# defaults are the scene format's (clshade.render.scene.Material; tests/test_view.py checks them).
+# defaults are the scene format's (clshade.render.scene.Material; tests/view/test_view.py checks them).
 SURFACE_PARAMS = (
     Param("base_color", 0.0, 1.0, 0.8, "linear base colour, each of R, G, B (albedo; a metal's F0)", kind="color"),
     Param("metallic", 0.0, 1.0, 0.0, "metalness (metallic workflow): 0 dielectric, 1 metal"),

@@ -16,7 +16,7 @@ def accuracy_markdown(doc: dict) -> str:
                        for m in doc["models"]])
     lines = ["# Accuracy of the kernels against the float64 reference", "",
              f"Rendered by `python -m benchmarks.publish` from benchmarks/results/accuracy.json (measured "
-             f"{doc['created']} by `{doc['command']}`); checked by tests/test_terms.py and tests/test_accuracy.py.",
+             f"{doc['created']} by `{doc['command']}`); checked by tests/device/test_terms.py and tests/verify/test_accuracy.py.",
              "", f"Device: {doc['device']}. Precise math (no -cl-fast-relaxed-math). Target: max relative error ≤ "
              f"{doc['target']:g}.", "",
              f"Metric: |f − g| / max(|g|, {doc['floor_rel']:g} · peak), g the float64 reference on float32-rounded "

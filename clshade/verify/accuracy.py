@@ -65,7 +65,7 @@ MAX_SHININESS = 128.0
 # the mirror), and D amplifies it by ~2/α near its peak (Beckmann's exponent
 # more). Measured max error: 8.6e-4 (GGX) and 1.5e-3 (Beckmann) at α ≈ 0.003,
 # n·l ≈ n·v ≈ 0.02; α · min(n·l, n·v) ≥ 5e-3 keeps both under 1e-4. This is the
-# conditioning of float32 directions, not a term: tests/test_terms.py feeds D
+# conditioning of float32 directions, not a term: tests/device/test_terms.py feeds D
 # its n·h directly and stays at ~1e-6.
 MIN_ALPHA_COSINE = 5.0e-3
 # Default number of random samples per model or term.

@@ -273,7 +273,7 @@ class ViewSession:
         """The scene the controls describe, through the scene parser (its checks and messages)."""
         position = self.orbit.position(controls.azimuth, controls.elevation, controls.distance)
         doc = applied(self.base_doc, controls, position, self.width, self.height)
-        # The tables as tomllib reads back dumps(doc) (tests/test_view.py: the round trip is exact).
+        # The tables as tomllib reads back dumps(doc) (tests/view/test_view.py: the round trip is exact).
         last = self._parsed
         if last is not None and _same_but_camera(last[0], doc):     # orbit, zoom: only the camera is parsed
             scene = dataclasses.replace(last[1], camera=camera_from_data(doc, self.path))
