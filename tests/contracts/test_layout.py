@@ -46,8 +46,9 @@ def module_name(path: Path, package: Path = PACKAGE) -> str:
     return ".".join(parts)
 
 
-def imports(path: Path, me: str | None = None, submodules: bool = False) -> list[tuple[int, str]]:
-    """(line, module) of every clshade import in the file; `me` is its dotted name. With `submodules`,
+def imports(path: Path, me: str | None = None, submodules: bool = False,
+            top: str = "clshade") -> list[tuple[int, str]]:
+    """(line, module) of every import of the package `top` in the file; `me` is its dotted name. With `submodules`,
     `from pkg import name` also yields `pkg.name` (the caller keeps it where it is a module)."""
     me = me or module_name(path)
     tree = ast.parse(path.read_text(), str(path))
@@ -62,14 +63,14 @@ def imports(path: Path, me: str | None = None, submodules: bool = False) -> list
                 target = ".".join(base + ([node.module] if node.module else []))
             else:
                 target = node.module or ""
-            if target == "clshade":  # `from clshade import x`: x is the module
-                found += [(node.lineno, f"clshade.{a.name}") for a in node.names if a.name != "__version__"]
-            elif target.startswith("clshade"):
+            if target == top:  # `from clshade import x`: x is the module
+                found += [(node.lineno, f"{top}.{a.name}") for a in node.names if a.name != "__version__"]
+            elif target.startswith(top + "."):
                 found.append((node.lineno, target))
                 if submodules:
                     found += [(node.lineno, f"{target}.{a.name}") for a in node.names]
         elif isinstance(node, ast.Import):
-            found += [(node.lineno, a.name) for a in node.names if a.name.startswith("clshade")]
+            found += [(node.lineno, a.name) for a in node.names if a.name.split(".")[0] == top]
     return found
 
 
@@ -102,14 +103,14 @@ def test_checker_sees_upward_imports(tmp_path: Path) -> None:
 
 
 def import_graph(package: Path = PACKAGE) -> dict[str, set[str]]:
-    """Module → the clshade modules it imports (top level or inside a function). An import of a
+    """Module → the modules of `package` it imports (top level or inside a function). An import of a
     package counts as an import of its __init__; `from pkg import mod` as one of `pkg.mod`."""
     names = {module_name(p, package) for p in package.rglob("*.py")}
     graph: dict[str, set[str]] = {}
     for path in sorted(package.rglob("*.py")):
         me = module_name(path, package)
         targets = set()
-        for _, target in imports(path, me, submodules=True):
+        for _, target in imports(path, me, submodules=True, top=package.name):
             while target not in names and "." in target:   # `clshade.x.y.Name` → the module clshade.x.y
                 target = target.rsplit(".", 1)[0]
             if target in names and target != me:
@@ -157,6 +158,13 @@ def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
 def test_no_import_cycles() -> None:
     """No two modules import each other, directly or through others, lazily or not."""
     found = cycles(import_graph())
+    assert not found, "import cycles:\n" + "\n".join(" ↔ ".join(c) for c in found)
+
+
+@pytest.mark.text
+def test_no_import_cycles_in_benchmarks(checkout: Path) -> None:
+    """The same for the benchmarks package (generators, publishing, mutation testing)."""
+    found = cycles(import_graph(checkout / "benchmarks"))
     assert not found, "import cycles:\n" + "\n".join(" ↔ ".join(c) for c in found)
 
 
