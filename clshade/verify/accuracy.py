@@ -36,7 +36,7 @@ import numpy as np
 
 from clshade.verify import reference as R
 from clshade.errors import ClshadeError
-from clshade.resources import KernelConstant, constant, kernel_constants  # noqa: F401
+from clshade.verify.reference.vectors import orthonormal_basis
 from clshade.device.evaluate import Samples, eval_brdf
 from clshade.models.model import NONE, Model, presets
 from clshade.models.registry import Registry
@@ -342,7 +342,7 @@ def accuracy_models() -> list[Model]:
 
 def _rotate_to(n: np.ndarray, local: np.ndarray) -> np.ndarray:
     """Express vectors given in the +z frame in the frame of unit normals n."""
-    t, b = R._orthonormal_basis(n)
+    t, b = orthonormal_basis(n)
     return local[:, :1] * t + local[:, 1:2] * b + local[:, 2:3] * n
 
 
