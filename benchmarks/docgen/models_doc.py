@@ -19,7 +19,6 @@ from clshade.models.model import GROUPS, presets
 from clshade.report.models import clamps_table, lobe_card, parameters_table, presets_table
 from clshade.report.plausibility import plausibility_table
 from clshade.resources import kernel_constants
-from clshade.verify import accuracy as A
 from clshade.verify import plausibility as P
 
 ROOT = Path(__file__).resolve().parents[2]
