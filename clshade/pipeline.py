@@ -5,7 +5,6 @@ whole frame (its G-buffer is shared by several models: compare, bench); `render_
 from __future__ import annotations
 
 import dataclasses
-import os
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field

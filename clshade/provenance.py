@@ -17,9 +17,9 @@ import numpy as np
 _ROOT = Path(__file__).resolve().parents[1]
 
 
-#: What a measurement writes or publish.py renders from the results (tables between markers):
-#: changed in the checkout, they do not make a measurement "dirty".
-RENDERED: tuple[str, ...] = ("benchmarks/results", "README.md", "REPORT.md", "docs")
+#: What a measurement writes or `python -m benchmarks.publish` renders from the results (tables between
+#: markers): changed in the checkout, they do not make a measurement "dirty".
+RENDERED: tuple[str, ...] = ("benchmarks/results", "benchmarks/report", "benchmarks/REPORT.md", "README.md", "docs")
 
 
 def _git(*args: str, root: Path = _ROOT) -> str | None:

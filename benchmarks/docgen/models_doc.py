@@ -18,7 +18,7 @@ from clshade.models.lobe import builtin_lobes
 from clshade.models.model import GROUPS, presets
 from clshade.report.models import clamps_table, lobe_card, parameters_table, presets_table
 from clshade.report.plausibility import plausibility_table
-from clshade.verify import accuracy as A
+from clshade.resources import kernel_constants
 from clshade.verify import plausibility as P
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -42,7 +42,7 @@ def clamp_lines() -> list[str]:
     """The named floors from the kernel headers; their measured bias is the table of
     benchmarks/results/floor_bias.json (benchmarks/measure/floor_bias.py, the one measurement), which
     `python -m benchmarks.publish` renders into the region below — the same table as docs/stability.md."""
-    floors = [c for c in A.kernel_constants().values() if c.name.startswith("MIN_")]
+    floors = [c for c in kernel_constants().values() if c.name.startswith("MIN_")]
     return [clamps_table(floors), "", "Measured bias of each floor where it acts:", "", "<!-- publish:floor-bias -->",
             "(rendered by `python -m benchmarks.publish` from benchmarks/results/floor_bias.json)",
             "<!-- /publish:floor-bias -->"]

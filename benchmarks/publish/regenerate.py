@@ -1,11 +1,12 @@
 """Measure published results again with the commands the results registry names, then publish.
 
-    python -m benchmarks.publish.regenerate                 # every stale result (freshness), then publish
+    python -m benchmarks.publish.regenerate                 # every stale or missing result, then publish
     python -m benchmarks.publish.regenerate aa.json view.json
     python -m benchmarks.publish.regenerate --all --skip mutants.json --dry-run
 
 Each command runs from the repository root in a shell, one at a time (timings on a shared machine are
 noisy enough without two benchmarks at once); a failing command is reported and the others still run.
+A result on freshness's known-stale list (hours to measure) runs only when named or with --all.
 """
 from __future__ import annotations
 
@@ -14,12 +15,13 @@ import subprocess
 import sys
 import time
 
-from benchmarks.publish.freshness import ROOT, staleness
+from benchmarks.publish.freshness import KNOWN_STALE, ROOT, staleness
 from benchmarks.publish.registry import RESULTS, Result
 
 
 def chosen(names: list[str], everything: bool, skip: list[str]) -> list[Result]:
-    """The results to measure: those named (by file name), all, or the stale ones; less `skip`."""
+    """The results to measure: those named (by file name), all, or the stale and missing ones (not the
+    known-stale); less `skip`."""
     known = {r.name: r for r in RESULTS}
     unknown = [n for n in [*names, *skip] if n not in known]
     if unknown:
@@ -30,13 +32,14 @@ def chosen(names: list[str], everything: bool, skip: list[str]) -> list[Result]:
         picked = list(RESULTS)
     else:
         stale = staleness()
-        picked = [r for r in RESULTS if stale.get(r.json)]
+        picked = [r for r in RESULTS if r.json not in KNOWN_STALE
+                  and (stale.get(r.json) or not (ROOT / r.json).is_file())]
     return [r for r in picked if r.name not in skip]
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("names", nargs="*", help="results by file name (default: the stale ones)")
+    parser.add_argument("names", nargs="*", help="results by file name (default: the stale and missing ones)")
     parser.add_argument("--all", action="store_true", help="every result of the registry")
     parser.add_argument("--skip", action="append", default=[], metavar="NAME", help="leave this result out")
     parser.add_argument("--dry-run", action="store_true", help="print the commands only")

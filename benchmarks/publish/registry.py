@@ -110,7 +110,8 @@ RESULTS: tuple[Result, ...] = (
            ("kernels", "clshade/verify/bias.py", "benchmarks/measure/floor_bias.py"),
            (_region("docs/stability.md", "floor-bias", floor_bias_table),
             _region("docs/models.md", "floor-bias", floor_bias_table)), "the bias of every named floor"),
-    Result(OUT + "stability.json", "clshade check stability --json > benchmarks/results/stability.json",
+    Result(OUT + "stability.json", "clshade check stability --json > benchmarks/results/stability.json.part && "
+           "mv benchmarks/results/stability.json.part benchmarks/results/stability.json",
            ("kernels", "clshade/verify/stability.py", "clshade/verify/torture.py", "clshade/verify/bias.py",
             "clshade/device/evaluate.py", "clshade/device/counts.py"),
            (_region("docs/stability.md", "stability", stability_tables),), "the torture grid, both builds"),

@@ -41,6 +41,11 @@ def commands_block(results: tuple[Result, ...] = RESULTS) -> str:
     return "\n".join(["```sh", *lines, "```"])
 
 
+def document(root: Path, result: Result) -> dict:
+    """A result's JSON as the renderers read it: with the registry's command where the JSON records none."""
+    return {"command": result.command, **load(root / result.json)}
+
+
 def renderings(root: Path = ROOT, results: tuple[Result, ...] = RESULTS) -> dict[Path, Callable[[str], str]]:
     """Each published file → a function from its current text to its rendered text: every rendering of
     every result whose JSON exists, the regions of one file applied in turn, and README's command list."""
@@ -52,10 +57,10 @@ def renderings(root: Path = ROOT, results: tuple[Result, ...] = RESULTS) -> dict
         for r in result.renderings:
             path = root / r.path
             if r.region is None:
-                step = (lambda render, source: lambda text: render(load(source)))(r.render, source)
+                step = (lambda render, result: lambda text: render(document(root, result)))(r.render, result)
             else:
-                step = (lambda render, source, region, path: lambda text: replace_region(
-                    text, region, render(load(source)), path))(r.render, source, r.region, path)
+                step = (lambda render, result, region, path: lambda text: replace_region(
+                    text, region, render(document(root, result)), path))(r.render, result, r.region, path)
             steps.setdefault(path, []).append(step)
     readme = root / COMMANDS_REGION[0]
     steps.setdefault(readme, []).append(lambda text: replace_region(text, COMMANDS_REGION[1], commands_block(results),

@@ -17,19 +17,17 @@ without the trip to memory. How the protocol came to be: docs/bench-notes.md.
 """
 from __future__ import annotations
 
+import importlib
 import platform
-import sys
 import time
 from typing import Callable
 
 import numpy as np
 
 from clshade import __version__
-from clshade.provenance import stamp
 from clshade.bench import bandwidth, frame as whole, peers as peer_mod
 from clshade.device.runtime import CACHED_STORES, INLINE_MATH, LIBRARY_MATH, NO_PREFETCH, Runtime, healthy_devices
 from clshade.device.shade import Shader, scene_features
-from clshade.models.model import Model
 from clshade.models.registry import Registry
 from clshade.pipeline import prepare_frame
 from clshade.render.scene import load_scene
@@ -58,7 +56,7 @@ def _versions() -> dict[str, str]:
     out = {"python": platform.python_version(), "numpy": np.__version__, "clshade": __version__}
     for name in ("pyopencl", "numba", "drjit", "llvmlite"):
         try:
-            out[name] = __import__(name).__version__
+            out[name] = importlib.import_module(name).__version__
         except Exception as exc:  # noqa: BLE001 - a missing optional package is data here
             out[name] = f"not available ({type(exc).__name__})"
     return out
@@ -300,16 +298,6 @@ def run(scene_path: str, width: int, height: int, rounds: int, warmup: int, fram
     return doc
 
 
-def bench_peers(args, models: list[Model], registry: Registry) -> dict:
-    """`clshade bench --peers` on the command's `models` and `registry`: the comparison document,
-    stamped (the CLI prints its Markdown)."""
-    doc = compare(args.scene, models, args.width, args.height, min(args.frames, 200),
-                  args.warmup, tuple(p for p in args.peers.split(",") if p), library=False, registry=registry)
-    doc["targets"] = targets(doc)
-    doc["command"] = "clshade bench " + " ".join(sys.argv[2:])
-    return stamp(doc)
-
-
 def targets(doc: dict) -> list[dict]:
     """The targets, met or missed, per runtime (default build), each miss with
     the evidence for its cause, computed from the same run."""
@@ -351,7 +339,7 @@ def frame_miss_cause(wf: dict) -> str:
     host = m["rasterize"] + m["g-buffer"]
     threads = f" on {wf['host_threads']} threads" if "host_threads" in wf else ""
     why = (f"rasterize {m['rasterize'] / m['frame']:.0%} + G-buffer {m['g-buffer'] / m['frame']:.0%} of the frame: "
-           f"the NumPy host stages{threads} (clshade/render/raster.py, gbuffer.py) take {host * 1e3:.0f} ms where "
+           f"the NumPy host stages{threads} (clshade/render/raster/, gbuffer.py) take {host * 1e3:.0f} ms where "
            f"{(FRAME_BOUND_S - (m['frame'] - host)) * 1e3:.0f} ms are left beside the device stages; shading "
            f"{m['shade'] / m['frame']:.0%}")
     if "block_frame_s" in wf:

@@ -242,7 +242,7 @@ def bench_1080p_markdown(doc: dict) -> str:
     lights = doc["lights_scaling"]
     md = [f"# clshade bench — sphere_grid {doc['width']}×{doc['height']}", "",
           f"Rendered by `python -m benchmarks.publish` from bench_1080p.json, measured {doc['created']} by "
-          f"`python -m benchmarks.measure.run_bench`. Device: {dev['name']} [{dev['platform_version']}], local size "
+          f"`{doc['command']}`. Device: {dev['name']} [{dev['platform_version']}], local size "
           f"{dev['local_size']}; machine: {mach['cpu']}, {mach['cores']} CPUs (shared), {mach['os']}. "
           f"One directional light + ambient, precise math, float32 G-buffer; {doc['covered_pixels']} of "
           f"{doc['pixels']} pixels covered.{provenance_text(doc)}", "",

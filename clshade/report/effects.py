@@ -12,8 +12,7 @@ def effects_markdown(r: dict) -> str:
              f"{w}×{h} pixels, device time per frame (median of {r['rounds']} interleaved rounds; ratios are "
              "paired per round, then the median); "
              f"shadow maps {r['shadow_map_size']}², PCF {r['shadow_pcf']}×{r['shadow_pcf']}. "
-             "Rendered by `python -m benchmarks.publish` from effects.json (measured by "
-             "`python -m benchmarks.measure.effects_bench`).", "",
+             f"Rendered by `python -m benchmarks.publish` from effects.json (measured by `{r['command']}`).", "",
              f"**Specialisation gain, {r['target']['case']}: {r['target']['specialised_gain']:.2f}× "
              f"(target ≥ {r['target']['required']}×: {'met' if r['target']['met'] else 'NOT met'})**", "",
              "## What each effect adds (specialised kernels; ratios to the same model's 1-light frame)", "",

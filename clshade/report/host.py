@@ -60,7 +60,7 @@ def memory_markdown(doc: dict) -> str:
                      "" if within is None else ("yes" if within else "no"), f"{r['wall_s']:.1f}", r["stderr"]])
     lines = ["# Peak host memory of `clshade render scenes/robot.toml` (PNG)", "",
              f"Measured {doc['date']} on {m['cpu']} ({m['cores']} cores, {m['memory_bytes'] / 2**30:.0f} GiB; load "
-             f"average at start {_load(doc)}) by `python -m benchmarks.measure.memory_bench`; device: "
+             f"average at start {_load(doc)}) by `{doc['command']}`; device: "
              f"{doc['provenance']['device']}.", "",
              f"Limit: peak ≤ {limit} B/px × pixels + the fixed base "
              f"(the peak of the {doc['summary']['base_size']}² render).", "",
@@ -81,7 +81,7 @@ def startup_markdown(doc: dict) -> str:
     lines = ["# Warm `clshade render scenes/robot.toml` (640×640 PNG), end to end", "",
              f"Measured {doc['date']} on {m['cpu']} ({m['cores']} cores, shared; 1-minute load average "
              f"{doc['load_average_1min']['min']:.1f}–{doc['load_average_1min']['max']:.1f} during the run) by "
-             f"`python -m benchmarks.measure.startup_bench` ({doc['repeats']} interleaved rounds after a warm-up); "
+             f"`{doc['command']}` ({doc['repeats']} interleaved rounds after a warm-up); "
              f"device: {doc['provenance']['device']}.", "",
              f"Target: ≤ {doc['target_s']} s wall. Median render: **{w['render']['median']:.2f} s** "
              f"(minimum {w['render']['min']:.2f} s): "

@@ -25,6 +25,6 @@ def parameters_table(params: list) -> str:
 
 
 def clamps_table(constants: list) -> str:
-    """The named floors (clshade.verify.accuracy.kernel_constants) with the reason their header gives."""
+    """The named floors (clshade.resources.kernel_constants) with the reason their header gives."""
     return markdown(["constant", "value", "file", "why (from the header)"],
                     [[c.name, f"{c.value:g}", f"kernels/{c.file}", c.comment] for c in constants])

@@ -13,8 +13,7 @@ def raster_markdown(data: dict) -> str:
              f"{r['id_agreement_vs_embree']:.3%}"] for r in data["scenes"]]
     rows += [[s, "skipped", *[""] * 9] for s in data.get("skipped", [])]
     lines = [
-        "# Rasterizer benchmark (measured by `python -m benchmarks.measure.raster_bench`, rendered by "
-        "`python -m benchmarks.publish`)",
+        f"# Rasterizer benchmark (measured by `{data['command']}`, rendered by `python -m benchmarks.publish`)",
         "",
         f"Machine: {m['cpu']}, {m['cores']} CPUs, Python {m['python']}, NumPy {m['numpy']}, trimesh {v['trimesh']}, "
         f"embreex {v['embreex']}; {m['os']}.",

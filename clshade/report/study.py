@@ -36,7 +36,7 @@ def report_markdown(doc: dict) -> str:
     if band is None:
         band_text = ("**No noise band in this results file** (it predates the repeated-kernel rounds): "
                      "claims (a) and (b) cannot be judged against the run's own noise; regenerate with "
-                     "`python -m benchmarks.measure.make_report`.")
+                     f"`{doc['command']}`.")
         verdict_a = verdict_b = "Not judged (no noise band)."
     else:
         n = doc["noise"]

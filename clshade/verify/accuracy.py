@@ -36,11 +36,11 @@ import numpy as np
 
 from clshade.verify import reference as R
 from clshade.errors import ClshadeError
-from clshade.resources import KernelConstant, constant, kernel_constants  # noqa: F401
+from clshade.verify.reference.vectors import orthonormal_basis
 from clshade.device.evaluate import Samples, eval_brdf
 from clshade.models.model import NONE, Model, presets
 from clshade.models.registry import Registry
-from clshade.resources import kernels_dir
+from clshade.resources import constant, kernels_dir
 from clshade.device.runtime import Runtime, get_runtime
 
 # Target of every comparison: 1e-4 relative, ~800 float32 ulps, leaving room
@@ -119,11 +119,6 @@ def f32(x) -> np.ndarray:
     """Round to float32 and return as float64: what the kernel sees, for the reference."""
     return np.asarray(x, np.float64).astype(np.float32).astype(np.float64)
 
-
-# ---- kernel constants ------------------------------------------------------
-
-# kernel_constants() / constant(): the kernel headers' named clamps, read from the
-# source by clshade.resources (re-exported here for the accuracy report).
 
 # ---- terms -----------------------------------------------------------------
 
@@ -342,7 +337,7 @@ def accuracy_models() -> list[Model]:
 
 def _rotate_to(n: np.ndarray, local: np.ndarray) -> np.ndarray:
     """Express vectors given in the +z frame in the frame of unit normals n."""
-    t, b = R._orthonormal_basis(n)
+    t, b = orthonormal_basis(n)
     return local[:, :1] * t + local[:, 1:2] * b + local[:, 2:3] * n
 
 

@@ -1,8 +1,9 @@
 """The package layout is the data flow: no lower stage imports a higher one.
 
 Stages, lowest first (README "Layout"):
-    base (errors, resources) → models (the registry) → render/ → device/ → pipeline
-    → verify/ → bench/, compare, view/ → cli
+    base (errors, resources, report's tables) → models (the registry) → render/ → device/ → pipeline
+    → verify/ → bench/, compare, report/, view/ → cli
+and no import cycle between modules, in clshade and in the benchmarks package.
 Every import in every module, at top level or inside a function, is checked.
 """
 from __future__ import annotations

@@ -11,7 +11,6 @@ import dataclasses
 import numpy as np
 import pytest
 
-from clshade.device import visibility
 from clshade.device.runtime import Runtime, get_runtime
 from clshade.device.visibility import DeviceGBuffer, supports, verify
 from clshade.render.arrays import PlanePool

@@ -24,7 +24,7 @@ BUILT_IN = Registry()          # the built-in lobes; a lobe file named as a mode
 def test_tangent_frame_reaches_only_lobes_that_read_it(tmp_path, runtime):
     import dataclasses
     from clshade.device.variants import Features, Variant
-    from clshade.verify.reference import _orthonormal_basis
+    from clshade.verify.reference.vectors import orthonormal_basis
     reads = BUILT_IN.resolve(write_brdf(tmp_path, "frame", "vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) "
                                                          "{ return X + 2.0 * Y; }"))
     ignores = BUILT_IN.resolve(str(LOBES / "ggx_brdf.brdf"))
@@ -34,7 +34,7 @@ def test_tangent_frame_reaches_only_lobes_that_read_it(tmp_path, runtime):
     n = directions(32, seed=5)
     k = len(n)
     s = samples_like(k, n=n)
-    t, b = _orthonormal_basis(n.astype(np.float64))
+    t, b = orthonormal_basis(n.astype(np.float64))
     np.testing.assert_allclose(eval_brdf(reads, s), t + 2.0 * b, atol=1e-5)
     # A surface tangent (the G-buffer's): x = its part orthogonal to n, normalised; y = n × x.
     tangent = np.random.default_rng(7).normal(size=(k, 3)).astype(np.float32)

@@ -43,7 +43,7 @@ def cmd_aa(args: argparse.Namespace) -> int:
     doc, sheet = run(scene, registry.resolve_many(args.models), width=check_size(args.width, "width"),
                      height=check_size(args.height, "height"), frames=args.frames, truth_samples=args.truth_samples,
                      check_samples=args.check_samples, temporal_frames=args.temporal_frames, device=args.device,
-                     registry=args.registry)
+                     registry=registry)
     opts = {"models": args.models, "width": args.width, "height": args.height, "frames": args.frames,
             "truth-samples": args.truth_samples, "check-samples": args.check_samples,
             "temporal-frames": args.temporal_frames}

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from clshade import budget
@@ -67,9 +68,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
                         device=args.device, progress=None if args.no_progress else progress)
     print(bench_text(doc))
     if args.peers:
-        from clshade.bench import perf
         from clshade.report.perf import perf_markdown
-        doc["peers"] = perf.bench_peers(args, models, registry)
+        doc["peers"] = _peers(args, models, registry)
         print()
         print(perf_markdown(doc["peers"]))
     if args.json:
@@ -79,3 +79,15 @@ def cmd_bench(args: argparse.Namespace) -> int:
     if args.plot:
         bench_plots(doc, Path(args.plot))
     return 0
+
+
+def _peers(args: argparse.Namespace, models: list, registry) -> dict:
+    """`--peers`: the runtimes, builds and peer implementations on the command's models and registry,
+    stamped (printed as Markdown)."""
+    from clshade.bench import perf
+    from clshade.provenance import stamp
+    doc = perf.compare(args.scene, models, args.width, args.height, min(args.frames, 200), args.warmup,
+                       tuple(p for p in args.peers.split(",") if p), library=False, registry=registry)
+    doc["targets"] = perf.targets(doc)
+    doc["command"] = "clshade bench " + " ".join(sys.argv[2:])
+    return stamp(doc)
