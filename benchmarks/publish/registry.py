@@ -99,7 +99,7 @@ RESULTS: tuple[Result, ...] = (
                                    "--out benchmarks/results/view_pocl30.json", VIEWER,
            (Rendering(OUT + "view_pocl30.md", view_markdown),
             _region("README.md", "view-pocl30-table", lambda doc: view_table(doc, "view_pocl30.json"))),
-           "the same on pip's PoCL 3.0, the runtime a fresh install gives"),
+           "the same on pip's PoCL 3.0, the PoCL a fresh install gives"),
     Result(OUT + "host_ab.json", "python -m benchmarks.experiments.host_ab", ("benchmarks/experiments/host_ab.py",),
            (Rendering(OUT + "host_ab.md", host_ab_markdown),),
            "host stages and the warm render against main (A/B), whole 1080p frame"),

@@ -124,7 +124,7 @@ def _pocl_version(version: str) -> tuple[int, ...]:
 #: runtimes' kernel times on the same frame in benchmarks/results/runtimes.json (fastest first;
 #: tests/device/test_runtimes.py fails when the measured order there disagrees). A substring of
 #: "platform, platform version"; runtimes matching none come after these.
-RUNTIME_PREFERENCE = ("PoCL 3.1", "PoCL 3.0", "Intel(R) OpenCL")
+RUNTIME_PREFERENCE = ("PoCL 3.1", "Intel(R) OpenCL", "PoCL 3.0")
 
 
 def preference(info: DeviceInfo) -> tuple:
