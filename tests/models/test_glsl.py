@@ -100,6 +100,12 @@ def test_translation_reports_what_brdf_reads():
      6, "unsupported construct: out parameter"),
     ("vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)\n{\n    return L * nope;\n}", 8, "unknown name 'nope'"),
     ("vec3 shade(vec3 L) { return L; }", 6, "defines no 'vec3 BRDF"),
+    ("float k = 1.0;\nfloat bump(float x) { k = x; return x; }\nvec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)\n"
+     "{\n    return vec3(bump(L.x) + k);\n}", 7, "global variable 'k' is assigned in 'bump'"),
+    ("float twice(float x) { return x; }\nfloat twice(float y) { return y; }\n"
+     "vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) { return L; }", 7, "'twice(float)' is defined twice"),
+    ("float G(float x) { return x; }\nvec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)\n{\n    float G = 1.0;\n"
+     "    return vec3(G(G));\n}", 10, "'G' is a variable here, not a function"),
 ])
 def test_brdf_errors_name_file_and_line(tmp_path, shader, line, message):
     path = write_brdf(tmp_path, "broken", shader)
@@ -107,3 +113,140 @@ def test_brdf_errors_name_file_and_line(tmp_path, shader, line, message):
         BUILT_IN.resolve(path)
     text = str(info.value)
     assert text.startswith(f"{path}:{line}: ") and message in text and "\n" not in text
+
+
+# ------------------------------------------------------------------ GLSL's scoping rules
+
+def test_argument_and_local_shadow_a_parameter(tmp_path, runtime):
+    """A function argument or a local named like a parameter of the file hides it (GLSL scoping), also
+    a parameter that is a material key (ior reads the Surface per pixel)."""
+    shader = """
+float GGX(float NdotH, float alphaG) { return alphaG * NdotH; }
+float Fresnel(float c, float ior) { return ior + c; }
+vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)
+{
+    float b = alphaG;
+    {
+        float alphaG = 10.0;
+        b += alphaG;
+    }
+    return vec3(GGX(L.z, 2.0), b + Fresnel(L.x, 3.0), alphaG);
+}
+"""
+    model = BUILT_IN.resolve(write_brdf(tmp_path, "shadow_param", shader,
+                                        "float alphaG 0 1 0.25\nfloat ior 1 3 1.5"))
+    l = directions()
+    f = eval_at(model, l)
+    want = np.stack([2.0 * l[:, 2], 13.25 + l[:, 0], np.full(len(l), 0.25)], axis=1)
+    np.testing.assert_allclose(f, want, rtol=1e-6, atol=1e-6)
+
+
+def test_user_function_hides_a_builtin(tmp_path, runtime):
+    """A user function named like a GLSL built-in (reflect, smoothstep) is the one called."""
+    shader = """
+vec3 reflect(vec3 I, vec3 N) { return 2.0 * I + N; }
+float smoothstep(float a, float b, float x) { return a + b + x; }
+vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)
+{
+    return reflect(L, N) + vec3(smoothstep(1.0, 2.0, L.x));
+}
+"""
+    model = BUILT_IN.resolve(write_brdf(tmp_path, "shadow_builtin", shader))
+    l = directions()
+    f = eval_at(model, l)
+    want = 2.0 * l + np.array([0.0, 0.0, 1.0]) + (3.0 + l[:, :1])
+    np.testing.assert_allclose(f, want, rtol=1e-6, atol=1e-6)
+
+
+def test_non_const_globals(tmp_path, runtime):
+    """A global never assigned is a constant; one assigned in BRDF starts at its initialiser in every
+    evaluation; a local named like a function hides it only after its own initialiser."""
+    shader = """
+float PI = 3.0;
+float acc = 1.0, unused;
+float G(float x) { return PI * x; }
+vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)
+{
+    acc += L.x;
+    if (L.y > 0.0)
+        acc *= 2.0;
+    float G = G(L.z);
+    G += unused;
+    return vec3(acc, G, PI);
+}
+"""
+    model = BUILT_IN.resolve(write_brdf(tmp_path, "globals", shader))
+    l = directions()
+    f = eval_at(model, l)
+    acc = np.where(l[:, 1] > 0, 2.0 * (1.0 + l[:, 0]), 1.0 + l[:, 0])
+    want = np.stack([acc, 3.0 * l[:, 2], np.full(len(l), 3.0)], axis=1)
+    np.testing.assert_allclose(f, want, rtol=1e-6, atol=1e-6)
+
+
+def test_user_function_overloads(tmp_path, runtime):
+    """Overloads resolve by argument types: an exact match first, then with int converted to float."""
+    shader = """
+float twice(float x) { return 2.0 * x; }
+vec3 twice(vec3 v) { return v * 3.0; }
+float twice(float x, float y) { return x + y; }
+vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)
+{
+    return twice(L) + vec3(twice(L.x) + twice(1, L.y));
+}
+"""
+    model = BUILT_IN.resolve(write_brdf(tmp_path, "overloads", shader))
+    l = directions()
+    f = eval_at(model, l)
+    want = 3.0 * l + (2.0 * l[:, :1] + 1.0 + l[:, 1:2])
+    np.testing.assert_allclose(f, want, rtol=1e-6, atol=1e-6)
+
+
+# GLSL's keywords (4.30, with those reserved for future use) and built-ins: not a user's identifier.
+GLSL_WORDS = set("""attribute const uniform varying buffer shared coherent volatile restrict readonly writeonly
+layout centroid flat smooth noperspective patch sample break continue do for while switch case default if else
+subroutine in out inout float double int void bool true false invariant precise discard return uint lowp mediump
+highp precision struct common partition active asm class union enum typedef template this resource goto inline
+noinline public static extern external interface long short half fixed unsigned superp input output filter sizeof
+cast namespace using main""".split())
+
+
+def _clshade_identifiers() -> list[str]:
+    """Every identifier clshade's kernels define (macros, types, functions) and those the translator
+    emits beside a shader's (the Surface `s`, the masks of if-conversion), less GLSL's own words."""
+    import re
+    from clshade.models.glsl.emitter import COMPONENTWISE, GEOMETRIC
+    from clshade.models.glsl.parser import TYPES, UNSUPPORTED_TYPES, UNSUPPORTED_WORDS
+    from clshade.resources import kernels_dir
+    text = "\n".join(p.read_text(encoding="utf-8") for p in sorted(kernels_dir().rglob("*.[hc]*")))
+    names = set(re.findall(r"#\s*define\s+([A-Za-z_]\w*)", text))
+    names |= set(re.findall(r"typedef\b[^;{]*?\b([A-Za-z_]\w*)\s*;", text))
+    names |= set(re.findall(r"}\s*([A-Za-z_]\w*)\s*;", text))
+    names |= set(re.findall(r"\b([A-Za-z_]\w*)\s*\([^;{)]*\)\s*\{", text))
+    names |= {"s", "g", "x_ret", "x_done", "x_if1", "x_else1", "kernel", "select", "M_PI", "real", "mask"}
+    glsl = (GLSL_WORDS | set(TYPES) | set(UNSUPPORTED_TYPES) | set(UNSUPPORTED_WORDS) | set(COMPONENTWISE)
+            | GEOMETRIC | {"texture", "vec4", "mat3"})
+    return sorted(n for n in names if n not in glsl and "__" not in n and not n.startswith("gl_")
+                  and not n.startswith("u_"))
+
+
+def test_user_names_never_collide_with_clshade_names(tmp_path, runtime):
+    """Each identifier of clshade's kernels as a parameter of the file, a global constant or a function,
+    and as an argument and a local: the shader is translated and evaluates to its sum."""
+    names = _clshade_identifiers()
+    assert {"s", "real", "mask", "G_LIT", "Surface", "specular_lobe", "v3"} <= set(names)
+    params, shader, total = [], [], 0.0
+    body = ["vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)", "{", "    float total = 0.0;",
+            "    if (L.z < -2.0) return vec3(-1.0);"]
+    for i in range(0, len(names) - 2, 3):
+        p, c, fn = names[i:i + 3]
+        pv, cv = (i + 1) / 1000.0, (i + 2) / 1000.0
+        params.append(f"float {p} 0 1 {pv!r}")
+        shader.append(f"const float {c} = {cv!r};")
+        shader.append(f"float {fn}(float {p}) {{ float {c} = {p} * 2.0; if ({c} < 0.0) return 0.0; return {c}; }}")
+        body.append(f"    total += {p} + {c} + {fn}({p});")
+        body.append(f"    {{ float {fn} = 0.5; total += {fn}; }}")
+        total += 3.0 * pv + cv + 0.5
+    body += ["    return vec3(total);", "}"]
+    path = write_brdf(tmp_path, "names", "\n".join(shader + body), "\n".join(params))
+    f = eval_at(BUILT_IN.resolve(path), directions(8))
+    np.testing.assert_allclose(f, total, rtol=1e-5)
