@@ -168,7 +168,7 @@ def load_brdf(path: Path, values: Mapping[str, str]) -> Lobe:
     code = (f'#line 1 "{path}"\n{tr.code}'
             f'#line {s_first} "{path}"\n'
             f"INLINE vec3 specular_lobe(const Geometry g, const Surface s) {{\n"
-            f"    return u_BRDF(g.l, g.v, g.n, {frame}, s);\n}}\n")
+            f"    return {tr.entry}(g.l, g.v, g.n, {frame}, s);\n}}\n")
     ident = lobe_id(path)
     return Lobe(id=ident, name=path.stem, kind="specular", family=FAMILY,
                 formula=f"f = BRDF(L, V, N, X, Y) of {path.name} (BRDF Explorer shader, translated)",

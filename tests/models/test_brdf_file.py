@@ -69,7 +69,7 @@ def test_brdf_parameter_lines(tmp_path):
     assert by_name["n"].value == (20.0,) and by_name["n"].default == 10.0
     assert by_name["tint"].value == (0.25, 0.25, 0.25) and by_name["on"].value == (1.0,)
     assert by_name["roughness"].value == () and "roughness" in lobe.uses     # the material key, per pixel
-    assert "#define u_roughness (s.roughness)" in lobe.code
+    assert "#define u_p_roughness (s.roughness)" in lobe.code
 
 
 @pytest.mark.parametrize("argv_tail, message", [

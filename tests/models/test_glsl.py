@@ -85,7 +85,7 @@ def test_translation_reports_what_brdf_reads():
     shader = ("float aniso(vec3 t) { return t.x; }\n"
               "vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) { return vec3(aniso(Y)) * k; }")
     tr = translate(shader, "t.brdf", {"k": ("float", "G_LIT(2.0)")})
-    assert tr.reads == {"Y"} and "#define u_k G_LIT(2.0)" in tr.code
+    assert tr.reads == {"Y"} and "#define u_p_k G_LIT(2.0)" in tr.code
 
 
 @pytest.mark.parametrize("shader, line, message", [

@@ -5,7 +5,7 @@ three stages in a row.
 from __future__ import annotations
 
 import operator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from clshade.models.glsl.lexer import TranslateError, fail
@@ -19,7 +19,12 @@ DIM = {"float": 1, "int": 1, "vec2": 2, "vec3": 3}
 ZERO = {"float": "((real)(0.0f))", "int": "0", "bool": "G_FALSE", "vec2": "v2s((real)(0.0f))",
         "vec3": "v3s((real)(0.0f))"}
 SWIZZLE_SETS = ("xyzw", "rgba", "stpq")
-PREFIX = "u_"
+# The C names of a shader's identifiers: one namespace per kind, all under `u_`, which no name of
+# clshade's kernels or of the translator's own (s, x_ret, x_if1 ...) starts with, so that a user's
+# name meets neither another kind's nor clshade's: a parameter of the file u_p_NAME, a global
+# u_g_NAME, a function argument u_a_NAME, the k-th local of a function u_l<k>_NAME, a function
+# u_f_NAME (u_f<k>_NAME for the k-th overload of a name defined several times).
+PARAM, GLOBAL, ARG, FUNC = "u_p_", "u_g_", "u_a_", "u_f_"
 
 # GLSL built-ins applied component-wise: name → arity; glsl.h defines g1_<name> (real),
 # g2_<name> and g3_<name>.
@@ -39,11 +44,39 @@ class Value:
     literal: str | None = None     # the text of a numeric literal (int-to-float converts it exactly)
 
 
-@dataclass
+@dataclass(eq=False)
 class Symbol:
     type: str
     cname: str
     assignable: bool
+    literal: str | None = None     # a const int's value (a constant index, an exponent)
+    role: str | None = None        # which of BRDF's L, V, N, X, Y an argument of BRDF is
+
+
+@dataclass(eq=False)
+class GlobalVar(Symbol):
+    """A non-const global: a constant where no function assigns it, else a variable of BRDF's
+    (initialised at the start of every evaluation, as GLSL initialises a global per invocation)."""
+    name: str = ""
+    line: int = 0
+    init: str = ""
+    used_in: dict[str, int] = field(default_factory=dict)       # function's C name → first line
+    assigned_in: dict[str, int] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Defined:
+    """A function definition of the shader and its C name."""
+    fn: Function
+    cname: str
+
+    @property
+    def types(self) -> list[str]:
+        return [t for t, _ in self.fn.params]
+
+    @property
+    def signature(self) -> str:
+        return f"{self.fn.name}({', '.join(self.types)})"
 
 
 class Emitter:
@@ -52,14 +85,18 @@ class Emitter:
     def __init__(self, program: Program, path: str, params: dict[str, tuple[str, str]]) -> None:
         """`params`: the file's parameters by name, (GLSL type, OpenCL C value)."""
         self.prog, self.path = program, path
-        self.out: list[str] = []
+        self.head: list[str] = []          # the #defines of parameters and constant globals
+        self.out: list[str] = []           # the functions
         self.globals: dict[str, Symbol] = {}
-        self.const_ints: dict[str, int] = {}
-        self.functions: dict[str, Function] = {}
+        self.global_vars: list[GlobalVar] = []
+        self.functions: dict[str, list[Defined]] = {}
+        self.defined: dict[int, Defined] = {}      # by id() of the Function node
+        self.entry = ""                    # BRDF's C name
+        self.brdf_at = 0                   # where BRDF's body starts in self.out
         self.scopes: list[dict[str, Symbol]] = []
         self.counter = 0
         self.params = params
-        self.current: Function | None = None
+        self.current: Defined | None = None
         self.predicated = False
         self.reads: set[str] = set()       # names of BRDF()'s parameters the shader reads (L V N X Y)
 
@@ -69,69 +106,126 @@ class Emitter:
     # -- program
     def emit(self) -> str:
         for name, (kind, value) in self.params.items():
-            self.globals[name] = Symbol(kind, PREFIX + name, False)
-            self.out.append(f"#define {PREFIX}{name} {value}")
+            self.globals[name] = Symbol(kind, PARAM + name, False)
+            self.head.append(f"#define {PARAM}{name} {value}")
         for kind, name, line in self.prog.uniforms:
             if name not in self.params:
                 raise self.error(line, f"uniform {name!r} is not a parameter of the file")
             if self.params[name][0] != kind:
                 raise self.error(line, f"uniform {name!r} is declared {kind}, the parameter is {self.params[name][0]}")
-        for decl in self.prog.consts:
-            self.const_decl(decl)
+        self.register_functions()
+        # Globals and functions in source order: a function sees the globals declared above it.
+        for item in self.prog.items:
+            if isinstance(item, Decl):
+                self.global_decl(item)
+            elif item.body is not None:
+                self.function(item)
+        self.place_globals()
+        # Prototypes first: GLSL lets a function call one defined further down after a prototype.
+        protos = [f"INLINE {CTYPE[d.fn.type]} {d.cname}({', '.join(self._signature(d.fn))});"
+                  for same in self.functions.values() for d in same if d.fn.type != "void"]
+        return "\n".join(self.head + protos + self.out) + "\n"
+
+    def register_functions(self) -> None:
+        """Every function definition by name (several for an overloaded name), and BRDF's C name.
+        A user's function named like a built-in hides the built-in (GLSL 1.20, which BRDF Explorer's
+        shaders are written in)."""
+        found: dict[str, list[Function]] = {}
         for fn in self.prog.functions:
             if fn.body is None:
                 continue
-            if fn.name in self.functions or fn.name in COMPONENTWISE or fn.name in GEOMETRIC:
-                raise self.error(fn.line, f"function {fn.name!r} is defined twice (overloading is not supported)")
-            self.functions[fn.name] = fn
+            if fn.name in self.params:
+                raise self.error(fn.line, f"function {fn.name!r} has the name of a parameter of the file")
+            names = [n for _, n in fn.params]
+            for i, n in enumerate(names):
+                if n in names[:i]:
+                    raise self.error(fn.line, f"function {fn.name!r} has two arguments named {n!r}")
+            same = found.setdefault(fn.name, [])
+            types = [t for t, _ in fn.params]
+            if any([t for t, _ in g.params] == types for g in same):
+                raise self.error(fn.line, f"function '{fn.name}({', '.join(types)})' is defined twice")
+            same.append(fn)
+        for name, same in found.items():
+            self.functions[name] = [Defined(fn, FUNC + name if len(same) == 1 else f"u_f{k}_{name}")
+                                    for k, fn in enumerate(same, 1)]
+            for d in self.functions[name]:
+                self.defined[id(d.fn)] = d
         if "BRDF" not in self.functions:
             raise self.error(self.prog.functions[-1].line if self.prog.functions else 1,
                              "the shader defines no 'vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)'")
-        brdf = self.functions["BRDF"]
-        if brdf.type != "vec3" or [t for t, _ in brdf.params] != ["vec3"] * 5:
-            raise self.error(brdf.line, "BRDF must be 'vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)'")
-        # Prototypes first: GLSL lets a function call one defined further down after a prototype.
-        for fn in self.functions.values():
-            if fn.type != "void":
-                self.out.append(f"INLINE {CTYPE[fn.type]} {PREFIX}{fn.name}({', '.join(self._signature(fn))});")
-        for fn in self.functions.values():
-            self.function(fn)
-        return "\n".join(self.out) + "\n"
+        brdf = [d for d in self.functions["BRDF"] if d.types == ["vec3"] * 5]
+        if not brdf or brdf[0].fn.type != "vec3":
+            raise self.error(self.functions["BRDF"][0].fn.line,
+                             "BRDF must be 'vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)'")
+        self.entry = brdf[0].cname
 
     @staticmethod
     def _signature(fn: Function) -> list[str]:
         """The C parameters of a translated function: its own, then the pixel's Surface."""
-        return [f"{CTYPE[t]} {PREFIX}{n}" for t, n in fn.params] + ["const Surface s"]
+        return [f"{CTYPE[t]} {ARG}{n}" for t, n in fn.params] + ["const Surface s"]
 
     def line(self, line: int) -> None:
         self.out.append(f'#line {line} "{self.path}"')
 
-    def const_decl(self, decl: Decl) -> None:
+    def global_decl(self, decl: Decl) -> None:
+        """A global: `const` ones are #defines; a non-const one is placed by place_globals."""
         for name, init, line in decl.names:
-            value = self.coerce(self.expr(init), decl.type, line)
             self._declare_global(name, line)
-            self.globals[name] = Symbol(decl.type, PREFIX + name, False)
-            if decl.type == "int" and value.literal is not None:
-                self.const_ints[name] = int(value.literal)
-            self.line(line)
-            self.out.append(f"#define {PREFIX}{name} ({value.code})")
+            value = self.coerce(self.expr(init), decl.type, line) if init is not None else Value(decl.type, ZERO[decl.type])
+            literal = value.literal if decl.type == "int" else None
+            if decl.const:
+                self.globals[name] = Symbol(decl.type, GLOBAL + name, False, literal)
+                self.head.append(f'#line {line} "{self.path}"')
+                self.head.append(f"#define {GLOBAL}{name} ({value.code})")
+            else:
+                var = GlobalVar(decl.type, GLOBAL + name, True, name=name, line=line, init=value.code)
+                self.globals[name] = var
+                self.global_vars.append(var)
 
     def _declare_global(self, name: str, line: int) -> None:
         if name in self.globals:
             raise self.error(line, f"{name!r} is declared twice")
+        if name in self.functions:
+            raise self.error(line, f"{name!r} is declared as a variable and as a function")
+
+    def place_globals(self) -> None:
+        """A non-const global no function assigns is a constant (a #define); one that only BRDF uses
+        is a variable of BRDF's, initialised where its body starts; any other is refused."""
+        names = {d.cname: d.fn.name for same in self.functions.values() for d in same}
+        decls = []
+        for g in self.global_vars:
+            if not g.assigned_in:
+                self.head.append(f'#line {g.line} "{self.path}"')
+                self.head.append(f"#define {g.cname} ({g.init})")
+                continue
+            writer = next(iter(g.assigned_in))
+            others = {**g.used_in, **g.assigned_in}
+            other = next((f for f in others if f != self.entry), None)
+            if other is not None:
+                user = next((f for f in others if f != writer), writer)
+                also = f" and used in {names[user]!r}" if user != writer else ""
+                raise self.error(others[other], f"unsupported construct: global variable {g.name!r} is assigned in "
+                                                f"{names[writer]!r}{also} (clshade translates a global that no "
+                                                f"function assigns, or one that only BRDF uses)")
+            decls.append(f"    {CTYPE[g.type]} {g.cname} = {g.init};")
+        self.out[self.brdf_at:self.brdf_at] = decls
 
     # -- functions
     def function(self, fn: Function) -> None:
         if fn.type == "void":
             raise self.error(fn.line, f"unsupported construct: void function {fn.name!r} (a function must return a value)")
+        d = self.defined[id(fn)]
+        brdf = d.cname == self.entry
         self.scopes = [{}]
         self.counter = 0
-        for ptype, pname in fn.params:
-            self.scopes[0][pname] = Symbol(ptype, PREFIX + pname, True)
-        self.current = fn
+        for i, (ptype, pname) in enumerate(fn.params):
+            self.scopes[0][pname] = Symbol(ptype, ARG + pname, True, role="LVNXY"[i] if brdf else None)
+        self.current = d
         self.line(fn.line)
         # The pixel's Surface goes last: parameters that are material keys read it.
-        self.out.append(f"INLINE {CTYPE[fn.type]} {PREFIX}{fn.name}({', '.join(self._signature(fn))}) {{")
+        self.out.append(f"INLINE {CTYPE[fn.type]} {d.cname}({', '.join(self._signature(fn))}) {{")
+        if brdf:
+            self.brdf_at = len(self.out)
         # A body whose one return is its last statement is emitted as written; any
         # other return is if-converted (module docstring).
         returns = _count_returns(fn.body)
@@ -142,13 +236,15 @@ class Emitter:
         if self.predicated:
             self.out.append(f"    {CTYPE[fn.type]} x_ret = {ZERO[fn.type]};")
             self.out.append("    mask x_done = G_FALSE;")
-        self.block(fn.body, None, 1)
+        # The arguments and the body's outermost declarations share one scope (GLSL 4.30, 4.2.3).
+        self.block(fn.body, None, 1, scope=self.scopes.pop())
         if self.predicated:
             self.out.append("    return x_ret;")
         self.out.append("}")
 
-    def block(self, stmts: list[Node], pred: str | None, depth: int) -> None:
-        self.scopes.append({})
+    def block(self, stmts: list[Node], pred: str | None, depth: int, scope: dict[str, Symbol] | None = None) -> None:
+        """Statements in a new scope (or `scope`: a function's arguments, a for loop's counter)."""
+        self.scopes.append({} if scope is None else scope)
         for s in stmts:
             self.statement(s, pred, depth)
         self.scopes.pop()
@@ -171,15 +267,16 @@ class Emitter:
                     raise self.error(line, f"{name!r} is declared twice in one block")
                 value = self.coerce(self.expr(init), s.type, line) if init is not None else Value(s.type, ZERO[s.type])
                 self.line(line)
-                cname = f"{PREFIX}{name}_{self._next()}"
+                cname = f"u_l{self._next()}_{name}"
                 self.out.append(f"{pad}{'const ' if s.const else ''}{CTYPE[s.type]} {cname} = {value.code};")
-                self.scopes[-1][name] = Symbol(s.type, cname, not s.const)
+                literal = value.literal if s.const and s.type == "int" else None
+                self.scopes[-1][name] = Symbol(s.type, cname, not s.const, literal)
         elif isinstance(s, ExprStmt):
             if not isinstance(s.expr, Assign):
                 raise self.error(s.line, "a statement must be an assignment, a declaration, if, for or return")
             self.assign(s.expr, pred, pad)
         elif isinstance(s, Return):
-            fn = self.current
+            fn = self.current.fn
             if s.value is None:
                 raise self.error(s.line, f"return without a value in {fn.name!r}")
             value = self.coerce(self.expr(s.value), fn.type, s.line)
@@ -217,8 +314,10 @@ class Emitter:
         start = self.expr(s.start)
         if start.type != "int":
             raise self.error(s.line, f"for loop counter {s.var!r} starts at a {start.type}, not an int")
-        cname = f"{PREFIX}{s.var}_{self._next()}"
-        self.scopes.append({s.var: Symbol("int", cname, False)})
+        cname = f"u_l{self._next()}_{s.var}"
+        # The counter and the body share one scope (GLSL's for-statement has no new scope).
+        counter = {s.var: Symbol("int", cname, False)}
+        self.scopes.append(counter)
         cond = self.expr(s.cond, int_compare=True)
         if cond.type != "int_bool":
             raise self.error(s.line, "unsupported construct: a for loop condition other than a comparison of ints")
@@ -229,9 +328,9 @@ class Emitter:
             raise self.error(s.line, "for loop step must add or subtract an int")
         self.line(s.line)
         self.out.append(f"{pad}for (int {cname} = {start.code}; {cond.code}; {cname} {step.op} {inc.code}) {{")
-        self.block(s.body, pred, depth + 1)
-        self.out.append(f"{pad}}}")
         self.scopes.pop()
+        self.block(s.body, pred, depth + 1, scope=counter)
+        self.out.append(f"{pad}}}")
 
     def _next(self) -> int:
         self.counter += 1
@@ -244,10 +343,12 @@ class Emitter:
             if not sym.assignable:
                 raise self.error(a.line, f"cannot assign to {target.id!r} (a parameter of the file, a constant or a loop counter)")
             kind, lvalue = sym.type, sym.cname
+            self._assigned(sym, a.line)
         elif isinstance(target, (Member, Index)) and isinstance(target.value, Name):
             sym = self.lookup(target.value.id, target.line)
             if not sym.assignable:
                 raise self.error(a.line, f"cannot assign to {target.value.id!r}")
+            self._assigned(sym, a.line)
             comp = self.component(target, sym.type)
             kind, lvalue = "float", f"{sym.cname}.{comp}"
         else:
@@ -281,13 +382,24 @@ class Emitter:
             return f"g2_select({p}, {a}, {b})"
         return f"({p} ? {a} : {b})"
 
-    def lookup(self, name: str, line: int) -> Symbol:
+    def _assigned(self, sym: Symbol, line: int) -> None:
+        if isinstance(sym, GlobalVar):
+            sym.assigned_in.setdefault(self.current.cname, line)
+
+    def find(self, name: str) -> Symbol | None:
+        """The variable a name means here: the innermost scope's, else the global one."""
         for scope in reversed(self.scopes):
             if name in scope:
                 return scope[name]
-        if name in self.globals:
-            return self.globals[name]
-        raise self.error(line, f"unknown name {name!r}")
+        return self.globals.get(name)
+
+    def lookup(self, name: str, line: int) -> Symbol:
+        sym = self.find(name)
+        if sym is None:
+            raise self.error(line, f"unknown name {name!r}")
+        if isinstance(sym, GlobalVar) and self.current is not None:
+            sym.used_in.setdefault(self.current.cname, line)
+        return sym
 
     # -- expressions
     def expr(self, n: Node, int_compare: bool = False) -> Value:
@@ -299,11 +411,9 @@ class Emitter:
             if n.id in ("true", "false"):
                 return Value("bool", "G_TRUE" if n.id == "true" else "G_FALSE")
             sym = self.lookup(n.id, n.line)
-            if self.current is not None and self.current.name == "BRDF" and n.id in "LVNXY" \
-                    and sym is self.scopes[0].get(n.id):
-                self.reads.add(n.id)
-            return Value(sym.type, sym.cname, str(self.const_ints[n.id]) if n.id in self.const_ints
-                         and not any(n.id in s for s in self.scopes) else None)
+            if sym.role is not None:
+                self.reads.add(sym.role)
+            return Value(sym.type, sym.cname, sym.literal)
         if isinstance(n, Unary):
             v = self.expr(n.operand)
             if n.op == "!":
@@ -447,14 +557,14 @@ class Emitter:
         args = [self.expr(a) for a in n.args]
         if name in ("float", "int", "bool", "vec2", "vec3"):
             return self.construct(name, args, n.line)
+        if self.find(name) is not None:
+            raise self.error(n.line, f"{name!r} is a variable here, not a function")
         if name in self.functions:
-            fn = self.functions[name]
-            if name == "BRDF":
+            d = self.overload(name, args, n.line)
+            if d.cname == self.entry:
                 raise self.error(n.line, "BRDF may not be called by the shader")
-            if len(args) != len(fn.params):
-                raise self.error(n.line, f"{name}() takes {len(fn.params)} arguments, got {len(args)}")
-            code = [self.coerce(a, t, n.line).code for a, (t, _) in zip(args, fn.params)]
-            return Value(fn.type, f"{PREFIX}{name}({', '.join([*code, 's'])})")
+            code = [self.coerce(a, t, n.line).code for a, t in zip(args, d.types)]
+            return Value(d.fn.type, f"{d.cname}({', '.join([*code, 's'])})")
         if name in COMPONENTWISE or (name == "atan" and len(args) == 2):
             return self.componentwise(name, args, n.line)
         if name in GEOMETRIC:
@@ -462,6 +572,24 @@ class Emitter:
         if name.startswith("texture") or name in ("dFdx", "dFdy", "fwidth", "noise1"):
             raise self.error(n.line, f"unsupported construct: {name}()")
         raise self.error(n.line, f"unknown function {name!r}")
+
+    def overload(self, name: str, args: list[Value], line: int) -> Defined:
+        """The definition a call means: the one whose argument types match exactly, else the one
+        matching with ints converted to float (GLSL's implicit conversion)."""
+        types = [a.type for a in args]
+        same = self.functions[name]
+        exact = [d for d in same if d.types == types]
+        if exact:
+            return exact[0]
+        fits = [d for d in same if len(d.types) == len(types)
+                and all(a == t or (a == "int" and t == "float") for a, t in zip(types, d.types))]
+        if len(fits) == 1:
+            return fits[0]
+        call = f"{name}({', '.join(types)})"
+        if fits:
+            raise self.error(line, f"ambiguous call {call}: {' or '.join(d.signature for d in fits)}")
+        raise self.error(line, f"no function {call}; {name} is defined for "
+                               f"{' and '.join(d.signature for d in same)}")
 
     def construct(self, kind: str, args: list[Value], line: int) -> Value:
         if kind in ("float", "int", "bool"):
@@ -568,15 +696,16 @@ def _count_returns(stmts: list[Node] | None) -> int:
 
 @dataclass(frozen=True)
 class Translation:
-    """The OpenCL C of a shader and which of L, V, N, X, Y its BRDF reads."""
+    """The OpenCL C of a shader, the C name of its BRDF and which of L, V, N, X, Y BRDF reads."""
     code: str
     reads: frozenset[str]
+    entry: str
 
 
 def translate(text: str, path: str | Path, params: dict[str, tuple[str, str]], first_line: int = 1) -> Translation:
-    """OpenCL C defining `u_BRDF(L, V, N, X, Y, s)` for the GLSL shader `text` (every translated
+    """OpenCL C defining `entry(L, V, N, X, Y, s)` for the GLSL shader `text` (every translated
     function takes the pixel's Surface `s` last: `params` values may read it)."""
     path = str(path)
     emitter = Emitter(parse(text, path, first_line), path, params)
     code = emitter.emit()
-    return Translation(code, frozenset(emitter.reads))
+    return Translation(code, frozenset(emitter.reads), emitter.entry)

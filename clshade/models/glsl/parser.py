@@ -120,9 +120,12 @@ class Function(Node):
 
 @dataclass
 class Program:
-    consts: list[Decl] = field(default_factory=list)
-    functions: list[Function] = field(default_factory=list)
+    items: list[Decl | Function] = field(default_factory=list)     # globals and functions in source order
     uniforms: list[tuple[str, str, int]] = field(default_factory=list)
+
+    @property
+    def functions(self) -> list[Function]:
+        return [f for f in self.items if isinstance(f, Function)]
 
 
 TYPES = ("float", "int", "bool", "vec2", "vec3")
@@ -204,14 +207,16 @@ class Parser:
                 prog.uniforms.append((kind, self.ident(), line))
                 self.expect(";")
             elif self.accept("const"):
-                prog.consts.append(self.declaration(line, const=True))
+                prog.items.append(self.declaration(line, const=True))
             elif self.is_type():
+                start = self.i
                 kind = self.type_name()
                 name = self.ident()
                 if self.tok.text == "(":
-                    prog.functions.append(self.function(kind, name, line))
+                    prog.items.append(self.function(kind, name, line))
                 else:
-                    raise self.error(f"unsupported construct: non-const global variable {name!r}")
+                    self.i = start
+                    prog.items.append(self.declaration(line))
             else:
                 self._refuse_word(self.tok)
                 raise self.error(f"syntax error: unexpected {self.tok.text!r} at file scope")
