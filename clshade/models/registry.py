@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import difflib
 import os
+import re
 from dataclasses import dataclass, replace
 from functools import cached_property
 from pathlib import Path
@@ -67,12 +68,10 @@ class Registry:
             return builtin_lobes()
         found = dict(builtin_lobes())
         values = dict(self.params)
-        for path in self._files():
-            lobe = _read_brdf(path, values) if path.suffix == ".brdf" else parse_lobe(path, USER)
-            if lobe.id in found or lobe.id in PRESETS:
-                other = found[lobe.id].path if lobe.id in found else "a preset"
-                raise ClshadeError(f"{path}: lobe id {lobe.id!r} is taken by {other}; rename the file")
-            found[lobe.id] = lobe
+        files = self._files()
+        read = [_read_brdf(path, values) if path.suffix == ".brdf" else parse_lobe(path, USER) for path in files]
+        for lobe, ident in zip(read, user_ids(files, [l.id for l in read], set(found) | set(PRESETS))):
+            found[ident] = lobe if ident == lobe.id else replace(lobe, id=ident)
         return MappingProxyType(found)
 
     def _files(self) -> list[Path]:
@@ -180,6 +179,34 @@ class Registry:
         near = difflib.get_close_matches(part, choices, n=1)
         hint = f"; did you mean {near[0]!r}?" if near else "; `clshade models` lists them"
         return ClshadeError(f"model {spec!r}: unknown model or lobe {part!r}{hint}")
+
+
+def user_ids(files: list[Path], names: list[str], taken: set[str]) -> list[str]:
+    """The ids of the user's lobe files, whose own ids (their file names) are `names`: a name no
+    built-in, preset (`taken`) or other user lobe has is the id; any other is prefixed with the
+    file's folders, nearest first, until it is unique (two lambert.brdf in folders mine/ and
+    theirs/: `mine_lambert`, `theirs_lambert`; the built-in stays `lambert`)."""
+    clash = {n for n in names if n in taken or names.count(n) > 1}
+    used = taken | (set(names) - clash)
+    out = []
+    for path, name in zip(files, names):
+        ident = name
+        if name in clash:
+            folders = path.parent.parts[1:] if path.is_absolute() else path.parent.parts
+            candidates = (_as_id("_".join([*folders[len(folders) - k:], name])) for k in range(1, len(folders) + 1))
+            ident = next((c for c in candidates if c not in used), "")
+            if not ident:
+                raise ClshadeError(f"{path}: lobe id {name!r} stays taken with every folder of the path as a prefix; "
+                                   f"rename the file")
+        used.add(ident)
+        out.append(ident)
+    return out
+
+
+def _as_id(text: str) -> str:
+    """Text as a lobe id: lower-case letters, digits and `_`, starting with a letter."""
+    text = re.sub(r"[^a-z0-9_]", "_", text.lower())
+    return text if text[:1].isalpha() else "lobe_" + text
 
 
 def _read_brdf(path: Path, values: Mapping[str, str]) -> Lobe:

@@ -186,6 +186,27 @@ def test_aa_splits_a_model_without_diffuse_lobe():
     assert alone.diffuse == NONE and alone.specular == NONE
 
 
+def test_lobes_of_one_name_get_ids_from_their_folders(tmp_path, capsys, monkeypatch):
+    """Two lambert.brdf in two folders (named like a built-in, and like each other) work side by side:
+    each id is its folder and name; `-m FOLDER/lambert.brdf` means that file, `-m lambert` the built-in."""
+    from clshade.cli import main
+    for folder, value in (("mine", "0.1"), ("theirs", "0.2")):
+        (tmp_path / folder).mkdir()
+        write_brdf(tmp_path / folder, "lambert", f"vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) {{ return vec3({value}); }}")
+    mine, theirs = tmp_path / "mine" / "lambert.brdf", tmp_path / "theirs" / "lambert.brdf"
+    both = BUILT_IN.resolve_many(f"{mine},{theirs},lambert")
+    assert [m.id for m in both] == ["mine_lambert", "theirs_lambert", "lambert"]
+    assert [m.lobes[0].path for m in both[:2]] == [mine, theirs] and not both[2].is_users
+    assert "G_LIT(0.2)" in both[1].lobes[0].code and "G_LIT(0.1)" in both[0].lobes[0].code
+    registry = BUILT_IN.with_lobes(tmp_path / "mine", tmp_path / "theirs")
+    assert registry.resolve("theirs_lambert").lobes[0].path == theirs
+    monkeypatch.setattr("clshade.verify.plausibility.physically_based", lambda **kw: {})
+    assert main(["models", "--lobes", str(tmp_path / "mine"), "--lobes", str(tmp_path / "theirs")]) == 0
+    out = capsys.readouterr().out
+    assert f"yours: {mine} (BRDF Explorer file)" in out and f"yours: {theirs} (BRDF Explorer file)" in out
+    assert "  mine_lambert " in out and "  theirs_lambert " in out and "  lambert " in out
+
+
 def test_a_folder_names_every_lobe_in_it():
     chosen = BUILT_IN.resolve_many(f"lambert,{LOBES}/")
     ids = [m.id for m in chosen]

@@ -6,7 +6,7 @@ parser into an AST (parser.Parser), and a typed emitter (emitter.Emitter) that c
 expression's type (float, int, bool, vec2, vec3) and writes OpenCL C over
 clshade's lane types (simd.h: `real`, `vec3`, `mask`) and kernels/glsl.h.
 
-The subset: `const` globals, helper functions (`in` parameters), local
+The subset: globals (`const` or not), helper functions (`in` parameters, overloads), local
 declarations, `if`/`else`, `return`, `for` loops over an int counter, the
 operators of GLSL expressions with its precedence, `?:`, swizzles
 (`.x`, `.xy`, `.rgb` …), constant indexing `v[i]`, `vec2`/`vec3` constructors,
@@ -14,6 +14,10 @@ the usual built-ins (mix, clamp, pow, dot, normalize …), object-like
 `#define`s, and GLSL's implicit int-to-float conversion. Anything else (vec4,
 matrices, `out` parameters, `while`, `discard`, texture lookups, function-like
 macros …) is refused with one error naming the construct, the file and the line.
+
+Names follow GLSL's scoping (arguments and locals hide globals and the file's parameters;
+a user's function hides a built-in of its name) and each kind of name has its own C prefix
+(emitter.PARAM, GLOBAL, ARG, FUNC, `u_l<k>_` for locals), so no user name meets clshade's.
 
 Lanes are pixels, so control flow that depends on a pixel cannot branch:
 `if` and `?:` are converted to selects (if-conversion). Inside a branch every
