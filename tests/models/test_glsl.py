@@ -129,6 +129,8 @@ vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)
     {
         float alphaG = 10.0;
         b += alphaG;
+        float b = 1.0;      // hides the outer b to the end of the block
+        b += 5.0;
     }
     return vec3(GGX(L.z, 2.0), b + Fresnel(L.x, 3.0), alphaG);
 }
