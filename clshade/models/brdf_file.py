@@ -26,8 +26,9 @@ its tangent frame.
 from __future__ import annotations
 
 import re
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
+from types import MappingProxyType
 from typing import Mapping
 
 from clshade.errors import ClshadeError
@@ -81,8 +82,18 @@ def parse_value(kind: str, text: str, where: str):
         raise ClshadeError(f"{where}: {text!r} is not {want}") from None
 
 
-def load_brdf(path: Path, values: Mapping[str, str]) -> Lobe:
-    """The Lobe of a .brdf file with its parameters set (defaults, then `values`)."""
+@dataclass(frozen=True)
+class BrdfSource:
+    """A .brdf file as written: its declared parameters (kind, name, default values, line) and its
+    shader's text with the file line the shader starts at."""
+    params: tuple[tuple[str, str, tuple[float, ...], int], ...]
+    ranges: Mapping[str, tuple[float, float]]
+    shader: str
+    shader_line: int
+
+
+def read_source(path: Path) -> BrdfSource:
+    """The blocks of a .brdf file; errors name the file and the line."""
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
@@ -119,8 +130,8 @@ def load_brdf(path: Path, values: Mapping[str, str]) -> Lobe:
     if "shader" not in blocks:
         raise ClshadeError(f"{path}:{len(lines)}: no '::begin shader' block")
 
-    params: list[Param] = []
-    compiled: dict[str, tuple[str, str]] = {}
+    params: list[tuple[str, str, tuple[float, ...], int]] = []
+    ranges: dict[str, tuple[float, float]] = {}
     p_first, p_lines = blocks.get("parameters", (1, []))
     for k, raw in enumerate(p_lines):
         at = p_first + k
@@ -132,27 +143,43 @@ def load_brdf(path: Path, values: Mapping[str, str]) -> Lobe:
             raise ClshadeError(f"{path}:{at}: parameter line {raw.strip()!r} is not 'TYPE NAME ...'")
         if kind == "float" and len(words) == 5:
             low, high, default = (_number(path, at, name, w) for w in words[2:5])
-            value = float(parse_value("float", values[name], f"--param {name}")) if name in values else default
-            if not low <= value <= high:
-                raise ClshadeError(f"--param {name}={value:g}: outside [{low:g}, {high:g}] of {path}:{at}")
-            params.append(Param(name, low, high, default, f"float parameter of {path.name}", "float", (value,)))
-            compiled[name] = ("float", f"G_LIT({_c(value)})")
+            ranges[name] = (low, high)
+            params.append((kind, name, (default,), at))
         elif kind == "color" and len(words) == 5:
-            rgb = tuple(_number(path, at, name, w) for w in words[2:5])
-            value = parse_value("color", values[name], f"--param {name}") if name in values else rgb
-            params.append(Param(name, 0.0, 1.0, sum(rgb) / 3, f"colour parameter of {path.name} "
-                                f"(default {', '.join(f'{c:g}' for c in rgb)})", "color", tuple(value)))
-            compiled[name] = ("vec3", "v3(" + ", ".join(f"G_LIT({_c(c)})" for c in value) + ")")
+            params.append((kind, name, tuple(_number(path, at, name, w) for w in words[2:5]), at))
         elif kind == "bool" and len(words) == 3:
-            default = 1.0 if _number(path, at, name, words[2]) else 0.0
-            value = parse_value("bool", values[name], f"--param {name}") if name in values else default
-            params.append(Param(name, 0.0, 1.0, default, f"bool parameter of {path.name}", "bool", (value,)))
-            compiled[name] = ("bool", "G_TRUE" if value else "G_FALSE")
+            params.append((kind, name, (1.0 if _number(path, at, name, words[2]) else 0.0,), at))
         else:
             raise ClshadeError(f"{path}:{at}: parameter line {raw.strip()!r} is not 'float NAME MIN MAX DEFAULT', "
                                f"'color NAME R G B' or 'bool NAME DEFAULT'")
-        if sum(p.name == name for p in params) > 1:
+        if sum(p[1] == name for p in params) > 1:
             raise ClshadeError(f"{path}:{at}: parameter {name!r} is declared twice")
+    s_first, s_lines = blocks["shader"]
+    return BrdfSource(tuple(params), MappingProxyType(ranges), "\n".join(s_lines), s_first)
+
+
+def load_brdf(path: Path, values: Mapping[str, str]) -> Lobe:
+    """The Lobe of a .brdf file with its parameters set (defaults, then `values`)."""
+    source = read_source(path)
+    params: list[Param] = []
+    compiled: dict[str, tuple[str, str]] = {}
+    for kind, name, default, at in source.params:
+        if kind == "float":
+            low, high = source.ranges[name]
+            value = float(parse_value("float", values[name], f"--param {name}")) if name in values else default[0]
+            if not low <= value <= high:
+                raise ClshadeError(f"--param {name}={value:g}: outside [{low:g}, {high:g}] of {path}:{at}")
+            params.append(Param(name, low, high, default[0], f"float parameter of {path.name}", "float", (value,)))
+            compiled[name] = ("float", f"G_LIT({_c(value)})")
+        elif kind == "color":
+            rgb = parse_value("color", values[name], f"--param {name}") if name in values else default
+            params.append(Param(name, 0.0, 1.0, sum(default) / 3, f"colour parameter of {path.name} "
+                                f"(default {', '.join(f'{c:g}' for c in default)})", "color", tuple(rgb)))
+            compiled[name] = ("vec3", "v3(" + ", ".join(f"G_LIT({_c(c)})" for c in rgb) + ")")
+        else:
+            value = parse_value("bool", values[name], f"--param {name}") if name in values else default[0]
+            params.append(Param(name, 0.0, 1.0, default[0], f"bool parameter of {path.name}", "bool", (value,)))
+            compiled[name] = ("bool", "G_TRUE" if value else "G_FALSE")
 
     uses = {"vectors"}
     for i, p in enumerate(params):
@@ -161,8 +188,8 @@ def load_brdf(path: Path, values: Mapping[str, str]) -> Lobe:
             compiled[p.name] = ("vec3" if p.kind == "color" else "float", f"({key[1]})")
             uses |= {key[2]} - {None}
             params[i] = replace(p, value=(), description=f"the material key {p.name}, per pixel ({path.name})")
-    s_first, s_lines = blocks["shader"]
-    tr = translate("\n".join(s_lines), path, compiled, first_line=s_first)
+    s_first = source.shader_line
+    tr = translate(source.shader, path, compiled, first_line=s_first)
     tangents = bool(tr.reads & {"X", "Y"})
     frame = "g.x, g.y" if tangents else "v3s((real)(0.0f)), v3s((real)(0.0f))"
     code = (f'#line 1 "{path}"\n{tr.code}'
