@@ -1,7 +1,7 @@
 """clshade — an OpenCL compute-kernel shading engine for comparing lighting models.
 
 Data flow, one folder per stage (a stage imports only itself and lower stages):
-    models.py (registry) → render/ (scene → meshes → raster → G-buffer)
+    models/ (lobes, models, Registry) → render/ (scene → meshes → raster → G-buffer)
     → device/ (kernel variant → shading dispatch) → pipeline.py (one frame)
     → render/image.py (radiance → image)
 Evidence: verify/ (float64 reference, accuracy, plausibility, stability), bench/ (cost).

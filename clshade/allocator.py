@@ -1,6 +1,6 @@
 """glibc malloc's thresholds (mallopt(3)), set by the processes that render frame after frame.
 
-No NumPy here: the command line sets them before NumPy is imported (clshade.cli.tune_allocator),
+No NumPy here: the command line sets them before NumPy is imported (clshade.cli.process.tune_allocator),
 and the live viewer raises them further (clshade.render.arrays.keep_freed_memory)."""
 from __future__ import annotations
 

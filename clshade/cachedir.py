@@ -1,4 +1,4 @@
-"""clshade's caches on disk (program binaries, tessellations): where they live, atomic
+"""clshade's caches on disk (program binaries, device health, tessellations): where they live, atomic
 writes, and pruning to the most recently used entries.
 
 Every cache is a folder under $XDG_CACHE_HOME/clshade (~/.cache/clshade) holding one file
@@ -13,10 +13,25 @@ import tempfile
 from pathlib import Path
 
 
+ENV_NO_BINARY_CACHE = "CLSHADE_NO_BINARY_CACHE"
+ENV_CACHE_DIR = "CLSHADE_CACHE_DIR"
+
+
 def user_cache_dir(name: str) -> Path:
     """$XDG_CACHE_HOME/clshade/<name>, else ~/.cache/clshade/<name>."""
     base = os.environ.get("XDG_CACHE_HOME", "").strip() or os.path.join(os.path.expanduser("~"), ".cache")
     return Path(base) / "clshade" / name
+
+
+def binary_cache_dir() -> Path | None:
+    """The folder of cached program binaries (clshade.device.runtime) and device health results
+    (clshade.device.health): $CLSHADE_CACHE_DIR, else user_cache_dir("programs"); None when
+    CLSHADE_NO_BINARY_CACHE=1. A warm build from source still costs the driver ~30 ms of CPU
+    (PoCL hashes and links it again); from the binary ~5 ms."""
+    if os.environ.get(ENV_NO_BINARY_CACHE, "").strip() not in ("", "0"):
+        return None
+    folder = os.environ.get(ENV_CACHE_DIR, "").strip()
+    return Path(folder) if folder else user_cache_dir("programs")
 
 
 def read_entry(path: Path) -> bytes | None:

@@ -13,7 +13,7 @@ import numpy as np
 
 from clshade.errors import ClshadeError
 from clshade.render.image import display, srgb_decode
-from clshade.models import GROUPS, Model
+from clshade.models.model import GROUPS, Model
 from clshade.pipeline import Frame, prepare_frame, reads_tangents
 from clshade.device.runtime import Runtime, get_runtime
 from clshade.render.scene import Scene, load_scene

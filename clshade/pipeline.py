@@ -5,7 +5,6 @@ whole frame (its G-buffer is shared by several models: compare, bench); `render_
 from __future__ import annotations
 
 import dataclasses
-import os
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -18,7 +17,7 @@ from clshade.budget import available_memory
 from clshade.errors import ClshadeError
 from clshade.render.gbuffer import GBuffer, build_gbuffer
 from clshade.render.meshes import Geometry, build_geometry
-from clshade.models import Model
+from clshade.models.model import Model
 from clshade.render.raster import Fragments, rasterize
 from clshade.render.samples import check_samples, supersampled
 from clshade.device.runtime import Runtime, get_runtime
@@ -133,7 +132,7 @@ def render(scene: Scene | str | Path, model: Model, *, width: int | None = None,
 BAND_PIXELS = 1 << 19
 #: The allowance for everything that does not scale with the frame — interpreter, NumPy,
 #: PoCL, geometry, one band's working set — when deciding whether a frame fits.
-#: benchmarks/memory_bench.py measures the real peaks (benchmarks/results/memory.md).
+#: benchmarks/measure/memory_bench.py measures the real peaks (benchmarks/results/memory.md).
 STREAM_BASE_BYTES = 320 << 20
 
 

@@ -1,21 +1,25 @@
-"""What a results file records about where it was measured: the commit (and whether the
-checkout had uncommitted changes), the device and the time. Every results JSON carries it
-under "provenance" (benchmarks/freshness.py compares the commit with the last change to
-the code that produced the file)."""
+"""Where a results file was measured: the commit (and whether the checkout had uncommitted
+changes), the device, the time, and the machine. Every results JSON carries the first four
+under "provenance" and the machine under "machine", both written by :func:`stamp`
+(benchmarks/publish/freshness.py compares the commit with the last change to the code that
+produced the file; docs/bench-schema.md lists the keys)."""
 from __future__ import annotations
 
+import os
 import platform
 import subprocess
 import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 _ROOT = Path(__file__).resolve().parents[1]
 
 
-#: What a measurement writes or publish.py renders from the results (tables between markers):
-#: changed in the checkout, they do not make a measurement "dirty".
-RENDERED: tuple[str, ...] = ("benchmarks/results", "README.md", "REPORT.md", "docs")
+#: What a measurement writes or `python -m benchmarks.publish` renders from the results (tables between
+#: markers): changed in the checkout, they do not make a measurement "dirty".
+RENDERED: tuple[str, ...] = ("benchmarks/results", "benchmarks/report", "benchmarks/REPORT.md", "README.md", "docs")
 
 
 def _git(*args: str, root: Path = _ROOT) -> str | None:
@@ -36,14 +40,38 @@ def checkout_commit(root: Path = _ROOT) -> tuple[str | None, bool]:
                              *(f":!{path}" for path in RENDERED), root=root))
 
 
+def cpu_name() -> str:
+    """The CPU model from /proc/cpuinfo, else what `platform` knows."""
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as fh:
+            for line in fh:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def _memory_bytes() -> int | None:
+    try:
+        with open("/proc/meminfo", encoding="utf-8") as fh:
+            for line in fh:
+                if line.startswith("MemTotal"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return None
+
+
+def machine() -> dict[str, Any]:
+    """The machine record of every results JSON, one set of keys (docs/bench-schema.md, *Machine*)."""
+    return {"cpu": cpu_name(), "cores": os.cpu_count(), "memory_bytes": _memory_bytes(), "arch": platform.machine(),
+            "os": platform.platform(), "python": platform.python_version(), "numpy": np.__version__}
+
+
 def host_description() -> str:
-    """The CPU model (for host-only measurements)."""
-    info = Path("/proc/cpuinfo")
-    if info.exists():
-        for line in info.read_text().splitlines():
-            if line.startswith("model name"):
-                return "host CPU: " + line.split(":", 1)[1].strip()
-    return "host CPU: " + (platform.processor() or platform.machine())
+    """The device of host-only measurements: the CPU model."""
+    return "host CPU: " + cpu_name()
 
 
 def provenance(device: str | None = None, commit: str | None = None) -> dict[str, Any]:
@@ -55,5 +83,7 @@ def provenance(device: str | None = None, commit: str | None = None) -> dict[str
 
 
 def stamp(doc: dict[str, Any], device: str | None = None, commit: str | None = None) -> dict[str, Any]:
-    """`doc` with its provenance (a new dict, "provenance" first)."""
-    return {"provenance": provenance(device, commit), **{k: v for k, v in doc.items() if k != "provenance"}}
+    """`doc` with its provenance and the machine record (a new dict, those two first; a "machine"
+    the document had is replaced)."""
+    return {"provenance": provenance(device, commit), "machine": machine(),
+            **{k: v for k, v in doc.items() if k not in ("provenance", "machine")}}

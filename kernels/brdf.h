@@ -40,13 +40,9 @@
  * value as MIN_N_DOT_V: the V terms divide by 4(n·l)(n·v). */
 #define MIN_N_DOT_L 1.0e-4f
 
-/* |l + v|² below which the half vector is undefined (l = −v). The floor keeps
- * rsqrt finite (≤ 1e15, a normal float32 even with denormals flushed) and is
- * this small because valid pairs reach it: n·l = n·v = 1e-7 at the mirror has
- * |l + v|² = 4e-14 (a floor of 1e-12 shortened h there and made D_GGX 600×
- * too large at α = 1). With n·l, n·v > 0, |l + v| ≥ n·l + n·v, so the floor
- * acts only when both cosines are below 1e-15 (radiance ≤ 1e-15 · f · E).
- * make_geometry() treats a half vector below it as perpendicular to n. */
+/* |l + v|² below which the half vector is undefined (l = −v; make_geometry() then takes it as
+ * perpendicular to n): keeps rsqrt ≤ 1e15, and is below the 4e-14 of valid mirror pairs at
+ * n·l = n·v = 1e-7. Bias: acts only where both cosines are below 1e-15 (radiance ≤ 1e-15 · f · E). */
 #define MIN_HALF_LEN2 1.0e-30f
 
 /* Beckmann D below this n·h is exactly 0 in float32 for m ≤ 1:
@@ -60,13 +56,8 @@
 #define MIN_POW_BASE 1.0e-30f
 
 /* Shininess below which the empirical lobes read n as 0 (0⁰ = 1 behind Phong's mirror): FLT_MIN,
- * the smallest normal float32. A build that flushes denormals sees a denormal n as 0 (NVIDIA's
- * -cl-fast-relaxed-math; -cl-denorms-are-zero on PoCL), one that keeps them sees n > 0, and 0ⁿ
- * then is 1 in one build and 0 in the other (the H100 fast Phong build deviated by 1000 from the
- * float64 reference at n = 1e-40, 2026-11-26). Comparing with FLT_MIN gives the same answer in
- * both. Bias: for 0 < n < FLT_MIN the lobe is 1 behind the mirror instead of 0; everywhere
- * else it is 1 already (exp2(n·log2 x) with n·log2 x ≥ FLT_MIN·log2 MIN_POW_BASE = −1.2e-36),
- * so such an n shades as n = 0 does. The float64 reference applies the same rule. */
+ * so that builds flushing denormals and builds keeping them agree on a denormal n. Bias: for
+ * 0 < n < FLT_MIN the lobe is 1 behind the mirror, not 0 (as n = 0; the float64 reference too). */
 #define MIN_SHININESS 1.17549435e-38f
 
 /* Whether shininess n reads as 0 (|n| < MIN_SHININESS; a NaN n does not). */
@@ -79,12 +70,9 @@ INLINE real pow5(real x) { real x2 = x * x; return x2 * x2 * x; }
 INLINE real saturate(real x) { return clamp(x, 0.0f, 1.0f); }
 INLINE real safe_sqrt(real x) { return sqrt(fmax(x, 0.0f)); }
 
-/* log2 x for normal x > 0 in straight-line lane-wise code: PoCL's float8
- * log2/log are not vectorised (they cost as much as the rest of a Phong
- * pass). x = m·2^e with m in [√½, √2); ln m = f − f²/2 + f³·P(f), f = m − 1,
- * with the minimax polynomial P of Cephes logf (S. Moshier, Cephes Math
- * Library, 1984–2000): error ≤ 2 ulp of ln m, measured against float64 by
- * tests/test_terms.py through Fs_Phong and Fs_BlinnPhong. */
+/* log2 x for normal x > 0 in straight-line lane-wise code (PoCL's float8 log2 is not vectorised):
+ * x = m·2^e, m in [√½, √2), ln m = f − f²/2 + f³·P(f), f = m − 1, P the minimax polynomial of
+ * Cephes logf (S. Moshier): ≤ 2 ulp of ln m against float64 (tests/device/test_terms.py). */
 INLINE real log2_lanes(real x) {
 #ifdef REAL_DOUBLE
     return log2(x);     /* the double build: the library's, to double precision */
@@ -109,13 +97,9 @@ INLINE real log2_lanes(real x) {
 #endif
 }
 
-/* eˣ in straight-line lane-wise code, for x ≤ 88 (0 below −87, where eˣ is
- * subnormal). PoCL's precise float8 exp cost 28 % of a 4-light Cook–Torrance
- * frame (A/B, 2026-11-23); this one ~6 %. Cody–Waite reduction x = k ln 2 + r
- * (ln 2 split in two so that k ln 2 is exact), eʳ by the minimax polynomial of
- * Cephes expf (S. Moshier) on |r| ≤ ½ ln 2, scaled by 2ᵏ built in the
- * exponent bits: ≤ 2 ulp, measured against float64 by tests/test_terms.py
- * through D_Beckmann. */
+/* eˣ in straight-line lane-wise code (PoCL's precise float8 exp is slow), x ≤ 88, 0 below −87:
+ * x = k ln 2 + r (Cody–Waite, ln 2 in two parts), eʳ by Cephes expf's minimax polynomial
+ * (S. Moshier), 2ᵏ built in the exponent bits: ≤ 2 ulp against float64 (tests/device/test_terms.py). */
 INLINE real exp_lanes(real x) {
 #ifdef REAL_DOUBLE
     return exp(x);
@@ -136,12 +120,9 @@ INLINE real exp_lanes(real x) {
  * would be subnormal, and exp2_lanes() returns 0 (absolute bias ≤ 1.2e-38). */
 #define MIN_EXP2_ARG -126.0f
 
-/* 2ˣ in straight-line lane-wise code, for x ≤ 127. pip's PoCL 3.0 calls its
- * library's float8 exp2 out of line (the library is built for AVX-512, the
- * kernels for znver3: simd.h), 3 calls per Phong work-item (objdump). x = k + r,
- * k = rint(x) (exact), |r| ≤ ½; 2ʳ = 1 + r·P(r) with the minimax polynomial of
- * Cephes exp2f (S. Moshier), scaled by 2ᵏ built in the exponent bits: ≤ 2 ulp,
- * measured against float64 by tests/test_terms.py through Fs_Phong. */
+/* 2ˣ in straight-line lane-wise code (pip's PoCL 3.0 calls its float8 exp2 out of line: simd.h),
+ * x ≤ 127: x = k + r, k = rint(x), |r| ≤ ½; 2ʳ = 1 + r·P(r), P Cephes exp2f's minimax polynomial
+ * (S. Moshier), 2ᵏ built in the exponent bits: ≤ 2 ulp against float64 (tests/device/test_terms.py). */
 INLINE real exp2_lanes(real x) {
 #ifdef REAL_DOUBLE
     return exp2(x);
@@ -284,7 +265,7 @@ INLINE real fresnel_conductor_channel_unclamped(real c, real eta, real k) {
     real t1 = a2b2 + c2;
     /* a² = (a2b2 + t0)/2 and b² = (a2b2 − t0)/2, each from whichever form does
      * not cancel, using (a2b2 + t0)(a2b2 − t0) = 4η²k²: the difference form lost
-     * 4.5e-4 relative in F for η < 1 and k → 0 (measured, tests/test_terms.py). */
+     * 4.5e-4 relative in F for η < 1 and k → 0 (measured, tests/device/test_terms.py). */
     real big = 0.5f * (a2b2 + fabs(t0));
     real small = (2.0f * eta * eta * k * k) / fmax(a2b2 + fabs(t0), FLT_MIN);
     real a = sqrt(t0 >= 0.0f ? big : small);

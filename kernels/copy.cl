@@ -4,39 +4,16 @@
  * the same float4 output, with no lighting arithmetic. Like shade.cl it
  * reads only the depth of a work-item whose pixels are all empty, and it
  * writes the background where shade.cl does. */
-__kernel void copy(const uint npix, const uint plane,
-    __global const float* depth, __global const GB3* normal, __global const GB3* base
-#if HAS_ROUGHNESS
-    , __global const float* roughness
-#endif
-#if HAS_METALLIC
-    , __global const float* metallic
-#endif
-#if HAS_EMISSIVE
-    , __global const float* emissive
-#endif
-#if HAS_OCCLUSION
-    , __global const float* occlusion
-#endif
-#if HAS_TANGENT
-    , __global const float* tangent
-#endif
-#if HAS_MATERIAL
-    , __global const uchar* material
-#endif
-    , const float4 background, __global float4* out)
+__kernel void copy(const uint npix, const uint plane, GBUFFER_PARAMS,   /* gbuffer.h, as shade.cl */
+    const float4 background, __global float4* out)
 {
     size_t i = get_global_id(0);
     if (SIMD * i >= npix) return;
     real w = VLOAD(i, depth);
     PREFETCH_AHEAD(i, w);   /* as shade.cl: the same prefetches (gbuffer.h) */
-    /* The background wherever shade.cl writes it: every lane of a work-item with
-     * no covered pixel (which reads only depth, as there) and the uncovered lanes
-     * of the others. Not 0: on the machine these kernels were tuned on, cache lines
-     * of zeros are written faster than lines of any other value (perf's STREAM
-     * fill rows measure it), and a floor that wrote 0 over the sky ran faster than
-     * the same stores of shade.cl's background could (docs/bench-notes.md,
-     * 2026-11-25). One store4 site, as there (gbuffer.h). */
+    /* The background wherever shade.cl writes it (a sky work-item reads only depth, as there),
+     * not 0: lines of zeros can be written faster than other values, and the floor must store
+     * what shade.cl stores (docs/bench-notes.md). One store4 site, as there (gbuffer.h). */
     vec3 color = v3c(background.xyz);
     real alpha = (real)(background.w);
     if (!all_empty(w)) {

@@ -1,5 +1,5 @@
 /* glsl.h — the GLSL built-ins a translated BRDF Explorer shader calls
- * (clshade/glsl.py emits calls to these; nothing else includes this file).
+ * (clshade/models/glsl/emitter.py emits calls to these; nothing else includes this file).
  *
  * GLSL's float is `real` and its vec3 clshade's `vec3` (simd.h): one lane per
  * pixel, so a translated shader shades SIMD pixels at once like a built-in

@@ -34,10 +34,10 @@
  *   GENERAL                        the general kernel: every channel read, the
  *                                  light count, ambient and shadows runtime
  *                                  switches; the reference every specialised
- *                                  variant must match (tests/test_specialisation.py)
+ *                                  variant must match (tests/device/test_specialisation.py)
  *
  * Channel layout (struct of arrays, one entry per pixel, row 0 at the top;
- * `plane` = npix padded to a multiple of 16 = runtime.SIMD_PAD ≥ SIMD, see
+ * `plane` = npix padded to a multiple of 16 (render/arrays.py PIXEL_PAD) ≥ SIMD, see
  * gbuffer.h):
  *   depth     float   view-space depth along the camera axis, ≤ 0 = empty
  *   normal    3 planes of float: world-space shading normal (or half)
@@ -123,11 +123,9 @@ INLINE real spot_cone(vec3 l, float4 axis, float cos_outer, float cos_inner) {
 /* Each lane's row of the material table (a gather: lanes may differ). */
 INLINE Material material_gather(uindex id, mask covered, __constant float4* materials) {
     uindex_lanes ids = {id};
-    /* Sky lanes hold id 0 and their shading is discarded (shade.cl selects the
-     * background there): they take the first covered lane's id, so that a
-     * work-item on one object's silhouette stays on the one-row path below
-     * (comparing every lane sent a tenth of sphere_grid's covered work-items to
-     * the per-lane gather). Some lane is covered: the caller skips all-sky ones. */
+    /* Sky lanes (id 0, their shading discarded) take the first covered lane's id, so that a
+     * work-item on one object's silhouette stays on the one-row path below. Some lane is
+     * covered: the caller skips all-sky work-items. */
     mask_lanes cov = {covered};
     uint first = ids.s[0];
     for (int j = 0; j < SIMD; ++j)
@@ -161,26 +159,9 @@ INLINE Material material_gather(uindex id, mask covered, __constant float4* mate
 __kernel void shade(
     const uint npix, const uint plane, const uint width, const float inv_width2, const float inv_height2,
     const float4 cam_pos, const float4 cam_fwd, const float4 cam_right, const float4 cam_up,
-    __global const float* depth,
-    __global const GB3* normal,
-    __global const GB3* base
-#if HAS_ROUGHNESS
-    , __global const float* roughness
-#endif
-#if HAS_METALLIC
-    , __global const float* metallic
-#endif
-#if HAS_EMISSIVE
-    , __global const float* emissive
-#endif
-#if HAS_OCCLUSION
-    , __global const float* occlusion
-#endif
-#if HAS_TANGENT
-    , __global const float* tangent
-#endif
+    GBUFFER_PARAMS      /* gbuffer.h: depth, normal, base and the variant's channels */
 #if HAS_MATERIAL
-    , __global const uchar* material, __constant float4* materials
+    , __constant float4* materials
 #endif
 #if GENERAL
     , const uint num_lights, __constant float4* lights

@@ -28,10 +28,8 @@
 #define SIMD 1
 #endif
 
-/* Every helper is inlined into the kernel. PoCL's inliner gave up on
- * shade_light() once a lobe grew (Cook–Torrance), and a call spills every live
- * vector register around it: 5 % of a 4-light Cook–Torrance frame, 4–6 % of
- * Phong with material_gather (A/B in one process, 2026-11-23). */
+/* Every helper is inlined into the kernel: PoCL's inliner gives up on shade_light() once a lobe
+ * grows, and a call spills every live vector register around it. */
 #define INLINE __attribute__((always_inline)) inline
 
 /* REAL_DOUBLE (SIMD 1 only: the evaluation kernel eval.cl): real is double, the
@@ -121,22 +119,9 @@ typedef uint16 uindex;
 #endif
 
 /* ---- inline math (x86) ------------------------------------------------------
- * Why: pip's PoCL 3.0 (pocl-binary-distribution, LLVM 14) links the AVX-512
- * build of its builtin library (kernel-x86_64-…-avx512.bc, picked from the
- * CPU's feature flags) but compiles our kernels for LLVM 14's name of this CPU,
- * znver3, which has no AVX-512 (POCL_DEBUG=all: "-target-cpu znver3"). LLVM
- * inlines a function only into a caller with a superset of its target
- * features, so every builtin — fmax, sqrt, vload8, vstore8, convert_float8 … —
- * stays an out-of-line call, and float16 arguments cannot even be passed
- * ("LLVM ERROR: Cannot select … fsqrt" in _cl_rsqrtDv16_f). Debian's PoCL 3.1
- * (LLVM 15) compiles for skylake-avx512 and inlines them. Where that mismatch
- * exists — the host CPU has AVX-512 (the host passes CLSHADE_HOST_AVX512F) and
- * the kernel is compiled without it — the hot builtins are written here as
- * plain operators and clang/x86 builtins, which are code in the kernel itself;
- * same results (sqrt is IEEE sqrt; fmax/fmin keep OpenCL's NaN rule). Elsewhere
- * the library's own builtins inline, and were measured faster (PoCL 3.1,
- * benchmarks/results/perf_1080p.md). Host switches for A/B:
- * CLSHADE_LIBRARY_MATH=1 (never inline), CLSHADE_INLINE_MATH=1 (always). */
+ * Where the host has AVX-512 (CLSHADE_HOST_AVX512F) but the kernel compiles without it (pip's
+ * PoCL 3.0), the library's AVX-512 builtins cannot inline nor take float16: the hot ones are
+ * written here as operators and x86 builtins, same results (docs/bench-notes.md, "Inline math"). */
 #if defined(__x86_64__) && defined(__AVX__) && !defined(CLSHADE_LIBRARY_MATH) && \
     (defined(CLSHADE_INLINE_MATH_FORCE) || (defined(CLSHADE_HOST_AVX512F) && !defined(__AVX512F__)))
 #define CLSHADE_INLINE_MATH 1
@@ -144,7 +129,7 @@ typedef uint16 uindex;
 #if SIMD == 16
 /* float16 arguments without AVX-512 "change the ABI" (clang -Wpsabi): every
  * function here is inlined, so no call passes one; the warning would otherwise
- * print on every build (tests/test_meshes.py wants an empty stderr). */
+ * print on every build (tests/render/test_meshes.py wants an empty stderr). */
 #pragma clang diagnostic ignored "-Wpsabi"
 #endif
 
@@ -270,11 +255,8 @@ typedef short short8u __attribute__((ext_vector_type(8), aligned(2)));
 #define VSTORE8(v, k, p) vstore8((v), (k), (p))
 #endif
 
-/* any()/all() of a lane mask from the sign bits (movmskps), as OpenCL's do, on
- * every x86 build with AVX, whatever the math: Debian's PoCL 3.1 inlines its
- * library any(int16) as 8 pairwise ORs, each extracted to a scalar register and
- * branched on (24 test/js per Phong work-item, objdump), where movmskps is one
- * instruction per 8 lanes. */
+/* any()/all() of a lane mask from the sign bits (movmskps: one instruction per 8 lanes) on every
+ * x86 build with AVX: PoCL 3.1 inlines its library's any(int16) as 8 ORs, each branched on. */
 #if defined(__x86_64__) && defined(__AVX__) && SIMD > 1
 #undef ANY
 #undef ALL
@@ -292,11 +274,9 @@ typedef short short8u __attribute__((ext_vector_type(8), aligned(2)));
 #define ALL(m) (MASK_BITS(m) == MASK_FULL)
 #endif
 
-/* PREFETCH(p): a hint that the cache line at global address p is read soon
- * (prefetcht0 on x86: into every cache level; never faults, so an address past
- * the buffer's end is harmless). Where PoCL compiles for x86; elsewhere nothing.
- * gbuffer.h's PREFETCH_AHEAD says what is prefetched and why.
- * CLSHADE_NO_PREFETCH (CLSHADE_NO_PREFETCH=1 on the host) leaves it out. */
+/* PREFETCH(p): prefetcht0 of the line at p on x86 (never faults: an address past the buffer is
+ * harmless), else nothing; CLSHADE_NO_PREFETCH=1 on the host leaves it out. What is prefetched
+ * and why: gbuffer.h's PREFETCH_AHEAD. */
 #if defined(__x86_64__) && !defined(CLSHADE_NO_PREFETCH)
 #define CLSHADE_PREFETCH 1
 #define PREFETCH(p) __builtin_prefetch((p))
@@ -304,23 +284,9 @@ typedef short short8u __attribute__((ext_vector_type(8), aligned(2)));
 #define PREFETCH(p) ((void)0)
 #endif
 
-/* STORE_ROW8(v, k, p): row k of 8 floats at p, a 32-byte aligned address
- * (the image rows of gbuffer.h: the output buffer is device-allocated,
- * CL_DEVICE_MEM_BASE_ADDR_ALIGN is 1024 bits on PoCL, and every work-item
- * writes whole 32-byte rows). On x86 with AVX a streaming store (vmovntps):
- * the image is written once and read next by the host, so the store skips the
- * read for ownership that a plain store makes of every output line, and the
- * cache it would fill. The `plain stores` build of benchmarks/results/
- * perf_1080p.md is the A/B. Used at SIMD 8 and 16 (gbuffer.h's store8_rows).
- * The stores are weakly ordered. OpenCL gives no fence for them; the kernels
- * rely on PoCL's CPU device signalling a finished work-group with locked
- * instructions (atomics, mutexes), which drain the write-combining buffers
- * (Intel SDM vol. 3 §11.3.1, AMD APM vol. 2 §7.4) before the event completes —
- * runtime behaviour, not a guarantee of the standard; CLSHADE_CACHED_STORES=1
- * (environment) keeps plain stores. An SFENCE per work-item would stall every
- * work-item on its own lines (the copy kernel ran several times slower with
- * one: docs/bench-notes.md). A line must be written whole by streaming
- * stores: gbuffer.h keeps one store site per kernel for that reason. */
+/* STORE_ROW8(v, k, p): row k of 8 floats at 32-byte aligned p; on x86 with AVX a streaming store,
+ * which skips the read for ownership of each output line. Weakly ordered: PoCL's locked
+ * instructions at a work-group's end drain them (docs/bench-notes.md, "Streaming stores"). */
 #if defined(__x86_64__) && defined(__AVX__) && !defined(CLSHADE_CACHED_STORES)
 #define CLSHADE_STREAMING_STORES 1
 #define STORE_ROW8(v, k, p) __builtin_nontemporal_store((v), (__global float8*)((p) + 8 * (size_t)(k)))
@@ -359,10 +325,8 @@ INLINE double clshade_dclamp(double x, double lo, double hi) { return fmin(fmax(
 #define clamp(x, lo, hi) clshade_dclamp((x), (lo), (hi))
 #endif
 
-/* The start of a sum of vec3 terms. −0 is the identity of IEEE addition
- * (x + (−0) = x for every x, −0 and NaN included), so the compiler drops the
- * first addition; from +0 it must keep it (−0 + (+0) = +0) without fast math:
- * 3 adds per sum, four sums per lit work-item (objdump, PoCL 3.0). */
+/* The start of a sum of vec3 terms: −0, the identity of IEEE addition (x + (−0) = x, −0 and NaN
+ * included), so the compiler drops the first addition; from +0 it must keep it without fast math. */
 #define SUM_START v3s((real)(-0.0f))
 
 /* A direction or an RGB colour, one per lane. */

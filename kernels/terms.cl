@@ -1,5 +1,5 @@
 /* terms.cl — each term function of brdf.h on its own, for arrays of scalar
- * inputs: the device side of the per-term accuracy tests (tests/test_terms.py,
+ * inputs: the device side of the per-term accuracy tests (tests/device/test_terms.py,
  * clshade/verify/accuracy.py), in the spirit of BRDF Explorer's single-term files.
  *
  * One kernel per term, named term_<function>; all share one signature:
@@ -46,5 +46,5 @@ TERM_KERNEL(Fs_BlinnPhong,       SCALAR(Fs_BlinnPhong(a.x, a.y)))
 
 /* Not a term: the Phong powers' early-out (brdf.h power_underflows) beside the power
  * it claims is 0 — .x pow_runtime(x, n), .y 1 where the lane is claimed
- * (tests/test_terms.py, test_power_underflow_claims_only_exact_zeros). */
+ * (tests/device/test_terms.py, test_power_underflow_claims_only_exact_zeros). */
 TERM_KERNEL(power_underflows,    (float4)(pow_runtime(a.x, a.y), power_underflows(a.x, a.y) ? 1.0f : 0.0f, 0.0f, 0.0f))

@@ -1,5 +1,12 @@
-"""Shared fixtures: the OpenCL runtime (PoCL CPU by default), the bundled data as installed, the checkout and
-the third-party assets folder.
+"""Shared fixtures and helpers: the OpenCL runtime (PoCL CPU by default), the bundled data as installed, the
+checkout and the third-party assets folder; the command line run in-process or in a child process, the one-line
+error it must print on bad input, and a frame compared with the float64 frame oracle.
+
+The test folders mirror the packages (render/, device/, models/, verify/, bench/, report/, view/, cli/), tests of
+clshade's top-level modules sit here, and contracts/ holds the promises checked across the tree. Basenames are
+unique across the folders, which are not packages: pytest's default import mode puts each test's folder and this
+one on sys.path, so `from conftest import ...`, `from scene_toml import ...` and `from hostile_files import ...`
+work from every folder.
 
 The tests run against whatever `import clshade` finds. CI (.ci/run) installs the package non-editable and runs
 pytest from tests/, so `clshade` and its data (kernels, scenes, textures) come from site-packages and a file
@@ -9,18 +16,28 @@ from the checkout.
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import clshade
+from clshade import cli
 from clshade.resources import scenes_dir
+from scene_toml import small_red_sphere
 
 ROOT = Path(__file__).resolve().parents[1]
 ASSETS = ROOT.parent / "shared" / "assets"
 SCENES = scenes_dir()  # the scenes the imported clshade ships (site-packages when installed)
 PACKAGE = Path(clshade.__file__).resolve().parent
 CHECKOUT = ROOT if (ROOT / "pyproject.toml").is_file() else None
+
+# The checkout's `benchmarks` package importable by tests (`import benchmarks.publish.render`): the root is
+# appended, after site-packages, so that `import clshade` still finds the installed package first.
+if CHECKOUT is not None and str(CHECKOUT) not in sys.path:
+    sys.path.append(str(CHECKOUT))
 
 
 def pytest_report_header(config) -> str:
@@ -51,8 +68,8 @@ _HEALTHY: list | None = None
 
 def healthy_devices() -> list:
     """Every healthy OpenCL device present (CPU and GPU), in the default's order: the oracle,
-    stability and AA tests run on each (issue 24). With fewer than two, CI is not testing what
-    it promises, so CLSHADE_EXPECT_RUNTIMES=N makes the session fail below N."""
+    stability and AA tests run on each. With fewer than two, CI is not testing what it promises,
+    so CLSHADE_EXPECT_RUNTIMES=N makes the session fail below N."""
     global _HEALTHY
     if _HEALTHY is None:
         from clshade.device.runtime import healthy_devices as found
@@ -62,14 +79,14 @@ def healthy_devices() -> list:
 
 #: The mutation runner's suites set this too: Hypothesis draws no constants from the source of the modules loaded so
 #: far (its "local constants"), so that what a derandomized property test tries depends neither on which test files
-#: ran before it in the process nor on literals elsewhere in clshade (benchmarks/impact.py relies on that).
+#: ran before it in the process nor on literals elsewhere in clshade (benchmarks/mutation/impact.py relies on that).
 ENV_NO_LOCAL_CONSTANTS = "CLSHADE_TEST_NO_LOCAL_CONSTANTS"
 if os.environ.get(ENV_NO_LOCAL_CONSTANTS) == "1":
     from hypothesis.internal.conjecture import providers as _providers
     from hypothesis.internal.constants_ast import Constants as _Constants
     _providers._get_local_constants = _Constants
 
-#: The mutation runner's suites (benchmarks/mutants.py) set this: `device_runtime` tests run on the default device
+#: The mutation runner's suites (benchmarks/mutation/run.py) set this: `device_runtime` tests run on the default device
 #: only. A mutated kernel or host line acts the same on every runtime, and each runtime would compile every mutated
 #: variant again.
 ENV_ONE_RUNTIME = "CLSHADE_TEST_ONE_RUNTIME"
@@ -94,26 +111,11 @@ def device_runtime(request):
 
 @pytest.fixture(scope="session")
 def checkout() -> Path:
-    """The source checkout (docs/, benchmarks/); tests reading it skip when the tests run without it."""
+    """The source checkout (docs/, benchmarks/, importable as above); tests reading it skip when the tests run
+    without it."""
     if CHECKOUT is None:
         pytest.skip(f"no source checkout at {ROOT} (tests copied without the repository)")
     return CHECKOUT
-
-
-@pytest.fixture(scope="session")
-def bench_script(checkout):
-    """benchmarks/<name>.py loaded as the module <name> (registered in sys.modules: dataclasses look their
-    module up there; the scripts import each other by name from benchmarks/)."""
-    import importlib.util
-    import sys
-
-    def load(name: str):
-        spec = importlib.util.spec_from_file_location(name, checkout / "benchmarks" / f"{name}.py")
-        module = importlib.util.module_from_spec(spec)
-        sys.modules[name] = module
-        spec.loader.exec_module(module)
-        return module
-    return load
 
 
 @pytest.fixture(scope="session")
@@ -127,7 +129,7 @@ def assets() -> Path:
 @pytest.fixture
 def nvidia_compiler(monkeypatch):
     """`fail(needle, message)`: from then on pyopencl builds a program whose source contains `needle`
-    the way NVIDIA's OpenCL compiler fails it (OpenCL 3.0 CUDA 13.0.98, H100, 2026-11-26): `#line`
+    the way NVIDIA's OpenCL compiler fails it (OpenCL 3.0 CUDA 13.0.98 on an H100): `#line`
     ignored, the error located at `<kernel>:LINE:COL`, LINE counted in the whole assembled program.
     Other programs build as usual."""
     import pyopencl as cl
@@ -156,8 +158,6 @@ def nvidia_compiler(monkeypatch):
 @pytest.fixture
 def scratch_repo(tmp_path):
     """A new git repository at tmp_path; returns git(*args) run there (its stdout, stripped)."""
-    import subprocess
-
     def git(*args: str) -> str:
         return subprocess.run(["git", "-C", str(tmp_path), *args], check=True, capture_output=True,
                               text=True).stdout.strip()
@@ -165,3 +165,110 @@ def scratch_repo(tmp_path):
     git("config", "user.email", "t@example.org")
     git("config", "user.name", "t")
     return git
+
+
+# ---------------------------------------------------------------- the command line
+
+
+def run_cli(capsys, args: list[str]) -> tuple[int, str, str]:
+    """`clshade ARGS` in-process: (exit status, stdout, stderr)."""
+    code = cli.main(args)
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def assert_one_line_error(code: int, err: str, *needles: str) -> None:
+    """Bad input's answer: exit status 2 and exactly one line on stderr, `clshade: error: ...` (no traceback),
+    holding every needle."""
+    assert code == 2, (code, err)
+    assert err.startswith("clshade: error: ") and err.endswith("\n"), err
+    assert err.count("\n") == 1 and "Traceback" not in err, err
+    for needle in needles:
+        assert needle in err, (needle, err)
+
+
+def refused(capsys, args: list[str], *needles: str) -> str:
+    """`clshade ARGS` in-process must refuse in one line holding every needle; returns that line."""
+    code, _, err = run_cli(capsys, args)
+    assert_one_line_error(code, err, *needles)
+    return err
+
+
+def write_scene(folder: Path, text: str | None = None, name: str = "scene.toml") -> Path:
+    """`text` (default: scene_toml.small_red_sphere()) written to folder/name."""
+    path = folder / name
+    path.write_text(small_red_sphere() if text is None else text)
+    return path
+
+
+def render_refused(folder: Path, capsys, text: str, *needles: str, extra: list[str] | None = None) -> str:
+    """`clshade render` of the scene `text` (written to folder/scene.toml) must refuse in one line holding
+    every needle and the scene file's name (unless `extra` options hold the bad value), and leave nothing new
+    in the folder; returns the line."""
+    scene = write_scene(folder, text)
+    before = set(os.listdir(folder))
+    code, _, err = run_cli(capsys, ["render", str(scene), "-o", str(folder / "out.png"), *(extra or [])])
+    assert_one_line_error(code, err, *needles, *([] if extra else [scene.name]))
+    assert set(os.listdir(folder)) == before, set(os.listdir(folder)) ^ before
+    return err
+
+
+def cli_image(capsys, scene: Path, out: Path) -> np.ndarray:
+    """`clshade render SCENE -o OUT` in-process must succeed with nothing on stderr; returns the image read
+    back."""
+    from clshade.render.image import read_image
+    code, _, err = run_cli(capsys, ["render", str(scene), "-o", str(out)])
+    assert code == 0 and err == "", err
+    return read_image(out)
+
+
+def run_cli_process(args: list[str], cwd: Path, timeout: float = 60) -> subprocess.CompletedProcess:
+    """`python -m clshade ARGS` in a child process: its whole stderr, what C libraries and the interpreter's
+    exit print included, and a timeout for a read that would not end."""
+    return subprocess.run([sys.executable, "-m", "clshade", *args], capture_output=True, text=True, cwd=cwd,
+                          timeout=timeout)
+
+
+# ---------------------------------------------------------------- the float64 frame oracle
+
+#: The kernels' bound against the float64 frame oracle (README), relative, on the compared pixels.
+ORACLE_BOUND = 1e-4
+#: A relative error below ORACLE_DARK · the frame's peak radiance counts as absolute.
+ORACLE_DARK = 1e-3
+#: The compared pixels: every light's n·l and n·v at least this far from 0 (at grazing light or view the
+#: kernels' documented floors act; the error there is clshade.verify.bias's subject).
+ORACLE_MIN_COS = 1e-3
+#: The frame size oracle_errors renders at.
+ORACLE_WIDTH, ORACLE_HEIGHT = 96, 72
+
+
+def oracle_errors(scene_path, model_spec: str, runtime=None) -> dict[str, float]:
+    """Render `scene_path` with the kernel (on `runtime`, default the default device) and evaluate the float64
+    frame oracle on the same G-buffer: the compared and covered pixel counts, the largest relative error on the
+    compared pixels, the largest absolute difference on the background, and how many compared pixels a shadow
+    darkens."""
+    from clshade.models.registry import Registry
+    from clshade.pipeline import render
+    from clshade.verify import reference
+    model = Registry().resolve(model_spec)
+    r = render(scene_path, model, width=ORACLE_WIDTH, height=ORACLE_HEIGHT, runtime=runtime)
+    frame = r.frame
+    vis = reference.visibility(frame.gbuffer, frame.scene, frame.shadows, frame.camera)
+    want = reference.radiance(frame.gbuffer, frame.scene, model, visibility=vis, camera=frame.camera)
+    px = reference.pixels(frame.gbuffer, frame.camera)
+    keep = np.sum(px.n * px.v, axis=1) >= ORACLE_MIN_COS
+    for _, l, _ in reference.light_rays(frame.scene, px):
+        keep &= np.abs(np.sum(px.n * l, axis=1)) >= ORACLE_MIN_COS
+    if vis is not None:   # pixels whose PCF taps sit on a texel edge may round either way
+        for dx, dy in ((1e-3, 1e-3), (-1e-3, -1e-3)):
+            other = reference.visibility(frame.gbuffer, frame.scene, frame.shadows, frame.camera, offset=(dx, dy))
+            keep &= (other == vis).reshape(len(vis), -1)[:, px.index].all(axis=0)
+    idx = px.index[keep]
+    got = r.image[..., :3].reshape(-1, 3)[idx].astype(np.float64)
+    ref = want.reshape(-1, 3)[idx]
+    peak = float(np.abs(ref).max())
+    err = np.abs(got - ref) / np.maximum(np.abs(ref), ORACLE_DARK * peak)
+    empty = ~frame.gbuffer.coverage.reshape(-1)
+    bg = np.abs(r.image[..., :3].reshape(-1, 3)[empty] - want.reshape(-1, 3)[empty])
+    return dict(pixels=len(idx), covered=len(px.index), max=float(err.max()), background=float(bg.max(initial=0)),
+                shadowed=int((vis < 1).reshape(len(vis), -1)[:, idx].any(axis=0).sum()) if vis is not None else 0)

@@ -1,4 +1,4 @@
-"""Hostile input files for the tests (test_hostile_inputs.py, test_hostile_properties.py):
+"""Hostile input files for the tests (the bad-input tests and tests/contracts/test_hostile_properties.py):
 image headers that promise more pixels than any budget allows, meshes whose faces name
 vertices that do not exist. Each is built from its format's specification in a few hundred
 bytes, so no test allocates what the file promises."""

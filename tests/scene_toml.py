@@ -14,7 +14,8 @@ from typing import Any, Iterable
 # ---------------------------------------------------------------- builders
 
 def value(v: Any) -> str:
-    """`v` as a TOML value: bool, int, float (nan and ±inf included), str, a list/tuple of those, {}."""
+    """`v` as a TOML value: bool, int, float (nan and ±inf included), str, a list/tuple of those, a dict of
+    those (an inline table)."""
     if isinstance(v, bool):
         return "true" if v else "false"
     if isinstance(v, float):
@@ -24,7 +25,7 @@ def value(v: Any) -> str:
     if isinstance(v, str):
         return '"' + v.encode("unicode_escape").decode("ascii").replace('"', '\\"') + '"'
     if isinstance(v, dict):
-        return "{}"
+        return "{" + ", ".join(f"{k} = {value(x)}" for k, x in v.items()) + "}" if v else "{}"
     return "[" + ", ".join(value(x) for x in v) + "]"
 
 
@@ -90,7 +91,7 @@ def point_and_spot() -> list[str]:
                   inner_angle=10.0, outer_angle=30.0)]
 
 
-#: The oracle's light kinds one at a time (tests/test_oracle.py), each a list of tables.
+#: The oracle's light kinds one at a time (tests/verify/test_oracle.py), each a list of tables.
 ORACLE_LIGHTS: dict[str, list[str]] = {
     "directional": [light("directional", direction=[0.4, -1.0, -0.5], irradiance=[2.0, 1.8, 1.5])],
     # 2.5 units above the floor: 1/r² and 1/r differ by > 2× over the floor
@@ -108,7 +109,7 @@ ORACLE_LIGHTS: dict[str, list[str]] = {
 
 def floor_ball_torus(lights: str) -> str:
     """A floor, a dielectric ball (IOR 1.7, f90 0.8) and a metal torus at 96×72, lit by
-    ORACLE_LIGHTS[`lights`]: both workflows' keys on every material (tests/test_oracle.py)."""
+    ORACLE_LIGHTS[`lights`]: both workflows' keys on every material (tests/verify/test_oracle.py)."""
     return scene(camera(position=[0.0, 2.2, 5.0], target=[0.0, 0.4, 0.0], fov=45.0, width=96, height=72),
                  ORACLE_LIGHTS[lights],
                  material("floor", base_color=[0.6, 0.55, 0.5], roughness=0.6, ks=0.3, shininess=24.0),
@@ -124,7 +125,7 @@ def floor_ball_torus(lights: str) -> str:
 def two_spheres(width: int = 96, height: int = 96, lobes: str | None = None, model: str | None = None) -> str:
     """Two spheres of two materials (every key of both workflows) under a directional and a point light,
     black background: a lobe's parameters named like material keys must follow each pixel's material
-    (tests/test_user_lobes.py). `lobes` and `model` are the [render] keys of a user's lobe folder."""
+    (tests/models/). `lobes` and `model` are the [render] keys of a user's lobe folder."""
     both = dict(metallic=0.0, kd=0.6, ks=0.4)
     return scene(camera(position=[0.0, 0.0, 4.2], fov=30.0, width=width, height=height),
                  render(lobes=lobes, model=model, background=[0.0, 0.0, 0.0]),
@@ -136,8 +137,27 @@ def two_spheres(width: int = 96, height: int = 96, lobes: str | None = None, mod
                  obj(primitive="sphere", radius=0.4, translate=[1.1, -0.6, 0.8], material="n"))
 
 
+def small_red_sphere(camera_keys: dict | None = None, render_keys: dict | None = None,
+                     lights: Iterable[str] | None = None, red: dict | None = None, shape: dict | None = None,
+                     objects: bool = True) -> str:
+    """A red sphere at 24×16 under one directional light, with a background and a little ambient: the
+    scene the command-line tests change one key of, to see it refused or rendered. Each dict overrides
+    or adds keys of its table (camera, render, the material `red`; a None value drops the key);
+    `lights` replace the directional light; `shape` replaces the object's primitive keys (a `mesh`);
+    objects=False leaves the object out."""
+    def keys(default: dict, changes: dict | None) -> dict:
+        return {**default, **(changes or {})}
+    if lights is None:
+        lights = [light("directional", direction=[-0.4, -0.5, -1.0])]
+    return scene(camera(**keys(dict(position=[0.0, 0.0, 4.0], width=24, height=16, fov=40.0), camera_keys)),
+                 render(**keys(dict(background=[0.1, 0.2, 0.3], ambient=[0.02, 0.02, 0.02]), render_keys)),
+                 lights,
+                 material("red", **keys(dict(base_color=[0.8, 0.1, 0.1], roughness=0.4), red)),
+                 obj(**(shape or dict(primitive="sphere", subdivisions=2)), material="red") if objects else "")
+
+
 def red_sphere(mesh: str | None = None, **red: Any) -> str:
-    """The scene the hostile-input properties mutate (tests/test_hostile_properties.py): a red
+    """The scene the hostile-input properties mutate (tests/contracts/test_hostile_properties.py): a red
     sphere (or `mesh` in its place) under a directional light and a spot, every table the format
     has, most of their keys written out. `red` adds keys to the material."""
     shape = dict(mesh=mesh) if mesh else dict(primitive="sphere", subdivisions=1)
@@ -156,7 +176,7 @@ def shadowed_floor_and_ball(width: int = 64, height: int = 48, shadows: bool = T
                             lights: Iterable[str] | None = None, floor: dict | None = None,
                             ball: dict | None = None) -> str:
     """A floor and a ball with shadows, ambient and three light kinds (the point light casting
-    none), the two materials differing in roughness and metallic (tests/test_specialisation.py).
+    none), the two materials differing in roughness and metallic (tests/device/test_specialisation.py).
     `lights` replace the three; `floor` and `ball` override or add material keys."""
     if lights is None:
         lights = [light("directional", direction=[0.4, -1.0, -0.3], irradiance=[2.0, 2.0, 1.8]),

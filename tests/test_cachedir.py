@@ -5,10 +5,9 @@ from __future__ import annotations
 import os
 
 import numpy as np
-import pytest
 
 from clshade import cachedir
-from clshade.device import runtime as R
+from clshade.device.runtime import Runtime
 
 
 def test_user_cache_dir(monkeypatch, tmp_path):
@@ -48,13 +47,13 @@ def test_failed_write_leaves_nothing(tmp_path, monkeypatch):
 
 def test_program_cache_is_pruned(runtime, tmp_path, monkeypatch):
     """The program-binary cache keeps PROGRAM_CACHE_ENTRIES, the one just read among them."""
-    monkeypatch.setenv(R.ENV_CACHE_DIR, str(tmp_path))
-    monkeypatch.delenv(R.ENV_NO_BINARY_CACHE, raising=False)
-    monkeypatch.setattr(R, "PROGRAM_CACHE_ENTRIES", 2)
+    monkeypatch.setenv(cachedir.ENV_CACHE_DIR, str(tmp_path))
+    monkeypatch.delenv(cachedir.ENV_NO_BINARY_CACHE, raising=False)
+    monkeypatch.setattr("clshade.device.runtime.PROGRAM_CACHE_ENTRIES", 2)
     sources = [f"__kernel void k(__global float *x) {{ x[0] = {i}.0f; }}" for i in range(3)]
 
     def run(source):
-        rt = R.Runtime(runtime.info.spec)
+        rt = Runtime(runtime.info.spec)
         kernel = rt.kernel(source, "k")
         out = np.zeros(1, np.float32)
         buf = rt.empty(4)

@@ -1,19 +1,24 @@
-"""Contact sheets and the smoothness sweep."""
+"""Contact sheets and the smoothness sweep (clshade/compare.py): labels, timings, the difference view,
+one row per model and its labels; a sweep or sheet over the budget refused in one line."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from clshade import models
+from clshade import budget
 from clshade.cli import main
+from clshade.models.registry import Registry
 from clshade.compare import LABEL_HEIGHT, MAX_COLUMNS, SHEET_BACKGROUND, compare_sheet, difference, false_colour
 from clshade.render.image import read_image
 
-from conftest import SCENES
+from conftest import SCENES, refused, write_scene
+
+BUILT_IN = Registry()          # the built-in lobes
+RED_BALL = str(SCENES / "red_ball.toml")
 
 
 def test_sheet_groups_labels_and_timings(runtime):
-    chosen = models.resolve_many("lambert,phong,ggx_correlated")
+    chosen = BUILT_IN.resolve_many("lambert,phong,ggx_correlated")
     sheet, tiles = compare_sheet(SCENES / "robot.toml", chosen, width=64, height=64, runtime=runtime)
     assert [t.model.id for t in tiles] == [m.id for m in chosen]
     assert all(t.ms > 0 for t in tiles)
@@ -28,9 +33,9 @@ def test_sheet_groups_labels_and_timings(runtime):
 
 
 def test_difference_view_and_wrapping(runtime):
-    chosen = models.resolve_many("all")
+    chosen = BUILT_IN.resolve_many("all")
     sheet, tiles = compare_sheet(SCENES / "sphere_grid.toml", chosen, width=40, height=18,
-                                 reference=models.resolve("ggx_correlated"), runtime=runtime)
+                                 reference=BUILT_IN.resolve("ggx_correlated"), runtime=runtime)
     assert sheet.shape[1] == 6 + MAX_COLUMNS * (40 + 6)       # rows wrap at MAX_COLUMNS tiles
 
 
@@ -73,7 +78,30 @@ def test_normalized_highlight_brightens_as_it_narrows(runtime):
     for r in (0.3, 0.6):
         mats = {k: dataclasses.replace(m, roughness=r) for k, m in scene.materials.items()}
         frame = prepare_frame(dataclasses.replace(scene, materials=mats), 96, 96)
-        for t in shade_all(frame, models.resolve_many("phong,phong_normalized"), runtime, repeats=1):
+        for t in shade_all(frame, BUILT_IN.resolve_many("phong,phong_normalized"), runtime, repeats=1):
             peaks[(t.model.id, r)] = t.image[..., 2].max()       # blue: specular only (red base)
     assert peaks[("lambert+phong_normalized", 0.3)] > 2 * peaks[("lambert+phong_normalized", 0.6)]
     assert peaks[("lambert+phong", 0.3)] < 1.5 * peaks[("lambert+phong", 0.6)]
+
+
+def test_sweep_one_row_per_model_and_labels(runtime):
+    from clshade.compare import GAP, LABEL_HEIGHT, TITLE_HEIGHT, sweep_labels, sweep_sheet, model_title
+    roughness = (0.05, 0.15, 0.3, 0.5, 0.7, 0.9)
+    pair = [BUILT_IN.resolve("phong"), BUILT_IN.resolve("ggx_correlated@dielectric")]
+    sheet = sweep_sheet(RED_BALL, pair, roughness, size=8, runtime=runtime)
+    assert sheet.shape[1] == GAP + len(roughness) * (8 + GAP)                       # 6 columns, no wrap
+    assert sheet.shape[0] == GAP + len(pair) * (TITLE_HEIGHT + 8 + LABEL_HEIGHT + GAP)   # one row each
+    assert sweep_labels(BUILT_IN.resolve("phong"), 0.5, 30.0) == ("r = 0.5", "n = 30")
+    assert sweep_labels(BUILT_IN.resolve("lambert"), 0.5, 30.0) == ("r = 0.5", "")
+    assert sweep_labels(BUILT_IN.resolve("ggx_correlated"), 0.5, 30.0) == ("r = 0.5", "")
+    assert model_title(BUILT_IN.resolve("ggx_correlated@conductor")) == "GGX height-correlated, Conductor Fresnel"
+    assert model_title(BUILT_IN.resolve("lambert")) == "Lambert"
+
+
+def test_sweep_columns_are_bounded(tmp_path, capsys):
+    values = ",".join(f"{i / 4999:.4f}" for i in range(5000))
+    refused(capsys, ["sweep", str(write_scene(tmp_path)), "-o", str(tmp_path / "s.png"), "--roughness", values],
+            "--roughness", "5000 values", f"limit of {budget.MAX_SWEEP_COLUMNS}")
+    refused(capsys, ["sweep", str(write_scene(tmp_path)), "-o", str(tmp_path / "s.png"), "--roughness", "0.5",
+                     "--size", "4096", "-m", "all"], "sheet", f"limit of {budget.MAX_SHEET_PIXELS}")
+    assert not (tmp_path / "s.png").exists()

@@ -5,13 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from clshade import models
 from clshade.cli import main
+from clshade.models.registry import Registry
 from clshade.errors import ClshadeError
 from clshade.pipeline import check_frame_memory, render, render_streamed
 from clshade.render.scene import load_scene
 
 from conftest import SCENES
+
+BUILT_IN = Registry()          # the built-in lobes
 
 
 @pytest.mark.parametrize("name", ["robot", "textured", "shadows"])
@@ -19,7 +21,7 @@ def test_bands_equal_the_whole_frame(runtime, name):
     """Bands of 37 rows (the last one short) give the full-frame image: same coverage, radiance
     equal to float32 rounding (texture LOD, shadows and view rays are band-independent)."""
     scene = load_scene(SCENES / f"{name}.toml")
-    model = models.resolve("ggx_correlated")
+    model = BUILT_IN.resolve("ggx_correlated")
     full = render(scene, model, width=160, height=120, runtime=runtime).image
     out = np.full_like(full, np.nan)
 

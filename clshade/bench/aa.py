@@ -1,4 +1,4 @@
-"""Anti-aliasing as an accuracy-vs-time ladder (issue 16).
+"""Anti-aliasing as an accuracy-vs-time ladder.
 
 A pixel's true value is the mean of the radiance over its area (a box filter).
 The ground truth is that integral estimated by a dense ordered grid of samples
@@ -27,7 +27,7 @@ black background); the content only translates, so the exact energy is constant
 and every frame-to-frame change is aliasing. Reported per sphere as
 mean |E(t+1) − E(t)| / mean E.
 
-Measuring functions return data; clshade/report.py (aa_markdown, plot_aa) renders
+Measuring functions return data; clshade/report/aa.py (aa_markdown, plot_aa) renders
 it and `crop_sheet` builds the zoomed crops.
 """
 from __future__ import annotations
@@ -41,17 +41,18 @@ import numpy as np
 
 from clshade import __version__
 from clshade.bench import CHECK_SAMPLES, TEMPORAL_FRAMES, TRUTH_SAMPLES
-from clshade.bench.run import REL_ERROR_FLOOR, machine_info, mark_pareto
+from clshade.bench.run import REL_ERROR_FLOOR, device_record, mark_pareto
 from clshade.compare import layout, scene_display
 from clshade.device.resolve import CoverageBlend
 from clshade.device.runtime import Runtime, get_runtime
 from clshade.device.shade import Shader, scene_features
-from clshade.models import NONE, Model, resolve
+from clshade.models.model import NONE, Model
+from clshade.models.registry import Registry
 from clshade.pipeline import Frame, prepare_frame
 from clshade.render.meshes import Geometry, build_geometry
 from clshade.render.samples import coverage_gbuffer, jittered, sample_offsets
 from clshade.render.scene import Scene, load_scene
-from clshade.tables import cell
+from clshade.report.tables import cell
 from clshade.verify import reference
 
 
@@ -80,7 +81,7 @@ def diffuse_model(model: Model) -> Model:
     for a model without one: a lone specular lobe, a BRDF Explorer file)."""
     if model.diffuse == NONE:
         return dataclasses.replace(model, specular=NONE)
-    return resolve(model.diffuse, None, model.workflow)
+    return Model(model.diffuse, NONE, "schlick", model.workflow, lobes=model.lobes)
 
 
 def specular_model(model: Model) -> Model:
@@ -242,6 +243,9 @@ def ladder(scene: Scene, geometry: Geometry, models: list[Model], truths: dict[s
         row["mean_rel_error"] = row["frame_rel_error"]
         rows.append(row)
     mark_pareto(rows)
+    # The fronts of the plot's other panels (errors floored as drawn on its log axes).
+    mark_pareto(rows, "silhouette_rel_error", "pareto_silhouette", floor=1e-9)
+    mark_pareto(rows, "highlight_rel_error", "pareto_highlight", floor=1e-9)
     return rows, images
 
 
@@ -393,11 +397,12 @@ def crop_sheet(scene: Scene, models: list[Model], images: dict[tuple[str, str], 
 def run(scene_path: str | Path, models: list[Model], *, width: int | None = None, height: int | None = None,
         frames: int = 30, warmup: int = 3, truth_samples: int = TRUTH_SAMPLES,
         check_samples: int | None = CHECK_SAMPLES, temporal_frames: int = TEMPORAL_FRAMES,
-        device: str | None = None) -> tuple[dict, np.ndarray]:
-    """The whole study: ladder, convergence of the truth, temporal table; and the crop sheet."""
+        device: str | None = None, registry: Registry | None = None) -> tuple[dict, np.ndarray]:
+    """The whole study: ladder, convergence of the truth, temporal table; and the crop sheet
+    (the scene read with `registry`, load_scene)."""
     for m in models:
         reference.check_model(m)
-    scene = load_scene(scene_path)
+    scene = load_scene(scene_path, registry)
     scene = dataclasses.replace(scene, camera=scene.camera.with_size(width, height), samples=1, specular_aa=False)
     runtime = get_runtime(device)
     geometry = build_geometry(scene)
@@ -411,7 +416,7 @@ def run(scene_path: str | Path, models: list[Model], *, width: int | None = None
     temp = temporal(scene, geometry, models, runtime, temporal_frames) if temporal_frames > 1 else []
     doc = dict(clshade=__version__, date=time.strftime("%Y-%m-%d", time.gmtime()),
                scene=Path(scene_path).name, width=scene.camera.width, height=scene.camera.height,
-               frames=frames, warmup=warmup, **machine_info(runtime),
+               frames=frames, warmup=warmup, device=device_record(runtime),
                definitions=dict(
                    frame_time="device time of one frame: shading kernel start to resolve kernel end, mean over "
                               "frames interleaved across rungs; raster_ms: host rasterisation + G-buffer, median "

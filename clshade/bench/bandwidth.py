@@ -206,8 +206,7 @@ def opencl_stream(runtime, repeats: int = 10, mib: int = STREAM_MIB) -> dict[str
 
 
 # The two values of `opencl_fill`: whether lines of zeros are written faster than lines of anything
-# else. They were on this machine (2026-11-25), which is why kernels/copy.cl writes the background,
-# not 0, where shade.cl writes it.
+# else (some CPUs elide zero lines; docs/bench-notes.md). copy.cl writes the background, as shade.cl does.
 FILL_VALUES = {"zeros": 0.0, "ones": 1.0}
 
 

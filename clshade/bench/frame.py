@@ -23,7 +23,7 @@ import numpy as np
 
 from clshade.device.runtime import Runtime
 from clshade.device.shade import Shader, scene_features
-from clshade.models import Model
+from clshade.models.model import Model
 from clshade.render.arrays import worker_count
 from clshade.render.gbuffer import build_gbuffer
 from clshade.render.meshes import build_geometry

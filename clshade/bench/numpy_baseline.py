@@ -42,7 +42,7 @@ import numpy as np
 
 from clshade.device.shade import camera_args
 from clshade.device.variants import Features
-from clshade.models import NONE, Model, lobes
+from clshade.models.model import NONE, Model
 from clshade.render.gbuffer import GBuffer
 from clshade.render.scene import Camera, Scene
 from clshade.render.shadows import ShadowMaps

@@ -24,7 +24,8 @@ from typing import Callable
 import numpy as np
 
 from clshade.device.shade import camera_args
-from clshade.models import Model, lobes
+from clshade.models.lobe import builtin_lobes
+from clshade.models.model import Model
 from clshade.render.gbuffer import GBuffer
 from clshade.render.scene import Camera, Scene
 from clshade.resources import constant
@@ -393,7 +394,7 @@ PEERS: dict[str, Callable[..., Peer]] = {"numba": numba_peer, "drjit": drjit_pee
 # checked separately (their difference is reported, not hidden).
 WELL_CONDITIONED_EXPONENT = VERIFY_RTOL * 2.0 ** 23 / 4
 # the lobes with a runtime exponent (r·v)ⁿ, (n·h)ⁿ: the empirical ones, normalised or not
-POWER_LOBES = tuple(name for name, lobe in lobes().items() if lobe.family == "empirical")
+POWER_LOBES = tuple(name for name, lobe in builtin_lobes().items() if lobe.family == "empirical")
 
 # A microfacet D near its peak (GGX: α²/(π(sin²θh + cos²θh·α²)²)) is as steep as its
 # width α: a direction error δ moves sin²θh by 2θh·δ, so D by up to 2δ/α relative (at
@@ -405,7 +406,7 @@ WELL_CONDITIONED_ALPHA = 4 * 2.0 ** -23 / VERIFY_RTOL
 
 
 def _is_microfacet(model: Model) -> bool:
-    return model.specular in lobes() and lobes()[model.specular].family == "microfacet"
+    return model.specular_lobe is not None and model.specular_lobe.family == "microfacet"
 
 
 def ill_conditioned_note(model: Model) -> str:

@@ -1,58 +1,37 @@
-"""Issue 15's performance run: every healthy CPU runtime on the machine as its own
-column, the kernels as clshade builds them, with the OpenCL library's builtins
-everywhere (the state before issue 15) and with simd.h's inline ones, the copy
-kernel, the Numba peer, the STREAM anchor and whole frames — one JSON, one
-Markdown rendered from it (clshade.report.perf_markdown).
+"""The performance comparison on the runtimes users get: every healthy CPU runtime as its own
+column, the kernels in each build (`default` and the variants a build option switches), their copy
+kernels, the peers (Numba, Dr.Jit), the STREAM anchor and whole frames, in one document
+(benchmarks/measure/perf.py writes it; clshade.report.perf renders it).
 
-    python -m clshade.bench.perf --out benchmarks/results/perf_1080p [--rounds 200]
+Timing: medians over interleaved rounds, every item in a new seeded random order each round, so
+machine noise hits all alike; ratios are within one run. Each item starts with the process idle
+(`settle`: the peers' worker threads keep spinning after a frame and slowed whatever ran next) and
+is timed as the second of two back-to-back runs (`timed_after_itself`: what ran just before the
+timed run is the item itself, whatever the order).
 
-Timing: medians over interleaved rounds (each round dispatches every runtime ×
-build × model, its copy kernels and every peer, in a new random order each
-round, seeded), so machine noise hits all alike; ratios are within one run.
-Each item runs twice back to back and the second run is timed (`timed_after_itself`):
-the item before it is then itself, whatever the round's order. Every item starts
-with the process idle (`settle`): Numba's and Dr.Jit's
-worker threads keep spinning for up to ~20 ms after a frame, and the item run
-next paid for it. With the order only turned by one each round, the item after
-the last peer was always the same, and PoCL 3.1's `default` Lambert, GGX and
-Phong (the first items) measured 1.4–1.7× the same code built as `library`
-(benchmarks/results/perf_1080p.md, 2026-11-23T17:50; reproduced A/B in one
-process, 2026-11-23).
-
-The bandwidth anchor is measured in the same rounds: STREAM triads per runtime (OpenCL kernels, with
-plain and with streaming stores: bandwidth.STORE_KINDS) and Numba's, interleaved with the kernels; the
-fastest median is the anchor (the machine's bandwidth varied
-25–45 GB/s with the other users' load on 2026-11-23, so a best-of-10 taken at a quiet moment is no
-yardstick for medians taken over the whole run); the best-of figures before and after are shown beside it.
-
-The copy kernel writes the background wherever the models do (kernels/copy.cl): lines of zeros are
-written faster than others on the machine this was written on, and the fill rows
-(`bandwidth.opencl_fill`, 0 against 1.0) measure by how much on each run's machine.
-
-Causes of misses come from the same run: each kernel is also timed in cache
-(`CACHE_BAND_PIXELS` of the frame's most covered rows, dispatched twice, the
-second timed), which leaves its instructions without the trip to memory.
+The bandwidth anchor is measured in the same rounds (STREAM triads per runtime with plain and
+streaming stores, and Numba's): the fastest median, since a best-of taken at a quiet moment is no
+yardstick for medians taken over a loaded run. Causes of misses come from the same run: each kernel
+is also timed in cache (`CACHE_BAND_PIXELS` of the frame's most covered rows), its instructions
+without the trip to memory. How the protocol came to be: docs/bench-notes.md.
 """
 from __future__ import annotations
 
-import argparse
-import json
+import importlib
 import platform
-import re
 import time
-from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
-from clshade.provenance import stamp
 from clshade import __version__
 from clshade.bench import bandwidth, frame as whole, peers as peer_mod
 from clshade.device.runtime import CACHED_STORES, INLINE_MATH, LIBRARY_MATH, NO_PREFETCH, Runtime, healthy_devices
 from clshade.device.shade import Shader, scene_features
-from clshade.models import resolve
+from clshade.models.registry import Registry
 from clshade.pipeline import prepare_frame
 from clshade.render.scene import load_scene
+from clshade.report.perf import short_device
 
 MODELS = ("lambert", "ggx_correlated", "phong")
 # In-cache timing: a band of this many pixels (≈ 3 MB of G-buffer and output at ~50 B/px, inside the
@@ -68,7 +47,7 @@ ROUND_SEED = 15
 # the targets is their best median): three arrays of this many MiB, ≫ the 32 MiB L3.
 ROUND_STREAM_MIB = 64
 SCHEMA = "clshade-perf/1"
-LAMBERT_BOUND = 1.3          # issue 15: Lambert within 1.3× of its bytes at the STREAM rate
+LAMBERT_BOUND = 1.3          # target: Lambert within 1.3× of its bytes at the STREAM rate
 COPY_BOUND = 1.5             # every model ≤ 1.5× the copy kernel
 FRAME_BOUND_S = 0.100        # the robot scene at 1920×1080, whole frame (rasterize … read back)
 
@@ -77,7 +56,7 @@ def _versions() -> dict[str, str]:
     out = {"python": platform.python_version(), "numpy": np.__version__, "clshade": __version__}
     for name in ("pyopencl", "numba", "drjit", "llvmlite"):
         try:
-            out[name] = __import__(name).__version__
+            out[name] = importlib.import_module(name).__version__
         except Exception as exc:  # noqa: BLE001 - a missing optional package is data here
             out[name] = f"not available ({type(exc).__name__})"
     return out
@@ -105,8 +84,7 @@ def timed_after_itself(timed: Callable[[], float]) -> float:
     """Run a timed item twice back to back and return the second time: what ran just before it is then
     the item itself, not whichever item the round's random order put there. A STREAM triad leaves the
     cache full of its arrays, and the item after it paid for that, a memory-bound one (the copy kernel)
-    more than a compute-bound one: the × copy ratios read lower than they are (docs/bench-notes.md,
-    2026-11-25)."""
+    more than a compute-bound one: the × copy ratios read lower than they are."""
     timed()
     return timed()
 
@@ -141,11 +119,13 @@ def cpu_runtimes() -> list[str]:
 
 
 def compare(scene_path: str, models: list, width: int | None, height: int | None, rounds: int, warmup: int,
-            peer_names: tuple[str, ...], devices: list[str] | None = None, library: bool = True) -> dict:
+            peer_names: tuple[str, ...], devices: list[str] | None = None, library: bool = True,
+            registry: Registry | None = None) -> dict:
     """Every runtime in `devices` (default: every healthy CPU runtime) × build (inline math,
     and with `library` the OpenCL library's builtins) × model, their copy kernels and
-    the peers, in the same interleaved rounds; peers verified against the first runtime."""
-    frame = prepare_frame(load_scene(scene_path), width, height)
+    the peers, in the same interleaved rounds; peers verified against the first runtime.
+    The scene is read with `registry` (load_scene)."""
+    frame = prepare_frame(load_scene(scene_path, registry), width, height)
     gb, scene, camera = frame.gbuffer, frame.scene, frame.camera
     feats = scene_features(scene, geometry=frame.geometry)
     builds = ((("default", ()), ("library", (LIBRARY_MATH,)), ("inline", (INLINE_MATH,)),
@@ -241,7 +221,7 @@ def compare(scene_path: str, models: list, width: int | None, height: int | None
     stream_after = bandwidth.stream()
     ocl_after = {d: bandwidth.opencl_stream(rt) for d, rt in devices_seen.items()}
     # The anchor is the fastest STREAM measured by any method: Numba's loops or a runtime's own
-    # OpenCL STREAM kernels (pip's PoCL 3.0 streamed faster than Numba on this machine, 2026-11-23).
+    # OpenCL STREAM kernels (which can stream faster than Numba).
     ocl_best = {d: max(ocl_before[d]["best_gbs"], ocl_after[d]["best_gbs"]) for d in devices_seen}
     best_anchor = max(stream_before["anchor_gbs"], stream_after["anchor_gbs"], *ocl_best.values())
     triad_bytes = bandwidth.STREAM_BYTES["triad"] * (ROUND_STREAM_MIB * 2 ** 20 // 4)
@@ -283,11 +263,10 @@ def compare(scene_path: str, models: list, width: int | None, height: int | None
     for row in peer_rows:
         if "ms" in row:
             row["median_ms"] = float(np.median(row.pop("ms")))
-    return dict(schema=SCHEMA, created=time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-                machine=dict(processor=_cpu_name(), cpu_count=__import__("os").cpu_count(), os=platform.platform()),
-                versions=_versions(), libllvm_drjit=peer_mod.drjit_libllvm(), scene=scene_path,
+    return dict(schema=SCHEMA, created=time.strftime("%Y-%m-%dT%H:%M:%S%z"), versions=_versions(), libllvm_drjit=peer_mod.drjit_libllvm(), scene=scene_path,
                 width=frame.camera.width, height=frame.camera.height, pixels=gb.pixels,
                 covered_pixels=int(len(covered)), rounds=rounds, warmup=warmup, timed_run=TIMED_RUN,
+                cache_band_pixels=CACHE_BAND_PIXELS,
                 stream=dict(before=stream_before, after=stream_after, anchor_gbs=anchor, best_anchor_gbs=best_anchor,
                             in_rounds=in_rounds, round_array_mib=ROUND_STREAM_MIB,
                             opencl={d: dict(before=ocl_before[d], after=ocl_after[d]) for d in devices_seen},
@@ -297,20 +276,20 @@ def compare(scene_path: str, models: list, width: int | None, height: int | None
 
 def round_triad_key(device: str, stores: str) -> str:
     """The in-rounds STREAM key of `device`'s OpenCL triad with `stores` (bandwidth.STORE_KINDS)."""
-    return f"OpenCL triad ({stores} stores) on {short(device)}"
+    return f"OpenCL triad ({stores} stores) on {short_device(device)}"
 
 
 def run(scene_path: str, width: int, height: int, rounds: int, warmup: int, frame_scene: str,
         frame_frames: int, peer_names: tuple[str, ...]) -> dict:
-    """Issue 15's document: `compare` on MODELS, whole frames, the targets."""
+    """The whole document: `compare` on MODELS, whole frames, the targets."""
     runtimes = [Runtime(spec) for spec in cpu_runtimes()]
 
     def frames_block() -> list[dict]:
-        return whole.whole_frames_on(load_scene(frame_scene), resolve("ggx_correlated"), runtimes, 1920, 1080,
+        return whole.whole_frames_on(load_scene(frame_scene), Registry().resolve("ggx_correlated"), runtimes, 1920, 1080,
                                      -(-frame_frames // 2))
 
     before = frames_block()      # half the whole frames before the kernel rounds, half after
-    doc = compare(scene_path, [resolve(m) for m in MODELS], width, height, rounds, warmup, peer_names)
+    doc = compare(scene_path, [Registry().resolve(m) for m in MODELS], width, height, rounds, warmup, peer_names)
     frames = whole.merge_blocks([before, frames_block()])
     for f in frames:
         f.pop("frames_s")
@@ -319,28 +298,8 @@ def run(scene_path: str, width: int, height: int, rounds: int, warmup: int, fram
     return doc
 
 
-def _cpu_name() -> str:
-    try:
-        for line in open("/proc/cpuinfo", encoding="utf-8"):
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
-
-
-def bench_peers(args) -> dict:
-    """`clshade bench --peers`: the comparison document (the CLI prints its Markdown)."""
-    from clshade.models import resolve_many
-    doc = compare(args.scene, resolve_many(args.models), args.width, args.height, min(args.frames, 200),
-                  args.warmup, tuple(p for p in args.peers.split(",") if p), library=False)
-    doc["targets"] = targets(doc)
-    doc["command"] = "clshade bench " + " ".join(__import__("sys").argv[2:])
-    return doc
-
-
 def targets(doc: dict) -> list[dict]:
-    """Issue 15's targets, met or missed, per runtime (default build), each miss with
+    """The targets, met or missed, per runtime (default build), each miss with
     the evidence for its cause, computed from the same run."""
     out = []
     peer_ms = {(p["peer"], p["model"]): p.get("median_ms") for p in doc["peers"] if p.get("verified")}
@@ -380,7 +339,7 @@ def frame_miss_cause(wf: dict) -> str:
     host = m["rasterize"] + m["g-buffer"]
     threads = f" on {wf['host_threads']} threads" if "host_threads" in wf else ""
     why = (f"rasterize {m['rasterize'] / m['frame']:.0%} + G-buffer {m['g-buffer'] / m['frame']:.0%} of the frame: "
-           f"the NumPy host stages{threads} (clshade/render/raster.py, gbuffer.py) take {host * 1e3:.0f} ms where "
+           f"the NumPy host stages{threads} (clshade/render/raster/, gbuffer.py) take {host * 1e3:.0f} ms where "
            f"{(FRAME_BOUND_S - (m['frame'] - host)) * 1e3:.0f} ms are left beside the device stages; shading "
            f"{m['shade'] / m['frame']:.0%}")
     if "block_frame_s" in wf:
@@ -415,49 +374,3 @@ def stream_miss_cause(r: dict, anchor: float, runtime_stream: float | None = Non
         text += (f"; in cache its loads, transposes and stores alone take {r['copy_cache_frame_ms']:.2f} of its "
                  f"{r['copy_ms']:.2f} ms")
     return text + f"; Lambert adds {r['median_ms'] - r['copy_ms']:.2f} ms ({r['copy_ratio']:.2f}× copy)"
-
-
-def short(device: str) -> str:
-    """'pthread-… [OpenCL 3.0 PoCL 3.1+debian …, LLVM 15.0.6, …]' → 'pthread-… (PoCL 3.1+debian, LLVM 15.0.6)';
-    another runtime keeps its platform version: 'AMD EPYC [OpenCL 3.1 LINUX]' → 'AMD EPYC (OpenCL 3.1 LINUX)'."""
-    name, _, version = device.partition(" [")
-    pocl = re.search(r"PoCL (\S+)", device)
-    if not pocl:
-        return f"{name} ({version.rstrip(']').strip() or '?'})"
-    llvm = re.search(r"LLVM (\S+?),", device)
-    return f"{name} (PoCL {pocl.group(1)}, LLVM {llvm.group(1) if llvm else '?'})"
-
-
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--scene", default="scenes/sphere_grid.toml")
-    ap.add_argument("--width", type=int, default=1920)
-    ap.add_argument("--height", type=int, default=1080)
-    ap.add_argument("--rounds", type=int, default=200)
-    ap.add_argument("--warmup", type=int, default=10)
-    ap.add_argument("--frame-scene", default="scenes/robot.toml")
-    ap.add_argument("--frame-frames", type=int, default=30, help="whole frames per runtime (half before the rounds, half after)")
-    ap.add_argument("--peers", default="numba,drjit")
-    ap.add_argument("--out", default="benchmarks/results/perf_1080p", help="path stem: writes .json and .md")
-    ap.add_argument("--render-only", action="store_true", help="re-render OUT.md (and the targets) from OUT.json")
-    a = ap.parse_args(argv)
-    from clshade.report import perf_markdown
-    out = Path(a.out)
-    if a.render_only:
-        doc = json.loads(out.with_suffix(".json").read_text(encoding="utf-8"))
-        doc["targets"] = targets(doc)
-        out.with_suffix(".json").write_text(json.dumps(doc, indent=2, ensure_ascii=False), encoding="utf-8")
-        out.with_suffix(".md").write_text(perf_markdown(doc), encoding="utf-8")
-        return 0
-    doc = run(a.scene, a.width, a.height, a.rounds, a.warmup, a.frame_scene, a.frame_frames,
-              tuple(p for p in a.peers.split(",") if p))
-    doc["command"] = "python -m clshade.bench.perf " + " ".join(argv if argv is not None else __import__("sys").argv[1:])
-    doc = stamp(doc)             # PoCL CPU and the NumPy/Numba/Dr.Jit peers: the host's CPU
-    out.with_suffix(".json").write_text(json.dumps(doc, indent=2, ensure_ascii=False), encoding="utf-8")
-    out.with_suffix(".md").write_text(perf_markdown(doc), encoding="utf-8")
-    print(perf_markdown(doc))
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -21,8 +21,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import os
-import platform
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -37,9 +35,11 @@ from clshade.bench.numpy_baseline import (GUARD_FRAMES, NUMPY_THREADS, SUSPECT_R
 from clshade.bench.peers import VERIFY_RTOL, verify, well_conditioned
 from clshade.device.runtime import Runtime, get_runtime
 from clshade.device.shade import Shader, scene_features
+from clshade.device.timing import timed_dispatch
 from clshade.device.variants import Features
 from clshade.errors import ClshadeError
-from clshade.models import Model, resolve
+from clshade.models.model import Model, preset
+from clshade.models.registry import Registry
 from clshade.pipeline import Frame, prepare_frame, reads_tangents
 from clshade.render.gbuffer import GBuffer
 from clshade.render.scene import Light, Scene, load_scene
@@ -161,15 +161,6 @@ def relative_error(image: np.ndarray, idx: np.ndarray, ref: np.ndarray) -> tuple
 # ---------------------------------------------------------------- running
 
 
-def _timed(shader: Shader, dispatch) -> tuple[float, float]:
-    """(device ms from the event profile, wall ms from enqueue to completion)."""
-    t0 = time.perf_counter()
-    event = shader.enqueue(dispatch)
-    event.wait()
-    host = (time.perf_counter() - t0) * 1e3
-    return (event.profile.end - event.profile.start) * 1e-6, host
-
-
 def _wall(fn: Callable[[], object]) -> float:
     """Wall ms of one call."""
     t0 = time.perf_counter()
@@ -231,7 +222,7 @@ def run_cases(cases: list[Case], frames: int, warmup: int, progress: Callable[[i
     numpy_runs = any(c.numpy for c in cases)
     for w in range(warmup):
         for c, d in zip(cases, shade):
-            _timed(c.shader, d)
+            timed_dispatch(c.shader, d)
             if c.numpy and w == 0:
                 _reference_frame(c)
                 if c.baseline is not None:
@@ -239,11 +230,11 @@ def run_cases(cases: list[Case], frames: int, warmup: int, progress: Callable[[i
         if guard is not None and numpy_runs and w == 0:
             guard.lambert.run(), guard.minimal()
         for shader, d in copies.values():
-            _timed(shader, d)
+            timed_dispatch(shader, d)
     schedule, guard_schedule = numpy_schedule(frames, numpy_frames), numpy_schedule(frames, GUARD_FRAMES)
     for r in range(frames):
         for c, d in zip(cases, shade):
-            dev, host = _timed(c.shader, d)
+            dev, host = timed_dispatch(c.shader, d)
             c.device_ms.append(dev)
             c.host_ms.append(host)
             if c.numpy:
@@ -256,7 +247,7 @@ def run_cases(cases: list[Case], frames: int, warmup: int, progress: Callable[[i
                 guard.lambert_ms.append(_wall(guard.lambert.run))
                 guard.minimal_ms.append(_wall(guard.minimal))
         for key, (shader, d) in copies.items():
-            copy_ms[key].append(_timed(shader, d)[0])
+            copy_ms[key].append(timed_dispatch(shader, d)[0])
         if progress is not None:
             progress(r + 1, frames)
     return copy_ms
@@ -378,7 +369,7 @@ class Bench:
         """The straw-man guard on the frame (None where the baseline has no Lambert for the scene)."""
         fr = self.frame
         try:
-            lambert = numpy_shader(resolve("lambert"), fr.gbuffer, fr.scene, fr.camera, self.features)
+            lambert = numpy_shader(preset("lambert"), fr.gbuffer, fr.scene, fr.camera, self.features)
         except Unsupported:
             return None
         return Guard(lambert, minimal_lambert(fr.gbuffer, fr.scene))
@@ -402,6 +393,7 @@ class Bench:
 
 def ladder_cases(bench: Bench) -> list[Case]:
     """The approximation ladders, each rung's error against the ladder's exact model."""
+    resolve = Registry().resolve
     ggx = resolve("ggx_correlated")
     ggx_diel = resolve("ggx_correlated@dielectric")
     ggx_cond = resolve("ggx_correlated@conductor")
@@ -424,17 +416,12 @@ def ladder_cases(bench: Bench) -> list[Case]:
     return out
 
 
-def machine_info(runtime: Runtime) -> dict[str, object]:
-    """Machine and OpenCL device description for the JSON."""
-    return dict(
-        machine=dict(processor=platform.processor() or platform.machine(), machine=platform.machine(),
-                     cpu_count=os.cpu_count(), os=platform.platform(), python=platform.python_version(),
-                     numpy=np.__version__),
-        device=dict(name=runtime.info.device, platform=runtime.info.platform,
-                    platform_version=runtime.info.platform_version, kind=runtime.info.kind,
-                    local_size=runtime.local_size, compute_units=int(runtime.device.max_compute_units)),
-        numpy_threads=NUMPY_THREADS,
-    )
+def device_record(runtime: Runtime) -> dict[str, object]:
+    """The OpenCL device of a results JSON (docs/bench-schema.md, *Device*); the machine record is
+    clshade.provenance.stamp's."""
+    return dict(name=runtime.info.device, platform=runtime.info.platform,
+                platform_version=runtime.info.platform_version, kind=runtime.info.kind,
+                local_size=runtime.local_size, compute_units=int(runtime.device.max_compute_units))
 
 
 def report(bench: Bench, rows: list[dict], frames: int, warmup: int, ladder: list[dict] | None = None,
@@ -442,7 +429,7 @@ def report(bench: Bench, rows: list[dict], frames: int, warmup: int, ladder: lis
     """The JSON document (docs/bench-schema.md)."""
     fr = bench.frame
     return stamp(dict(schema=SCHEMA, clshade_version=__version__, created=time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-                **machine_info(bench.runtime),
+                device=device_record(bench.runtime), numpy_threads=NUMPY_THREADS,
                 scene=str(fr.scene.path) if fr.scene.path else None, width=fr.camera.width // fr.scene.samples,
                 height=fr.camera.height // fr.scene.samples, samples=fr.scene.samples,
                 specular_aa=fr.scene.specular_aa,
@@ -456,12 +443,16 @@ def report(bench: Bench, rows: list[dict], frames: int, warmup: int, ladder: lis
 
 
 
-def mark_pareto(rows: list[dict]) -> None:
-    """Set row['pareto'] within each ladder group (time vs mean error)."""
+def mark_pareto(rows: list[dict], error: str = "mean_rel_error", key: str = "pareto", floor: float = 0.0) -> None:
+    """Set row[key] within each ladder group: on the front of time vs max(row[error], floor)
+    (None where that error is None)."""
     for group in dict.fromkeys(r["group"] for r in rows):
-        pts = [r for r in rows if r["group"] == group]
-        for r, front in zip(pts, pareto([(r["mean_ms"], r["mean_rel_error"]) for r in pts])):
-            r["pareto"] = front
+        pts = [r for r in rows if r["group"] == group and r[error] is not None]
+        for r, front in zip(pts, pareto([(r["mean_ms"], max(r[error], floor)) for r in pts])):
+            r[key] = front
+        for r in rows:
+            if r["group"] == group and r[error] is None:
+                r[key] = None
 
 
 def run_bench(scene: Scene | str | Path, models: list[Model], frames: int, warmup: int, *, width: int | None = None,

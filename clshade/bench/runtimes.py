@@ -1,25 +1,18 @@
 """Every OpenCL runtime present on one frame: health, what each build gets, kernel times and
-the error against the float64 oracle (issue 24).
-
-    python -m clshade.bench.runtimes [--out benchmarks/results/runtimes] [--rounds 100]
+the error against the float64 oracle.
 
 Every device listed is probed (clshade/device/health.py); every healthy one shades the same
-G-buffer (scenes/sphere_grid.toml, 1920×1080) with each model of MODELS and its copy kernel,
-interleaved in the same rounds with perf's protocol (`measure`: noise hits every runtime alike),
-and its image is compared with the float64 frame oracle on the same pixels as `clshade bench`.
-The runtimes are ranked by the geometric mean of their models' median kernel times; the JSON
-says which device the default selection picks and whether it is the fastest (the order of
-clshade.device.runtime.RUNTIME_PREFERENCE; tests/test_runtimes.py checks the committed file).
-Writes OUT.json and OUT.md (the Markdown rendered from the JSON).
+G-buffer with each model of MODELS and its copy kernel, interleaved in the same rounds with perf's
+protocol (`measure`: noise hits every runtime alike), and its image is compared with the float64
+frame oracle on the same pixels as `clshade bench`. The runtimes are ranked by the geometric mean
+of their models' median kernel times; the document says which device the default selection picks
+and whether it is the fastest (the order of clshade.device.runtime.RUNTIME_PREFERENCE;
+tests/device/test_runtimes.py checks the committed result). benchmarks/measure/runtimes.py writes it,
+clshade.report.runtimes renders it.
 """
 from __future__ import annotations
 
-import argparse
-import json
 import math
-import os
-import platform
-import subprocess
 import time
 from pathlib import Path
 
@@ -31,34 +24,13 @@ from clshade.bench.run import compared_pixels, relative_error
 from clshade.device import health
 from clshade.device.runtime import RUNTIME_PREFERENCE, Runtime, choose_device, device_health, list_devices
 from clshade.device.shade import Shader, scene_features
-from clshade.models import resolve
+from clshade.models.registry import Registry
 from clshade.pipeline import prepare_frame
-from clshade.provenance import stamp
 from clshade.render.scene import load_scene
-from clshade.resources import scenes_dir
 from clshade.verify import reference
 
 SCHEMA = "clshade-runtimes/1"
 MODELS = ("lambert", "ggx_correlated", "phong", "oren_nayar+cook_torrance@dielectric")
-
-
-def commit() -> str | None:
-    """The checkout's HEAD (with '+dirty' when the working tree differs), or None outside git."""
-    root = Path(__file__).resolve().parents[2]
-    head = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True, text=True)
-    if head.returncode:
-        return None
-    dirty = subprocess.run(["git", "-C", str(root), "status", "--porcelain", "--untracked-files=no"],
-                           capture_output=True, text=True).stdout.strip()
-    return head.stdout.strip() + ("+dirty" if dirty else "")
-
-
-def _cpu() -> str:
-    try:
-        return next(l.split(":", 1)[1].strip() for l in open("/proc/cpuinfo", encoding="utf-8")
-                    if l.startswith("model name"))
-    except (OSError, StopIteration):
-        return platform.processor() or platform.machine()
 
 
 def device_rows() -> list[dict]:
@@ -97,7 +69,7 @@ def measure(scene_path: str, width: int, height: int, rounds: int, warmup: int, 
     feats = scene_features(frame.scene, geometry=frame.geometry)
     vis = (reference.visibility(frame.gbuffer, frame.scene, frame.shadows, frame.camera)
            if feats.shadows else None)
-    models = [resolve(m) for m in MODELS]
+    models = [Registry().resolve(m) for m in MODELS]
     idx = compared_pixels(frame.gbuffer, frame.camera)
     truth = {m.id: reference.radiance(frame.gbuffer, frame.scene, m, visibility=vis,
                                       camera=frame.camera).reshape(-1, 3)[idx] for m in models}
@@ -132,10 +104,8 @@ def measure(scene_path: str, width: int, height: int, rounds: int, warmup: int, 
     default = choose_device(None).info
     fastest_cpu = next((d for d in ranked if "cpu" in d["kind"]), None)
     return dict(
-        schema=SCHEMA, clshade_version=__version__, commit=commit(),
+        schema=SCHEMA, clshade_version=__version__,
         created=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
-        machine=dict(cpu=_cpu(), cores=os.cpu_count(), os=platform.platform(), python=platform.python_version(),
-                     load_average_at_start=list(os.getloadavg())),
         environment=health.build_environment(),
         scene=str(Path(scene_path).name), width=width, height=height, pixels=frame.gbuffer.pixels,
         covered_pixels=int(frame.gbuffer.coverage.sum()), compared_pixels=int(len(idx)), rounds=rounds,
@@ -147,71 +117,4 @@ def measure(scene_path: str, width: int, height: int, rounds: int, warmup: int, 
         fastest_cpu=dict(spec=fastest_cpu["spec"], runtime=fastest_cpu["runtime"]) if fastest_cpu else None,
         gpu=("measured" if any("gpu" in d["kind"] for d in healthy)
              else "not run: no GPU OpenCL device on this machine"),
-        command=f"python -m clshade.bench.runtimes --rounds {rounds}",
     )
-
-
-def markdown(doc: dict) -> str:
-    """The Markdown table of a runtimes JSON."""
-    lines = [f"# Every OpenCL runtime on one frame",
-             "",
-             f"{doc['scene']} at {doc['width']}×{doc['height']} ({doc['covered_pixels']} covered pixels), "
-             f"{doc['rounds']} interleaved rounds after {doc['warmup']} warm-up ({doc['timed_run']}, process idle before each); medians; measured {doc['created']} on "
-             f"{doc['machine']['cpu']} ({doc['machine']['cores']} cores), commit `{doc['commit']}`, "
-             f"with `{doc['command']}`.",
-             f"Error: against the float64 frame oracle on the same G-buffer, as in `clshade bench`. "
-             f"GPU: {doc['gpu']}.",
-             "",
-             "| device | runtime | state | SIMD | inline math | streaming stores | prefetch | fp64 |",
-             "|---|---|---|---|---|---|---|---|"]
-    yn = lambda v: "—" if v is None else ("yes" if v else "no")  # noqa: E731
-    for d in doc["devices"]:
-        state = "healthy" if d["healthy"] else f"broken: {d['reason']}"
-        lines.append(f"| {d['spec']} {d['device']} | {d['runtime']} | {state} | {d.get('simd', '—')} | "
-                     f"{yn(d.get('inline_math'))} | {yn(d.get('streaming_stores'))} | {yn(d.get('prefetch'))} | "
-                     f"{yn(d['fp64'])} |")
-    healthy = [d for d in doc["devices"] if d["healthy"]]
-    lines += ["", "| model | " + " | ".join(f"{d['runtime']} ms (× copy) | max / mean rel. error" for d in healthy) + " |",
-              "|---|" + "---|---|" * len(healthy)]
-    for m in doc["models"]:
-        cells = []
-        for d in healthy:
-            r = d["models"][m]
-            cells += [f"{r['median_ms']:.2f} ({r['copy_ratio']:.2f})",
-                      f"{r['max_rel_error']:.1e} / {r['mean_rel_error']:.1e}"]
-        lines.append(f"| {m} | " + " | ".join(cells) + " |")
-    lines.append("| geometric mean of the medians | " + " | ".join(
-        f"{d['geomean_median_ms']:.2f} | " for d in healthy) + " |")
-    fastest = doc["fastest_cpu"]
-    agree = fastest is not None and fastest["spec"] == doc["default"]["spec"]
-    lines += ["", f"Ranking (fastest first): {', '.join(next(d['runtime'] for d in healthy if d['spec'] == s) for s in doc['ranking'])}. "
-              f"The default selection picks {doc['default']['runtime']} ({doc['default']['spec']}); "
-              + ("it is the fastest healthy CPU runtime measured here."
-                 if agree else f"the fastest healthy CPU runtime measured here is {fastest and fastest['runtime']}.")
-              + f" Preference order in the code: {', '.join(doc['runtime_preference'])}.", ""]
-    return "\n".join(lines)
-
-
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--scene", default=str(scenes_dir() / "sphere_grid.toml"))
-    ap.add_argument("--width", type=int, default=1920)
-    ap.add_argument("--height", type=int, default=1080)
-    ap.add_argument("--rounds", type=int, default=100)
-    ap.add_argument("--warmup", type=int, default=3)
-    ap.add_argument("--out", default="benchmarks/results/runtimes", help="path stem: writes .json and .md")
-    ap.add_argument("--render-only", action="store_true", help="re-render OUT.md from OUT.json")
-    args = ap.parse_args(argv)
-    out = Path(args.out)
-    if args.render_only:
-        doc = json.loads(out.with_suffix(".json").read_text(encoding="utf-8"))
-    else:
-        doc = stamp(measure(args.scene, args.width, args.height, args.rounds, args.warmup))   # every runtime: the host
-        out.with_suffix(".json").write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
-    out.with_suffix(".md").write_text(markdown(doc), encoding="utf-8")
-    print(f"wrote {out.with_suffix('.json')} and {out.with_suffix('.md')}")
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -3,8 +3,7 @@
 clshade assembles every program itself (clshade/device/variants.py `assemble`; the display,
 resolve and accuracy sources likewise) and marks where each file starts with `#line N "file"`.
 PoCL's clang honours the markers and names `surface.h:154:13`; NVIDIA's OpenCL compiler
-(OpenCL 3.0 CUDA 13.0.98, H100, 2026-11-26) ignores them and names the line of the whole
-program, `<kernel>:1050:13`. `relocate` rewrites such locations through the markers, so that
+ignores them and names the line of the whole program, `<kernel>:1050:13`. `relocate` rewrites such locations through the markers, so that
 the error handling after it (clshade.device.runtime) reads `file:line:col:` from every compiler.
 """
 from __future__ import annotations

@@ -94,13 +94,6 @@ def bucket_tables(method: str, exposure: float) -> tuple[np.ndarray, np.ndarray]
     return base.astype(np.uint8), cross
 
 
-def host_levels(image: np.ndarray, method: str, exposure: float) -> np.ndarray:
-    """The thresholds applied on the host (for tests): (H, W, ≥3) float32 → (H, W, 3) uint8."""
-    t = thresholds(method, exposure)
-    x = np.nan_to_num(np.asarray(image[..., :3], np.float32), nan=0.0, posinf=np.finfo(np.float32).max)
-    return np.searchsorted(t, x, side="right").astype(np.uint8)
-
-
 class Display:
     """Radiance buffer (float4 per pixel) → RGBA8 on the device, then read back."""
 

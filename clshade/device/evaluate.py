@@ -12,7 +12,7 @@ import numpy as np
 
 from clshade.device import counts
 from clshade.errors import ClshadeError
-from clshade.models import Model
+from clshade.models.model import Model
 from clshade.device.runtime import Runtime, get_runtime
 from clshade.render.scene import GOLD_ETA, GOLD_K
 from clshade.device.variants import Features, Variant

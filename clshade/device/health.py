@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from clshade.cachedir import read_entry, user_cache_dir, write_entry
+from clshade.cachedir import binary_cache_dir, read_entry, user_cache_dir, write_entry
 from clshade.errors import first_error
 
 #: Kept results (one small JSON file per device × driver × environment).
@@ -104,7 +104,6 @@ def probe(cl, info, device) -> Health:
     key = _cache_key(cl, info, device)
     if key in _memo:
         return _memo[key]
-    from clshade.device.runtime import binary_cache_dir
     folder = binary_cache_dir()
     use_disk = folder is not None
     path = (folder or user_cache_dir("programs")) / "health" / f"{key}.json"

@@ -21,12 +21,12 @@ from pathlib import Path
 
 import numpy as np
 
-from clshade.cachedir import read_entry, user_cache_dir, write_entry
+from clshade.cachedir import binary_cache_dir, read_entry, write_entry
 from clshade.device import health
 from clshade.device.buildlog import relocate
 from clshade.diagnostics import stderr_captured
 from clshade.errors import ClshadeError, first_error
-from clshade.render.arrays import PIXEL_PAD
+from clshade.resources import kernels_dir
 
 ENV_DEVICE = "CLSHADE_DEVICE"
 INSTALL_HINT = ("install an OpenCL CPU runtime without root: `pip install pocl-binary-distribution` or "
@@ -51,11 +51,10 @@ _BUILD_ERROR = re.compile(r"(?:error: (?P<file>/[^:\n]+):(?P<line>\d+):\d+[^:\n]
                           r"|(?:(?P<file2>/[^:\n]+):(?P<line2>\d+):\d+: error: (?P<message2>[^\n]+))")
 
 
-def _user_file_error(log: str) -> str | None:
+def _user_file_error(log: str, source: str) -> str | None:
     """`file:line: message` of the first compiler error in a user's lobe file (named by its
-    absolute path in the #line markers; clshade's own files are named relative), or None."""
-    from clshade.models import lobes
-    users = {str(l.path) for l in lobes().values() if l.is_users}
+    absolute path in the source's #line markers; clshade's own files are named relative), or None."""
+    users = {f for f in re.findall(r'^#line \d+ "([^"]+)"', source, re.M) if os.path.isabs(f)}
     for m in _BUILD_ERROR.finditer(log):
         file, line, message = (m.group("file"), m.group("line"), m.group("message")) if m.group("file") \
             else (m.group("file2"), m.group("line2"), m.group("message2"))
@@ -123,9 +122,9 @@ def _pocl_version(version: str) -> tuple[int, ...]:
 
 #: The default device's runtime, in order of preference among healthy CPU devices: the order of the
 #: runtimes' kernel times on the same frame in benchmarks/results/runtimes.json (fastest first;
-#: tests/test_runtimes.py fails when the measured order there disagrees). A substring of
+#: tests/device/test_runtimes.py fails when the measured order there disagrees). A substring of
 #: "platform, platform version"; runtimes matching none come after these.
-RUNTIME_PREFERENCE = ("PoCL 3.1", "PoCL 3.0", "Intel(R) OpenCL")
+RUNTIME_PREFERENCE = ("PoCL 3.1", "Intel(R) OpenCL", "PoCL 3.0")
 
 
 def preference(info: DeviceInfo) -> tuple:
@@ -192,12 +191,6 @@ def _match(spec: str, devices: list[tuple[DeviceInfo, object]]) -> tuple[DeviceI
     raise ClshadeError(f"device {spec!r} matches no OpenCL device (have: {known})")
 
 
-def select_device(spec: str | None = None):
-    """`choose_device` as (DeviceInfo, cl.Device)."""
-    chosen = choose_device(spec)
-    return chosen.info, chosen.device
-
-
 def healthy_devices(kind: str | None = "cpu") -> list[tuple[DeviceInfo, object]]:
     """Every device (of `kind`, None for all) that passes the probe, in `preference` order."""
     out = []
@@ -207,45 +200,29 @@ def healthy_devices(kind: str | None = "cpu") -> list[tuple[DeviceInfo, object]]
     return out
 
 
-ENV_NO_BINARY_CACHE = "CLSHADE_NO_BINARY_CACHE"
-ENV_CACHE_DIR = "CLSHADE_CACHE_DIR"
-
-
-def binary_cache_dir() -> Path | None:
-    """The folder of cached program binaries: $CLSHADE_CACHE_DIR, else
-    $XDG_CACHE_HOME/clshade/programs (~/.cache/clshade/programs); None when
-    CLSHADE_NO_BINARY_CACHE=1. A warm build from source still costs the driver
-    ~30 ms of CPU (PoCL hashes and links it again); from the binary ~5 ms."""
-    if os.environ.get(ENV_NO_BINARY_CACHE, "").strip() not in ("", "0"):
-        return None
-    folder = os.environ.get(ENV_CACHE_DIR, "").strip()
-    return Path(folder) if folder else user_cache_dir("programs")
-
-
 #: Program binaries kept (the least recently used beyond this are deleted when one is
 #: stored; clshade/cachedir.py): every model × feature set × build option is an entry of
 #: some 50–150 kB, and the test suite alone builds hundreds of them.
 PROGRAM_CACHE_ENTRIES = 2048
 
 
-# Lanes per work-item the kernels support (kernels/simd.h); buffers are padded to the largest
-# (clshade.render.arrays.PIXEL_PAD, shared with the G-buffer's planes).
+# Lanes per work-item the kernels support (kernels/simd.h); buffers are padded to a multiple of
+# the largest (clshade.render.arrays.PIXEL_PAD, shared with the G-buffer's planes).
 SIMD_WIDTHS = ("1", "4", "8", "16")
-SIMD_PAD = PIXEL_PAD
 ENV_SIMD = "CLSHADE_SIMD"
 # kernels/simd.h writes the hot builtins inline where PoCL's AVX-512 builtin library meets a
-# compiler target without AVX-512 (see there). A/B switches: CLSHADE_LIBRARY_MATH=1 never,
+# compiler target without AVX-512 (see there). Switches: CLSHADE_LIBRARY_MATH=1 never,
 # CLSHADE_INLINE_MATH=1 always.
 ENV_LIBRARY_MATH = "CLSHADE_LIBRARY_MATH"
 ENV_INLINE_MATH = "CLSHADE_INLINE_MATH"
 LIBRARY_MATH = "-DCLSHADE_LIBRARY_MATH"
 INLINE_MATH = "-DCLSHADE_INLINE_MATH_FORCE"
 # kernels/simd.h writes the image rows with streaming (non-temporal) stores on x86 with AVX (see
-# STORE_ROW8 there). A/B switch: CLSHADE_CACHED_STORES=1 keeps plain stores.
+# STORE_ROW8 there). CLSHADE_CACHED_STORES=1 keeps plain stores.
 ENV_CACHED_STORES = "CLSHADE_CACHED_STORES"
 CACHED_STORES = "-DCLSHADE_CACHED_STORES"
 # shade.cl and copy.cl prefetch the G-buffer lines of the work-items ahead on x86 (kernels/gbuffer.h,
-# PREFETCH_AHEAD). A/B switch: CLSHADE_NO_PREFETCH=1 leaves the hint out.
+# PREFETCH_AHEAD). CLSHADE_NO_PREFETCH=1 leaves the hint out.
 ENV_NO_PREFETCH = "CLSHADE_NO_PREFETCH"
 NO_PREFETCH = "-DCLSHADE_NO_PREFETCH"
 
@@ -302,7 +279,7 @@ class Runtime:
                     program.build(options=list(options))
             except self.cl.RuntimeError as exc:
                 log = relocate(str(exc).strip(), source)     # `<kernel>:N:` (NVIDIA) as file:line
-                where = _user_file_error(log)
+                where = _user_file_error(log, source)
                 if where is not None:       # the user's lobe: one line, the compiler's own words
                     raise ClshadeError(f"{where} (OpenCL C, building {label or name})", detail=log) from exc
                 files = ", ".join(sorted(set(re.findall(r'#line 1 "([^"]+)"', source))))
@@ -403,14 +380,9 @@ class Runtime:
 
     @property
     def native_simd(self) -> int:
-        """The widest supported SIMD ≤ the device's native float vector width.
-        pip's PoCL 3.0 reports 16 (the CPU has AVX-512) but compiles for znver3
-        (AVX2, no AVX-512: kernels/simd.h; its device name then lacks "avx512"),
-        where its library builtins cannot take float16 arguments (clCreateKernel:
-        INVALID_KERNEL_NAME, 2026-11-23). kernels/simd.h writes every builtin the
-        image kernels call inline there, so 16 lanes (two AVX2 registers each) build;
-        they ran GGX and Phong ~9 % faster than 8 (A/B in one process, 2026-11-23).
-        With the library's builtins forced (LIBRARY_MATH) such a device stays at 8."""
+        """The widest supported SIMD ≤ the device's native float vector width. On a
+        `narrow_target` 16 lanes build only with kernels/simd.h's inline builtins, so such a
+        device stays at 8 without an AVX-512 host or with LIBRARY_MATH (docs/bench-notes.md)."""
         width = int(getattr(self.device, "native_vector_width_float", 8) or 8)
         if self.narrow_target and (not host_has_avx512f() or LIBRARY_MATH in self.options):
             width = 8
@@ -419,10 +391,8 @@ class Runtime:
     @property
     def narrow_target(self) -> bool:
         """PoCL reporting AVX-512's vector widths (16 floats) while compiling for a CPU name
-        without AVX-512 (pip's PoCL 3.0 on an AVX-512 host: its device name then lacks
-        "avx512"). A 512-bit vector passed to its library's builtins (float16, double8,
-        long8) there breaks the program: PoCL's cached copy of it lists no kernels
-        (clCreateKernel: INVALID_KERNEL_NAME; a one-line double8 kernel does it, 2026-11-27)."""
+        without "avx512" (pip's PoCL 3.0 on an AVX-512 host): a 512-bit vector passed to its
+        library's builtins there breaks the program (clCreateKernel: INVALID_KERNEL_NAME)."""
         width = int(getattr(self.device, "native_vector_width_float", 8) or 8)
         return width >= 16 and "PoCL" in self.info.platform_version and "avx512" not in self.info.device
 
@@ -455,7 +425,6 @@ class Runtime:
 
     def _simd_h_defines(self, macro: str) -> bool:
         """Whether kernels/simd.h defines `macro` when built on this device with these options."""
-        from clshade.resources import kernels_dir
         source = ((kernels_dir() / "simd.h").read_text(encoding="utf-8") + "\n__kernel void probe(__global int* out) {\n"
                   f"#ifdef {macro}\n out[0] = 1;\n#else\n out[0] = 0;\n#endif\n}}\n")
         kernel = self.kernel(source, "probe", label="simd.h probe")

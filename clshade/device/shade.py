@@ -16,7 +16,7 @@ import numpy as np
 from clshade.device import counts
 from clshade.render.gbuffer import GBuffer, uniform_channels
 from clshade.render.meshes import Geometry
-from clshade.models import Model
+from clshade.models.model import Model
 from clshade.device.resolve import Resolver
 from clshade.device.runtime import Runtime
 from clshade.render.arrays import padded

@@ -12,7 +12,7 @@ program per model that reads every channel and takes the light list (with a
 kind per light), the ambient switch and the shadow switch as runtime
 arguments; a general Features keeps the scene's effects as the values of those
 switches. Specialisation must never change results: every specialised variant
-equals the general kernel with the same switches (tests/test_specialisation.py).
+equals the general kernel with the same switches (tests/device/test_specialisation.py).
 """
 from __future__ import annotations
 
@@ -20,7 +20,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from clshade.models import BRDF_FILE, NONE, Model
+from clshade.models.lobe import BRDF_FILE
+from clshade.models.model import NONE, Model
 from clshade.resources import kernels_dir
 
 # The per-material constants (surface.h, MATERIAL_STRIDE float4 per material).
@@ -246,9 +247,11 @@ class Variant:
 
     @property
     def key(self) -> tuple:
-        """What makes a variant distinct (the cache adds the device): model, features,
-        channels, baked constants, the normals' contract and build options."""
-        return (self.model.id, self.features, self.channels, self.baked_material, self.unit_normals, self.options())
+        """What makes a variant distinct (the cache adds the device): model and its lobes' code
+        (two registries may hold different lobes of one id), features, channels, baked constants,
+        the normals' contract and build options."""
+        return (self.model.id, tuple(lobe.code for lobe in self.model.lobes), self.features, self.channels,
+                self.baked_material, self.unit_normals, self.options())
 
 
 def geometry_defines(model: Model) -> dict[str, str]:

@@ -19,7 +19,7 @@ import numpy as np
 from clshade import budget
 from clshade.budget import MAX_COORDINATE, MAX_LIGHTS
 from clshade.errors import ClshadeError, located
-from clshade.models import add_lobes, resolve
+from clshade.models.registry import Registry
 from clshade.resources import scenes_dir
 from clshade.render.transforms import look_at, perspective, unit
 
@@ -217,6 +217,7 @@ class Scene:
     shadow_pcf: int = DEFAULT_SHADOW_PCF
     samples: int = 1                 # N×N samples per pixel, box-filtered (supersampling)
     specular_aa: bool = False        # roughness widened from the normal's screen-space variance
+    lobes: tuple[Path, ...] = ()     # the user's lobe folders it names (render.lobes): Registry.with_lobes
 
     @property
     def shadow_lights(self) -> tuple[int, ...]:
@@ -467,8 +468,9 @@ def _object(file: Path, table: Any, where: str, materials: dict[str, Material]) 
     return obj
 
 
-def parse_scene(text: str, file: Path | str = "<scene>") -> Scene:
-    """Validate a scene from TOML text. Relative mesh paths resolve against the file's folder."""
+def parse_scene(text: str, file: Path | str = "<scene>", registry: Registry | None = None) -> Scene:
+    """Validate a scene from TOML text. Relative mesh paths resolve against the file's folder;
+    render.model is checked against `registry` (default: the built-in lobes) and the scene's lobes."""
     file = Path(file) if not isinstance(file, Path) else file
     try:
         data = tomllib.loads(text)
@@ -478,7 +480,7 @@ def parse_scene(text: str, file: Path | str = "<scene>") -> Scene:
             lines = text.split("\n")
             message += f" (line {len(lines)}, column {len(lines[-1]) + 1})"
         raise ClshadeError(f"{file}: malformed TOML: {message}") from exc
-    return scene_from_data(data, file)
+    return scene_from_data(data, file, registry)
 
 
 def camera_from_data(data: dict[str, Any], file: Path | str = "<scene>") -> Camera:
@@ -508,9 +510,10 @@ def camera_from_data(data: dict[str, Any], file: Path | str = "<scene>") -> Came
     return camera
 
 
-def scene_from_data(data: dict[str, Any], file: Path | str = "<scene>") -> Scene:
+def scene_from_data(data: dict[str, Any], file: Path | str = "<scene>", registry: Registry | None = None) -> Scene:
     """Validate a scene from its parsed TOML tables (what tomllib returns; `clshade view`
-    edits them and parses each edit without writing TOML text in between)."""
+    edits them and parses each edit without writing TOML text in between). Nothing outside the
+    returned Scene changes: its lobe folders are a field, for the caller's Registry."""
     file = Path(file) if not isinstance(file, Path) else file
     top = _Reader(file, data, "")
     camera = camera_from_data(data, file)
@@ -522,16 +525,20 @@ def scene_from_data(data: dict[str, Any], file: Path | str = "<scene>") -> Scene
     exposure = rnd.number("exposure", 0.0, *EXPOSURE_RANGE)
     tonemap = rnd.string("tonemap", "aces", TONEMAPS)
     lobes_dir = rnd.string("lobes")
+    lobes: tuple[Path, ...] = ()
     if lobes_dir is not None:       # the user's lobes, named relative to the scene file
         folder = Path(lobes_dir) if Path(lobes_dir).is_absolute() else Path(file).parent / lobes_dir
         if not folder.exists():
             raise rnd.error("lobes", "no such folder")
-        add_lobes(folder)
+        lobes = (folder.resolve(),)
+    registry = (registry or Registry()).with_lobes(*lobes)
+    if lobes:
+        registry.lobes      # read here: an error in a lobe file is its own, not render.model's
     model = rnd.string("model", "ggx_correlated")
     if Path(model).suffix in (".brdf", ".cl") and not Path(model).is_absolute():
         model = str(Path(file).parent / model)     # a lobe file named relative to the scene
     try:
-        resolve(model)
+        registry.resolve(model)
     except ClshadeError as exc:       # "model 'x': why" → "file: render.model = 'x': why"
         raise rnd.error("model", str(exc).removeprefix(f"model {model!r}: ")) from exc
     shadows = rnd.boolean("shadows", False)
@@ -570,19 +577,20 @@ def scene_from_data(data: dict[str, Any], file: Path | str = "<scene>") -> Scene
     return Scene(path=file if file.exists() else None, camera=camera, lights=lights, materials=materials,
                  objects=objects, background=background, ambient=ambient, exposure=exposure,
                  tonemap=tonemap, model=model, shadow_map_size=shadow_map_size, shadow_pcf=shadow_pcf,
-                 samples=samples, specular_aa=specular_aa)
+                 samples=samples, specular_aa=specular_aa, lobes=lobes)
 
 
 def _missing(file: Path, key: str) -> None:
     raise located("is required", file, key)
 
 
-def load_scene(path: str | Path) -> Scene:
-    """Read and validate a scene file (a regular file of at most budget.MAX_SCENE_FILE_BYTES)."""
+def load_scene(path: str | Path, registry: Registry | None = None) -> Scene:
+    """Read and validate a scene file (a regular file of at most budget.MAX_SCENE_FILE_BYTES);
+    `registry` as for parse_scene."""
     path = Path(path)
     if not os.path.lexists(path):
         bundled = scenes_dir() / path.name
         hint = f" (the bundled scene of that name is {bundled})" if os.path.isfile(bundled) else ""
         raise ClshadeError(f"{path}: scene file not found{hint}")
     text = budget.read_text(path, "scene file", budget.MAX_SCENE_FILE_BYTES)
-    return parse_scene(text, path.resolve())
+    return parse_scene(text, path.resolve(), registry)

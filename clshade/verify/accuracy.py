@@ -36,10 +36,11 @@ import numpy as np
 
 from clshade.verify import reference as R
 from clshade.errors import ClshadeError
-from clshade.resources import KernelConstant, constant, kernel_constants  # noqa: F401
+from clshade.verify.reference.vectors import orthonormal_basis
 from clshade.device.evaluate import Samples, eval_brdf
-from clshade.models import NONE, Model, presets, resolve
-from clshade.resources import kernels_dir
+from clshade.models.model import NONE, Model, presets
+from clshade.models.registry import Registry
+from clshade.resources import constant, kernels_dir
 from clshade.device.runtime import Runtime, get_runtime
 
 # Target of every comparison: 1e-4 relative, ~800 float32 ulps, leaving room
@@ -64,7 +65,7 @@ MAX_SHININESS = 128.0
 # the mirror), and D amplifies it by ~2/α near its peak (Beckmann's exponent
 # more). Measured max error: 8.6e-4 (GGX) and 1.5e-3 (Beckmann) at α ≈ 0.003,
 # n·l ≈ n·v ≈ 0.02; α · min(n·l, n·v) ≥ 5e-3 keeps both under 1e-4. This is the
-# conditioning of float32 directions, not a term: tests/test_terms.py feeds D
+# conditioning of float32 directions, not a term: tests/device/test_terms.py feeds D
 # its n·h directly and stays at ~1e-6.
 MIN_ALPHA_COSINE = 5.0e-3
 # Default number of random samples per model or term.
@@ -118,11 +119,6 @@ def f32(x) -> np.ndarray:
     """Round to float32 and return as float64: what the kernel sees, for the reference."""
     return np.asarray(x, np.float64).astype(np.float32).astype(np.float64)
 
-
-# ---- kernel constants ------------------------------------------------------
-
-# kernel_constants() / constant(): the kernel headers' named clamps, read from the
-# source by clshade.resources (re-exported here for the accuracy report).
 
 # ---- terms -----------------------------------------------------------------
 
@@ -333,7 +329,7 @@ def accuracy_models() -> list[Model]:
             out += [model.with_options(fresnel=fr) for fr in ("schlick", "dielectric", "conductor")]
         else:
             out.append(model)
-    out += [resolve(s) for s in ("oren_nayar+ggx_correlated", "lambert+ggx_correlated", "burley+walter_ggx",
+    out += [Registry().resolve(s) for s in ("oren_nayar+ggx_correlated", "lambert+ggx_correlated", "burley+walter_ggx",
                                  "lambert+ggx_smith_schlick", "lambert+ggx_correlated/kdks")]
     unique = {m.id: m for m in reversed(out)}        # lambert+ggx_correlated is the ggx_correlated preset
     return [unique[i] for i in dict.fromkeys(m.id for m in out)]
@@ -341,7 +337,7 @@ def accuracy_models() -> list[Model]:
 
 def _rotate_to(n: np.ndarray, local: np.ndarray) -> np.ndarray:
     """Express vectors given in the +z frame in the frame of unit normals n."""
-    t, b = R._orthonormal_basis(n)
+    t, b = orthonormal_basis(n)
     return local[:, :1] * t + local[:, 1:2] * b + local[:, 2:3] * n
 
 

@@ -1,7 +1,7 @@
 """The bias of each named floor of the kernels, measured through the whole shade path.
 
 One function, :func:`floor_bias`, is the only measurement of these biases; every
-doc quotes its figures (`clshade check stability` and benchmarks/models_doc.py call it).
+doc quotes its figures (`clshade check stability` and benchmarks/docgen/models_doc.py call it).
 
 How: a one-row G-buffer of flat pixels (n = +z exactly) is shaded by the real
 shading kernel (kernels/shade.cl, the scene's specialised variant) under one
@@ -28,7 +28,8 @@ import numpy as np
 from clshade.device.evaluate import Samples, constant_materials, eval_brdf
 from clshade.device.runtime import Runtime, get_runtime
 from clshade.device.shade import Shader, scene_features
-from clshade.models import Model, preset, resolve
+from clshade.models.model import Model, preset
+from clshade.models.registry import Registry
 from clshade.render.gbuffer import GBuffer, material_row
 from clshade.render.scene import Camera, Light, Material, Scene
 from clshade.verify import reference as R
@@ -101,7 +102,7 @@ def _measure(name: str, value: float, active: str, cases: list[tuple[str, float,
     rough, metal = _grid()
     worst_abs, where, count = 0.0, "", 0
     for model_name, nl, nv, phi in cases:
-        model = resolve(model_name)
+        model = Registry().resolve(model_name)
         got, s = shade_flat(model, direction(nl, 0.0), direction(nv, phi), rough, metal, runtime=rt)
         want = np.zeros(got.shape) if kernel_only else reference_radiance(model, s)
         err = np.abs(got.astype(np.float64) - want)
@@ -121,7 +122,7 @@ def _min_alpha_bias(rt: Runtime) -> dict[str, Any]:
     worst, where = 0.0, ""
     for name in ("ggx_correlated", "walter_ggx", "cook_torrance"):
         model = preset(name).with_options(workflow="metallic")
-        spec_only = Model("none", model.specular, model.fresnel, model.workflow)
+        spec_only = Model("none", model.specular, model.fresnel, model.workflow, lobes=model.lobes)
         for cv in (1.0, 0.5):
             v = direction(cv, 0.0)
 

@@ -30,8 +30,10 @@ import numpy as np
 
 from clshade.device.evaluate import Samples, constant_materials, eval_brdf
 from clshade.verify import quadrature
-from clshade.brdf_explorer import FAMILY as BRDF_FAMILY
-from clshade.models import NONE, Model, lobes, presets, user_models
+from clshade.models.brdf_file import FAMILY as BRDF_FAMILY
+from clshade.models.lobe import Lobe
+from clshade.models.model import NONE, Model, presets
+from clshade.models.registry import Registry
 from clshade.device.runtime import Runtime, get_runtime
 
 # Albedo may exceed 1 by this much and still count as conserving energy: the
@@ -124,13 +126,13 @@ class Setting:
 def _settings(model: Model, sweep: Sweep, *, lobe_only: bool) -> list[Setting]:
     """The sweep for a model: its roughness or shininess grid; lobe_only puts the
     specular lobe at F = 1 (metallic 1) or k_s = 1."""
-    specular = model.specular
-    if specular != NONE and lobes()[specular].family == BRDF_FAMILY:
+    specular = model.specular_lobe
+    if specular is not None and specular.family == BRDF_FAMILY:
         return [Setting()]          # a .brdf file's parameters are compiled in: one setting
-    if specular != NONE and lobes()[specular].family == "empirical":
+    if specular is not None and specular.family == "empirical":
         kd, ks = (0.0, 1.0) if lobe_only else (0.7, 0.3)
         return [Setting(shininess=s, kd=kd, ks=ks) for s in sweep.shininess]
-    if specular != NONE:
+    if specular is not None:
         metallic = 1.0 if lobe_only else 0.0
         return [Setting(roughness=r, metallic=metallic) for r in sweep.microfacet_roughness]
     if "roughness" in model.uses:
@@ -262,30 +264,31 @@ class Verdict:
         return d
 
 
-def lobe_model(lobe: str, preset_model: Model) -> Model:
+def lobe_model(lobe: Lobe, preset_model: Model) -> Model:
     """The lobe alone, in the preset's workflow and Fresnel."""
-    if lobes()[lobe].kind == "diffuse":
-        return Model(lobe, NONE, preset_model.fresnel, preset_model.workflow)
-    return Model(NONE, lobe, preset_model.fresnel, preset_model.workflow)
+    if lobe.kind == "diffuse":
+        return Model(lobe.id, NONE, preset_model.fresnel, preset_model.workflow, lobes=(lobe,))
+    return Model(NONE, lobe.id, preset_model.fresnel, preset_model.workflow, lobes=(lobe,))
 
 
 def evaluate_presets(sweep: Sweep = Sweep(), device: str | None = None,
-                     models: list[Model] | None = None, progress=None) -> list[Verdict]:
-    """Measure every preset (or `models`): each lobe at its most reflective setting,
-    and the composition as it renders. `progress(done, total)` after each preset."""
+                     models: list[Model] | None = None, progress=None,
+                     registry: Registry | None = None) -> list[Verdict]:
+    """Measure every preset and each user lobe of `registry` (or `models`): each lobe at its most
+    reflective setting, and the composition as it renders. `progress(done, total)` after each preset."""
     rt = get_runtime(device)
     cache: dict[str, Measurement] = {}
 
-    def lobe_measurement(lobe: str, preset_model: Model) -> Measurement:
+    def lobe_measurement(lobe: Lobe, preset_model: Model) -> Measurement:
         model = lobe_model(lobe, preset_model)
         if model.id not in cache:
             cache[model.id] = measure(model, _settings(model, sweep, lobe_only=True), sweep, rt)
         return cache[model.id]
 
     out = []
-    todo = list(models or presets() + user_models())
+    todo = list(models or presets() + (registry or Registry()).user_models())
     for model in todo:
-        parts = {lobe.id: lobe_measurement(lobe.id, model) for lobe in model.lobes}
+        parts = {lobe.id: lobe_measurement(lobe, model) for lobe in model.lobes}
         if model.diffuse != NONE and model.specular != NONE:
             composed = measure(model, _settings(model, sweep, lobe_only=False), sweep, rt)
         else:
@@ -324,23 +327,7 @@ def albedo(model: Model, setting: Setting, view_cos: float = 1.0, order: int = 2
     return m.albedo[0][0], m.albedo_error[0][0]
 
 
-# ---- table and CLI -------------------------------------------------------------------
-
-TABLE_HEADER = ("| preset | family | min f | max reciprocity err | max albedo per lobe (at) | composed albedo (at) "
-                "| quadrature err | non-neg | reciprocal | energy | physically based |")
-
-
-def table(verdicts: list[Verdict]) -> list[str]:
-    """The plausibility table as Markdown lines, physically based models first."""
-    yes = lambda b: "yes" if b else "**no**"   # noqa: E731
-    lines = [TABLE_HEADER, "|" + "---|" * (TABLE_HEADER.count("|") - 1)]
-    for v in sorted(verdicts, key=lambda v: (not v.physically_based, v.family, v.preset)):
-        lobe_text = "; ".join(f"{k} {a:.5f} ({at})" for k, (a, at) in v.lobes.items())
-        lines.append(f"| {v.preset} | {v.family} | {v.min_f:.3g} | {v.max_reciprocity_error:.1e} | "
-                     f"{lobe_text} | {v.composed_albedo:.5f} ({v.composed_albedo_at}) | "
-                     f"{v.quadrature_error:.1e} | {yes(v.non_negative)} | {yes(v.reciprocal)} | "
-                     f"{yes(v.energy_conserving)} | {yes(v.physically_based)} |")
-    return lines
+# ---- the method in words ---------------------------------------------------------
 
 
 def describe_method(sweep: Sweep = Sweep()) -> list[str]:

@@ -12,8 +12,8 @@ V, F, diffuse and empirical term, lobe, lobe sum, radiance per light, ambient
 term and pixel radiance, counted per term on the device); and the precise build
 stays within PRECISE_TOLERANCE of the float64 reference where no floor acts
 (BRDF) and at unit lights (shaded pixels); and every build, fast math included, gives exactly 0
-where no floor acts and the reference is exactly 0 (a fast build that flushed a denormal
-shininess to 0 gave 1 there on NVIDIA, 2026-11-26, while its deviation is reported, not bounded). The shaded pixels are counted on the
+where no floor acts and the reference is exactly 0 (a fast build that flushes a denormal
+shininess to 0 would give 1 there: MIN_SHININESS; its deviation is reported, not bounded). The shaded pixels are counted on the
 raw radiance (-D RAW_RADIANCE: no MAX_RADIANCE clamp, whose fmin would turn a
 NaN into a number); pixels the clamp acts on are counted as saturated; the
 shipped build is checked finite as well. Cases are reported per build as
@@ -42,8 +42,6 @@ n = v by design; for n·v ≤ 0 the kernel floors n·v at MIN_N_DOT_V by design
 from __future__ import annotations
 
 import math
-import os
-import platform
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -53,7 +51,8 @@ import numpy as np
 from clshade.device import counts
 from clshade.device.evaluate import Samples, eval_brdf, eval_brdf_counted
 from clshade.device.runtime import Runtime, get_runtime
-from clshade.models import FRESNELS, WORKFLOWS, Model, presets, user_models
+from clshade.models.model import FRESNELS, WORKFLOWS, Model, preset, presets
+from clshade.models.registry import Registry
 from clshade.provenance import stamp
 from clshade.resources import constant
 from clshade.verify import reference as R
@@ -130,9 +129,10 @@ def variants_of(model: Model) -> list[Model]:
     return [model.with_options(fresnel=f, workflow=w) for w in workflows for f in fresnels]
 
 
-def grid_models() -> list[Model]:
-    """Every preset with every Fresnel and workflow it admits (variants_of); then each of the user's lobes."""
-    return [v for m in presets() + user_models() for v in variants_of(m)]
+def grid_models(registry: Registry | None = None) -> list[Model]:
+    """Every preset with every Fresnel and workflow it admits (variants_of); then each of the user's
+    lobes in `registry` (default: none)."""
+    return [v for m in presets() + (registry or Registry()).user_models() for v in variants_of(m)]
 
 
 def run_model(model: Model, grid: Grid, rt: Runtime, fast_math: bool,
@@ -318,7 +318,6 @@ def continuity(rt: Runtime) -> list[dict[str, Any]]:
     """Largest relative step between neighbouring roughness samples around r = 0.01
     (where the α floor stops acting) and between r = 0 and r = 0.01 (must be 0)."""
     from clshade.device.evaluate import constant_materials
-    from clshade.models import preset
     out = []
     r = np.concatenate([np.linspace(0.0, 0.02, 201), [0.0099999, 0.01, 0.0100001]])
     r.sort()
@@ -443,8 +442,7 @@ class Report:
                                       clamped_build_nonfinite=sum(s.clamped_nonfinite for s in self.shading),
                                       pixels=sum(s.pixels for s in self.shading)),
                     device=self.device, seconds=self.seconds, created=self.created,
-                    machine=dict(machine=platform.machine(), processor=platform.processor() or platform.machine(),
-                                 cpu_count=os.cpu_count(), os=platform.platform()), grid=dict(
+                    grid=dict(
                         roughness=ROUGHNESS_GRID, roughness_reading="each value as r and as α = r²",
                         shininess=SHININESS_GRID, cosines=COSINE_GRID, ior=IOR_GRID,
                         light_intensities=LIGHT_INTENSITIES, normals=list(NORMAL_SCALES),
@@ -458,14 +456,14 @@ class Report:
 
 def run(models: list[Model] | None = None, device: str | None = None, runtime: Runtime | None = None,
         fast_math: tuple[bool, ...] = (False, True), shading: bool = True, extras: bool = True,
-        brdf: bool = True, progress=None) -> Report:
-    """Run the whole grid (both builds), the shading pass, the clamp biases and the continuity checks
-    (`brdf`, `shading`, `extras` switch the parts off); `progress(done, total)` after each model × build
-    (and after the extras)."""
+        brdf: bool = True, progress=None, registry: Registry | None = None) -> Report:
+    """Run the whole grid (both builds; `models` default: grid_models(registry)), the shading pass,
+    the clamp biases and the continuity checks (`brdf`, `shading`, `extras` switch the parts off);
+    `progress(done, total)` after each model × build (and after the extras)."""
     start = time.perf_counter()
     rt = runtime or get_runtime(device)
     grid = geometry_grid()
-    models = [R.check_model(m) for m in models] if models is not None else grid_models()
+    models = [R.check_model(m) for m in models] if models is not None else grid_models(registry)
     results, shades, cache = [], [], {}
     total = len(models) * len(fast_math) + (1 if extras else 0)
     done = 0

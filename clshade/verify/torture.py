@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from clshade.device.evaluate import Samples
-from clshade.models import Model
+from clshade.models.model import Model
 from clshade.render.scene import GOLD_ETA, GOLD_K
 from clshade.verify import reference as R
 

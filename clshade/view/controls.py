@@ -16,7 +16,9 @@ from dataclasses import dataclass
 from typing import Any
 
 from clshade.errors import ClshadeError
-from clshade.models import SURFACE_PARAMS, Model, Param, lobes, resolve
+from clshade.models.lobe import SURFACE_PARAMS, Param
+from clshade.models.model import Model
+from clshade.models.registry import Registry
 from clshade.render.scene import EXPOSURE_RANGE, MAX_SAMPLES, TONEMAPS, Material, Scene
 
 #: Longest message the server reads (a control state is well under 4 KiB).
@@ -55,17 +57,17 @@ class Controls:
     materials: tuple[tuple[str, tuple[tuple[str, float | tuple[float, float, float]], ...]], ...] = ()
     lights: tuple[tuple[int, tuple[float, float, float] | None, float | None], ...] = ()  # (index, direction, scale)
 
-    def models(self) -> tuple[Model, Model]:
-        return resolve(self.model_a), resolve(self.model_b)
+    def models(self, registry: Registry) -> tuple[Model, Model]:
+        return registry.resolve(self.model_a), registry.resolve(self.model_b)
 
 
-def material_params() -> dict[str, Param]:
-    """name → Param of the surface inputs (base colour, metallic: clshade.models.SURFACE_PARAMS)
+def material_params(registry: Registry) -> dict[str, Param]:
+    """name → Param of the surface inputs (base colour, metallic: clshade.models.lobe.SURFACE_PARAMS)
     and of every parameter a lobe declares that a scene material holds (roughness, shininess,
     kd, ks, ka): the sliders. Read from the registry, so new lobes bring their parameters."""
     fields = Material.__dataclass_fields__
     out: dict[str, Param] = {p.name: p for p in SURFACE_PARAMS}
-    for lobe in lobes().values():
+    for lobe in registry.lobes.values():
         for p in lobe.params:
             if p.name in fields and p.name not in out:
                 out[p.name] = p
@@ -75,19 +77,21 @@ def material_params() -> dict[str, Param]:
 @dataclass(frozen=True)
 class Limits:
     """What the scene allows: its material names, its lights' kinds, the parameter ranges,
-    the distance range and the frame size (for the supersampling limit)."""
+    the distance range, the frame size (for the supersampling limit) and the lobes its
+    models may name (the session's registry)."""
     materials: tuple[str, ...]
     light_kinds: tuple[str, ...]
     params: dict[str, Param]
     distance: tuple[float, float]
     width: int
     height: int
+    registry: Registry
 
     @classmethod
-    def of(cls, scene: Scene, distance: float, width: int, height: int) -> "Limits":
+    def of(cls, scene: Scene, distance: float, width: int, height: int, registry: Registry) -> "Limits":
         named = tuple(m for m in scene.materials if "#" not in m)     # inline object materials have no [materials] table
-        return cls(named, tuple(l.kind for l in scene.lights), material_params(),
-                   (distance * ZOOM_RANGE[0], distance * ZOOM_RANGE[1]), width, height)
+        return cls(named, tuple(l.kind for l in scene.lights), material_params(registry),
+                   (distance * ZOOM_RANGE[0], distance * ZOOM_RANGE[1]), width, height, registry)
 
 
 def parse_message(text: str | bytes) -> dict[str, Any]:
@@ -136,11 +140,11 @@ def _table(key: str, value: Any) -> dict[str, Any]:
     return value
 
 
-def _model(key: str, value: Any) -> str:
+def _model(key: str, value: Any, registry: Registry) -> str:
     if not isinstance(value, str) or not value.strip() or len(value) > MAX_MODEL_SPEC:
         raise _fail(key, value, f"must be a model name of 1 to {MAX_MODEL_SPEC} characters")
     try:
-        resolve(value)
+        registry.resolve(value)
     except ClshadeError as exc:
         raise _fail(key, value, str(exc).removeprefix(f"model {value!r}: ")) from None
     return value.strip()
@@ -227,8 +231,8 @@ def parse_controls(value: Any, limits: Limits) -> Controls:
         azimuth=_number("azimuth", state["azimuth"], -MAX_AZIMUTH, MAX_AZIMUTH),
         elevation=_number("elevation", state["elevation"], -MAX_ELEVATION, MAX_ELEVATION),
         distance=_number("distance", state["distance"], *limits.distance),
-        model_a=_model("model_a", state["model_a"]),
-        model_b=_model("model_b", state["model_b"]),
+        model_a=_model("model_a", state["model_a"], limits.registry),
+        model_b=_model("model_b", state["model_b"], limits.registry),
         split=_boolean("split", state["split"]),
         diff=_boolean("diff", state["diff"]),
         exposure=_number("exposure", state["exposure"], *EXPOSURE_RANGE),

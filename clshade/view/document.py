@@ -85,7 +85,7 @@ def applied(base: dict[str, Any], controls, position, width: int, height: int) -
     """`base` (the scene file's tables) with `controls` (clshade.view.controls.Controls) and
     the orbit camera `position` written in; `base` itself is not changed. Only the tables
     written here are copied; the rest (objects, meshes) is shared with `base`, which the
-    scene parser only reads (tests/test_view.py checks that `base` stays as it was)."""
+    scene parser only reads (tests/view/test_view.py checks that `base` stays as it was)."""
     doc = dict(base)
     doc["camera"] = dict(doc.get("camera", {}))
     doc["render"] = dict(doc.get("render", {}))

@@ -31,17 +31,19 @@ from pathlib import Path
 
 import numpy as np
 
-from clshade.bench.run import _timed as timed_dispatch
 from clshade.bench.run import compared_pixels, frame_stats, grazing_pixels, relative_error
 from clshade.compare import difference, false_colour
 from clshade.device.display import Display
 from clshade.device.runtime import get_runtime
 from clshade.device import visibility as device_visibility
 from clshade.device.shade import Shader, scene_features
+from clshade.device.timing import timed_dispatch
 from clshade.device.visibility import DeviceGBuffer
 from clshade.diagnostics import note
 from clshade.errors import ClshadeError
-from clshade.models import SURFACE_PARAMS, lobes, presets
+from clshade.models.lobe import SURFACE_PARAMS
+from clshade.models.model import PRESETS, presets
+from clshade.models.registry import Registry
 from clshade.pipeline import Timings
 from clshade.render.gbuffer import GBuffer, build_gbuffer, face_planes, material_table
 from clshade.render.arrays import PlanePool, keep_freed_memory
@@ -202,8 +204,11 @@ class ViewSession:
     """One scene explored in the viewer: its document, the kept stages and each model's recent times."""
 
     def __init__(self, scene_path: str | Path, out_dir: str | Path, width: int | None = None,
-                 height: int | None = None, device: str | None = None, device_gbuffer: bool = True) -> None:
-        self.base_scene = load_scene(scene_path)
+                 height: int | None = None, device: str | None = None, device_gbuffer: bool = True,
+                 registry: Registry | None = None) -> None:
+        """`registry`: the command's lobes (default: the built-ins); the scene's lobe folders are added."""
+        self.base_scene = load_scene(scene_path, registry)
+        self.registry = (registry or Registry()).with_lobes(*self.base_scene.lobes)
         self.path = Path(scene_path).resolve()
         self.base_doc = tomllib.loads(self.path.read_text(encoding="utf-8"))
         for name, value in (("--width", width), ("--height", height)):
@@ -215,7 +220,7 @@ class ViewSession:
         if not self.out_dir.is_dir():
             raise ClshadeError(f"{out_dir}: output folder does not exist")
         self.orbit = Orbit.of(camera)
-        self.limits = Limits.of(self.base_scene, self.orbit.distance, self.width, self.height)
+        self.limits = Limits.of(self.base_scene, self.orbit.distance, self.width, self.height, self.registry)
         self.runtime = get_runtime(device)
         self.display = Display(self.runtime)
         keep_freed_memory()             # frame after frame: no page faults on the stages' temporaries
@@ -253,7 +258,7 @@ class ViewSession:
                      for k, m in zip(_preset_ids(), presets())],
             lobes=[dict(id=l.id, name=l.name, kind=l.kind, params=[dict(name=p.name, min=p.low, max=p.high,
                                                                         default=p.default, text=p.description)
-                                                                   for p in l.params]) for l in lobes().values()],
+                                                                   for p in l.params]) for l in self.registry.lobes.values()],
             params={k: dict(min=p.low, max=p.high, default=p.default, kind=p.kind, text=p.description)
                     for k, p in self.limits.params.items()},
             surface=[p.name for p in SURFACE_PARAMS],
@@ -268,12 +273,12 @@ class ViewSession:
         """The scene the controls describe, through the scene parser (its checks and messages)."""
         position = self.orbit.position(controls.azimuth, controls.elevation, controls.distance)
         doc = applied(self.base_doc, controls, position, self.width, self.height)
-        # The tables as tomllib reads back dumps(doc) (tests/test_view.py: the round trip is exact).
+        # The tables as tomllib reads back dumps(doc) (tests/view/test_view.py: the round trip is exact).
         last = self._parsed
         if last is not None and _same_but_camera(last[0], doc):     # orbit, zoom: only the camera is parsed
             scene = dataclasses.replace(last[1], camera=camera_from_data(doc, self.path))
         else:
-            scene = scene_from_data(doc, self.path)
+            scene = scene_from_data(doc, self.path, self.registry)
         self._parsed = (doc, scene)
         return scene, doc
 
@@ -420,7 +425,7 @@ class ViewSession:
     def finish(self, p: Prepared) -> ViewFrame:
         """The rest of a frame after prepare(): G-buffer, shading, display transform, read back."""
         controls, scene, geometry, camera, timings = p.controls, p.scene, p.geometry, p.camera, p.timings
-        model_a, model_b = controls.models()
+        model_a, model_b = controls.models(self.registry)
         shadows, gbuffer, shader = self.frame_state(p)
         # Material values read at run time: a slider moves data, never builds a program (Features).
         features = dataclasses.replace(scene_features(scene, geometry=geometry), runtime_material=True)
@@ -496,7 +501,7 @@ class ViewSession:
         for suffix in (".png", ".exr"):
             check_output_path(files[suffix], protected)
         text = dumps(relocated(doc, self.path.parent, self.out_dir))
-        parse_scene(text, files[".toml"])             # what `clshade render` will read: it must load
+        parse_scene(text, files[".toml"], self.registry)     # what `clshade render` will read: it must load
         self.render(controls)
         shader, last = self.last["shader"], self.last
         commands = []
@@ -519,7 +524,6 @@ class ViewSession:
 
 
 def _preset_ids() -> list[str]:
-    from clshade.models import PRESETS
     return list(PRESETS)
 
 

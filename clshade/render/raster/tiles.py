@@ -32,7 +32,7 @@ _TILE_LOG2: int = TILE.bit_length() - 1
 #: candidate pixels: the grids are many short NumPy calls and np.minimum.at, which scale
 #: poorly on threads, and each worker's key array must be merged. On 2 cores, up to the
 #: ~2 M candidate pixels of many_lights at 1920x1080, one thread is as fast or faster
-#: (benchmarks/raster_threads.py); beyond that it is untested, so the split is kept.
+#: (benchmarks/experiments/raster_threads.py); beyond that it is untested, so the split is kept.
 COVER_PARALLEL_MIN_CELLS: int = 1 << 22
 
 #: Tiles generated at a time (bounds memory when many triangles are large).

@@ -29,7 +29,7 @@ TIE_EPS: float = float(np.finfo(np.float64).tiny)
 #: A batch's triangle setup is split over the worker threads from this many
 #: faces. Its many short NumPy calls scale poorly on threads and the join costs a
 #: copy of every field: on 2 cores, the robot's ~19k front faces and the sphere grid's
-#: 51k faces set up no faster in two parts than in one (benchmarks/raster_threads.py),
+#: 51k faces set up no faster in two parts than in one (benchmarks/experiments/raster_threads.py),
 #: so only batches larger than the largest FACE_BATCH are split (a larger batch setting).
 SETUP_PARALLEL_MIN_FACES: int = 1 << 17
 

@@ -84,7 +84,6 @@ from clshade.verify.reference.constants import (DIELECTRIC_F0, DIFFUSE_MODELS, E
                                                 SPECULAR_MODELS)
 from clshade.verify.reference.vectors import (Geometry, alpha_from_roughness, geometry, normalize, precision,
                                               reflect)
-from clshade.verify.reference.vectors import _orthonormal_basis  # noqa: F401 - accuracy.py and tests rotate by it
 from clshade.verify.reference.terms import (blinn_phong, blinn_phong_normalized, d_beckmann, d_ggx, f_conductor,
                                             f_dielectric, f_schlick, fd_burley, fd_lambert, fd_oren_nayar,
                                             g1_smith_ggx, g_cook_torrance, g_smith_ggx_correlated,

@@ -10,7 +10,7 @@ from numpy.typing import ArrayLike
 
 from clshade.verify.quadrature import hemisphere_rule
 from clshade.verify.reference.constants import EPS_TANGENT
-from clshade.verify.reference.vectors import Array, _f, _orthonormal_basis, normalize
+from clshade.verify.reference.vectors import Array, _f, orthonormal_basis, normalize
 
 
 def directional_albedo(
@@ -56,7 +56,7 @@ def directional_albedo(
     vv, ok_v = normalize(np.asarray(v, dtype=np.float64).reshape(3))
     if not (ok_n and ok_v):
         raise ValueError("n and v must be non-zero")
-    t, b = _orthonormal_basis(nn)
+    t, b = orthonormal_basis(nn)
     mu_v = float(np.clip(nn @ vv, 0.0, 1.0))
     vt, vb = float(vv @ t), float(vv @ b)
     phi_v = math.atan2(vb, vt) if math.hypot(vt, vb) > EPS_TANGENT else None

@@ -8,7 +8,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
-from clshade.models import Model
+from clshade.models.model import Model
 from clshade.verify.reference.constants import (DIELECTRIC_F0, DIFFUSE_MODELS, EMPIRICAL_MODELS, FRESNEL_LOBES,
                                                 INV_PI, MICROFACET_MODELS, SPECULAR_MODELS)
 from clshade.verify.reference.terms import (blinn_phong, blinn_phong_normalized, d_beckmann, d_ggx, f_conductor,

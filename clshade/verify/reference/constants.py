@@ -1,11 +1,11 @@
 """What the float64 oracle states on its own: its epsilons, the kernels' documented constants and the
-lobe families, written here and never read from kernels/ (tests/test_oracle_constants.py compares
+lobe families, written here and never read from kernels/ (tests/verify/test_oracle_constants.py compares
 each with the kernels' and the model registry's)."""
 from __future__ import annotations
 
 import math
 
-from clshade.models import NONE
+from clshade.models.model import NONE
 
 # A vector shorter than this is treated as zero length: its squared length
 # (<= 1e-300) is at the bottom of the normal float64 range (~2.2e-308), so its
@@ -28,7 +28,7 @@ INV_PI: float = 1.0 / math.pi
 # The kernels' documented constants and model composition (the lobe families here, uses_fresnel
 # in compose.py), written here so that a
 # wrong value on the kernel side is not inherited by the truth it is checked against;
-# tests/test_oracle_constants.py compares each with the kernels' (and the model
+# tests/verify/test_oracle_constants.py compares each with the kernels' (and the model
 # registry's) and fails on any difference, so a change on one side shows.
 
 # shade.cl MIN_LIGHT_DIST2: a point or spot light's squared distance is floored here

@@ -10,7 +10,7 @@ from typing import Iterator
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from clshade.models import NONE, Model
+from clshade.models.model import NONE, Model
 from clshade.render.gbuffer import GBuffer
 from clshade.render.scene import Camera, Scene
 from clshade.render.shadows import ShadowMaps, shadow_visibility as _map_visibility

@@ -9,7 +9,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from clshade.verify.reference.constants import EPS_TANGENT, INV_PI
-from clshade.verify.reference.vectors import (_ERR, Array, _cos, _dot, _f, _orthonormal_basis,
+from clshade.verify.reference.vectors import (_ERR, Array, _cos, _dot, _f, orthonormal_basis,
                                               normalize)
 
 
@@ -225,7 +225,7 @@ def fd_oren_nayar(n: ArrayLike, l: ArrayLike, v: ArrayLike, sigma: ArrayLike) ->
     cos_i, cos_o = _cos(_dot(n, l)), _cos(_dot(n, v))
     valid = ok_n & ok_l & ok_v & (cos_i > 0.0) & (cos_o > 0.0)
     theta_i, theta_o = np.arccos(cos_i), np.arccos(cos_o)
-    t, b = _orthonormal_basis(n)
+    t, b = orthonormal_basis(n)
     li, lj = _dot(l, t), _dot(l, b)
     vi, vj = _dot(v, t), _dot(v, b)
     phi_i, phi_o = np.arctan2(lj, li), np.arctan2(vj, vi)

@@ -85,7 +85,7 @@ def reflect(l: ArrayLike, n: ArrayLike) -> Array:
     return 2.0 * _dot(n, l)[..., None] * n - l
 
 
-def _orthonormal_basis(n: Array) -> tuple[Array, Array]:
+def orthonormal_basis(n: Array) -> tuple[Array, Array]:
     """Tangent frame (t, b) for unit n (Duff et al. 2017, branchless ONB)."""
     nx, ny, nz = n[..., 0], n[..., 1], n[..., 2]
     sign = np.where(nz >= 0.0, 1.0, -1.0)

@@ -336,7 +336,7 @@ canvas.addEventListener("wheel", (e) => {
   update();
 }, {passive: false});
 
-// For tests and the benchmark (benchmarks/view_bench.py): drive the page, read what it shows.
+// For tests and the benchmark (benchmarks/measure/view_bench.py): drive the page, read what it shows.
 window.clshadeView = {
   get controls() { return controls; }, get lastFrame() { return lastFrame; }, records, latencies,
   set(patch) { Object.assign(controls, patch); return update(); },

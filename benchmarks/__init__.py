@@ -1,0 +1,1 @@
+"""clshade's benchmarks: result generators, publishing, experiments and mutation testing."""

@@ -1,0 +1,1 @@
+"""One module per command: its own checks of options and outputs, and its `cmd_*` function."""

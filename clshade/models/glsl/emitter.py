@@ -1,0 +1,582 @@
+"""The third stage of the GLSL translator: a typed emitter of OpenCL C over clshade's
+lane types (simd.h: `real`, `vec3`, `mask`) and kernels/glsl.h, and `translate`, the
+three stages in a row.
+"""
+from __future__ import annotations
+
+import operator
+from dataclasses import dataclass
+from pathlib import Path
+
+from clshade.models.glsl.lexer import TranslateError, fail
+from clshade.models.glsl.parser import (UNSUPPORTED_TYPES, Assign, Binary, Block, Call, Decl, ExprStmt, For,
+                                        Function, If, Index, Member, Name, Node, Num, Program, Return, Ternary,
+                                        Unary, parse)
+
+
+CTYPE = {"float": "real", "int": "int", "bool": "mask", "vec2": "vec2", "vec3": "vec3"}
+DIM = {"float": 1, "int": 1, "vec2": 2, "vec3": 3}
+ZERO = {"float": "((real)(0.0f))", "int": "0", "bool": "G_FALSE", "vec2": "v2s((real)(0.0f))",
+        "vec3": "v3s((real)(0.0f))"}
+SWIZZLE_SETS = ("xyzw", "rgba", "stpq")
+PREFIX = "u_"
+
+# GLSL built-ins applied component-wise: name → arity; glsl.h defines g1_<name> (real),
+# g2_<name> and g3_<name>.
+COMPONENTWISE = {"abs": 1, "sign": 1, "floor": 1, "ceil": 1, "fract": 1, "sqrt": 1, "inversesqrt": 1,
+                 "exp": 1, "exp2": 1, "log": 1, "log2": 1, "sin": 1, "cos": 1, "tan": 1, "asin": 1,
+                 "acos": 1, "atan": 1, "sinh": 1, "cosh": 1, "tanh": 1, "radians": 1, "degrees": 1,
+                 "mod": 2, "min": 2, "max": 2, "pow": 2, "step": 2, "clamp": 3, "mix": 3, "smoothstep": 3}
+GEOMETRIC = {"dot", "length", "distance", "normalize", "cross", "reflect"}
+# Constant int expressions folded to literals (a constant index `v[N - 1]`, an exponent).
+INT_FOLD = {"+": operator.add, "-": operator.sub, "*": operator.mul}
+
+
+@dataclass
+class Value:
+    type: str
+    code: str
+    literal: str | None = None     # the text of a numeric literal (int-to-float converts it exactly)
+
+
+@dataclass
+class Symbol:
+    type: str
+    cname: str
+    assignable: bool
+
+
+class Emitter:
+    """Typed OpenCL C for one parsed shader."""
+
+    def __init__(self, program: Program, path: str, params: dict[str, tuple[str, str]]) -> None:
+        """`params`: the file's parameters by name, (GLSL type, OpenCL C value)."""
+        self.prog, self.path = program, path
+        self.out: list[str] = []
+        self.globals: dict[str, Symbol] = {}
+        self.const_ints: dict[str, int] = {}
+        self.functions: dict[str, Function] = {}
+        self.scopes: list[dict[str, Symbol]] = []
+        self.counter = 0
+        self.params = params
+        self.current: Function | None = None
+        self.predicated = False
+        self.reads: set[str] = set()       # names of BRDF()'s parameters the shader reads (L V N X Y)
+
+    def error(self, line: int, message: str) -> TranslateError:
+        return fail(self.path, line, message)
+
+    # -- program
+    def emit(self) -> str:
+        for name, (kind, value) in self.params.items():
+            self.globals[name] = Symbol(kind, PREFIX + name, False)
+            self.out.append(f"#define {PREFIX}{name} {value}")
+        for kind, name, line in self.prog.uniforms:
+            if name not in self.params:
+                raise self.error(line, f"uniform {name!r} is not a parameter of the file")
+            if self.params[name][0] != kind:
+                raise self.error(line, f"uniform {name!r} is declared {kind}, the parameter is {self.params[name][0]}")
+        for decl in self.prog.consts:
+            self.const_decl(decl)
+        for fn in self.prog.functions:
+            if fn.body is None:
+                continue
+            if fn.name in self.functions or fn.name in COMPONENTWISE or fn.name in GEOMETRIC:
+                raise self.error(fn.line, f"function {fn.name!r} is defined twice (overloading is not supported)")
+            self.functions[fn.name] = fn
+        if "BRDF" not in self.functions:
+            raise self.error(self.prog.functions[-1].line if self.prog.functions else 1,
+                             "the shader defines no 'vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)'")
+        brdf = self.functions["BRDF"]
+        if brdf.type != "vec3" or [t for t, _ in brdf.params] != ["vec3"] * 5:
+            raise self.error(brdf.line, "BRDF must be 'vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)'")
+        # Prototypes first: GLSL lets a function call one defined further down after a prototype.
+        for fn in self.functions.values():
+            if fn.type != "void":
+                self.out.append(f"INLINE {CTYPE[fn.type]} {PREFIX}{fn.name}({', '.join(self._signature(fn))});")
+        for fn in self.functions.values():
+            self.function(fn)
+        return "\n".join(self.out) + "\n"
+
+    @staticmethod
+    def _signature(fn: Function) -> list[str]:
+        """The C parameters of a translated function: its own, then the pixel's Surface."""
+        return [f"{CTYPE[t]} {PREFIX}{n}" for t, n in fn.params] + ["const Surface s"]
+
+    def line(self, line: int) -> None:
+        self.out.append(f'#line {line} "{self.path}"')
+
+    def const_decl(self, decl: Decl) -> None:
+        for name, init, line in decl.names:
+            value = self.coerce(self.expr(init), decl.type, line)
+            self._declare_global(name, line)
+            self.globals[name] = Symbol(decl.type, PREFIX + name, False)
+            if decl.type == "int" and value.literal is not None:
+                self.const_ints[name] = int(value.literal)
+            self.line(line)
+            self.out.append(f"#define {PREFIX}{name} ({value.code})")
+
+    def _declare_global(self, name: str, line: int) -> None:
+        if name in self.globals:
+            raise self.error(line, f"{name!r} is declared twice")
+
+    # -- functions
+    def function(self, fn: Function) -> None:
+        if fn.type == "void":
+            raise self.error(fn.line, f"unsupported construct: void function {fn.name!r} (a function must return a value)")
+        self.scopes = [{}]
+        self.counter = 0
+        for ptype, pname in fn.params:
+            self.scopes[0][pname] = Symbol(ptype, PREFIX + pname, True)
+        self.current = fn
+        self.line(fn.line)
+        # The pixel's Surface goes last: parameters that are material keys read it.
+        self.out.append(f"INLINE {CTYPE[fn.type]} {PREFIX}{fn.name}({', '.join(self._signature(fn))}) {{")
+        # A body whose one return is its last statement is emitted as written; any
+        # other return is if-converted (module docstring).
+        returns = _count_returns(fn.body)
+        simple = returns == 1 and isinstance(fn.body[-1], Return)
+        if returns == 0:
+            raise self.error(fn.line, f"function {fn.name!r} never returns a value")
+        self.predicated = not simple
+        if self.predicated:
+            self.out.append(f"    {CTYPE[fn.type]} x_ret = {ZERO[fn.type]};")
+            self.out.append("    mask x_done = G_FALSE;")
+        self.block(fn.body, None, 1)
+        if self.predicated:
+            self.out.append("    return x_ret;")
+        self.out.append("}")
+
+    def block(self, stmts: list[Node], pred: str | None, depth: int) -> None:
+        self.scopes.append({})
+        for s in stmts:
+            self.statement(s, pred, depth)
+        self.scopes.pop()
+
+    def active(self, pred: str | None) -> str | None:
+        """The mask of the lanes a statement acts on: the branch's, less the lanes done."""
+        if not self.predicated:
+            return pred
+        return f"({pred} && !x_done)" if pred else "(!x_done)"
+
+    def statement(self, s: Node, pred: str | None, depth: int) -> None:
+        pad = "    " * depth
+        if isinstance(s, Block):
+            self.out.append(f"{pad}{{")
+            self.block(s.body, pred, depth + 1)
+            self.out.append(f"{pad}}}")
+        elif isinstance(s, Decl):
+            for name, init, line in s.names:
+                if name in self.scopes[-1]:
+                    raise self.error(line, f"{name!r} is declared twice in one block")
+                value = self.coerce(self.expr(init), s.type, line) if init is not None else Value(s.type, ZERO[s.type])
+                self.line(line)
+                cname = f"{PREFIX}{name}_{self._next()}"
+                self.out.append(f"{pad}{'const ' if s.const else ''}{CTYPE[s.type]} {cname} = {value.code};")
+                self.scopes[-1][name] = Symbol(s.type, cname, not s.const)
+        elif isinstance(s, ExprStmt):
+            if not isinstance(s.expr, Assign):
+                raise self.error(s.line, "a statement must be an assignment, a declaration, if, for or return")
+            self.assign(s.expr, pred, pad)
+        elif isinstance(s, Return):
+            fn = self.current
+            if s.value is None:
+                raise self.error(s.line, f"return without a value in {fn.name!r}")
+            value = self.coerce(self.expr(s.value), fn.type, s.line)
+            self.line(s.line)
+            if not self.predicated:
+                self.out.append(f"{pad}return {value.code};")
+            else:
+                p = self.active(pred)
+                self.out.append(f"{pad}x_ret = {self.select(fn.type, p, value.code, 'x_ret')};")
+                self.out.append(f"{pad}x_done = x_done || {p};")
+        elif isinstance(s, If):
+            cond = self.expr(s.cond)
+            if cond.type != "bool":
+                raise self.error(s.line, f"if condition is {cond.type}, not bool")
+            k = self._next()
+            self.line(s.line)
+            outer = f"{pred} && " if pred else ""
+            self.out.append(f"{pad}mask x_if{k} = {outer}({cond.code});")
+            if s.other is not None:
+                self.out.append(f"{pad}mask x_else{k} = {outer}!({cond.code});")
+            self.out.append(f"{pad}{{")
+            self.block(s.then, f"x_if{k}", depth + 1)
+            self.out.append(f"{pad}}}")
+            if s.other is not None:
+                self.out.append(f"{pad}{{")
+                self.block(s.other, f"x_else{k}", depth + 1)
+                self.out.append(f"{pad}}}")
+        elif isinstance(s, For):
+            self.for_loop(s, pred, depth)
+        else:
+            raise self.error(s.line, f"unsupported construct: {type(s).__name__}")
+
+    def for_loop(self, s: For, pred: str | None, depth: int) -> None:
+        pad = "    " * depth
+        start = self.expr(s.start)
+        if start.type != "int":
+            raise self.error(s.line, f"for loop counter {s.var!r} starts at a {start.type}, not an int")
+        cname = f"{PREFIX}{s.var}_{self._next()}"
+        self.scopes.append({s.var: Symbol("int", cname, False)})
+        cond = self.expr(s.cond, int_compare=True)
+        if cond.type != "int_bool":
+            raise self.error(s.line, "unsupported construct: a for loop condition other than a comparison of ints")
+        step = s.step
+        assert isinstance(step, Assign)
+        inc = self.expr(step.value)
+        if inc.type != "int":
+            raise self.error(s.line, "for loop step must add or subtract an int")
+        self.line(s.line)
+        self.out.append(f"{pad}for (int {cname} = {start.code}; {cond.code}; {cname} {step.op} {inc.code}) {{")
+        self.block(s.body, pred, depth + 1)
+        self.out.append(f"{pad}}}")
+        self.scopes.pop()
+
+    def _next(self) -> int:
+        self.counter += 1
+        return self.counter
+
+    def assign(self, a: Assign, pred: str | None, pad: str) -> None:
+        target = a.target
+        if isinstance(target, Name):
+            sym = self.lookup(target.id, target.line)
+            if not sym.assignable:
+                raise self.error(a.line, f"cannot assign to {target.id!r} (a parameter of the file, a constant or a loop counter)")
+            kind, lvalue = sym.type, sym.cname
+        elif isinstance(target, (Member, Index)) and isinstance(target.value, Name):
+            sym = self.lookup(target.value.id, target.line)
+            if not sym.assignable:
+                raise self.error(a.line, f"cannot assign to {target.value.id!r}")
+            comp = self.component(target, sym.type)
+            kind, lvalue = "float", f"{sym.cname}.{comp}"
+        else:
+            raise self.error(a.line, "unsupported construct: assignment to this expression "
+                                     "(only a variable, or one component of one)")
+        if kind == "int" and (pred or self.predicated):
+            raise self.error(a.line, "unsupported construct: assignment to an int variable inside an if "
+                                     "(ints are the same for every pixel)")
+        value = self.expr(a.value)
+        if a.op != "=":
+            value = self.arith(a.op[0], Value(kind, lvalue), value, a.line)
+        value = self.coerce(value, kind, a.line)
+        self.line(a.line)
+        p = self.active(pred)
+        code = value.code if p is None else self.select(kind, p, value.code, lvalue)
+        self.out.append(f"{pad}{lvalue} = {code};")
+
+    def component(self, node: Member | Index, kind: str) -> str:
+        if kind not in ("vec2", "vec3"):
+            raise self.error(node.line, f"{kind} has no components")
+        if isinstance(node, Member):
+            if len(node.field) != 1:
+                raise self.error(node.line, f"unsupported construct: assignment to swizzle .{node.field}")
+            return self._swizzle(node.field, DIM[kind], node.line)[0]
+        return "xyz"[self._const_index(node, DIM[kind])]
+
+    def select(self, kind: str, p: str, a: str, b: str) -> str:
+        if kind == "vec3":
+            return f"v3select({p}, {a}, {b})"
+        if kind == "vec2":
+            return f"g2_select({p}, {a}, {b})"
+        return f"({p} ? {a} : {b})"
+
+    def lookup(self, name: str, line: int) -> Symbol:
+        for scope in reversed(self.scopes):
+            if name in scope:
+                return scope[name]
+        if name in self.globals:
+            return self.globals[name]
+        raise self.error(line, f"unknown name {name!r}")
+
+    # -- expressions
+    def expr(self, n: Node, int_compare: bool = False) -> Value:
+        if isinstance(n, Num):
+            if n.is_int:
+                return Value("int", n.text, n.text)
+            return Value("float", f"G_LIT({_float_text(n.text)})", n.text)
+        if isinstance(n, Name):
+            if n.id in ("true", "false"):
+                return Value("bool", "G_TRUE" if n.id == "true" else "G_FALSE")
+            sym = self.lookup(n.id, n.line)
+            if self.current is not None and self.current.name == "BRDF" and n.id in "LVNXY" \
+                    and sym is self.scopes[0].get(n.id):
+                self.reads.add(n.id)
+            return Value(sym.type, sym.cname, str(self.const_ints[n.id]) if n.id in self.const_ints
+                         and not any(n.id in s for s in self.scopes) else None)
+        if isinstance(n, Unary):
+            v = self.expr(n.operand)
+            if n.op == "!":
+                if v.type != "bool":
+                    raise self.error(n.line, f"'!' needs a bool, got {v.type}")
+                return Value("bool", f"(!{v.code})")
+            if v.type == "bool":
+                raise self.error(n.line, f"unary {n.op!r} on a bool")
+            if n.op == "+":
+                return v
+            if v.type in ("vec2", "vec3"):
+                return Value(v.type, f"g{DIM[v.type]}_neg({v.code})")
+            lit = None if v.literal is None else "-" + v.literal
+            return Value(v.type, f"(-{v.code})", lit if v.type == "int" else None)
+        if isinstance(n, Binary):
+            return self.binary(n, int_compare)
+        if isinstance(n, Ternary):
+            c = self.expr(n.cond)
+            if c.type != "bool":
+                raise self.error(n.line, f"?: condition is {c.type}, not bool")
+            a, b = self.expr(n.then), self.expr(n.other)
+            kind = self.common(a, b, n.line)
+            if kind == "int":
+                kind = "float"
+            return Value(kind, self.select(kind, c.code, self.coerce(a, kind, n.line).code,
+                                           self.coerce(b, kind, n.line).code))
+        if isinstance(n, Call):
+            return self.call(n)
+        if isinstance(n, Member):
+            v = self.expr(n.value)
+            if v.type not in ("vec2", "vec3"):
+                raise self.error(n.line, f"{v.type} has no component .{n.field}")
+            comps = self._swizzle(n.field, DIM[v.type], n.line)
+            if len(comps) == 1:
+                return Value("float", f"({v.code}).{comps[0]}")
+            if len(comps) == 4:
+                raise self.error(n.line, f"unsupported construct: four-component swizzle .{n.field} (vec4)")
+            parts = ", ".join(f"({v.code}).{c}" for c in comps)
+            return Value(f"vec{len(comps)}", f"v{len(comps)}({parts})")
+        if isinstance(n, Index):
+            v = self.expr(n.value)
+            if v.type not in ("vec2", "vec3"):
+                raise self.error(n.line, f"unsupported construct: indexing a {v.type} (only vectors)")
+            return Value("float", f"({v.code}).{'xyz'[self._const_index(n, DIM[v.type])]}")
+        if isinstance(n, Assign):
+            raise self.error(n.line, "unsupported construct: assignment inside an expression")
+        raise self.error(n.line, f"unsupported construct: {type(n).__name__}")
+
+    def _const_index(self, n: Index, size: int) -> int:
+        idx = self.expr(n.index)
+        if idx.type != "int" or idx.literal is None:
+            raise self.error(n.line, "unsupported construct: x[i] with an index that is not a constant int")
+        i = int(idx.literal)
+        if not 0 <= i < size:
+            raise self.error(n.line, f"index {i} out of range for a vec{size}")
+        return i
+
+    def _swizzle(self, text: str, size: int, line: int) -> list[str]:
+        for names in SWIZZLE_SETS:
+            if all(c in names for c in text):
+                idx = [names.index(c) for c in text]
+                if max(idx) >= size:
+                    raise self.error(line, f"swizzle .{text} reads past a vec{size}")
+                if len(text) > 4:
+                    break
+                return ["xyzw"[i] for i in idx]
+        raise self.error(line, f"invalid swizzle .{text}")
+
+    def common(self, a: Value, b: Value, line: int) -> str:
+        """The type both operands convert to (GLSL: int → float, scalar with a vector)."""
+        if a.type == b.type:
+            return a.type
+        if "bool" in (a.type, b.type):
+            raise self.error(line, f"cannot combine {a.type} and {b.type}")
+        if a.type in ("vec2", "vec3") and b.type in ("vec2", "vec3"):
+            raise self.error(line, f"cannot combine {a.type} and {b.type}")
+        for v in ("vec3", "vec2"):
+            if v in (a.type, b.type):
+                return v
+        return "float"
+
+    def coerce(self, v: Value, kind: str, line: int) -> Value:
+        if v.type == kind:
+            return v
+        if v.type == "int" and kind == "float":
+            if v.literal is not None:
+                return Value("float", f"G_LIT({_float_text(v.literal)})", v.literal)
+            return Value("float", f"((real)({v.code}))")
+        if v.type in ("int", "float") and kind in ("vec2", "vec3"):
+            f = self.coerce(v, "float", line)
+            return Value(kind, f"v{DIM[kind]}s({f.code})")
+        raise self.error(line, f"cannot convert {v.type} to {kind}")
+
+    def binary(self, n: Binary, int_compare: bool) -> Value:
+        a, b = self.expr(n.left), self.expr(n.right)
+        op = n.op
+        if op in ("&&", "||", "^^"):
+            if a.type != "bool" or b.type != "bool":
+                raise self.error(n.line, f"{op!r} needs bools, got {a.type} and {b.type}")
+            if op == "^^":
+                return Value("bool", f"({a.code} != {b.code})")
+            return Value("bool", f"({a.code} {op} {b.code})")
+        if op in ("<", ">", "<=", ">=", "==", "!="):
+            if int_compare and a.type == b.type == "int":
+                return Value("int_bool", f"({a.code} {op} {b.code})")
+            if a.type == b.type == "bool" and op in ("==", "!="):
+                return Value("bool", f"({a.code} {op} {b.code})")
+            if a.type not in ("int", "float") or b.type not in ("int", "float"):
+                raise self.error(n.line, f"unsupported construct: {op!r} on {a.type} and {b.type}")
+            # Both sides as real: the result is a lane mask even between two constants.
+            fa, fb = self.coerce(a, "float", n.line), self.coerce(b, "float", n.line)
+            return Value("bool", f"((real)({fa.code}) {op} ({fb.code}))")
+        if op == "%":
+            raise self.error(n.line, "unsupported construct: operator '%' (use mod())")
+        return self.arith(op, a, b, n.line)
+
+    def arith(self, op: str, a: Value, b: Value, line: int) -> Value:
+        kind = self.common(a, b, line)
+        if kind == "bool":
+            raise self.error(line, f"arithmetic {op!r} on bools")
+        if kind == "int":
+            lit = None
+            if a.literal is not None and b.literal is not None and op in INT_FOLD:
+                lit = str(INT_FOLD[op](int(a.literal), int(b.literal)))
+            return Value("int", f"({a.code} {op} {b.code})", lit)
+        if kind == "float":
+            fa, fb = self.coerce(a, kind, line), self.coerce(b, kind, line)
+            return Value("float", f"({fa.code} {op} {fb.code})")
+        d = DIM[kind]
+        name = {"+": "add", "-": "sub", "*": "mul", "/": "div"}[op]
+        if op == "*" and d == 3 and a.type != b.type:    # vec3 · scalar: one multiply per component
+            vec, sc = (a, b) if a.type == "vec3" else (b, a)
+            return Value("vec3", f"v3scale({vec.code}, {self.coerce(sc, 'float', line).code})")
+        fa, fb = self.coerce(a, kind, line), self.coerce(b, kind, line)
+        return Value(kind, f"g{d}_{name}({fa.code}, {fb.code})")
+
+    def call(self, n: Call) -> Value:
+        name = n.name
+        if name in UNSUPPORTED_TYPES:
+            raise self.error(n.line, f"unsupported construct: type {name}")
+        args = [self.expr(a) for a in n.args]
+        if name in ("float", "int", "bool", "vec2", "vec3"):
+            return self.construct(name, args, n.line)
+        if name in self.functions:
+            fn = self.functions[name]
+            if name == "BRDF":
+                raise self.error(n.line, "BRDF may not be called by the shader")
+            if len(args) != len(fn.params):
+                raise self.error(n.line, f"{name}() takes {len(fn.params)} arguments, got {len(args)}")
+            code = [self.coerce(a, t, n.line).code for a, (t, _) in zip(args, fn.params)]
+            return Value(fn.type, f"{PREFIX}{name}({', '.join([*code, 's'])})")
+        if name in COMPONENTWISE or (name == "atan" and len(args) == 2):
+            return self.componentwise(name, args, n.line)
+        if name in GEOMETRIC:
+            return self.geometric(name, args, n.line)
+        if name.startswith("texture") or name in ("dFdx", "dFdy", "fwidth", "noise1"):
+            raise self.error(n.line, f"unsupported construct: {name}()")
+        raise self.error(n.line, f"unknown function {name!r}")
+
+    def construct(self, kind: str, args: list[Value], line: int) -> Value:
+        if kind in ("float", "int", "bool"):
+            if len(args) != 1:
+                raise self.error(line, f"{kind}() takes one argument")
+            a = args[0]
+            if kind == "float":
+                if a.type == "bool":
+                    return Value("float", f"({a.code} ? (real)(1.0f) : (real)(0.0f))")
+                return self.coerce(a, "float", line)
+            if kind == "int":
+                if a.type != "int":
+                    raise self.error(line, "unsupported construct: int() of a float value (ints are the same for every pixel)")
+                return a
+            if a.type != "bool":
+                raise self.error(line, f"unsupported construct: bool() of a {a.type}")
+            return a
+        d = DIM[kind]
+        types = [a.type for a in args]
+        if any(t == "bool" for t in types):
+            raise self.error(line, f"{kind}() of a bool")
+        if len(args) == 1 and types[0] in ("int", "float"):
+            return self.coerce(args[0], kind, line)
+        if len(args) == 1 and types[0] == kind:
+            return args[0]
+        if len(args) == 1 and kind == "vec2" and types[0] == "vec3":
+            return Value("vec2", f"g2_from3({args[0].code})")
+        if all(t in ("int", "float") for t in types) and len(args) == d:
+            parts = ", ".join(self.coerce(a, "float", line).code for a in args)
+            return Value(kind, f"v{d}({parts})")
+        if kind == "vec3" and len(args) == 2 and types[0] == "vec2" and types[1] in ("int", "float"):
+            return Value("vec3", f"g3_from21({args[0].code}, {self.coerce(args[1], 'float', line).code})")
+        if kind == "vec3" and len(args) == 2 and types[1] == "vec2" and types[0] in ("int", "float"):
+            return Value("vec3", f"g3_from12({self.coerce(args[0], 'float', line).code}, {args[1].code})")
+        raise self.error(line, f"{kind}({', '.join(types)}): no such constructor")
+
+    def componentwise(self, name: str, args: list[Value], line: int) -> Value:
+        if name == "atan" and len(args) == 2:
+            name = "atan2"
+        elif len(args) != COMPONENTWISE[name]:
+            raise self.error(line, f"{name}() takes {COMPONENTWISE[name]} arguments, got {len(args)}")
+        if any(a.type == "bool" for a in args):
+            raise self.error(line, f"{name}() of a bool")
+        dims = {DIM[a.type] for a in args if a.type in ("vec2", "vec3")}
+        if len(dims) > 1:
+            raise self.error(line, f"{name}() mixes vec2 and vec3")
+        d = dims.pop() if dims else 1
+        kind = {1: "float", 2: "vec2", 3: "vec3"}[d]
+        if name == "mix" and d > 1 and args[2].type in ("int", "float"):      # mix(vecN, vecN, float)
+            a, b = self.coerce(args[0], kind, line), self.coerce(args[1], kind, line)
+            if d == 3:
+                return Value(kind, f"v3mix({a.code}, {b.code}, {self.coerce(args[2], 'float', line).code})")
+        code = [self.coerce(a, kind, line).code for a in args]
+        if d == 1:
+            if name == "pow" and args[1].literal is not None and _small_int(args[1].literal):
+                k = _small_int(args[1].literal)
+                return Value("float", {1: f"({code[0]})", 2: f"sq({code[0]})", 3: f"g1_pow3({code[0]})",
+                                       4: f"g1_pow4({code[0]})", 5: f"pow5({code[0]})"}[k])
+            return Value("float", f"g1_{name}({', '.join(code)})")
+        return Value(kind, f"g{d}_{name}({', '.join(code)})")
+
+    def geometric(self, name: str, args: list[Value], line: int) -> Value:
+        arity = {"dot": 2, "length": 1, "distance": 2, "normalize": 1, "cross": 2, "reflect": 2}[name]
+        if len(args) != arity:
+            raise self.error(line, f"{name}() takes {arity} argument{'s' if arity > 1 else ''}, got {len(args)}")
+        kinds = {a.type for a in args}
+        if len(kinds) != 1 or kinds.pop() not in ("float", "vec2", "vec3", "int"):
+            raise self.error(line, f"{name}({', '.join(a.type for a in args)}): arguments must be one vector type")
+        kind = "float" if args[0].type == "int" else args[0].type
+        d = DIM[kind]
+        if name in ("cross", "reflect") and d != 3:
+            raise self.error(line, f"{name}() takes vec3 arguments")
+        code = ", ".join(self.coerce(a, kind, line).code for a in args)
+        result = "float" if name in ("dot", "length", "distance") else kind
+        if name == "dot" and d == 1:
+            return Value("float", f"({code.replace(', ', ' * ', 1)})")
+        return Value(result, f"g{d}_{name}({code})")
+
+
+def _float_text(text: str) -> str:
+    """A literal's text as C accepts it before an `f` suffix (1. → 1.0, .5 → 0.5, 2 → 2.0)."""
+    value = float(text)
+    out = repr(value)
+    return out if ("." in out or "e" in out) else out + ".0"
+
+
+def _small_int(text: str) -> int | None:
+    """An exponent of 1 to 5 that pow() may expand into products, else None."""
+    value = float(text)
+    return int(value) if value in (1.0, 2.0, 3.0, 4.0, 5.0) else None
+
+
+def _count_returns(stmts: list[Node] | None) -> int:
+    count = 0
+    for s in stmts or []:
+        if isinstance(s, Return):
+            count += 1
+        elif isinstance(s, If):
+            count += _count_returns(s.then) + _count_returns(s.other)
+        elif isinstance(s, (For, Block)):
+            count += _count_returns(s.body)
+    return count
+
+
+@dataclass(frozen=True)
+class Translation:
+    """The OpenCL C of a shader and which of L, V, N, X, Y its BRDF reads."""
+    code: str
+    reads: frozenset[str]
+
+
+def translate(text: str, path: str | Path, params: dict[str, tuple[str, str]], first_line: int = 1) -> Translation:
+    """OpenCL C defining `u_BRDF(L, V, N, X, Y, s)` for the GLSL shader `text` (every translated
+    function takes the pixel's Surface `s` last: `params` values may read it)."""
+    path = str(path)
+    emitter = Emitter(parse(text, path, first_line), path, params)
+    code = emitter.emit()
+    return Translation(code, frozenset(emitter.reads))

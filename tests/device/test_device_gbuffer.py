@@ -1,0 +1,220 @@
+"""The visibility buffer and the G-buffer the device makes from a view's triangle setup
+(kernels/visibility.cl) are the host path's, bit for bit: setup_view + DeviceGBuffer.build against
+rasterize_mesh + build_gbuffer, over orbit cameras (near-plane clipping included), frame after frame
+on one key buffer, an orthographic camera, emission, and normals that are zero, NaN or infinite —
+on every healthy device, at 4 and 8 pixels per work-item, and again from the compilers' caches.
+The viewer checks the device on a small frame first (verify) and keeps the host path where it differs."""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from clshade.device.runtime import Runtime, get_runtime
+from clshade.device.visibility import DeviceGBuffer, supports, verify
+from clshade.render.arrays import PlanePool
+from clshade.render.gbuffer import build_gbuffer, face_planes, material_table
+from clshade.render.meshes import build_geometry
+from clshade.render.raster import RasterMesh, rasterize_mesh, setup_view
+from clshade.render.scene import load_scene
+from clshade.resources import scenes_dir
+from clshade.view.session import Orbit
+
+W, H = 192, 108
+
+
+@pytest.fixture(scope="module")
+def robot():
+    scene = load_scene(scenes_dir() / "robot.toml")
+    return scene, build_geometry(scene)
+
+
+def assert_same(scene, geometry, view, proj, camera, pool=None, device=None, runtime=None, lanes=None):
+    """The device G-buffer of one view (on `runtime`, default the default device) equals
+    build_gbuffer's, plane by plane and bit for bit."""
+    mesh = RasterMesh(geometry.vertices, geometry.faces, geometry.cull)
+    fragments = rasterize_mesh(mesh, view, proj, W, H)
+    setup = setup_view(mesh, view, proj, W, H)
+    mats = list(scene.materials.values())
+    faces = face_planes(geometry, mats)
+    expected = build_gbuffer(scene, geometry, fragments, camera, faces=faces)
+    device = device or DeviceGBuffer(usable(runtime or get_runtime(None), geometry), geometry, faces, lanes)
+    got, cover = device.build(setup, material_table(scene), pool)
+    assert set(got.channels) == set(expected.channels)
+    for name in expected.channels:
+        a, b = expected.plane(name), got.plane(name)
+        assert a.dtype == b.dtype and a.shape == b.shape, name
+        differ = (a.view(f"u{a.itemsize}") != b.view(f"u{b.itemsize}")).any(axis=0)     # bit patterns, per pixel
+        assert not differ.any(), f"{name}: {int(differ.sum())} pixels differ, first {np.flatnonzero(differ)[:5]}"
+    np.testing.assert_array_equal(got.coverage, expected.coverage)
+    assert got.nonfinite_pixels == expected.nonfinite_pixels
+    np.testing.assert_array_equal(np.flatnonzero(cover), fragments.pixels)
+    np.testing.assert_array_equal(got.materials, expected.materials)
+    return expected, device
+
+
+def orbit_camera(scene, azimuth, elevation=None, scale=1.0):
+    camera = scene.camera.with_size(W, H)
+    orbit = Orbit.of(camera)
+    return dataclasses.replace(camera, position=orbit.position(
+        azimuth, orbit.elevation if elevation is None else elevation, orbit.distance * scale))
+
+
+def usable(runtime, geometry) -> Runtime:
+    if not supports(runtime, geometry):
+        pytest.skip(f"{runtime.info.description}: no doubles or 64-bit atomics (the viewer rasterizes on the host)")
+    return runtime
+
+
+@pytest.mark.parametrize("lanes", [4, 8])
+def test_frames_one_after_another_share_one_key_buffer(robot, device_runtime, lanes):
+    """One DeviceGBuffer, view after view: each frame's keys start empty (the last frame's
+    nearer fragments never win in the next), so every G-buffer is the host's — at both lane
+    widths the kernel has (8 only where the device compiles 512-bit vectors)."""
+    scene, geometry = robot
+    runtime = usable(device_runtime, geometry)
+    if lanes == 8 and runtime.double_lanes < 8:
+        pytest.skip(f"{runtime.info.description} compiles no 512-bit vectors (Runtime.narrow_target)")
+    device = None
+    for azimuth, scale in ((0.0, 0.4), (70.0, 1.0), (200.0, 2.0), (20.0, 0.07)):
+        camera = orbit_camera(scene, azimuth, scale=scale)
+        _, device = assert_same(scene, geometry, camera.view_matrix(), camera.projection_matrix(), camera,
+                                device=device, runtime=runtime, lanes=lanes)
+    assert device.lanes == lanes
+
+
+def test_the_program_builds_again_from_the_caches(robot, device_runtime):
+    """New runtimes on the same device build the program again, from PoCL's kernel cache and
+    clshade's binary cache, and it still has its kernels and makes the host's G-buffer. (double8
+    on pip's PoCL 3.0 on an AVX-512 host: the first build ran, the cached one listed no kernels.)"""
+    scene, geometry = robot
+    usable(device_runtime, geometry)
+    mesh = RasterMesh(geometry.vertices, geometry.faces, geometry.cull)
+    faces = face_planes(geometry, list(scene.materials.values()))
+    camera = orbit_camera(scene, 30.0)
+    for _ in range(2):
+        runtime = Runtime(device_runtime.info.spec)
+        assert verify(DeviceGBuffer(runtime, geometry, faces), scene, geometry, mesh, camera, faces) is None
+
+
+def test_lanes_follow_what_the_device_compiles():
+    """8 doubles per vector only where the device's native double width is 8 and PoCL's target
+    has AVX-512; pip's PoCL 3.0 reports AVX-512 widths but compiles for a CPU name without it."""
+    from types import SimpleNamespace as NS
+
+    def lanes(platform, name, floats, doubles):
+        fake = NS(device=NS(native_vector_width_float=floats, native_vector_width_double=doubles),
+                  info=NS(platform_version=platform, device=name))
+        fake.narrow_target = Runtime.narrow_target.fget(fake)
+        return Runtime.double_lanes.fget(fake)
+
+    assert lanes("OpenCL 3.0 PoCL 3.1+debian", "pthread-skylake-avx512-AMD EPYC", 16, 8) == 8
+    assert lanes("OpenCL 3.0 PoCL 3.0-rc2", "pthread-AMD EPYC", 16, 8) == 4
+    assert lanes("OpenCL 3.0 PoCL 3.0-rc2", "pthread-haswell", 8, 4) == 4
+    assert lanes("OpenCL 3.1 LINUX", "AMD EPYC 9R14", 16, 8) == 8
+    assert lanes("OpenCL 3.0 CUDA", "NVIDIA H100", 1, 1) == 4
+
+
+def test_verify_finds_a_device_that_differs(robot, monkeypatch):
+    """verify compares the device's small frame with the host's and names what differs: face
+    tables of other materials (the roughness), a pixel dropped from the coverage."""
+    scene, geometry = robot
+    runtime = usable(get_runtime(None), geometry)
+    mesh = RasterMesh(geometry.vertices, geometry.faces, geometry.cull)
+    faces = face_planes(geometry, list(scene.materials.values()))
+    camera = orbit_camera(scene, 30.0)
+    device = DeviceGBuffer(runtime, geometry, faces)
+    assert verify(device, scene, geometry, mesh, camera, faces) is None
+    rougher = dict(faces, roughness=np.minimum(faces["roughness"] + 0.125, 1.0))
+    why = verify(DeviceGBuffer(runtime, geometry, rougher), scene, geometry, mesh, camera, faces)
+    assert why is not None and "in roughness" in why
+    build = device.build
+
+    def dropped(*args, **kwargs):
+        gbuffer, cover = build(*args, **kwargs)
+        cover[np.flatnonzero(cover == 0)[0]] = 1        # one more pixel said to be covered
+        return gbuffer, cover
+    monkeypatch.setattr(device, "build", dropped)
+    assert verify(device, scene, geometry, mesh, camera, faces) == "the covered pixels differ from the host's"
+
+
+@pytest.mark.parametrize("azimuth, elevation, scale", [(0.0, None, 1.0), (33.0, None, 1.0), (137.0, 60.0, 1.0),
+                                                       (250.0, -10.0, 0.6), (15.0, None, 0.08), (190.0, 5.0, 0.03)])
+def test_device_gbuffer_is_build_gbuffers(robot, device_runtime, azimuth, elevation, scale):
+    """Orbit views, the close ones with the camera among the robot's parts (faces clipped at the near plane)."""
+    scene, geometry = robot
+    camera = orbit_camera(scene, azimuth, elevation, scale)
+    expected, _ = assert_same(scene, geometry, camera.view_matrix(), camera.projection_matrix(), camera,
+                              PlanePool(), runtime=device_runtime)
+    assert expected.coverage.any()
+
+
+def test_device_gbuffer_orthographic(robot, device_runtime):
+    """A projection whose clip w is not the view depth (the depth is interpolated from the corners'),
+    with near and far planes that cut through the scene (fragments beyond them are dropped)."""
+    from clshade.render.transforms import orthographic
+    scene, geometry = robot
+    camera = orbit_camera(scene, 40.0)
+    d = Orbit.of(scene.camera).distance
+    for near, far in ((0.5, 40.0), (d - 1.0, d + 1.5)):
+        expected, _ = assert_same(scene, geometry, camera.view_matrix(), orthographic(-3.0, 3.0, -1.7, 1.7, near, far),
+                                  camera, runtime=device_runtime)
+        assert expected.coverage.any()
+
+
+def test_device_gbuffer_far_plane_cuts_the_scene(robot, device_runtime):
+    """A perspective camera whose far plane cuts through the robot and the ground."""
+    scene, geometry = robot
+    camera = dataclasses.replace(orbit_camera(scene, 75.0), far=Orbit.of(scene.camera).distance)
+    full = orbit_camera(scene, 75.0)
+    expected, _ = assert_same(scene, geometry, camera.view_matrix(), camera.projection_matrix(), camera,
+                              runtime=device_runtime)
+    unclipped = build_gbuffer(scene, geometry, rasterize_mesh(RasterMesh(geometry.vertices, geometry.faces, geometry.cull),
+                                                              full.view_matrix(), full.projection_matrix(), W, H), full)
+    assert 0 < expected.coverage.sum() < unclipped.coverage.sum()
+
+
+def test_device_gbuffer_emission_and_bad_normals(robot, device_runtime):
+    """An emitting material, and corner normals that are zero, NaN or infinite: the pixels they
+    reach are replaced (depth, normal, base colour and emission 0) and counted as on the host."""
+    scene, geometry = robot
+    name = next(iter(scene.materials))
+    materials = dict(scene.materials)
+    materials[name] = dataclasses.replace(materials[name], emissive=(2.0, 0.5, 0.25))
+    glowing = dataclasses.replace(scene, materials=materials)
+    normals = geometry.normals.copy()
+    rng = np.random.default_rng(7)
+    for value in (0.0, np.nan, np.inf, -np.inf, 3e38):
+        normals[rng.choice(len(normals), 400, replace=False)] = value
+    bad = dataclasses.replace(geometry, normals=normals, emission=True)
+    camera = orbit_camera(scene, 20.0)
+    expected, _ = assert_same(glowing, bad, camera.view_matrix(), camera.projection_matrix(), camera,
+                              runtime=device_runtime)
+    assert "emissive" in expected.channels and expected.nonfinite_pixels > 0
+    assert (expected.plane("emissive")[0] == np.float32(2.0)).any()
+    assert (expected.plane("normal") == 0).all(axis=0).any()           # a zero normal stays zero
+
+
+def test_planes_from_the_pool_are_written_whole(robot, device_runtime):
+    """Planes handed out by the pool hold the last frame's values: every pixel is written (the
+    empty ones and the padding with zeros), so a frame from a dirty pool is the host's."""
+    scene, geometry = robot
+    pool = PlanePool()
+    first = orbit_camera(scene, 0.0, scale=0.5)
+    _, device = assert_same(scene, geometry, first.view_matrix(), first.projection_matrix(), first, pool,
+                            runtime=device_runtime)
+    for block in pool._blocks:
+        block.fill(0x7F)                                # what a frame left there
+    wide = orbit_camera(scene, 90.0, scale=1.5)
+    assert_same(scene, geometry, wide.view_matrix(), wide.projection_matrix(), wide, pool, device,
+                runtime=device_runtime)
+
+
+def test_textured_geometry_keeps_the_host_path():
+    scene = load_scene(scenes_dir() / "textured.toml")
+    geometry = build_geometry(scene)
+    runtime = get_runtime(None)
+    assert geometry.face_texture is not None and not supports(runtime, geometry)
+    with pytest.raises(ValueError, match="textured geometry"):
+        DeviceGBuffer(runtime, geometry, face_planes(geometry, list(scene.materials.values())))

@@ -1,0 +1,216 @@
+"""User lobes end to end: clshade-format .cl lobe files and BRDF Explorer .brdf files through the one
+registry, in every command. Kernel side: the tangent frame of surface.h, the double-precision build of
+simd.h (REAL_DOUBLE); a .cl header or a lobe that does not compile fails naming the lobe file and line.
+The translator itself is tests/models/test_glsl.py, the .brdf format tests/models/test_brdf_file.py.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from clshade.errors import ClshadeError
+from clshade.models.model import NONE
+from clshade.models.registry import LOBES_ENV, Registry
+from clshade.pipeline import render
+
+from conftest import SCENES
+from lobe_helpers import directions, samples_like, write_brdf
+from scene_toml import two_spheres
+
+LOBES = SCENES / "lobes"
+BUILT_IN = Registry()          # the built-in lobes; a lobe file named as a model is read for that model
+
+
+def test_tangent_frame_reaches_only_lobes_that_read_it(tmp_path, runtime):
+    import dataclasses
+    from clshade.device.variants import Features, Variant
+    from clshade.verify.reference.vectors import orthonormal_basis
+    reads = BUILT_IN.resolve(write_brdf(tmp_path, "frame", "vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) "
+                                                         "{ return X + 2.0 * Y; }"))
+    ignores = BUILT_IN.resolve(str(LOBES / "ggx_brdf.brdf"))
+    assert "GEOMETRY_TANGENTS" in Variant(reads, Features(), ("depth",)).defines()
+    assert "GEOMETRY_TANGENTS" not in Variant(ignores, Features(), ("depth",)).defines()
+    from clshade.device.evaluate import eval_brdf
+    n = directions(32, seed=5)
+    k = len(n)
+    s = samples_like(k, n=n)
+    t, b = orthonormal_basis(n.astype(np.float64))
+    np.testing.assert_allclose(eval_brdf(reads, s), t + 2.0 * b, atol=1e-5)
+    # A surface tangent (the G-buffer's): x = its part orthogonal to n, normalised; y = n × x.
+    tangent = np.random.default_rng(7).normal(size=(k, 3)).astype(np.float32)
+    nn = n.astype(np.float64)
+    x = tangent - nn * np.sum(nn * tangent, axis=1, keepdims=True)
+    x /= np.linalg.norm(x, axis=1, keepdims=True)
+    y = np.cross(nn, x)
+    got = eval_brdf(reads, dataclasses.replace(s, tangent=tangent))
+    np.testing.assert_allclose(got, x + 2.0 * y, atol=1e-5)
+
+
+# ------------------------------------------------------------------ errors name the lobe file and the line
+
+@pytest.mark.parametrize("header, message", [
+    ("id: bad_header\n * name Lobe without colon", ":3: header line 'name Lobe without colon' is not 'key: value'"),
+    ("id: bad_header\n * name: x\n * kind: diffuse\n * family: diffuse\n * formula: f\n * source: s\n * uses: sparkle",
+     ":8: uses sparkle: not an input of a lobe"),
+    ("id: bad_header\n * name: x\n * kind: specular\n * family: diffuse\n * formula: f\n * source: s",
+     "kind: specular needs a function 'INLINE vec3 specular_lobe"),
+])
+def test_cl_lobe_header_errors(tmp_path, header, message):
+    path = tmp_path / "bad_header.cl"
+    path.write_text(f"/*! clshade-model\n * {header}\n */\nINLINE real diffuse_lobe(const Geometry g, const Surface s) "
+                    "{ return 1.0f; }\n", encoding="utf-8")
+    with pytest.raises(ClshadeError) as info:
+        Registry().with_lobes(path).lobes
+    assert str(info.value).startswith(str(path)) and message in str(info.value)
+
+
+def test_compile_error_is_one_line_with_the_compilers_message(tmp_path, runtime):
+    path = tmp_path / "no_member.cl"
+    path.write_text("/*! clshade-model\n * id: no_member\n * name: n\n * kind: diffuse\n * family: diffuse\n"
+                    " * formula: f\n * source: s\n */\nINLINE real diffuse_lobe(const Geometry g, const Surface s) {\n"
+                    "    return g.no_such_member;\n}\n", encoding="utf-8")
+    from clshade.device.evaluate import eval_brdf
+    with pytest.raises(ClshadeError) as info:
+        eval_brdf(BUILT_IN.resolve(str(path)), samples_like(4), runtime)
+    assert str(info.value).startswith(f"{path}:10: no member named 'no_such_member'") and "\n" not in str(info.value)
+
+
+def test_compile_error_names_the_lobe_file_where_the_compiler_ignores_line_markers(tmp_path, runtime, nvidia_compiler):
+    """NVIDIA's compiler names `<kernel>:N` (N: the line in the assembled program); the error still
+    names the user's file and line (clshade/device/buildlog.py maps N through the #line markers)."""
+    path = tmp_path / "no_member.cl"
+    path.write_text("/*! clshade-model\n * id: no_member\n * name: n\n * kind: diffuse\n * family: diffuse\n"
+                    " * formula: f\n * source: s\n */\nINLINE real diffuse_lobe(const Geometry g, const Surface s) {\n"
+                    "    return g.no_such_member;\n}\n", encoding="utf-8")
+    nvidia_compiler("no_such_member;", "no member named 'no_such_member' in 'Geometry'")
+    from clshade.device.evaluate import eval_brdf
+    with pytest.raises(ClshadeError) as info:
+        eval_brdf(BUILT_IN.resolve(str(path)), samples_like(4), runtime)
+    assert str(info.value).startswith(f"{path}:10: no member named 'no_such_member' in 'Geometry'"), str(info.value)
+    assert "\n" not in str(info.value) and "<kernel>" not in str(info.value)
+
+
+# ------------------------------------------------------------------ the same evidence as the built-ins
+
+def test_stability_check_finds_the_naive_ward_infinity(runtime, checkout):
+    """Ward's 1/√((n·l)(n·v)) overflows at n·v = 1e-40 without a floor; the shipped sample floors it."""
+    from clshade.verify import stability
+    grid = stability.geometry_grid()
+    naive = BUILT_IN.resolve(str(checkout / "tests" / "data" / "lobes" / "ward_naive.brdf"))
+    floored = BUILT_IN.resolve(str(LOBES / "ward.brdf"))
+    bad = stability.run_model(naive, grid, runtime, False, {})
+    good = stability.run_model(floored, grid, runtime, False, {})
+    assert bad.nonfinite > 0 and good.nonfinite == 0 and good.negative == 0
+    assert good.max_deviation_unclamped < 1e-4      # float32 against the lobe's own float64 build
+
+
+def test_double_build_agrees_with_the_python_oracle(runtime):
+    """The float64 device build of a built-in model equals clshade.verify.reference (the independent
+    formulas) to the rounding of the float constants the shared source holds (π as float: 4e-8)."""
+    from clshade.verify import accuracy as A
+    for spec in ("blinn_phong", "ggx_correlated@conductor", "cook_torrance"):   # pow, the conductor, exp
+        model = BUILT_IN.resolve(spec)
+        case = A.model_case(model, 400, np.random.default_rng(2))
+        s = case.samples
+        n, l, v = (np.asarray(x, np.float64) for x in (s.n, s.l, s.v))
+        f64 = _eval_samples(model, s, double=True)
+        oracle = A.reference_brdf(model, n, l, v, case.reference)
+        err = A._rel_err(f64, oracle, 1e-9 * np.maximum(oracle.max(axis=1), 1e-30))
+        assert err.max() < 2e-7, spec
+
+
+def _eval_samples(model, s, double: bool) -> np.ndarray:
+    from clshade.device.evaluate import eval_brdf
+    return eval_brdf(model, s, double=double).astype(np.float64)
+
+
+# ------------------------------------------------------------------ the command line
+
+def _scene_with_lobes(tmp_path, model: str) -> str:
+    path = tmp_path / "scene.toml"
+    path.write_text(two_spheres(32, 32, lobes=str(LOBES), model=model), encoding="utf-8")
+    return str(path)
+
+
+def test_models_lists_the_users_lobes_with_their_paths(capsys, monkeypatch):
+    from clshade.cli import main
+    monkeypatch.setenv(LOBES_ENV, str(LOBES))
+    monkeypatch.setattr("clshade.verify.plausibility.physically_based", lambda **kw: {})
+    assert main(["models"]) == 0
+    out = capsys.readouterr().out
+    assert f"yours: {LOBES / 'ward.brdf'} (BRDF Explorer file)" in out
+    assert f"yours: {LOBES / 'lommel_seeliger.cl'} (lobe file)" in out
+    assert "alpha_x [0.01, 1] = 0.12" in out
+
+
+def test_scene_key_names_the_lobe_folder_and_param_overrides(capsys, tmp_path):
+    """render.lobes names the folder of the scene's model; --param reaches that lobe (another frame)."""
+    from clshade.cli import main
+    from clshade.render.image import read_image
+    scene = _scene_with_lobes(tmp_path, "ward")
+    assert main(["render", scene, "-o", str(tmp_path / "w.png"), "--param", "alpha_x=0.3"]) == 0
+    assert "ward" in capsys.readouterr().out
+    assert main(["render", scene, "-o", str(tmp_path / "default.png")]) == 0
+    assert not np.array_equal(read_image(tmp_path / "w.png"), read_image(tmp_path / "default.png"))
+
+
+def test_gbuffer_tangents_reach_an_anisotropic_lobe(runtime):
+    """On a textured scene (meshes with UVs) the G-buffer carries the mesh tangents for Ward, and the frame
+    equals its float64 frame computed with those tangents; shaded with the normal's frame instead, it does not."""
+    import dataclasses
+    from clshade.device.shade import Shader
+    from clshade.verify import reference as R
+    ward = BUILT_IN.resolve(str(LOBES / "ward.brdf"))
+    done = render(SCENES / "textured.toml", ward, width=120, height=75, runtime=runtime)
+    gb, fr = done.frame.gbuffer, done.frame
+    assert "tangent" in gb.channels and "tangent" in done.shader.variant(ward, done.features).channels
+    assert "tangent" not in render(fr.scene, BUILT_IN.resolve("ggx_correlated"), frame=fr,
+                                   runtime=runtime).shader.variant(BUILT_IN.resolve("ggx_correlated"), done.features).channels
+    want = R.radiance(gb, fr.scene, ward, camera=fr.camera, shadows=fr.shadows)
+    px = R.pixels(gb, fr.camera)
+    keep = np.sum(px.n * px.v, axis=1) > 0.05
+    got = done.image[..., :3].reshape(-1, 3)[px.index[keep]].astype(np.float64)
+    ref = want.reshape(-1, 3)[px.index[keep]]
+    assert np.max(np.abs(got - ref) / np.maximum(ref, 1e-3)) < 1e-3
+    normal_frame = dataclasses.replace(gb, channels={k: v for k, v in gb.channels.items() if k != "tangent"})
+    plain = Shader(runtime, normal_frame, fr.scene, fr.camera, fr.shadows).render(ward, done.features)
+    other = plain[..., :3].reshape(-1, 3)[px.index[keep]].astype(np.float64)
+    assert np.max(np.abs(other - ref) / np.maximum(ref, 1e-3)) > 1e-2
+
+
+def test_aa_splits_a_model_without_diffuse_lobe():
+    """`clshade aa` compares a highlight with the diffuse lobe alone: a .brdf file has none (black)."""
+    from clshade.bench.aa import diffuse_model
+    ward = BUILT_IN.resolve(str(LOBES / "ward.brdf"))
+    alone = diffuse_model(ward)
+    assert alone.diffuse == NONE and alone.specular == NONE
+
+
+def test_a_folder_names_every_lobe_in_it():
+    chosen = BUILT_IN.resolve_many(f"lambert,{LOBES}/")
+    ids = [m.id for m in chosen]
+    assert ids[0] == "lambert" and {"ward", "ggx_brdf", "lommel_seeliger", "lambert_brdf"} <= set(ids)
+    assert all(m.is_users for m in chosen[1:])
+
+
+def test_bench_gives_a_user_lobe_the_built_ins_columns(runtime):
+    """Time, × copy, × Lambert and the error against its float64 frame (its own double build); no NumPy
+    formula exists for it, so that column stays empty."""
+    from clshade.bench.run import run_bench
+    doc = run_bench(SCENES / "red_ball.toml", [BUILT_IN.resolve("lambert"), BUILT_IN.resolve(str(LOBES / "ward.brdf"))],
+                    3, 1, width=48, height=48, numpy_frames=1)
+    lam, ward = doc["models"]
+    for key in ("mean_ms", "copy_ratio", "lambert_ratio", "max_rel_error", "mean_rel_error"):
+        assert ward[key] is not None and np.isfinite(ward[key]), key
+    assert ward["max_rel_error"] < 1e-4 and ward["numpy_ms"] is None and lam["numpy_ms"] is not None
+
+
+def test_checks_cover_the_users_lobes_by_default(monkeypatch):
+    """`clshade check stability` and `check plausibility` without --model: every preset, then each user lobe."""
+    from clshade.verify import stability
+    monkeypatch.setenv(LOBES_ENV, str(LOBES))
+    registry = Registry.from_env()
+    ids = [m.id for m in stability.grid_models(registry)]
+    assert "lambert+ggx_correlated" in ids and {"ward", "lommel_seeliger", "ggx_brdf"} <= set(ids)
+    assert [m.id for m in registry.user_models()] == [i for i in ids if registry.resolve(i).is_users]
+    assert [m.id for m in stability.grid_models()] == [i for i in ids if not registry.resolve(i).is_users]
