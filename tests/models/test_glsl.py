@@ -252,3 +252,24 @@ def test_user_names_never_collide_with_clshade_names(tmp_path, runtime):
     path = write_brdf(tmp_path, "names", "\n".join(shader + body), "\n".join(params))
     f = eval_at(BUILT_IN.resolve(path), directions(8))
     np.testing.assert_allclose(f, total, rtol=1e-5)
+
+
+EDGES = """
+vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)
+{
+    float zero = max(0, -abs(L.x));              // exactly 0
+    return vec3(pow(zero, e), pow(zero, 0.1 * e), exp(-87.0 - 0.3 * abs(L.x)));
+}
+"""
+
+
+def test_pow_of_zero_and_exp_down_to_the_smallest_normal(tmp_path, runtime):
+    """GLSL's pow(0, y > 0) is 0 (not a floor's power), and exp(x) is the normal float it is down to
+    x = ln FLT_MIN ≈ −87.34 (not 0 from −87 on)."""
+    model = BUILT_IN.with_params({"e": "1.0"}).resolve(
+        write_brdf(tmp_path, "edges", EDGES, "float e 0.5 2 1"))
+    l = directions()
+    f = eval_at(model, l)
+    assert (f[:, :2] == 0).all(), f[:, :2].max()
+    want = np.exp(-87.0 - 0.3 * np.abs(l[:, 0].astype(np.float64)))
+    np.testing.assert_allclose(f[:, 2], want, rtol=1e-5)
