@@ -57,8 +57,13 @@ INLINE real g1_log2(real x) { return log2_lanes(x); }
 G_PER_LANE1(sin, sin)
 G_PER_LANE1(cos, cos)
 G_PER_LANE1(tan, tan)
-G_PER_LANE1(asin, asin)
-G_PER_LANE1(acos, acos)
+/* asin and acos of |x| > 1 (undefined in GLSL) are their value at ±1, as in Mesa: n·h of a
+ * mirror direction rounds to 1 + 1 ulp, where acos would otherwise be NaN at the lobe's peak. */
+#define G_UNIT(x) ((x) < -1.0f ? -1.0f : ((x) > 1.0f ? 1.0f : (x)))
+#define G_ASIN(x) asin(G_UNIT(x))
+#define G_ACOS(x) acos(G_UNIT(x))
+G_PER_LANE1(asin, G_ASIN)
+G_PER_LANE1(acos, G_ACOS)
 G_PER_LANE1(atan, atan)
 G_PER_LANE1(sinh, sinh)
 G_PER_LANE1(cosh, cosh)

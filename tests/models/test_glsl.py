@@ -273,3 +273,20 @@ def test_pow_of_zero_and_exp_down_to_the_smallest_normal(tmp_path, runtime):
     assert (f[:, :2] == 0).all(), f[:, :2].max()
     want = np.exp(-87.0 - 0.3 * np.abs(l[:, 0].astype(np.float64)))
     np.testing.assert_allclose(f[:, 2], want, rtol=1e-5)
+
+
+EDGE_OF_ACOS = """
+vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)
+{
+    float over = 1.0 + 0.5 * abs(L.x);        // rounding past ±1, as n·h of a mirror direction
+    return vec3(acos(over), acos(-over), asin(over));
+}
+"""
+
+
+def test_acos_and_asin_past_one_are_their_value_at_one(tmp_path, runtime):
+    """GLSL leaves acos and asin undefined for |x| > 1; the translation gives their value at ±1,
+    as Mesa does, so that n·h rounded to 1 + 1 ulp at the mirror direction is the lobe's peak."""
+    model = BUILT_IN.resolve(write_brdf(tmp_path, "edge_of_acos", EDGE_OF_ACOS))
+    f = eval_at(model, directions())
+    np.testing.assert_allclose(f, np.tile([0.0, np.pi, np.pi / 2], (len(f), 1)), rtol=1e-6, atol=0)
