@@ -225,7 +225,7 @@ def unavailable() -> str | None:
     try:
         import moderngl  # noqa: F401
     except ImportError:
-        return "moderngl is not installed (pip install moderngl)"
+        return "moderngl is not installed (pip install 'clshade[glsl]')"
     try:
         _context()
     except Exception as exc:       # moderngl raises plain Exceptions for a missing EGL or GL 4.3
