@@ -294,15 +294,33 @@ def clshade_values(path: Path, values: Mapping[str, tuple[float, ...]], points: 
 
 
 # The float32 conditioning of a point: how far Mesa's f moves when the inputs move by one ulp
-# (`jittered`) and each built-in's result within the error GLSL allows it (ALLOWED), JITTERS
-# draws. A difference within CONDITIONING_FACTOR times that is rounding amplified by the formula
+# (`jittered`) and each built-in's result within the error GLSL allows it (ALLOWED), the most
+# over JITTERS draws (a maximum estimated from draws: 4 missed a third of pow(x, 750)'s). A difference within CONDITIONING_FACTOR times that is rounding amplified by the formula
 # (a dot product cancelling at grazing angles, acos near 1, 1 − e^(−x) for small x), not a
 # translation error. A point where a draw takes a built-in out of its domain is at the edge of
 # GLSL's undefined set, and one where a draw is not finite (the evaluation being finite, or the
 # reverse) is at a singularity: both are left out and counted.
-JITTERS = 4
+JITTERS = 8
 CONDITIONING_FACTOR = 4.0
 TOLERANCE = 1e-5
+
+
+def parameter_sets(path: Path) -> list[dict[str, tuple[float, ...]]]:
+    """The values a file is compared at: its defaults; then every float at a quarter of its range
+    with every bool flipped; then every float at three quarters (range ends are left out: a
+    parameter at 0 may divide by zero on purpose)."""
+    source = read_source(path)
+    sets: list[dict[str, tuple[float, ...]]] = [{}]
+    for share, flip in ((0.25, True), (0.75, False)):
+        values = {}
+        for kind, name, default, _ in source.params:
+            if kind == "float":
+                low, high = source.ranges[name]
+                values[name] = (low + share * (high - low),)
+            elif kind == "bool" and flip:
+                values[name] = (1.0 - default[0],)
+        sets.append(values)
+    return sets
 
 
 @dataclass(frozen=True)
