@@ -15,6 +15,7 @@ from clshade.report.aa import aa_markdown
 from clshade.report.accuracy import accuracy_markdown
 from clshade.report.bench import bench_1080p_markdown, readme_table, targets_table
 from clshade.report.effects import effects_markdown
+from clshade.report.glsl_oracle import glsl_oracle_markdown
 from clshade.report.host import host_ab_markdown, memory_markdown, startup_markdown
 from clshade.report.mutants import mutants_markdown
 from clshade.report.perf import perf_markdown
@@ -121,6 +122,11 @@ RESULTS: tuple[Result, ...] = (
             _region("docs/user-lobes.md", "user-lobes-example", user_lobes_example),
             _region("docs/user-lobes.md", "user-lobes-table", user_lobes_table)),
            "the sample user lobes beside built-ins"),
+    Result(OUT + "glsl_oracle.json", "python -m benchmarks.measure.glsl_oracle",
+           ("kernels", "clshade/models/glsl", "clshade/models/brdf_file.py", "clshade/verify/glsl_oracle.py",
+            "benchmarks/measure/glsl_oracle.py"),
+           (Rendering(OUT + "glsl_oracle.md", glsl_oracle_markdown),),
+           "every .brdf file (scenes/lobes, BRDF Explorer's collection) against Mesa's GLSL"),
     Result(OUT + "mutants.json", "python -m benchmarks.mutation.run",
            ("benchmarks/mutation", "kernels", "clshade", "tests", "scenes", "pyproject.toml"),
            (Rendering(OUT + "mutants.md", mutants_markdown),),

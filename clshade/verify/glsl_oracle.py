@@ -220,6 +220,12 @@ def _context():
     return moderngl.create_standalone_context(backend="egl", require=430)
 
 
+def renderer() -> str:
+    """The GL renderer and version the oracle runs on (Mesa's llvmpipe here)."""
+    ctx = _context()
+    return f"{ctx.info['GL_RENDERER']}, {ctx.info['GL_VERSION']}"
+
+
 def unavailable() -> str | None:
     """Why Mesa's GLSL cannot run here, or None where it can."""
     try:
