@@ -6,6 +6,13 @@ device (clshade.device.evaluate), both in float32, with the same parameter value
 parameters are uniforms on the GLSL side, as in BRDF Explorer, and compiled in on clshade's (a
 material-key parameter fixed by `--param`, so both read one value). Needs moderngl and Mesa's EGL
 (Debian: libegl1 libegl-mesa0 libgl1-mesa-dri); `unavailable()` says why where they are absent.
+
+Not counted as disagreement, but counted: points where a built-in is called where GLSL leaves it
+undefined (UNDEFINED: each call is checked on Mesa's side), points at a singularity (a conditioning
+draw finite where the evaluation is not, or the reverse), and differences within the point's float32
+conditioning, measured as how far Mesa's f moves when the inputs move by one ulp (`jittered`) and
+each built-in's result within the error GLSL 4.30 allows it (ALLOWED): a dot product cancelling at
+grazing angles, acos near 1, 1 − e^(−x) for small x.
 """
 from __future__ import annotations
 
@@ -299,13 +306,9 @@ def clshade_values(path: Path, values: Mapping[str, tuple[float, ...]], points: 
     return eval_brdf(model, samples, runtime)
 
 
-# The float32 conditioning of a point: how far Mesa's f moves when the inputs move by one ulp
-# (`jittered`) and each built-in's result within the error GLSL allows it (ALLOWED), the most
-# over JITTERS draws (a maximum estimated from draws: 4 missed a third of pow(x, 750)'s). A difference within CONDITIONING_FACTOR times that is rounding amplified by the formula
-# (a dot product cancelling at grazing angles, acos near 1, 1 − e^(−x) for small x), not a
-# translation error. A point where a draw takes a built-in out of its domain is at the edge of
-# GLSL's undefined set, and one where a draw is not finite (the evaluation being finite, or the
-# reverse) is at a singularity: both are left out and counted.
+# Conditioning (module docstring): the most Mesa's f moves over JITTERS draws (with 4, a third of
+# pow(x, 750)'s movement was missed); a difference within CONDITIONING_FACTOR times it is not
+# counted, and what exceeds it must stay within TOLERANCE relative.
 JITTERS = 8
 CONDITIONING_FACTOR = 4.0
 TOLERANCE = 1e-5
