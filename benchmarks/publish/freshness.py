@@ -27,7 +27,8 @@ KNOWN_STALE: dict[str, str] = {
     "benchmarks/results/mutants.json": "mutation catalogue (benchmarks/mutation, hours on 2 cores): 156 of 267 "
                     "mutants measured on the code of 650e335 (all killed; 151 by a behavioural test) by a run that "
                     "stopped at its time budget; 63 rows kept from f9e9f0c and 48 not run (mostly kernel mutants, "
-                    "1-5 min each) until `python -m benchmarks.mutation.run --resume` measures them",
+                    "1-5 min each); clshade/ changed after 650e335 (budget, provenance, cli/parser), so "
+                    "`python -m benchmarks.mutation.run --resume` measures every mutant again",
 }
 
 
