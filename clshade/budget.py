@@ -55,15 +55,23 @@ FRAME_BYTES_PER_SAMPLE = 256
 MAX_COORDINATE = 1e12
 
 
-def available_memory() -> int | None:
-    """Bytes the system can give without swapping (MemAvailable, Linux); None when unknown."""
+def meminfo_bytes(key: str) -> int | None:
+    """A /proc/meminfo field (`MemAvailable`, `MemTotal`) in bytes; None where there is none (not Linux)."""
     try:
         with open("/proc/meminfo", encoding="ascii") as f:
             for line in f:
-                if line.startswith("MemAvailable:"):
+                if line.startswith(key + ":"):
                     return int(line.split()[1]) * 1024
     except OSError:
         pass
+    return None
+
+
+def available_memory() -> int | None:
+    """Bytes the system can give without swapping (MemAvailable, Linux); None when unknown."""
+    found = meminfo_bytes("MemAvailable")
+    if found is not None:
+        return found
     try:
         return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
     except (ValueError, OSError, AttributeError):

@@ -14,6 +14,8 @@ from typing import Any
 
 import numpy as np
 
+from clshade.budget import meminfo_bytes
+
 _ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -52,21 +54,11 @@ def cpu_name() -> str:
     return platform.processor() or platform.machine()
 
 
-def _memory_bytes() -> int | None:
-    try:
-        with open("/proc/meminfo", encoding="utf-8") as fh:
-            for line in fh:
-                if line.startswith("MemTotal"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    return None
-
-
 def machine() -> dict[str, Any]:
     """The machine record of every results JSON, one set of keys (docs/bench-schema.md, *Machine*)."""
-    return {"cpu": cpu_name(), "cores": os.cpu_count(), "memory_bytes": _memory_bytes(), "arch": platform.machine(),
-            "os": platform.platform(), "python": platform.python_version(), "numpy": np.__version__}
+    return {"cpu": cpu_name(), "cores": os.cpu_count(), "memory_bytes": meminfo_bytes("MemTotal"),
+            "arch": platform.machine(), "os": platform.platform(), "python": platform.python_version(),
+            "numpy": np.__version__}
 
 
 def host_description() -> str:

@@ -37,8 +37,7 @@ def build_parser() -> argparse.ArgumentParser:
                    "(e.g. oren_nayar+ggx_correlated); default: the scene's render.model")
     p.add_argument("-o", "--output", help="output image: .exr (linear float) or .png/.jpg (sRGB); "
                    "default: <scene name>.png in the current folder")
-    p.add_argument("--width", type=int, help="override camera.width")
-    p.add_argument("--height", type=int, help="override camera.height")
+    _add_size(p)
     p.add_argument("--exposure", type=float, help="exposure in stops (default: the scene's render.exposure)")
     p.add_argument("--tonemap", choices=("none", "reinhard", "aces"), help="tone map for PNG/JPEG")
     p.add_argument("--explain", action="store_true",
@@ -75,10 +74,16 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _add_size(p: argparse.ArgumentParser) -> None:
+    """--width and --height: the frame size instead of the scene camera's."""
+    p.add_argument("--width", type=int, help="override camera.width")
+    p.add_argument("--height", type=int, help="override camera.height")
+
+
 def _add_device(p: argparse.ArgumentParser) -> None:
     p.add_argument("--device", metavar="D",
-                   help="OpenCL device: P:D index, cpu/gpu, or a substring such as 'PoCL 3.1' "
-                        "(default: $CLSHADE_DEVICE, else the PoCL CPU device)")
+                   help="OpenCL device: P:D index, cpu/gpu, or a substring such as 'PoCL 3.1' (default: "
+                        "$CLSHADE_DEVICE, else the first healthy CPU device in the measured runtime order)")
 
 
 def _add_model_options(p: argparse.ArgumentParser) -> None:
@@ -177,8 +182,7 @@ def _add_view(sub: argparse._SubParsersAction) -> None:
                                    "two models split on one G-buffer, |A - B|, sliders from the models' parameters, "
                                    "each model's shading time; save writes a scene that `clshade render` reproduces.")
     p.add_argument("scene", help="scene file (TOML)")
-    p.add_argument("--width", type=int, help="override camera.width")
-    p.add_argument("--height", type=int, help="override camera.height")
+    _add_size(p)
     p.add_argument("-o", "--output-dir", default=".", metavar="DIR",
                    help="folder where 'save' writes NAME.toml, NAME.png and NAME.exr (default: the current folder)")
     p.add_argument("--host", default="127.0.0.1",
@@ -202,8 +206,7 @@ def _add_bench(sub: argparse._SubParsersAction) -> None:
     p.add_argument("-m", "--models", default="all", help="comma-separated models, a group or 'all' (default)")
     p.add_argument("--frames", type=int, default=1000, help="timed frames per model (default 1000)")
     p.add_argument("--warmup", type=int, default=10, help="untimed frames per kernel first (default 10)")
-    p.add_argument("--width", type=int, help="override camera.width")
-    p.add_argument("--height", type=int, help="override camera.height")
+    _add_size(p)
     p.add_argument("--lights", type=int, help="use exactly N lights (extra directional lights are added)")
     _add_aa_options(p)
     p.add_argument("--ladder", action="store_true", help="also run the approximation ladders")
@@ -229,8 +232,7 @@ def _add_aa(sub: argparse._SubParsersAction) -> None:
                                    "sub-pixel pan; a crop sheet of one highlight and one silhouette per rung.")
     p.add_argument("scene", nargs="?", help="scene (default: the bundled aa_spheres.toml)")
     p.add_argument("-m", "--models", default=DEFAULT_MODELS, help=f"comma-separated models (default {DEFAULT_MODELS})")
-    p.add_argument("--width", type=int, help="override camera.width")
-    p.add_argument("--height", type=int, help="override camera.height")
+    _add_size(p)
     p.add_argument("--frames", type=int, default=30, help="timed frames per rung, interleaved (default 30)")
     p.add_argument("--truth-samples", type=int, default=TRUTH_SAMPLES,
                    help=f"ground truth: N×N float64 samples per pixel (default {TRUTH_SAMPLES})")
