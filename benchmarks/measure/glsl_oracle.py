@@ -37,11 +37,11 @@ def measure(collection: Path, count: int) -> dict:
         for name, values in zip(SETS, G.parameter_sets(path)):
             c = G.compare(path, values, points=points, runtime=rt)
             rows.append(dict(file=path.name, origin=origin, set=name, values={k: list(v) for k, v in values.items()},
-                             compared=c.compared, undefined=c.undefined, undefined_by=c.undefined_by,
+                             compared=c.compared, below=c.below, undefined=c.undefined, undefined_by=c.undefined_by,
                              singular=c.singular, finite_mismatch=c.finite_mismatch, max_rel=c.max_rel,
                              median_rel=c.median_rel, conditioned=c.conditioned, max_excess=c.max_excess,
                              agrees=c.agrees))
-    return dict(schema=1, created=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+    return dict(schema=2, created=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
                 device=rt.info.description, mesa=G.renderer(), points=count, jitters=G.JITTERS,
                 conditioning_factor=G.CONDITIONING_FACTOR, tolerance=G.TOLERANCE,
                 command="python -m benchmarks.measure.glsl_oracle", rows=rows)

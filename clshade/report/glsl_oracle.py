@@ -9,10 +9,11 @@ def glsl_oracle_markdown(doc: dict) -> str:
     """benchmarks/results/glsl_oracle.md: one row per file and parameter set."""
     rows = [[f"`{r['file']}`", r["origin"], r["set"], "yes" if r["agrees"] else "**no**", f"{r['max_excess']:.1e}",
              f"{r['max_rel']:.1e} / {r['median_rel']:.1e}", str(r["conditioned"]), str(r["compared"]),
+             str(r["below"]),
              ", ".join(f"{k} {v}" for k, v in r["undefined_by"].items()) or "0", str(r["singular"]),
              str(r["finite_mismatch"])] for r in doc["rows"]]
     table = markdown(["file", "origin", "parameters", "agrees", "max excess", "max / median rel err",
-                      "conditioned values", "values compared", "points left out: undefined in GLSL",
+                      "conditioned values", "values compared", "of them below the horizon (points)", "points left out: undefined in GLSL",
                       "singular points", "finite on one side"], rows)
     agree = sum(r["agrees"] for r in doc["rows"])
     return "\n".join([

@@ -293,7 +293,8 @@ def glsl_values(path: Path, values: Mapping[str, tuple[float, ...]], points: Dir
 def clshade_values(path: Path, values: Mapping[str, tuple[float, ...]], points: Directions,
                    runtime=None) -> np.ndarray:
     """f (K, 3) float32 from clshade's translation on the OpenCL device; every parameter is fixed to
-    its value in `values` (else its default). Rows with n·l ≤ 0 are 0 (the eval kernel's horizon)."""
+    its value in `values` (else its default); below the horizon too (the renderer's cut at n·l ≤ 0
+    is left out: the file's BRDF is compared as a function of every direction, as GLSL evaluates it)."""
     from clshade.device.evaluate import Samples, constant_materials, eval_brdf
     from clshade.models.registry import Registry
     fixed = {name: (str(int(bool(values.get(name, default)[0]))) if kind == "bool"
@@ -303,7 +304,7 @@ def clshade_values(path: Path, values: Mapping[str, tuple[float, ...]], points: 
     k = len(points)
     samples = Samples(points.n, points.l, points.v, np.ones((k, 3), np.float32), np.full(k, 0.5, np.float32),
                       np.zeros(k, np.float32), constant_materials(k), tangent=points.x)
-    return eval_brdf(model, samples, runtime)
+    return eval_brdf(model, samples, runtime, horizon=False)
 
 
 # Conditioning (module docstring): the most Mesa's f moves over JITTERS draws (with 4, a third of
@@ -334,13 +335,14 @@ def parameter_sets(path: Path) -> list[dict[str, tuple[float, ...]]]:
 
 @dataclass(frozen=True)
 class Comparison:
-    """clshade's translation against Mesa's GLSL at the points above the horizon where every
-    built-in call of the GLSL side was inside its domain, also one ulp away."""
+    """clshade's translation against Mesa's GLSL at the points (above and below the horizon) where
+    every built-in call of the GLSL side was inside its domain, also one ulp away."""
     path: Path
-    compared: int              # values compared (3 per point with n·l > 0 and nothing undefined)
-    undefined: int             # points with n·l > 0 left out: a built-in called outside its domain
+    compared: int              # values compared (3 per point with nothing undefined)
+    below: int                 # points compared with l below the horizon (n·l ≤ 0)
+    undefined: int             # points left out: a built-in called outside its domain
     undefined_by: dict         # built-in name -> points where it was (within an ulp of the inputs)
-    singular: int              # points with n·l > 0 left out: a conditioning draw's finiteness differs
+    singular: int              # points left out: a conditioning draw's finiteness differs
     both_finite: int
     finite_mismatch: int       # one side finite, the other not
     peak: float                # max |f| of Mesa's finite values
@@ -369,10 +371,10 @@ def compare(path: Path, values: Mapping[str, tuple[float, ...]] | None = None, p
         with np.errstate(invalid="ignore"):
             sens = np.fmax(sens, np.abs(moved.astype(np.float64) - want))
     got = clshade_values(path, values, points, runtime)
-    above = np.sum(points.n * points.l, axis=1) > 0
-    singular &= above & (undefined == 0)
-    keep = above & (undefined == 0) & ~singular
-    by = {name: int((above & (undefined & (1 << bit) != 0)).sum()) for bit, name in enumerate(UNDEFINED)}
+    singular &= undefined == 0
+    keep = (undefined == 0) & ~singular
+    below = int((keep & (np.sum(points.n * points.l, axis=1) <= 0)).sum())
+    by = {name: int((undefined & (1 << bit) != 0).sum()) for bit, name in enumerate(UNDEFINED)}
     a, b = got[keep].ravel().astype(np.float64), want[keep].ravel().astype(np.float64)
     fa, fb = np.isfinite(a), np.isfinite(b)
     both = fa & fb
@@ -381,7 +383,7 @@ def compare(path: Path, values: Mapping[str, tuple[float, ...]] | None = None, p
     diff = np.abs(a[both] - b[both])
     rel = diff / scale
     excess = np.maximum(diff - CONDITIONING_FACTOR * sens[keep].ravel()[both], 0.0) / scale
-    return Comparison(path, int(a.size), int((above & (undefined != 0)).sum()), {k: v for k, v in by.items() if v},
+    return Comparison(path, int(a.size), below, int((undefined != 0).sum()), {k: v for k, v in by.items() if v},
                       int(singular.sum()), int(both.sum()), int((fa != fb).sum()), peak,
                       float(rel.max()) if rel.size else 0.0, float(np.median(rel)) if rel.size else 0.0,
                       int(((rel > TOLERANCE) & (excess <= TOLERANCE)).sum()),

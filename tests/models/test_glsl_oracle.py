@@ -1,7 +1,7 @@
 """The .brdf translator against a real GLSL compiler (clshade.verify.glsl_oracle): Mesa's GLSL 4.30 and
 clshade's translation evaluate the project's own .brdf files and BRDF Explorer's collection (when
 ../shared/assets/brdf-explorer is there) at 10⁴ directions with the hard cases (grazing, L = V, the
-mirror direction), apart only by float32 conditioning, with points where GLSL leaves a built-in
+mirror direction, L below the horizon), apart only by float32 conditioning, with points where GLSL leaves a built-in
 undefined left out; skipped with the reason where moderngl or Mesa's EGL is absent."""
 from __future__ import annotations
 
@@ -49,6 +49,7 @@ def test_translation_agrees_with_mesa(path, which, mesa, points, runtime):
     c = glsl_oracle.compare(path, values, points=points, runtime=runtime)
     assert c.finite_mismatch == 0 and c.both_finite == c.compared and c.undefined == 0, c
     assert c.agrees and c.median_rel <= 1e-6, c
+    assert c.below >= len(points) // 20, c
 
 
 @pytest.mark.skipif(not SHARED, reason=f"BRDF Explorer's collection is not at {COLLECTION}")
