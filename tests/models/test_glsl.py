@@ -88,6 +88,42 @@ def test_translation_reports_what_brdf_reads():
     assert tr.reads == {"Y"} and "#define u_p_k G_LIT(2.0)" in tr.code
 
 
+FIXED_BOOLS = """
+vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)
+{
+    float x = abs(L.x);
+    float a = on ? x : 2.0 * x;
+    float b = (!on && x > 0.3) ? 5.0 : 1.0;
+    float c = (false || on) ? 10.0 : 20.0;
+    if (on)
+        c += 1.0;
+    else if (x > 0.5)
+        c -= 1.0;
+    if (!on)
+        return vec3(a, b, c + dot(X, L) * 0.0);
+    return vec3(a, b, c);
+}
+"""
+
+
+@pytest.mark.parametrize("on", [0, 1])
+def test_bool_parameters_fix_branches(tmp_path, runtime, on):
+    """A bool parameter is compiled in: ?:, if/else, !, && and || on it take the branch its value
+    chooses, lane by lane as before; the branch left out is not in the kernel and what only it reads
+    (X here) is not read."""
+    from clshade.models.glsl.emitter import translate
+    path = write_brdf(tmp_path, "fixed", FIXED_BOOLS, "bool on 0")
+    model = BUILT_IN.with_params({"on": str(on)}).resolve(path)
+    l = directions(256)
+    x = np.abs(l[:, 0].astype(np.float64))
+    want = (np.stack([x, np.ones_like(x), np.full_like(x, 11.0)], axis=1) if on else
+            np.stack([2 * x, np.where(x > 0.3, 5.0, 1.0), np.where(x > 0.5, 19.0, 20.0)], axis=1))
+    assert (x > 0.5).any() and (x < 0.3).any()
+    np.testing.assert_allclose(eval_at(model, l), want, rtol=1e-6)
+    reads = translate(FIXED_BOOLS, "fixed.brdf", {"on": ("bool", "G_TRUE" if on else "G_FALSE")}).reads
+    assert reads == ({"L"} if on else {"L", "X"})
+
+
 @pytest.mark.parametrize("shader, line, message", [
     ("vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)\n{\n    return vec3(1.0) +;\n}", 8, "syntax error"),
     ("vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)\n{\n    return vec3(frobnicate(L.x));\n}", 8,

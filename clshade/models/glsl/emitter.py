@@ -42,6 +42,7 @@ class Value:
     type: str
     code: str
     literal: str | None = None     # the text of a numeric literal (int-to-float converts it exactly)
+    known: bool | None = None      # a bool fixed at translation time: true/false, a bool parameter
 
 
 @dataclass(eq=False)
@@ -291,6 +292,9 @@ class Emitter:
             cond = self.expr(s.cond)
             if cond.type != "bool":
                 raise self.error(s.line, f"if condition is {cond.type}, not bool")
+            if cond.known is not None:
+                self.fixed_if(s, cond.known, pred, depth)
+                return
             k = self._next()
             self.line(s.line)
             outer = f"{pred} && " if pred else ""
@@ -308,6 +312,22 @@ class Emitter:
             self.for_loop(s, pred, depth)
         else:
             raise self.error(s.line, f"unsupported construct: {type(s).__name__}")
+
+    def fixed_if(self, s: If, taken: bool, pred: str | None, depth: int) -> None:
+        """An if whose condition is fixed at translation time (a bool parameter compiled in): the
+        branch taken is emitted under the enclosing predicate; the other is translated (its errors
+        are the file's) and left out of the kernel, with what it reads."""
+        branches = (s.then, s.other) if taken else (s.other, s.then)
+        pad = "    " * depth
+        if branches[0] is not None:
+            self.out.append(f"{pad}{{")
+            self.block(branches[0], pred, depth + 1)
+            self.out.append(f"{pad}}}")
+        if branches[1] is not None:
+            out, reads = self.out, set(self.reads)
+            self.out = []
+            self.block(branches[1], pred, depth + 1)
+            self.out, self.reads = out, reads
 
     def for_loop(self, s: For, pred: str | None, depth: int) -> None:
         pad = "    " * depth
@@ -409,17 +429,19 @@ class Emitter:
             return Value("float", f"G_LIT({_float_text(n.text)})", n.text)
         if isinstance(n, Name):
             if n.id in ("true", "false"):
-                return Value("bool", "G_TRUE" if n.id == "true" else "G_FALSE")
+                return _bool(n.id == "true")
             sym = self.lookup(n.id, n.line)
             if sym.role is not None:
                 self.reads.add(sym.role)
+            if sym.cname.startswith(PARAM) and sym.type == "bool":
+                return _bool(self.params[sym.cname[len(PARAM):]][1] == "G_TRUE")
             return Value(sym.type, sym.cname, sym.literal)
         if isinstance(n, Unary):
             v = self.expr(n.operand)
             if n.op == "!":
                 if v.type != "bool":
                     raise self.error(n.line, f"'!' needs a bool, got {v.type}")
-                return Value("bool", f"(!{v.code})")
+                return _bool(not v.known) if v.known is not None else Value("bool", f"(!{v.code})")
             if v.type == "bool":
                 raise self.error(n.line, f"unary {n.op!r} on a bool")
             if n.op == "+":
@@ -438,6 +460,8 @@ class Emitter:
             kind = self.common(a, b, n.line)
             if kind == "int":
                 kind = "float"
+            if c.known is not None:        # a fixed condition: only its branch is in the kernel
+                return self.coerce(a if c.known else b, kind, n.line)
             return Value(kind, self.select(kind, c.code, self.coerce(a, kind, n.line).code,
                                            self.coerce(b, kind, n.line).code))
         if isinstance(n, Call):
@@ -513,6 +537,16 @@ class Emitter:
         if op in ("&&", "||", "^^"):
             if a.type != "bool" or b.type != "bool":
                 raise self.error(n.line, f"{op!r} needs bools, got {a.type} and {b.type}")
+            if a.known is not None and b.known is not None:
+                return _bool(a.known != b.known if op == "^^" else
+                             (a.known and b.known) if op == "&&" else (a.known or b.known))
+            if op != "^^":
+                # A fixed left side decides as GLSL's short circuit does; a fixed right side
+                # that leaves the result to the left (x && true, x || false) drops out.
+                if a.known is not None:
+                    return _bool(a.known) if a.known == (op == "||") else b
+                if b.known is not None and b.known == (op == "&&"):
+                    return a
             if op == "^^":
                 return Value("bool", f"({a.code} != {b.code})")
             return Value("bool", f"({a.code} {op} {b.code})")
@@ -680,6 +714,10 @@ def _small_int(text: str) -> int | None:
     """An exponent of 1 to 5 that pow() may expand into products, else None."""
     value = float(text)
     return int(value) if value in (1.0, 2.0, 3.0, 4.0, 5.0) else None
+
+
+def _bool(value: bool) -> Value:
+    return Value("bool", "G_TRUE" if value else "G_FALSE", known=value)
 
 
 def _count_returns(stmts: list[Node] | None) -> int:
