@@ -13,6 +13,7 @@ from typing import Callable
 
 from clshade.report.aa import aa_markdown
 from clshade.report.accuracy import accuracy_markdown
+from clshade.report.brdf_explorer import brdf_explorer_markdown
 from clshade.report.bench import bench_1080p_markdown, readme_table, targets_table
 from clshade.report.effects import effects_markdown
 from clshade.report.glsl_oracle import glsl_oracle_markdown
@@ -127,6 +128,12 @@ RESULTS: tuple[Result, ...] = (
             "benchmarks/measure/glsl_oracle.py"),
            (Rendering(OUT + "glsl_oracle.md", glsl_oracle_markdown),),
            "every .brdf file (scenes/lobes, BRDF Explorer's collection) against Mesa's GLSL"),
+    Result(OUT + "brdf_explorer.json", "python -m benchmarks.measure.brdf_explorer",
+           ("kernels", "clshade/models", "clshade/cli", "clshade/bench/run.py", "clshade/verify/stability.py",
+            "clshade/compare.py", "scenes/white_sphere.toml", "benchmarks/measure/brdf_explorer.py",
+            "benchmarks/results/glsl_oracle.json"),
+           (Rendering(OUT + "brdf_explorer.md", brdf_explorer_markdown),),
+           "BRDF Explorer's collection through models, render, bench, check stability and compare"),
     Result(OUT + "mutants.json", "python -m benchmarks.mutation.run",
            ("benchmarks/mutation", "kernels", "clshade", "tests", "scenes", "pyproject.toml"),
            (Rendering(OUT + "mutants.md", mutants_markdown),),
