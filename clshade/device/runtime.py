@@ -299,7 +299,7 @@ class BuildChoice:
                 + ((CACHED_STORES,) if self.stores == "plain" else ())
                 + ((NO_PREFETCH,) if not self.prefetch else ()))
 
-    def changes(self, other: "BuildChoice" = None) -> tuple[str, ...]:
+    def changes(self, other: "BuildChoice | None" = None) -> tuple[str, ...]:
         """The fields that differ from `other` (default FIXED), in field order."""
         other = FIXED if other is None else other
         return tuple(f.name for f in fields(self) if getattr(self, f.name) != getattr(other, f.name))
@@ -538,7 +538,8 @@ class Runtime:
         device's native float vector width (CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT:
         16 with AVX-512, 8 with AVX2, 4 with SSE), capped at 8 when the runtime's
         compiler target has no AVX-512 (see `native_simd`); 1 on GPUs, whose
-        hardware vectorises. CLSHADE_SIMD overrides."""
+        hardware vectorises. The build choice's `lanes` (measured: clshade/device/tune.py)
+        replace that rule where the device builds them; CLSHADE_SIMD overrides both."""
         text = self._env_simd()
         if text:
             if text not in SIMD_WIDTHS:

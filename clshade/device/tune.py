@@ -245,10 +245,10 @@ def race(order: list, models: list[str], prepare: Callable[[Candidate], None],
             rounds[c].append(row.get(c))
         verdict = judge(rounds, ready)
         if progress:
-            best_gap = verdict.gaps.get(verdict.pick)
+            behind = verdict.gaps.get(verdict.pick)
             progress(f"round {len(rounds[ready[0]])}: {len(verdict.tied)} tied"
-                     + (f", fastest {1 - 1 / best_gap.ratio:+.1%} against the preferred" if best_gap else ""))
-        if verdict.settled and len(rounds[ready[0]]) >= MIN_ROUNDS:
+                     + (f", the fastest {1 - 1 / behind.ratio:.1%} ahead of the pick" if behind else ""))
+        if verdict.settled:
             break
         # The reference stays in every round (every gap is paired with it); a new fastest can bring one back.
         live = [c for c in ready if c not in verdict.slower or c == ready[0]]
@@ -353,7 +353,9 @@ class DeviceBench:
 
     def prepare(self, choice: BuildChoice) -> None:
         """Build choice's kernels and run each once (PoCL compiles a kernel per work-group size at
-        its first launch), and record what the device then compiles."""
+        its first launch), and record what the device then compiles; once per choice."""
+        if choice in self.facts:
+            return
         crt = self.rt.with_choice(choice)
         shader = Shader(crt, self.frame.gbuffer, self.frame.scene, self.frame.camera)
         for m in self.models:
@@ -393,26 +395,31 @@ def _rows(result: Race, label: Callable[[Candidate], dict], models: list[str], r
     return out
 
 
-def tune_device(rt: Runtime, budget_s: float = TUNE_BUDGET_S, frame: CalibrationFrame | None = None,
-                progress: Callable[[str], None] | None = None, clock: Callable[[], float] = time.monotonic) -> dict:
-    """Race rt's device's build choices (`candidates`, then the combination of the clear winners);
-    the cache entry's body (tuned.write adds the key)."""
+@dataclass
+class Tuning:
+    """The outcome of `tune_choices`: the pick, why, the races run (the singles, then maybe the
+    combination) and each candidate's gap to today's rule."""
+    pick: BuildChoice
+    decision: str
+    stages: list
+    vs_rule: dict
+
+
+def tune_choices(order: list[BuildChoice], models: list[str], prepare: Callable[[BuildChoice], None],
+                 timer: Callable[[BuildChoice, str], float], budget_s: float,
+                 clock: Callable[[], float] = time.monotonic, progress: Callable[[str], None] | None = None) -> Tuning:
+    """Race `order` (FIXED first, then single changes); where two or more changes each beat FIXED
+    clearly and the race settled, race their combination against the pick with what is left of the budget
+    (the pick keeps a tie)."""
     start = clock()
-    frame = frame or calibration_frame()
-    registry = Registry()
-    models = [registry.resolve(m) for m in CALIBRATION_MODELS]
-    names = [m.id for m in models]
-    bench = DeviceBench(rt, frame, models)
-    order = candidates(rt)
-    first = race(order, names, bench.prepare, bench.time, budget_s - (clock() - start), clock, progress=progress)
+    first = race(order, models, prepare, timer, budget_s, clock, progress=progress)
     pick, decision, stages = first.verdict.pick, first.verdict.reason, [first]
-    # How much faster than today's rule each candidate of the first race is (ratio of times, < 1 faster).
+    # Each candidate of the first race against today's rule (log ratio of times, < 0 faster).
     vs_rule = {c: gap(first.rounds, FIXED, c) for c in first.rounds if FIXED in first.rounds}
     winners = sorted((c for c, g in vs_rule.items() if g.clearly_faster), key=lambda c: vs_rule[c].log_ratio)
     combo = combined(winners)
     if len(winners) >= 2 and first.verdict.settled and combo not in order:
-        second = race([pick, combo], names, bench.prepare, bench.time, budget_s - (clock() - start), clock,
-                      progress=progress)
+        second = race([pick, combo], models, prepare, timer, budget_s - (clock() - start), clock, progress=progress)
         stages.append(second)
         decision = (f"{decision}; then the {len(winners)} clear winners combined against the fastest: "
                     f"{second.verdict.reason}")
@@ -421,20 +428,38 @@ def tune_device(rt: Runtime, budget_s: float = TUNE_BUDGET_S, frame: Calibration
             pick = combo
     if pick == FIXED:
         decision = f"kept today's rule ({decision})"
-    else:
+    elif pick in vs_rule:
         decision = f"{pick.label()}: {1 - vs_rule[pick].ratio:.1%} faster than today's rule ({decision})"
+    else:
+        decision = f"{pick.label()}: today's rule does not build here ({decision})"
+    return Tuning(pick, decision, stages, vs_rule)
+
+
+def tune_device(rt: Runtime, budget_s: float = TUNE_BUDGET_S, frame: CalibrationFrame | None = None,
+                progress: Callable[[str], None] | None = None, clock: Callable[[], float] = time.monotonic) -> dict:
+    """Race rt's device's build choices on the calibration frame (`candidates`, `tune_choices`); the
+    cache entry's body (tuned.write adds the key)."""
+    start = clock()
+    frame = frame or calibration_frame()
+    registry = Registry()
+    models = [registry.resolve(m) for m in CALIBRATION_MODELS]
+    names = [m.id for m in models]
+    bench = DeviceBench(rt, frame, models)
+    order = candidates(rt)
+    result = tune_choices(order, names, bench.prepare, bench.time, budget_s - (clock() - start), clock, progress)
+    pick, stages = result.pick, result.stages
 
     def label(c: BuildChoice) -> dict:
         return dict(choice=c.as_dict(), label=c.label(), changes=list(c.changes()), **bench.facts.get(c, {}))
 
-    rows = _rows(first, label, names, FIXED)
+    rows = _rows(stages[0], label, names, FIXED)
     if len(stages) > 1:
         row = _rows(stages[1], label, names, stages[1].order[0])[1]       # the combination, against the first pick
         row["stage"] = 2
         row["vs_first_pick"] = row.pop("vs_default", None)
         row.pop("band", None)
         rows.append(row)
-    return dict(status=tuned.MEASURED, choice=pick.as_dict(), label=pick.label(), decision=decision,
+    return dict(status=tuned.MEASURED, choice=pick.as_dict(), label=pick.label(), decision=result.decision,
                 device=rt.info.description, runtime=rt.info.runtime, seconds=round(clock() - start, 2),
                 budget_s=budget_s, budget_spent=any(st.budget_spent for st in stages),
                 rounds=[len(next(iter(st.rounds.values()), [])) for st in stages],
