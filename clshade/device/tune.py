@@ -492,6 +492,8 @@ def rank_devices(budget_s: float = RANK_BUDGET_S, retune: bool = False, stream: 
     """Tune every healthy CPU device that has no entry (every one with `retune`), then race them, each with
     its tuned choice, and store the order (the first is the default device)."""
     devices = healthy_devices("cpu")
+    if not devices:
+        raise ClshadeError("no healthy CPU device to rank (`clshade devices`)")
     frame = frame or calibration_frame()
     keys = [device_key(info, device) for info, device in devices]
     choices: dict[str, BuildChoice] = {}
