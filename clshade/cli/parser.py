@@ -55,6 +55,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=models_command.cmd_models)
 
     p = sub.add_parser("devices", help="list OpenCL platforms and devices")
+    p.add_argument("--tune", action="store_true", help="measure every device's build choices and the devices' "
+                   "order again (≤ 10 s a device) and show the measurements")
     p.set_defaults(func=devices.cmd_devices)
 
     _add_compare(sub)
