@@ -537,9 +537,11 @@ def test_constant_loops_run_their_trip_count(tmp_path, runtime):
 
 
 def test_dot_of_floats_multiplies_its_arguments(tmp_path, runtime):
-    """dot(float, float) is a product, whatever code its arguments are (a call with commas inside)."""
-    shader = brdf("return vec3(dot(mix(L.x, L.y, 0.25), clamp(L.z, 0.0, 0.5)), 1.0, 1.0);")
+    """dot(float, float) is a product, whatever code its arguments are (a call with commas inside),
+    and an int argument converts (GLSL's implicit conversion: dot(x, 2))."""
+    shader = brdf("return vec3(dot(mix(L.x, L.y, 0.25), clamp(L.z, 0.0, 0.5)), dot(L.y, 2), 1.0);")
     f = eval_at(BUILT_IN.resolve(write_brdf(tmp_path, "dotf", shader)), directions())
     l = directions().astype(np.float64)
     np.testing.assert_allclose(f[:, 0], (0.75 * l[:, 0] + 0.25 * l[:, 1]) * np.clip(l[:, 2], 0, 0.5), rtol=1e-6,
                                atol=1e-7)
+    np.testing.assert_allclose(f[:, 1], 2.0 * l[:, 1], rtol=1e-6)

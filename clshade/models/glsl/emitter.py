@@ -844,10 +844,11 @@ class Emitter:
         arity = {"dot": 2, "length": 1, "distance": 2, "normalize": 1, "cross": 2, "reflect": 2}[name]
         if len(args) != arity:
             raise self.error(line, f"{name}() takes {arity} argument{'s' if arity > 1 else ''}, got {len(args)}")
-        kinds = {a.type for a in args}
-        if len(kinds) != 1 or kinds.pop() not in ("float", "vec2", "vec3", "int"):
+        # An int argument is a float (GLSL's implicit conversion): dot(0.5, 2) is a product.
+        kinds = {"float" if a.type == "int" else a.type for a in args}
+        if len(kinds) != 1 or next(iter(kinds)) not in ("float", "vec2", "vec3"):
             raise self.error(line, f"{name}({', '.join(a.type for a in args)}): arguments must be one vector type")
-        kind = "float" if args[0].type == "int" else args[0].type
+        kind = kinds.pop()
         d = DIM[kind]
         if name in ("cross", "reflect") and d != 3:
             raise self.error(line, f"{name}() takes vec3 arguments")
