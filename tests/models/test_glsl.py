@@ -545,3 +545,22 @@ def test_dot_of_floats_multiplies_its_arguments(tmp_path, runtime):
     np.testing.assert_allclose(f[:, 0], (0.75 * l[:, 0] + 0.25 * l[:, 1]) * np.clip(l[:, 2], 0, 0.5), rtol=1e-6,
                                atol=1e-7)
     np.testing.assert_allclose(f[:, 1], 2.0 * l[:, 1], rtol=1e-6)
+
+
+def test_docs_state_the_limits_as_they_are(checkout):
+    """README's Resource limits rows and docs/user-lobes.md's table give each limit as limits.py holds it."""
+    import re
+    readme = (checkout / "README.md").read_text(encoding="utf-8")
+    section = readme[readme.index("## Resource limits"):readme.index("## What it measures")]
+    doc = (checkout / "docs" / "user-lobes.md").read_text(encoding="utf-8")
+    table = doc[doc.index("### Translator limits"):doc.index("### Checked against a real GLSL compiler")]
+    for name, readme_shown, doc_shown in (
+            ("MAX_SOURCE_BYTES", f"{limits.MAX_SOURCE_BYTES >> 10} KiB", f"{limits.MAX_SOURCE_BYTES >> 10} KiB"),
+            ("MAX_TOKENS", f"{limits.MAX_TOKENS:,}".replace(",", " "), f"{limits.MAX_TOKENS:,}".replace(",", " ")),
+            ("MAX_NESTING", str(limits.MAX_NESTING), str(limits.MAX_NESTING)),
+            ("MAX_LITERAL_CHARS", str(limits.MAX_LITERAL_CHARS), str(limits.MAX_LITERAL_CHARS)),
+            ("MAX_CODE_BYTES", f"{limits.MAX_CODE_BYTES >> 10} KiB", f"{limits.MAX_CODE_BYTES >> 10} KiB"),
+            ("MAX_LOOP_ITERATIONS", str(limits.MAX_LOOP_ITERATIONS), f"{limits.MAX_LOOP_ITERATIONS:,}".replace(",", " "))):
+        assert re.search(rf"{re.escape(readme_shown)}[^|\n]*`{name}`", section), (name, readme_shown)
+        assert re.search(rf"`{name}` \| {re.escape(doc_shown)} \|", table), (name, doc_shown)
+    assert limits.INT_MAX == 2 ** 31 - 1 and f"{limits.MAX_FLOAT:.8g}" == "3.4028235e+38"

@@ -11,15 +11,13 @@ from __future__ import annotations
 # leaves room for long generated fits while bounding what is read into memory.
 MAX_SOURCE_BYTES = 256 * 1024
 
-# Tokens of a shader once its #defines are expanded. The collection's largest has 803;
-# nested #defines can multiply a file's tokens exponentially, so the count is checked as they
-# are expanded.
+# Tokens of a shader once its #defines are expanded, counted as they are (nested #defines
+# multiply a file's tokens exponentially). The collection's largest has 803.
 MAX_TOKENS = 65_536
 
-# Expressions, statements and blocks nested inside one another (parentheses, operators, calls,
-# `?:`, `a = b = …`, blocks, if/for bodies). The parser and the emitter recurse once or a few
-# times per level: 64 levels take at most about 400 of Python's 1,000 frames, and stay below the
-# OpenCL C compiler's 256 nested brackets. The collection nests 13 deep at most.
+# Expressions, statements and blocks inside one another. The parser and emitter recurse per level:
+# 64 levels take at most about 400 of Python's 1,000 frames and stay below the OpenCL C
+# compiler's 256 nested brackets. The collection nests 13 deep at most.
 MAX_NESTING = 64
 
 # Characters of one numeric literal, checked before any conversion (Python's int() of a long
@@ -34,14 +32,12 @@ INT_MIN, INT_MAX = -(2 ** 31), 2 ** 31 - 1
 # float, where a larger one is infinite.
 MAX_FLOAT = 3.4028234663852886e38
 
-# Generated OpenCL C, the #defines of globals expanded and each function counted once per call
-# site (the kernel inlines every call: f calling g twice, g calling h twice … is what the
-# compiler sees). The collection's largest translation is 10 KB, 25 times less. Build time grows
-# with the code: 36 KB of straight-line arithmetic builds in 2.5 s on PoCL, with a sin() per
-# line in 30 s.
+# Generated OpenCL C as the compiler sees it: #defines of globals expanded, each call inlined (f
+# calling g twice calling h twice … doubles per level). The collection's largest translation is
+# 10 KB; build time grows with the code (docs/user-lobes.md, "Translator limits").
 MAX_CODE_BYTES = 256 * 1024
 
-# Iterations of for loops in one evaluation of BRDF, nested loops multiplied and loops in a
-# called function counted once per call. 4,096 per pixel shades a 1024² frame in seconds on a
-# CPU; a loop that never ends (a step of 0, a counter going the wrong way) is refused outright.
+# For-loop iterations in one call of a function (nested loops multiplied, a callee's loops per
+# call): 4,096 iterations of a two-operation body per pixel shade a 1024² frame in about 3 s on
+# PoCL. A loop that never ends is refused outright.
 MAX_LOOP_ITERATIONS = 4096
