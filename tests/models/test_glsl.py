@@ -316,7 +316,12 @@ def render_args(path: str, tmp_path) -> list[str]:
 
 
 def refused_everywhere(capsys, tmp_path, path: str, *needles: str) -> str:
-    """`clshade render -m` and `clshade check stability --model` both refuse in one line (exit 2)."""
+    """The translation is refused (checked first: a shader let through would run — a loop of 10⁹
+    iterations, a recursion — where the commands below build it), then `clshade render -m` and
+    `clshade check stability --model` both refuse in one line (exit 2)."""
+    with pytest.raises(ClshadeError) as info:
+        BUILT_IN.resolve(path)
+    assert all(n in str(info.value) for n in needles), (needles, str(info.value))
     err = refused(capsys, render_args(path, tmp_path), *needles)
     assert refused(capsys, ["check", "stability", "--model", path], *needles) == err
     return err
