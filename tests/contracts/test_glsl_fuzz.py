@@ -26,7 +26,6 @@ import re
 import time
 from collections import Counter
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Callable
 
 import numpy as np
@@ -145,7 +144,8 @@ def floats(draw, depth: int, scope: Scope = Scope()) -> Expr:
                                            "k"])))
     sub = floats(depth - 1, scope)
     form = draw(st.sampled_from(["neg", "+", "-", "*", "div", "abs", "min", "max", "clamp", "mix", "sin", "cos",
-                                 "expneg", "hypot1", "pow", "ternary", "step", "sign", "fdot", "dot", "length", "comp"]))
+                                 "expneg", "hypot1", "pow", "ternary", "step", "sign", "fdot", "dot", "length",
+                                 "comp"]))
     a = draw(sub)
     if form == "neg":
         return Expr("float", f"-{a.text}" if a.text[0] != "-" else f"-({a.text})",
@@ -251,7 +251,8 @@ def vectors(draw, depth: int, scope: Scope = Scope()) -> Expr:
                     lambda env: tuple(np.stack(z, axis=1) for z in zip(a.value(env), b.value(env), c.value(env))))
     if form == "splat":
         a = draw(fsub)
-        return Expr("vec3", f"vec3({a.text})", lambda env: tuple(np.repeat(z[:, None], 3, axis=1) for z in a.value(env)))
+        return Expr("vec3", f"vec3({a.text})",
+                    lambda env: tuple(np.repeat(z[:, None], 3, axis=1) for z in a.value(env)))
     v = draw(sub)
     if form in ("+", "-", "*", "min"):
         w = draw(sub)

@@ -116,7 +116,8 @@ def _file(tmp_path, parameters: str, shader: str = "vec3 BRDF(vec3 L, vec3 V, ve
 
 
 @pytest.mark.parametrize("parameters, extra, needles", [
-    ("float k 0 1 0.5", "::begin shader\nvec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) { return V; }\n::end shader\n",
+    ("float k 0 1 0.5",
+     "::begin shader\nvec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) { return V; }\n::end shader\n",
      (":8: a second '::begin shader' block (the first begins at line 5)",)),
     ("float k 0 1 0.5", "::begin parameters\nfloat q 0 1 0.5\n::end parameters\n",
      (":8: a second '::begin parameters' block (the first begins at line 2)",)),

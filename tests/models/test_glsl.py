@@ -565,7 +565,8 @@ def test_docs_state_the_limits_as_they_are(checkout):
             ("MAX_NESTING", str(limits.MAX_NESTING), str(limits.MAX_NESTING)),
             ("MAX_LITERAL_CHARS", str(limits.MAX_LITERAL_CHARS), str(limits.MAX_LITERAL_CHARS)),
             ("MAX_CODE_BYTES", f"{limits.MAX_CODE_BYTES >> 10} KiB", f"{limits.MAX_CODE_BYTES >> 10} KiB"),
-            ("MAX_LOOP_ITERATIONS", str(limits.MAX_LOOP_ITERATIONS), f"{limits.MAX_LOOP_ITERATIONS:,}".replace(",", " "))):
+            ("MAX_LOOP_ITERATIONS", str(limits.MAX_LOOP_ITERATIONS),
+             f"{limits.MAX_LOOP_ITERATIONS:,}".replace(",", " "))):
         assert re.search(rf"{re.escape(readme_shown)}[^|\n]*`{name}`", section), (name, readme_shown)
         assert re.search(rf"`{name}` \| {re.escape(doc_shown)} \|", table), (name, doc_shown)
     assert limits.INT_MAX == 2 ** 31 - 1 and f"{limits.MAX_FLOAT:.8g}" == "3.4028235e+38"
