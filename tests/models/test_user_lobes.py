@@ -463,3 +463,24 @@ def test_a_lobe_folder_over_the_file_count_limit_is_refused_before_reading(tmp_p
     (small / "lobe4.cl").write_text(_cl_lobe("lobe4"), encoding="utf-8")
     with pytest.raises(ClshadeError, match="more than 4 lobe files"):
         BUILT_IN.with_lobes(small).lobes
+
+
+def test_lobes_folders_are_read_once_each(tmp_path, monkeypatch):
+    """`--lobes A --lobes B --lobes C` reads each lobe file once (not A, then A and B, then A, B and C)."""
+    import argparse
+    import clshade.models.registry as registry_module
+    from clshade.cli.parser import lobe_registry
+    folders = []
+    for name in "abc":
+        folder = tmp_path / name
+        folder.mkdir()
+        for i in range(2):
+            (folder / f"{name}{i}.cl").write_text(_cl_lobe(f"{name}{i}"), encoding="utf-8")
+        folders.append(str(folder))
+    reads = []
+    real = registry_module.parse_lobe
+    monkeypatch.setattr(registry_module, "parse_lobe", lambda path, origin: reads.append(path) or real(path, origin))
+    monkeypatch.delenv(LOBES_ENV, raising=False)
+    registry = lobe_registry(argparse.Namespace(lobes=folders, param=[], model=None))
+    assert {f"{n}{i}" for n in "abc" for i in range(2)} <= set(registry.lobes)
+    assert len(reads) == 6
