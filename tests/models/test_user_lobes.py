@@ -5,6 +5,8 @@ The translator itself is tests/models/test_glsl.py, the .brdf format tests/model
 """
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -426,11 +428,17 @@ def test_special_files_are_refused_without_being_opened(tmp_path, checkout):
     assert len(answers) == 9
 
 
-def test_a_lobe_file_over_the_size_limit_is_refused(tmp_path):
+@pytest.mark.parametrize("suffix", [".cl", ".brdf"])
+def test_a_lobe_file_over_the_size_limit_is_refused(tmp_path, suffix):
     from clshade import budget
-    path = tmp_path / "big.cl"
-    path.write_text(_cl_lobe("big", padding="/" * (budget.MAX_LOBE_FILE_BYTES + 1) + "\n"), encoding="utf-8")
-    for attempt in (lambda: BUILT_IN.with_lobes(tmp_path).lobes, lambda: BUILT_IN.resolve(str(path))):
+    padding = "/" * (budget.MAX_LOBE_FILE_BYTES + 1)
+    if suffix == ".cl":
+        path = tmp_path / "big.cl"
+        path.write_text(_cl_lobe("big", padding=padding + "\n"), encoding="utf-8")
+    else:
+        path = Path(write_brdf(tmp_path, "big", CONSTANT + "\n" + padding))
+    for attempt in (lambda: BUILT_IN.with_lobes(tmp_path).lobes, lambda: BUILT_IN.with_lobes(path),
+                    lambda: BUILT_IN.resolve(str(path))):
         with pytest.raises(ClshadeError) as info:
             attempt()
         assert _one_line(info) == f"{path}: lobe file is larger than the limit of {budget.MAX_LOBE_FILE_BYTES} bytes"
