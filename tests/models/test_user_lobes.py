@@ -346,8 +346,9 @@ def test_models_json_never_writes_nan(capsys, monkeypatch):
     assert cmd_models(args) == 0
     json.loads(capsys.readouterr().out, parse_constant=lambda name: pytest.fail(f"{name} in the JSON"))
     args.registry = SimpleNamespace(lobes={**BUILT_IN.lobes, "ward": bad})
-    with pytest.raises(ClshadeError, match=f"{ward.source}: param alpha_x: a number that is not finite"):
+    with pytest.raises(ClshadeError) as info:
         cmd_models(args)
+    assert str(info.value).startswith(f"{ward.source}: param alpha_x: a number that is not finite")
 
 
 def test_a_lobe_file_that_is_not_utf8_is_one_line(tmp_path):
