@@ -127,9 +127,9 @@ def lobe_registry(args: argparse.Namespace) -> Registry:
             raise ClshadeError(f"--param {item!r}: expected NAME=VALUE")
         values[name.strip()] = value.strip()
     registry = Registry.from_env().with_params(values)
-    for folder in getattr(args, "lobes", []):
-        registry = registry.with_lobes(folder)
-        registry.lobes      # read now: a broken lobe file fails before the command starts
+    if getattr(args, "lobes", []):
+        registry = registry.with_lobes(*args.lobes)
+        registry.lobes      # read now, once for all folders: a broken lobe file fails before the command starts
     if values:
         declared = {p.name for l in registry.lobes.values() if l.origin == BRDF_FILE for p in l.params}
         for spec in (getattr(args, "model", None), getattr(args, "models", None)):

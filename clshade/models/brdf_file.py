@@ -36,7 +36,8 @@ from typing import Mapping
 
 from clshade.errors import ClshadeError
 from clshade.models.glsl.emitter import translate
-from clshade.models.glsl.limits import MAX_FLOAT, MAX_SOURCE_BYTES
+from clshade import budget
+from clshade.models.glsl.limits import MAX_FLOAT
 from clshade.models.lobe import BRDF_FILE, Lobe, Param
 
 FAMILY = "brdf"
@@ -67,24 +68,6 @@ def _number(path: Path, line: int, name: str, text: str) -> float:
     if abs(value) > MAX_FLOAT:
         raise ClshadeError(f"{path}:{line}: parameter {name!r}: {text} is past the largest float ({MAX_FLOAT:.8g})")
     return value
-
-
-def _read_text(path: Path) -> str:
-    """The text of a .brdf file: a regular file of at most MAX_SOURCE_BYTES in UTF-8."""
-    try:
-        info = os.stat(path)
-        if not stat.S_ISREG(info.st_mode):
-            raise ClshadeError(f"{path}: not a regular file (a .brdf lobe is read from a file)")
-        with open(path, "rb") as f:
-            data = f.read(MAX_SOURCE_BYTES + 1)
-    except OSError as exc:
-        raise ClshadeError(f"{path}: cannot read ({exc})") from exc
-    if len(data) > MAX_SOURCE_BYTES:
-        raise ClshadeError(f"{path}:1: larger than {MAX_SOURCE_BYTES} bytes (the translator's MAX_SOURCE_BYTES)")
-    try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise ClshadeError(f"{path}: cannot read ({exc})") from exc
 
 
 def parse_value(kind: str, text: str, where: str):
@@ -123,7 +106,7 @@ class BrdfSource:
 
 def read_source(path: Path) -> BrdfSource:
     """The blocks of a .brdf file; errors name the file and the line."""
-    lines = _read_text(path).splitlines()
+    lines = budget.read_text(path, "lobe file", budget.MAX_LOBE_FILE_BYTES).splitlines()
     first = next(((i, l.strip()) for i, l in enumerate(lines, 1) if l.strip() and not l.strip().startswith("#")),
                  (1, ""))
     if first[1] != "analytic":

@@ -142,13 +142,13 @@ def test_bad_blocks_and_numbers_fail_in_one_line(capsys, tmp_path, parameters, e
 
 
 def test_a_file_past_the_size_limit(capsys, tmp_path):
-    """A .brdf file past MAX_SOURCE_BYTES is refused before it is read whole (a 10 MB file of ';'
-    once took 3.9 GB)."""
-    from clshade.models.glsl.limits import MAX_SOURCE_BYTES
-    shader = "vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) { " + ";" * MAX_SOURCE_BYTES + " return L; }"
+    """A .brdf file past budget.MAX_LOBE_FILE_BYTES is refused before it is read whole (a 10 MB file of
+    ';' once took 3.9 GB)."""
+    from clshade.budget import MAX_LOBE_FILE_BYTES
+    shader = "vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) { " + ";" * MAX_LOBE_FILE_BYTES + " return L; }"
     path = _file(tmp_path, "", shader)
     refused(capsys, ["render", str(SCENES / "red_ball.toml"), "-m", path, "-o", str(tmp_path / "x.png")],
-            f"{path}:1: larger than {MAX_SOURCE_BYTES} bytes", "MAX_SOURCE_BYTES")
+            f"{path}: lobe file is larger than the limit of {MAX_LOBE_FILE_BYTES} bytes")
 
 
 def test_a_special_file_is_not_read(tmp_path):

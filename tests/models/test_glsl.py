@@ -596,7 +596,6 @@ def test_docs_state_the_limits_as_they_are(checkout):
     doc = (checkout / "docs" / "user-lobes.md").read_text(encoding="utf-8")
     table = doc[doc.index("### Translator limits"):doc.index("### Checked against a real GLSL compiler")]
     for name, readme_shown, doc_shown in (
-            ("MAX_SOURCE_BYTES", f"{limits.MAX_SOURCE_BYTES >> 10} KiB", f"{limits.MAX_SOURCE_BYTES >> 10} KiB"),
             ("MAX_TOKENS", f"{limits.MAX_TOKENS:,}".replace(",", " "), f"{limits.MAX_TOKENS:,}".replace(",", " ")),
             ("MAX_NESTING", str(limits.MAX_NESTING), str(limits.MAX_NESTING)),
             ("MAX_LITERAL_CHARS", str(limits.MAX_LITERAL_CHARS), str(limits.MAX_LITERAL_CHARS)),

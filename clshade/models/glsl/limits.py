@@ -7,9 +7,7 @@ every one (docs/user-lobes.md, "Translator limits"; README.md, "Resource limits"
 """
 from __future__ import annotations
 
-# A .brdf file's size. BRDF Explorer's largest file (compare.brdf) is 3.5 KB: 70 times that
-# leaves room for long generated fits while bounding what is read into memory.
-MAX_SOURCE_BYTES = 256 * 1024
+# A .brdf file's size is a lobe file's: clshade.budget.MAX_LOBE_FILE_BYTES.
 
 # Tokens of a shader once its #defines are expanded, counted as they are (nested #defines
 # multiply a file's tokens exponentially). The collection's largest has 803.
