@@ -99,10 +99,6 @@ def _cmp(op: str, a: Expr, b: Expr) -> Callable[[dict], np.ndarray]:
     return value
 
 
-def _col(v: np.ndarray) -> np.ndarray:
-    return v[:, None] if v.ndim == 1 else v
-
-
 @dataclass(frozen=True)
 class Scope:
     """The names an expression may read: vec3 arguments (BRDF's L, V, N; a helper's P) and float
@@ -199,15 +195,14 @@ def floats(draw, depth: int, scope: Scope = Scope()) -> Expr:
             return base ** e, (mx + 1.0) ** max(e, 1.0) * (1.0 + e)
         return Expr("float", f"pow(abs({a.text}) + 1.0, {p})", power)
     if form == "ternary":
-        b, c, d = draw(sub), draw(sub), draw(sub)
-        op = draw(st.sampled_from(["<", ">", "<=", ">="]))
-        cond = _cmp(op, c, d)
+        b = draw(sub)
+        text, cond = draw(conditions(depth - 1, scope))
 
         def select(env):
             pick = cond(env)
             (x, mx), (y, my) = a.value(env), b.value(env)
             return np.where(pick, x, y), np.maximum(mx, my)
-        return Expr("float", f"({c.text} {op} {d.text} ? {a.text} : {b.text})", select)
+        return Expr("float", f"({text} ? {a.text} : {b.text})", select)
     if form in ("step", "sign"):
         b = draw(sub)
 
@@ -231,6 +226,23 @@ def floats(draw, depth: int, scope: Scope = Scope()) -> Expr:
     i = draw(st.integers(0, 2))
     suffix = draw(st.sampled_from([f".{'xyz'[i]}", f".{'rgb'[i]}", f"[{i}]", f"[{i} + 0]"]))
     return Expr("float", f"{v.text}{suffix}", lambda env: (lambda p: (p[0][:, i], p[1][:, i]))(v.value(env)))
+
+
+@st.composite
+def conditions(draw, depth: int, scope: Scope) -> tuple[str, Callable[[dict], np.ndarray]]:
+    """A comparison that differs between directions: a component of L, V or P, moved by at most
+    ±0.25 by a generated expression, against a threshold. (text, mask of where it holds)."""
+    c = draw(floats(depth, scope))
+    vec = draw(st.sampled_from([v for v in scope.vecs if v != "N"]))
+    i = draw(st.integers(0, 2))
+    threshold = _lit(draw(st.sampled_from([-0.3, 0.0, 0.2, 0.5])))
+
+    def lhs(env: dict) -> tuple[np.ndarray, np.ndarray]:
+        x, mx = c.value(env)
+        return env[vec][:, i] + 0.25 * np.sin(x), np.abs(env[vec][:, i]) + 0.25 * (1.0 + mx)
+    op = draw(st.sampled_from(["<", ">", "<=", ">="]))
+    text = f"{vec}.{'xyz'[i]} + 0.25 * sin({c.text}) {op} {threshold.text}"
+    return text, _cmp(op, Expr("float", "", lhs), threshold)
 
 
 SWIZZLES = ["zyx", "yzx", "xxy", "bgr", "zzz", "xyz"]
@@ -293,14 +305,14 @@ def vectors(draw, depth: int, scope: Scope = Scope()) -> Expr:
                                                np.column_stack([p[1][:, 2], p[1][:, 0], s[1]])))(
                         v.value(env), a.value(env)))
     if form == "ternary":
-        w, c, d = draw(sub), draw(fsub), draw(fsub)
-        cond = _cmp(">", c, d)
+        w = draw(sub)
+        text, cond = draw(conditions(depth - 1, scope))
 
         def select(env):
             pick = cond(env)[:, None]
             (x, mx), (y, my) = v.value(env), w.value(env)
             return np.where(pick, x, y), np.maximum(mx, my)
-        return Expr("vec3", f"({c.text} > {d.text} ? {v.text} : {w.text})", select)
+        return Expr("vec3", f"({text} ? {v.text} : {w.text})", select)
     if form == "normalize":      # of a vector of length >= 1: no singularity
         def unit(env):
             x, mx = v.value(env)
@@ -358,12 +370,12 @@ def shaders(draw, depth: int = 3) -> tuple[str, Callable[[dict], tuple[np.ndarra
         names.append(name)
     for branch in range(draw(st.integers(0, 3))):
         here = Scope(names=tuple(names))
-        c, d = draw(floats(depth - 1, here)), draw(floats(depth - 1, here))
-        cond = _cmp("<", c, d)        # evaluated once, where the if is (as the translation's mask)
+        text, cond = draw(conditions(depth - 1, here))
+        # The condition is evaluated once, where the if is (as the translation's mask).
         program.append(lambda env, key=branch, cond=cond: env["masks"].__setitem__(key, cond(env)))
         then_mask = lambda env, key=branch: env["masks"][key]      # noqa: E731
         else_mask = lambda env, key=branch: ~env["masks"][key]     # noqa: E731
-        lines.append(f"    if ({c.text} < {d.text}) {{")
+        lines.append(f"    if ({text}) {{")
         for mask, end in ((then_mask, "    } else {"), (else_mask, "    }")):
             for _ in range(draw(st.integers(0, 2))):
                 if draw(st.integers(0, 4)) == 0:
@@ -480,7 +492,7 @@ def fp64(runtime):
     return runtime
 
 
-DIRECTIONS = 64
+DIRECTIONS = 256
 
 
 def _directions(seed: int) -> np.ndarray:
