@@ -97,14 +97,18 @@ INLINE real log2_lanes(real x) {
 #endif
 }
 
-/* eˣ in straight-line lane-wise code (PoCL's precise float8 exp is slow), x ≤ 88, 0 below −87:
+/* ln FLT_MIN: down to it eˣ is a normal float (k = −126 below, r ≥ 0); below it eˣ would be
+ * subnormal and exp_lanes() returns 0 (absolute bias ≤ 1.2e-38). */
+#define MIN_EXP_ARG -87.3365f
+
+/* eˣ in straight-line lane-wise code (PoCL's precise float8 exp is slow), x ≤ 88, 0 below MIN_EXP_ARG:
  * x = k ln 2 + r (Cody–Waite, ln 2 in two parts), eʳ by Cephes expf's minimax polynomial
  * (S. Moshier), 2ᵏ built in the exponent bits: ≤ 2 ulp against float64 (tests/device/test_terms.py). */
 INLINE real exp_lanes(real x) {
 #ifdef REAL_DOUBLE
     return exp(x);
 #else
-    real c = clamp(x, -87.0f, 88.0f);
+    real c = clamp(x, MIN_EXP_ARG, 88.0f);
     mask k = convert_mask_rte(c * 1.44269504089f);
     real kf = convert_real(k);
     real r = (c - kf * 0.693359375f) + kf * 2.12194440e-4f;
@@ -112,7 +116,7 @@ INLINE real exp_lanes(real x) {
     real p = (5.0000001201e-1f + 1.6666665459e-1f * r) + (4.1665795894e-2f + 8.3334519073e-3f * r) * z
            + (1.3981999507e-3f + 1.9875691500e-4f * r) * (z * z);
     real y = (p * z + r) + 1.0f;
-    return x < -87.0f ? (real)(0.0f) : y * as_real((k + 127) << 23);
+    return x < MIN_EXP_ARG ? (real)(0.0f) : y * as_real((k + 127) << 23);
 #endif
 }
 

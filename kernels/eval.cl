@@ -10,8 +10,11 @@
  *                t[i]              float4 (xyz: the surface's tangent, 0 = none; read by
  *                                  lobes that use the tangent frame, surface.h)
  * Built with SIMD = 1 (simd.h): one sample per work-item.
- * Output f[i] = (f.rgb, n·l > 0 ? 1 : 0): f is 0 when l is below the horizon;
- * double4 in the double build (REAL_DOUBLE, simd.h), float4 otherwise.
+ * Output f[i] = (f.rgb, n·l > 0 ? 1 : 0): f is 0 when l is below the horizon
+ * (the renderer's cut), unless built with EVAL_BELOW_HORIZON, which returns the
+ * composed f there too (the GLSL oracle compares a translated .brdf file's BRDF
+ * at every direction); double4 in the double build (REAL_DOUBLE, simd.h), float4
+ * otherwise.
  */
 #ifdef REAL_DOUBLE
 typedef double4 out4;
@@ -42,5 +45,9 @@ __kernel void eval_brdf(const uint count,
     surface_frame(&g, nn, s);
 #endif
     vec3 fr = brdf(g, s);
+#ifdef EVAL_BELOW_HORIZON
+    f[i] = (out4)(fr.x, fr.y, fr.z, g.nl_raw > 0.0f ? 1.0f : 0.0f);
+#else
     f[i] = g.nl_raw > 0.0f ? (out4)(fr.x, fr.y, fr.z, 1.0f) : (out4)(0.0f);
+#endif
 }

@@ -57,8 +57,13 @@ INLINE real g1_log2(real x) { return log2_lanes(x); }
 G_PER_LANE1(sin, sin)
 G_PER_LANE1(cos, cos)
 G_PER_LANE1(tan, tan)
-G_PER_LANE1(asin, asin)
-G_PER_LANE1(acos, acos)
+/* asin and acos of |x| > 1 (undefined in GLSL) are their value at ±1, as in Mesa: n·h of a
+ * mirror direction rounds to 1 + 1 ulp, where acos would otherwise be NaN at the lobe's peak. */
+#define G_UNIT(x) ((x) < -1.0f ? -1.0f : ((x) > 1.0f ? 1.0f : (x)))
+#define G_ASIN(x) asin(G_UNIT(x))
+#define G_ACOS(x) acos(G_UNIT(x))
+G_PER_LANE1(asin, G_ASIN)
+G_PER_LANE1(acos, G_ACOS)
 G_PER_LANE1(atan, atan)
 G_PER_LANE1(sinh, sinh)
 G_PER_LANE1(cosh, cosh)
@@ -98,14 +103,16 @@ INLINE real g1_pow4(real x) { real x2 = x * x; return x2 * x2; }
 #define G_LIT(x) ((real)(x##f))
 #endif
 
-/* GLSL pow(x, y): x^y for x > 0 (undefined for x < 0 and for x = 0, y ≤ 0 in GLSL).
- * exp2(y·log2 x) without pow() (≈190 ns per call on PoCL, brdf.h pow_runtime);
+/* GLSL pow(x, y): x^y for x > 0, and 0 for x = 0 < y (undefined for x < 0 and for x = 0,
+ * y ≤ 0 in GLSL). exp2(y·log2 x) without pow() (≈190 ns per call on PoCL, brdf.h
+ * pow_runtime), whose floor MIN_POW_BASE would make 0^y MIN_POW_BASE^y (1e-3 at y = 0.1);
  * the double build (REAL_DOUBLE) calls pow itself. */
 INLINE real g1_pow(real x, real y) {
 #ifdef REAL_DOUBLE
     return pow(x, y);
 #else
-    return pow_runtime(x, y);
+    real p = pow_runtime(x, y);
+    return (x == 0.0f) & (y > 0.0f) ? (real)(0.0f) : p;
 #endif
 }
 

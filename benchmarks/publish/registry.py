@@ -13,8 +13,10 @@ from typing import Callable
 
 from clshade.report.aa import aa_markdown
 from clshade.report.accuracy import accuracy_markdown
+from clshade.report.brdf_explorer import brdf_explorer_markdown
 from clshade.report.bench import bench_1080p_markdown, readme_table, targets_table
 from clshade.report.effects import effects_markdown
+from clshade.report.glsl_oracle import glsl_oracle_markdown
 from clshade.report.host import host_ab_markdown, memory_markdown, startup_markdown
 from clshade.report.mutants import mutants_markdown
 from clshade.report.perf import perf_markdown
@@ -22,6 +24,7 @@ from clshade.report.raster import raster_markdown
 from clshade.report.runtimes import runtimes_markdown
 from clshade.report.stability import floor_bias_table, stability_tables
 from clshade.report.study import report_markdown
+from clshade.report.tuning import tuning_markdown
 from clshade.report.user_lobes import user_lobes_example, user_lobes_markdown, user_lobes_table
 from clshade.report.view import view_markdown, view_table
 
@@ -79,6 +82,11 @@ RESULTS: tuple[Result, ...] = (
            ("kernels", "clshade/bench/runtimes.py", "clshade/device/health.py", "benchmarks/measure/runtimes.py"),
            (Rendering(OUT + "runtimes.md", runtimes_markdown),),
            "every OpenCL runtime: health, times, error against float64"),
+    Result(OUT + "tuning.json", "python -m benchmarks.measure.tuning",
+           ("kernels", "clshade/device/tune.py", "clshade/device/tuned.py", "clshade/device/runtime.py",
+            "clshade/bench/tuning.py", "benchmarks/measure/tuning.py"),
+           (Rendering(OUT + "tuning.md", tuning_markdown),),
+           "every CPU runtime: the tuner's pick and every build choice per model on a full frame; a quiet machine"),
     Result(OUT + "effects.json", "python -m benchmarks.measure.effects_bench",
            ("kernels", "benchmarks/measure/effects_bench.py"),
            (Rendering(OUT + "effects.md", effects_markdown),), "what each scene effect costs per model"),
@@ -121,6 +129,16 @@ RESULTS: tuple[Result, ...] = (
             _region("docs/user-lobes.md", "user-lobes-example", user_lobes_example),
             _region("docs/user-lobes.md", "user-lobes-table", user_lobes_table)),
            "the sample user lobes beside built-ins"),
+    Result(OUT + "glsl_oracle.json", "python -m benchmarks.measure.glsl_oracle",
+           ("kernels", "clshade/models/glsl", "clshade/models/brdf_file.py", "clshade/verify/glsl_oracle.py",
+            "benchmarks/measure/glsl_oracle.py"),
+           (Rendering(OUT + "glsl_oracle.md", glsl_oracle_markdown),),
+           "every .brdf file (scenes/lobes, BRDF Explorer's collection) against Mesa's GLSL"),
+    Result(OUT + "brdf_explorer.json", "python -m benchmarks.measure.brdf_explorer",
+           ("kernels", "clshade/models", "clshade/cli", "clshade/bench/run.py", "clshade/verify/stability.py",
+            "clshade/compare.py", "scenes/white_sphere.toml", "benchmarks/measure/brdf_explorer.py"),
+           (Rendering(OUT + "brdf_explorer.md", brdf_explorer_markdown),),
+           "BRDF Explorer's collection through models, render, bench, check stability and compare"),
     Result(OUT + "mutants.json", "python -m benchmarks.mutation.run",
            ("benchmarks/mutation", "kernels", "clshade", "tests", "scenes", "pyproject.toml"),
            (Rendering(OUT + "mutants.md", mutants_markdown),),

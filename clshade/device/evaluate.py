@@ -57,10 +57,11 @@ def has_fp64(runtime: Runtime) -> bool:
 
 
 def eval_brdf(model: Model, samples: Samples, runtime: Runtime | None = None,
-              fast_math: bool = False, double: bool = False) -> np.ndarray:
+              fast_math: bool = False, double: bool = False, horizon: bool = True) -> np.ndarray:
     """f (N, 3) on the device, float32; float64 from the double-precision build of the same
-    source with `double` (kernels/simd.h REAL_DOUBLE). Rows whose l is below the horizon are 0."""
-    return _eval(model, samples, runtime or get_runtime(), fast_math, double, None)
+    source with `double` (kernels/simd.h REAL_DOUBLE). Rows whose l is below the horizon are 0,
+    unless `horizon` is False: then f as composed there (kernels/eval.cl EVAL_BELOW_HORIZON)."""
+    return _eval(model, samples, runtime or get_runtime(), fast_math, double, None, horizon)
 
 
 def eval_brdf_counted(model: Model, samples: Samples, runtime: Runtime | None = None,
@@ -72,14 +73,16 @@ def eval_brdf_counted(model: Model, samples: Samples, runtime: Runtime | None = 
     return f, counts.read(rt, buffer)
 
 
-def _eval(model: Model, samples: Samples, rt: Runtime, fast_math: bool, double: bool, term_counts) -> np.ndarray:
+def _eval(model: Model, samples: Samples, rt: Runtime, fast_math: bool, double: bool, term_counts,
+          horizon: bool = True) -> np.ndarray:
     cl = rt.cl
     if double and not has_fp64(rt):
         raise ClshadeError(f"{rt.info.description} has no double precision (cl_khr_fp64): "
                            f"no float64 build of {model.id}")
     features = Features(fast_math=fast_math, double=double, count_terms=term_counts is not None)
     variant = Variant(model, features, ("depth", "normal", "base"), None)
-    kernel = rt.kernel(variant.source("eval.cl"), "eval_brdf", variant.options(),
+    options = variant.options() + (() if horizon else ("-DEVAL_BELOW_HORIZON",))
+    kernel = rt.kernel(variant.source("eval.cl"), "eval_brdf", options,
                        label=f"{model.id} (eval{', float64' if double else ''})")
     count = len(samples)
     params = np.zeros((count, 4), np.float32)

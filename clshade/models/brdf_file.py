@@ -25,13 +25,19 @@ its tangent frame.
 """
 from __future__ import annotations
 
+import math
+import os
 import re
-from dataclasses import replace
+import stat
+from dataclasses import dataclass, replace
 from pathlib import Path
+from types import MappingProxyType
 from typing import Mapping
 
 from clshade.errors import ClshadeError
 from clshade.models.glsl.emitter import translate
+from clshade import budget
+from clshade.models.glsl.limits import MAX_FLOAT
 from clshade.models.lobe import BRDF_FILE, Lobe, Param
 
 FAMILY = "brdf"
@@ -51,10 +57,17 @@ def lobe_id(path: Path) -> str:
 
 
 def _number(path: Path, line: int, name: str, text: str) -> float:
+    """A number of a parameter line: finite and within float range (the kernel's float build
+    compiles it in: NaN or an infinity would reach the OpenCL compiler as `nan`, `inf`)."""
     try:
-        return float(text)
+        value = float(text)
     except ValueError:
         raise ClshadeError(f"{path}:{line}: parameter {name!r}: {text!r} is not a number") from None
+    if not math.isfinite(value):
+        raise ClshadeError(f"{path}:{line}: parameter {name!r}: {text!r} is not a finite number")
+    if abs(value) > MAX_FLOAT:
+        raise ClshadeError(f"{path}:{line}: parameter {name!r}: {text} is past the largest float ({MAX_FLOAT:.8g})")
+    return value
 
 
 def parse_value(kind: str, text: str, where: str):
@@ -81,13 +94,19 @@ def parse_value(kind: str, text: str, where: str):
         raise ClshadeError(f"{where}: {text!r} is not {want}") from None
 
 
-def load_brdf(path: Path, values: Mapping[str, str]) -> Lobe:
-    """The Lobe of a .brdf file with its parameters set (defaults, then `values`)."""
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ClshadeError(f"{path}: cannot read ({exc})") from exc
-    lines = text.splitlines()
+@dataclass(frozen=True)
+class BrdfSource:
+    """A .brdf file as written: its declared parameters (kind, name, default values, line) and its
+    shader's text with the file line the shader starts at."""
+    params: tuple[tuple[str, str, tuple[float, ...], int], ...]
+    ranges: Mapping[str, tuple[float, float]]
+    shader: str
+    shader_line: int
+
+
+def read_source(path: Path) -> BrdfSource:
+    """The blocks of a .brdf file; errors name the file and the line."""
+    lines = budget.read_text(path, "lobe file", budget.MAX_LOBE_FILE_BYTES).splitlines()
     first = next(((i, l.strip()) for i, l in enumerate(lines, 1) if l.strip() and not l.strip().startswith("#")),
                  (1, ""))
     if first[1] != "analytic":
@@ -105,6 +124,9 @@ def load_brdf(path: Path, values: Mapping[str, str]) -> Lobe:
                     raise ClshadeError(f"{path}:{i}: '::begin {name}' inside '::begin {current}'")
                 if name not in ("parameters", "shader"):
                     raise ClshadeError(f"{path}:{i}: unknown block '::begin {name}' (parameters or shader)")
+                if name in blocks:
+                    raise ClshadeError(f"{path}:{i}: a second '::begin {name}' block (the first begins at line "
+                                       f"{blocks[name][0] - 1})")
                 current, start = name, i
                 blocks[name] = (i + 1, [])
             else:
@@ -119,8 +141,8 @@ def load_brdf(path: Path, values: Mapping[str, str]) -> Lobe:
     if "shader" not in blocks:
         raise ClshadeError(f"{path}:{len(lines)}: no '::begin shader' block")
 
-    params: list[Param] = []
-    compiled: dict[str, tuple[str, str]] = {}
+    params: list[tuple[str, str, tuple[float, ...], int]] = []
+    ranges: dict[str, tuple[float, float]] = {}
     p_first, p_lines = blocks.get("parameters", (1, []))
     for k, raw in enumerate(p_lines):
         at = p_first + k
@@ -132,27 +154,50 @@ def load_brdf(path: Path, values: Mapping[str, str]) -> Lobe:
             raise ClshadeError(f"{path}:{at}: parameter line {raw.strip()!r} is not 'TYPE NAME ...'")
         if kind == "float" and len(words) == 5:
             low, high, default = (_number(path, at, name, w) for w in words[2:5])
-            value = float(parse_value("float", values[name], f"--param {name}")) if name in values else default
-            if not low <= value <= high:
-                raise ClshadeError(f"--param {name}={value:g}: outside [{low:g}, {high:g}] of {path}:{at}")
-            params.append(Param(name, low, high, default, f"float parameter of {path.name}", "float", (value,)))
-            compiled[name] = ("float", f"G_LIT({_c(value)})")
+            if not low <= default <= high:
+                raise ClshadeError(f"{path}:{at}: parameter {name!r}: default {default:g} outside its range "
+                                   f"[{low:g}, {high:g}]")
+            ranges[name] = (low, high)
+            params.append((kind, name, (default,), at))
         elif kind == "color" and len(words) == 5:
             rgb = tuple(_number(path, at, name, w) for w in words[2:5])
-            value = parse_value("color", values[name], f"--param {name}") if name in values else rgb
-            params.append(Param(name, 0.0, 1.0, sum(rgb) / 3, f"colour parameter of {path.name} "
-                                f"(default {', '.join(f'{c:g}' for c in rgb)})", "color", tuple(value)))
-            compiled[name] = ("vec3", "v3(" + ", ".join(f"G_LIT({_c(c)})" for c in value) + ")")
+            if not all(0.0 <= c <= 1.0 for c in rgb):
+                raise ClshadeError(f"{path}:{at}: colour parameter {name!r}: default {' '.join(words[2:5])} has a "
+                                   f"component outside [0, 1]")
+            params.append((kind, name, rgb, at))
         elif kind == "bool" and len(words) == 3:
-            default = 1.0 if _number(path, at, name, words[2]) else 0.0
-            value = parse_value("bool", values[name], f"--param {name}") if name in values else default
-            params.append(Param(name, 0.0, 1.0, default, f"bool parameter of {path.name}", "bool", (value,)))
-            compiled[name] = ("bool", "G_TRUE" if value else "G_FALSE")
+            params.append((kind, name, (1.0 if _number(path, at, name, words[2]) else 0.0,), at))
         else:
             raise ClshadeError(f"{path}:{at}: parameter line {raw.strip()!r} is not 'float NAME MIN MAX DEFAULT', "
                                f"'color NAME R G B' or 'bool NAME DEFAULT'")
-        if sum(p.name == name for p in params) > 1:
+        if sum(p[1] == name for p in params) > 1:
             raise ClshadeError(f"{path}:{at}: parameter {name!r} is declared twice")
+    s_first, s_lines = blocks["shader"]
+    return BrdfSource(tuple(params), MappingProxyType(ranges), "\n".join(s_lines), s_first)
+
+
+def load_brdf(path: Path, values: Mapping[str, str]) -> Lobe:
+    """The Lobe of a .brdf file with its parameters set (defaults, then `values`)."""
+    source = read_source(path)
+    params: list[Param] = []
+    compiled: dict[str, tuple[str, str]] = {}
+    for kind, name, default, at in source.params:
+        if kind == "float":
+            low, high = source.ranges[name]
+            value = float(parse_value("float", values[name], f"--param {name}")) if name in values else default[0]
+            if not low <= value <= high:
+                raise ClshadeError(f"--param {name}={value:g}: outside [{low:g}, {high:g}] of {path}:{at}")
+            params.append(Param(name, low, high, default[0], f"float parameter of {path.name}", "float", (value,)))
+            compiled[name] = ("float", f"G_LIT({_c(value)})")
+        elif kind == "color":
+            rgb = parse_value("color", values[name], f"--param {name}") if name in values else default
+            params.append(Param(name, 0.0, 1.0, sum(default) / 3, f"colour parameter of {path.name} "
+                                f"(default {', '.join(f'{c:g}' for c in default)})", "color", tuple(rgb)))
+            compiled[name] = ("vec3", "v3(" + ", ".join(f"G_LIT({_c(c)})" for c in rgb) + ")")
+        else:
+            value = parse_value("bool", values[name], f"--param {name}") if name in values else default[0]
+            params.append(Param(name, 0.0, 1.0, default[0], f"bool parameter of {path.name}", "bool", (value,)))
+            compiled[name] = ("bool", "G_TRUE" if value else "G_FALSE")
 
     uses = {"vectors"}
     for i, p in enumerate(params):
@@ -161,14 +206,14 @@ def load_brdf(path: Path, values: Mapping[str, str]) -> Lobe:
             compiled[p.name] = ("vec3" if p.kind == "color" else "float", f"({key[1]})")
             uses |= {key[2]} - {None}
             params[i] = replace(p, value=(), description=f"the material key {p.name}, per pixel ({path.name})")
-    s_first, s_lines = blocks["shader"]
-    tr = translate("\n".join(s_lines), path, compiled, first_line=s_first)
+    s_first = source.shader_line
+    tr = translate(source.shader, path, compiled, first_line=s_first)
     tangents = bool(tr.reads & {"X", "Y"})
     frame = "g.x, g.y" if tangents else "v3s((real)(0.0f)), v3s((real)(0.0f))"
     code = (f'#line 1 "{path}"\n{tr.code}'
             f'#line {s_first} "{path}"\n'
             f"INLINE vec3 specular_lobe(const Geometry g, const Surface s) {{\n"
-            f"    return u_BRDF(g.l, g.v, g.n, {frame}, s);\n}}\n")
+            f"    return {tr.entry}(g.l, g.v, g.n, {frame}, s);\n}}\n")
     ident = lobe_id(path)
     return Lobe(id=ident, name=path.stem, kind="specular", family=FAMILY,
                 formula=f"f = BRDF(L, V, N, X, Y) of {path.name} (BRDF Explorer shader, translated)",
