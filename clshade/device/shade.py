@@ -22,7 +22,8 @@ from clshade.device.runtime import Runtime
 from clshade.render.arrays import padded
 from clshade.render.scene import Camera, Light, Scene
 from clshade.render.shadows import ShadowMaps
-from clshade.device.variants import Features, Variant
+from clshade.device.variants import EnvironmentFeatures, Features, Variant
+from clshade.render.environment import Environment, prepare_spec
 
 LIGHT_ORDER = ("directional", "point", "spot")
 LIGHT_KIND = {"directional": 0, "point": 1, "spot": 2}      # LIGHT_* in shade.cl (general kernel)
@@ -36,14 +37,19 @@ def scene_features(scene: Scene, half_gbuffer: bool = False, fast_math: bool = F
     count = {k: sum(1 for l in scene.lights if l.kind == k) for k in LIGHT_ORDER}
     shadows = bool(scene.shadow_lights)
     ambient = any(a > 0 for a in scene.ambient)
+    sky = None
+    if scene.environment is not None:
+        spec = scene.environment
+        sky = EnvironmentFeatures(spec.diffuse, spec.specular, not prepare_spec(spec, scene.path).constant,
+                                  scene.environment_background)
     return Features(num_dir=count["directional"], num_point=count["point"], num_spot=count["spot"],
                     ambient=ambient, shadows=shadows,
                     shadow_pcf=scene.shadow_pcf if shadows else 1,
                     textures=bool(geometry is not None and geometry.has_textures),
                     emissive=bool(geometry is not None and geometry.has_emission),
-                    occlusion=bool(ambient and geometry is not None and geometry.has_occlusion),
+                    occlusion=bool((ambient or sky is not None) and geometry is not None and geometry.has_occlusion),
                     half_gbuffer=half_gbuffer, fast_math=fast_math, general=general,
-                    specular_aa=scene.specular_aa,
+                    specular_aa=scene.specular_aa, environment=sky,
                     uniform=uniform_channels(geometry, list(scene.materials.values())) if geometry is not None else ())
 
 
@@ -138,6 +144,12 @@ class Shader:
         self._dispatches: dict[tuple, Dispatch] = {}
         self._unbound: set[tuple] = set()      # dispatches whose arguments name a G-buffer before rebind()
         self.term_counts = counts.zeros(runtime)   # the counting build's counters (Features.count_terms)
+        self.environment: Environment | None = None
+        if scene.environment is not None:
+            self.environment = prepare_spec(scene.environment, scene.path)
+            self.env_params = runtime.to_device(self.environment.params())
+            self.env_map = runtime.to_device(self.environment.texels())
+            self.env_cdf = runtime.to_device(self.environment.cdf())
         self.samples = scene.samples
         self.resolver = None
         if self.samples > 1:
@@ -213,11 +225,23 @@ class Shader:
                     args += [np.uint32(self.shadows.size), self.shadow_maps, self.shadow_params]
                 if features.ambient:
                     args.append(self.ambient)
+            if features.environment is not None:
+                args += self._environment_arguments()
         # Both entries write the background where no pixel is covered (copy.cl says why).
         args += [self.background, self.out]
         if features.count_terms:
             args.append(self.term_counts)
         return args
+
+    def _environment_arguments(self) -> list[object]:
+        """The sky's arguments of shade.cl (kernels/environment.h): its tables, the sample count N of
+        the sampled rung and the index of this G-buffer's first pixel in the whole frame (a band's
+        rows start further down), so that each pixel's samples are the same however the frame is cut."""
+        if self.environment is None:
+            raise ValueError("a variant with an environment needs a scene with one")
+        first = self.camera.crop[0] * self.gb.width if self.camera.crop else 0
+        return [self.env_params, self.env_map, self.env_cdf, np.uint32(self.scene.environment.samples),
+                np.uint32(first)]
 
     def rebind(self, gbuffer: GBuffer, scene: Scene, camera: Camera | None = None) -> None:
         """Shade another G-buffer of the same size with the same lights, shadow maps,
