@@ -45,6 +45,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--general", action="store_true",
                    help="shade with the general kernel (runtime light loop and effect switches): same image, slower")
     _add_aa_options(p)
+    _add_environment_options(p)
     _add_model_options(p)
     _add_device(p)
     p.set_defaults(func=render.cmd_render)
@@ -103,6 +104,17 @@ def _add_aa_options(p: argparse.ArgumentParser) -> None:
                    help="widen specular lobes by the normal's screen-space variance (render.specular_aa)")
 
 
+def _add_environment_options(p: argparse.ArgumentParser) -> None:
+    """The rungs of the scene's [environment] (scenes/README.md): --environment-diffuse, -specular, -samples."""
+    from clshade.render.environment import DIFFUSE_RUNGS, LATER_SPECULAR_RUNGS, MAX_SAMPLES, SPECULAR_RUNGS
+    p.add_argument("--environment-diffuse", choices=DIFFUSE_RUNGS,
+                   help="the diffuse lobe's rung under the sky (default: the scene's environment.diffuse)")
+    p.add_argument("--environment-specular", choices=SPECULAR_RUNGS + LATER_SPECULAR_RUNGS,
+                   help="the specular lobe's rung under the sky (split_sum, split_sum_ms: not yet)")
+    p.add_argument("--environment-samples", type=int, metavar="N",
+                   help=f"samples per pixel of the sampled rungs, 1 … {MAX_SAMPLES} (environment.samples)")
+
+
 def _add_lobe_options(p: argparse.ArgumentParser) -> None:
     """--lobes and --param: the user's lobes (docs/user-lobes.md)."""
     p.add_argument("--lobes", action="append", metavar="DIR", default=[],
@@ -158,6 +170,7 @@ def _add_compare(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--height", type=int, default=None)
     p.add_argument("--tile", type=int, default=320, help="tile width when --width is not given (default 320)")
     _add_aa_options(p)
+    _add_environment_options(p)
     p.add_argument("--device")
     p.set_defaults(func=compare.cmd_compare)
 

@@ -5,7 +5,7 @@ import argparse
 from pathlib import Path
 
 from clshade import budget
-from clshade.cli.common import check_size
+from clshade.cli.common import check_size, refuse_environment
 from clshade.errors import ClshadeError
 
 
@@ -33,6 +33,7 @@ def cmd_aa(args: argparse.Namespace) -> int:
     from clshade.resources import scenes_dir
     scene = args.scene or str(scenes_dir() / "aa_spheres.toml")
     loaded = load_scene(scene, args.registry)
+    refuse_environment(loaded, "aa")
     _check_aa_outputs(Path(args.output), loaded.inputs())
     budget.check_count("--frames", args.frames, budget.MAX_FRAMES, low=1)
     budget.check_count("--temporal-frames", args.temporal_frames, budget.MAX_FRAMES)

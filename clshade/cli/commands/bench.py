@@ -6,7 +6,7 @@ import sys
 from pathlib import Path
 
 from clshade import budget
-from clshade.cli.common import check_size, load_scene_with_overrides, progress_bar
+from clshade.cli.common import check_size, load_scene_with_overrides, progress_bar, refuse_environment
 from clshade.errors import ClshadeError
 
 
@@ -59,6 +59,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     from clshade.report.bench import bench_csv, bench_plots, bench_text
     _check_bench_options(args)
     scene = load_scene_with_overrides(args.scene, args)
+    refuse_environment(scene, "bench")
     _check_bench_outputs(args, scene.inputs())
     registry = args.registry.with_lobes(*scene.lobes)
     models = registry.resolve_many(args.models)
