@@ -222,19 +222,22 @@ def test_sampled_rung_is_reproducible_and_the_same_in_bands(hot_frame):
 
 
 @pytest.mark.parametrize("model", ["phong_normalized", "blinn_phong_normalized", "cook_torrance"])
-def test_each_lobes_own_sampling_converges_under_a_white_sky(tmp_path, model):
-    """The specular rung sampled from the lobe's own distribution alone (a constant sky has no map strategy,
-    the diffuse lobe has its constant rung, exact under a uniform sky): Phong about the mirror direction,
-    Blinn–Phong normals, Beckmann normals. At 256 samples within 1 % of the oracle where n·v > 0.25 (the
-    oracle checked there against twice its cells: under 0.2 %); a wrong density or draw is biased beyond."""
+def test_each_lobes_own_sampling_converges(tmp_path, model):
+    """The specular rung of the other lobe families (Phong about the mirror direction, Blinn–Phong normals,
+    Beckmann normals; with the map's luminance, MIS) on a metal sphere without diffuse light under hot_sky:
+    at 1024 samples within 1.5 % of the oracle where n·v > 0.25 (the oracle there checked against twice its
+    cells: under 0.5 %); a density that is not the one drawn leaves a bias of several %."""
+    write_map(tmp_path / "sky.exr", sky_of(hot_sky, 32, 16))
     text = scene(camera(position=[0.0, 0.0, 3.2], fov=45.0, width=24, height=24),
-                 table("environment", uniform=1.0, diffuse="constant", specular="sampled", samples=256),
-                 material("m", base_color=[0.9, 0.7, 0.5], roughness=0.35, metallic=1.0, ks=0.6, shininess=40.0),
+                 table("environment", map="sky.exr", rotation=30.0, diffuse="constant", specular="sampled",
+                       samples=1024),
+                 material("m", base_color=[0.9, 0.7, 0.5], roughness=0.35, metallic=1.0, kd=0.0, ks=0.6,
+                          shininess=40.0),
                  obj(primitive="sphere", subdivisions=5, material="m"))
     s = load_scene(write_scene(tmp_path, text))
     frame = prepare_frame(s)
     m = Registry().resolve(model)
-    t = O.truth(frame.gbuffer, s, m, E.prepare_spec(s.environment, s.path), count=32, subdivisions=32, check=True)
+    t = O.truth(frame.gbuffer, s, m, E.prepare_spec(s.environment, s.path), count=32, subdivisions=4, check=True)
     e = O.errors(render(s, m, frame=frame).image, t, bins=(0.25, 1.0))["by_nv"][0]
-    assert e["pixels"] >= 24 and e["oracle_rel_rmse"] < 2e-3
-    assert e["rel_rmse"] < 0.01, e
+    assert e["pixels"] >= 24 and e["oracle_rel_rmse"] < 5e-3, e
+    assert e["rel_rmse"] < 0.015, e
