@@ -60,7 +60,7 @@
 #define ENV_BACKGROUND 0
 #endif
 
-#define ENV_SAMPLES_SOMETHING (ENV_DIFFUSE == ENV_SAMPLED || ENV_SPECULAR == ENV_SAMPLED)
+#define ENV_SAMPLED_RUNG (ENV_DIFFUSE == ENV_SAMPLED || ENV_SPECULAR == ENV_SAMPLED)
 
 /* The real SH basis of bands 0–2, +y the polar axis (clshade/render/environment.py, SH_C*). */
 #define ENV_SH_C0 0.282094792f
@@ -179,7 +179,7 @@ INLINE vec3 env_sh9(vec3 n, __constant float4* P) {
 
 /* ---- the sampled rung ----------------------------------------------------------- */
 
-#if ENV_SAMPLES_SOMETHING
+#if ENV_SAMPLED_RUNG
 
 #define ENV_HAS_LOBE (ENV_LOBE_SAMPLING != ENV_LOBE_NONE)
 #define ENV_STRATEGIES (ENV_COSINE_SAMPLING + ENV_HAS_LOBE + ENV_MAP_SAMPLING)
@@ -205,10 +205,11 @@ INLINE uindex env_hash(uindex x) {
     return x;
 }
 
-/* A hash's top 24 bits as a float in [0, 1). */
+/* A hash's top 24 bits as a float in [0, 1) (× 2⁻²⁴: every value exact in float32). */
 INLINE real env_unit(uindex h) { return convert_real(h >> 8) * 5.96046448e-8f; }
 
-/* The base-2 radical inverse of i (its bits mirrored about the binary point), in [0, 1). */
+/* The base-2 radical inverse of i (its bits mirrored about the binary point), in [0, 1): its top 24
+ * bits × 2⁻²⁴. */
 INLINE float env_radical_inverse(uint i) {
     i = (i << 16) | (i >> 16);
     i = ((i & 0x00ff00ffu) << 8) | ((i & 0xff00ff00u) >> 8);
@@ -414,7 +415,7 @@ INLINE vec3 environment_light(vec3 n, vec3 v, const Surface s, uindex pixel, uin
 #elif ENV_DIFFUSE == ENV_SH9
     L = v3add(L, env_diffuse_reflected(env_sh9(n, P), s));
 #endif
-#if ENV_SAMPLES_SOMETHING
+#if ENV_SAMPLED_RUNG
     L = v3add(L, env_sampled(n, v, s, pixel, samples, P, map, cdf));
 #endif
     return L;

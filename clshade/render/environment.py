@@ -305,7 +305,6 @@ class Environment:
 
     def texels(self) -> np.ndarray:
         """(H·W, 4) float32: radiance RGB and the map strategy's pdf."""
-        w, h = self.size
         return np.concatenate([self.radiance.reshape(-1, 3), self.pdf.reshape(-1, 1)], axis=1).astype(np.float32)
 
     def cdf(self) -> np.ndarray:

@@ -243,6 +243,14 @@ def test_turning_the_sky_equals_turning_camera_and_scene_back(tmp_path):
 # ---------------------------------------------------------------- the sampled rung
 
 
+def test_every_built_in_specular_lobe_has_its_own_sampling():
+    """A built-in lobe left out of LOBE_SAMPLING would be sampled by the cosine alone: slow to converge."""
+    from clshade.models.lobe import builtin_lobes
+    from clshade.render.environment import LOBE_SAMPLING
+    specular = {lobe.id for lobe in builtin_lobes().values() if lobe.kind == "specular"}
+    assert specular and specular == set(LOBE_SAMPLING)
+
+
 def test_a_constant_sky_is_not_sampled_by_luminance(tmp_path):
     """A uniform sky's luminance sampling is uniform sphere sampling, worse than the BRDF's own: the
     feature set leaves the map strategy out (the furnace above is exact because of it)."""
