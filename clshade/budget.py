@@ -22,6 +22,12 @@ GiB = 1 << 30
 
 #: Scene files are read whole; the largest bundled scene is ~5 kB.
 MAX_SCENE_FILE_BYTES = 4 * MiB
+#: A lobe file (.cl, .brdf) is read whole and a .brdf translated: the largest bundled lobe is
+#: ~2.4 kB (scenes/lobes/ggx_brdf.brdf), so 256 KiB leaves a hundred times that.
+MAX_LOBE_FILE_BYTES = 256 * 1024
+#: Lobe files (*.cl, *.brdf) in one lobe folder: every command that uses the folder reads each
+#: (a .brdf is translated, ~2 ms on the reference machine), so 1000 bound that to seconds.
+MAX_LOBE_FOLDER_FILES = 1000
 #: Decoded texture pixels (width × height of the largest sub-image): 4096² is 16.7 M texels;
 #: textures are sampled per pixel of a frame of at most a few megapixels, so a larger image
 #: only adds mip levels that are never read.
@@ -133,22 +139,26 @@ def frame_samples(width: int, height: int, samples: int) -> int:
                         width * height * samples * samples * FRAME_BYTES_PER_SAMPLE)
 
 
-def regular_file(path: str | Path, what: str) -> Path:
-    """`path` when it names a regular file (symbolic links followed); a device, FIFO, socket
-    or folder is refused without being opened (reading /dev/zero never ends, opening a FIFO
-    waits for a writer). `what` says what the file is for ("scene file", "texture")."""
+def regular_file(path: str | Path, what: str, limit: int | None = None) -> Path:
+    """`path` when it names a regular file (symbolic links followed) of at most `limit` bytes
+    (when given); a device, FIFO, socket or folder is refused without being opened (reading
+    /dev/zero never ends, opening a FIFO waits for a writer). `what` says what the file is
+    for ("scene file", "texture")."""
     path = Path(path)
     try:
-        mode = os.stat(path).st_mode
+        found = os.stat(path)
     except FileNotFoundError:
         raise ClshadeError(f"{path}: {what} not found") from None
     except OSError as exc:
         raise ClshadeError(f"{path}: cannot read {what} ({exc.strerror or exc})") from None
+    mode = found.st_mode
     if not stat.S_ISREG(mode):
         kind = ("a folder" if stat.S_ISDIR(mode) else "a FIFO" if stat.S_ISFIFO(mode)
                 else "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) else "a socket" if stat.S_ISSOCK(mode)
                 else "not a regular file")
         raise ClshadeError(f"{path}: {what} is {kind}, not a regular file")
+    if limit is not None and found.st_size > limit:
+        raise ClshadeError(f"{path}: {what} is larger than the limit of {limit} bytes")
     return path
 
 

@@ -1,4 +1,4 @@
-"""clshade's caches on disk (program binaries, device health, tessellations): where they live, atomic
+"""clshade's caches on disk (program binaries, device health, tuned build choices, tessellations): where they live, atomic
 writes, and pruning to the most recently used entries.
 
 Every cache is a folder under $XDG_CACHE_HOME/clshade (~/.cache/clshade) holding one file
@@ -32,6 +32,14 @@ def binary_cache_dir() -> Path | None:
         return None
     folder = os.environ.get(ENV_CACHE_DIR, "").strip()
     return Path(folder) if folder else user_cache_dir("programs")
+
+
+def tuning_cache_dir() -> Path | None:
+    """The folder of measured build choices and device rankings (clshade.device.tuned): `tuning`
+    beside the program binaries, so that clearing or relocating that cache clears or moves these
+    too; None when CLSHADE_NO_BINARY_CACHE=1."""
+    folder = binary_cache_dir()
+    return folder / "tuning" if folder is not None else None
 
 
 def read_entry(path: Path) -> bytes | None:

@@ -34,6 +34,10 @@ SCENES = scenes_dir()  # the scenes the imported clshade ships (site-packages wh
 PACKAGE = Path(clshade.__file__).resolve().parent
 CHECKOUT = ROOT if (ROOT / "pyproject.toml").is_file() else None
 
+# Tests never wait on the tuner's measurement (clshade/device/tuned.py) and never depend on this machine's: every
+# runtime builds today's fixed rule and the default device is the first in RUNTIME_PREFERENCE (.ci/run sets it too).
+os.environ["CLSHADE_TUNE"] = "fixed"
+
 # The checkout's `benchmarks` package importable by tests (`import benchmarks.publish.render`): the root is
 # appended, after site-packages, so that `import clshade` still finds the installed package first.
 if CHECKOUT is not None and str(CHECKOUT) not in sys.path:

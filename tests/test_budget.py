@@ -79,7 +79,9 @@ def test_readme_states_the_budget_as_it_is(checkout):
                         ("MAX_TEXTURE_PIXELS", "4096 × 4096"), ("MAX_SHADOW_TEXELS", "8192²"),
                         ("MAX_LIGHTS", str(budget.MAX_LIGHTS)), ("MAX_FRAMES", f"{budget.MAX_FRAMES:,}".replace(",", " ")),
                         ("MAX_SWEEP_COLUMNS", str(budget.MAX_SWEEP_COLUMNS)), ("MAX_SHEET_PIXELS", "8192²"),
-                        ("MAX_COORDINATE", f"±{budget.MAX_COORDINATE:.0e}".replace("e+", "e"))):
+                        ("MAX_COORDINATE", f"±{budget.MAX_COORDINATE:.0e}".replace("e+", "e")),
+                        ("MAX_LOBE_FILE_BYTES", f"{budget.MAX_LOBE_FILE_BYTES >> 10} KiB"),
+                        ("MAX_LOBE_FOLDER_FILES", str(budget.MAX_LOBE_FOLDER_FILES))):
         assert re.search(rf"{re.escape(shown)}[^|\n]*`{name}`", section), (name, shown)
     assert budget.MAX_TEXTURE_PIXELS == 4096 * 4096 and budget.MAX_SHADOW_TEXELS == 8192 ** 2
     assert budget.MAX_SHEET_PIXELS == 8192 ** 2

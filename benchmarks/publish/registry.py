@@ -24,6 +24,7 @@ from clshade.report.raster import raster_markdown
 from clshade.report.runtimes import runtimes_markdown
 from clshade.report.stability import floor_bias_table, stability_tables
 from clshade.report.study import report_markdown
+from clshade.report.tuning import tuning_markdown
 from clshade.report.user_lobes import user_lobes_example, user_lobes_markdown, user_lobes_table
 from clshade.report.view import view_markdown, view_table
 
@@ -81,6 +82,11 @@ RESULTS: tuple[Result, ...] = (
            ("kernels", "clshade/bench/runtimes.py", "clshade/device/health.py", "benchmarks/measure/runtimes.py"),
            (Rendering(OUT + "runtimes.md", runtimes_markdown),),
            "every OpenCL runtime: health, times, error against float64"),
+    Result(OUT + "tuning.json", "python -m benchmarks.measure.tuning",
+           ("kernels", "clshade/device/tune.py", "clshade/device/tuned.py", "clshade/device/runtime.py",
+            "clshade/bench/tuning.py", "benchmarks/measure/tuning.py"),
+           (Rendering(OUT + "tuning.md", tuning_markdown),),
+           "every CPU runtime: the tuner's pick and every build choice per model on a full frame; a quiet machine"),
     Result(OUT + "effects.json", "python -m benchmarks.measure.effects_bench",
            ("kernels", "benchmarks/measure/effects_bench.py"),
            (Rendering(OUT + "effects.md", effects_markdown),), "what each scene effect costs per model"),
@@ -130,8 +136,7 @@ RESULTS: tuple[Result, ...] = (
            "every .brdf file (scenes/lobes, BRDF Explorer's collection) against Mesa's GLSL"),
     Result(OUT + "brdf_explorer.json", "python -m benchmarks.measure.brdf_explorer",
            ("kernels", "clshade/models", "clshade/cli", "clshade/bench/run.py", "clshade/verify/stability.py",
-            "clshade/compare.py", "scenes/white_sphere.toml", "benchmarks/measure/brdf_explorer.py",
-            "benchmarks/results/glsl_oracle.json"),
+            "clshade/compare.py", "scenes/white_sphere.toml", "benchmarks/measure/brdf_explorer.py"),
            (Rendering(OUT + "brdf_explorer.md", brdf_explorer_markdown),),
            "BRDF Explorer's collection through models, render, bench, check stability and compare"),
     Result(OUT + "mutants.json", "python -m benchmarks.mutation.run",

@@ -28,6 +28,7 @@ from clshade import __version__
 from clshade.bench import bandwidth, frame as whole, peers as peer_mod
 from clshade.device.runtime import CACHED_STORES, INLINE_MATH, LIBRARY_MATH, NO_PREFETCH, Runtime, healthy_devices
 from clshade.device.shade import Shader, scene_features
+from clshade.device.timing import settle
 from clshade.models.registry import Registry
 from clshade.pipeline import prepare_frame
 from clshade.render.scene import load_scene
@@ -37,11 +38,6 @@ MODELS = ("lambert", "ggx_correlated", "phong")
 # In-cache timing: a band of this many pixels (≈ 3 MB of G-buffer and output at ~50 B/px, inside the
 # 32 MiB L3 of this EPYC) is shaded twice in a row and the second dispatch timed.
 CACHE_BAND_PIXELS = 1920 * 32
-# settle(): the process counts as idle once a QUIET_S window passes in which its threads used less
-# than IDLE_SHARE of one core; never waits longer than SETTLE_MAX_S.
-SETTLE_QUIET_S = 0.002
-SETTLE_IDLE_SHARE = 0.1
-SETTLE_MAX_S = 0.1
 ROUND_SEED = 15
 # STREAM triads timed in the rounds (so that they see the same machine as the kernels; the anchor of
 # the targets is their best median): three arrays of this many MiB, ≫ the 32 MiB L3.
@@ -60,20 +56,6 @@ def _versions() -> dict[str, str]:
         except Exception as exc:  # noqa: BLE001 - a missing optional package is data here
             out[name] = f"not available ({type(exc).__name__})"
     return out
-
-
-def settle(quiet_s: float = SETTLE_QUIET_S, max_s: float = SETTLE_MAX_S) -> float:
-    """Wait until every thread of this process is idle (a `quiet_s` window with less than
-    SETTLE_IDLE_SHARE of one core of CPU time, all threads counted); returns the wait in s."""
-    t0 = time.perf_counter()
-    cpu = time.process_time()
-    while time.perf_counter() - t0 < max_s:
-        time.sleep(quiet_s)
-        now = time.process_time()
-        if now - cpu < SETTLE_IDLE_SHARE * quiet_s:
-            break
-        cpu = now
-    return time.perf_counter() - t0
 
 
 # What each round's items are timed by: the second of two back-to-back runs of the item (timed_after_itself).
@@ -147,8 +129,8 @@ def compare(scene_path: str, models: list, width: int | None, height: int | None
             configs.append(dict(device=rt.info.description, device_name=rt.info.device,
                                 platform_version=rt.info.platform_version, build=build, simd=rt.simd,
                                 inline_math=rt.inline_math, streaming_stores=rt.streaming_stores,
-                                prefetch=rt.prefetches,
-                                shader=sh, dispatches=ds, images=images, ms={k: [] for k in ds}))
+                                prefetch=rt.prefetches, local_size=rt.local_size, choice=rt.choice.label(),
+                                choice_source=rt.choice_source, shader=sh, dispatches=ds, images=images, ms={k: [] for k in ds}))
     ok = [c for c in configs if "error" not in c]
     ref_images = ok[0]["images"]
     covered = np.flatnonzero(gb.channels["depth"] > 0)
@@ -256,6 +238,7 @@ def compare(scene_path: str, models: list, width: int | None, height: int | None
         runtimes.append(dict(device=c["device"], device_name=c["device_name"], platform_version=c["platform_version"],
                              build=c["build"], simd=c["simd"], inline_math=c["inline_math"],
                              streaming_stores=c["streaming_stores"], prefetch=c["prefetch"],
+                             local_size=c["local_size"], choice=c["choice"], choice_source=c["choice_source"],
                              opencl_stream_gbs=max((in_rounds[k]["median_gbs"] for k in
                                                     (round_triad_key(c["device"], kind) for kind in bandwidth.STORE_KINDS)
                                                     if k in in_rounds), default=ocl_best[c["device"]]),

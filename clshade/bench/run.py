@@ -421,7 +421,8 @@ def device_record(runtime: Runtime) -> dict[str, object]:
     clshade.provenance.stamp's."""
     return dict(name=runtime.info.device, platform=runtime.info.platform,
                 platform_version=runtime.info.platform_version, kind=runtime.info.kind,
-                local_size=runtime.local_size, compute_units=int(runtime.device.max_compute_units))
+                local_size=runtime.local_size, compute_units=int(runtime.device.max_compute_units),
+                build=runtime.build_record())
 
 
 def report(bench: Bench, rows: list[dict], frames: int, warmup: int, ladder: list[dict] | None = None,

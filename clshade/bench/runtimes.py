@@ -45,7 +45,8 @@ def device_rows() -> list[dict]:
         if state.ok:
             rt = Runtime(info.spec)
             row.update(simd=rt.simd, inline_math=rt.inline_math, streaming_stores=rt.streaming_stores,
-                       prefetch=rt.prefetches, local_size=rt.local_size)
+                       prefetch=rt.prefetches, local_size=rt.local_size, choice=rt.choice.label(),
+                       choice_source=rt.choice_source)
         rows.append(row)
     return rows
 

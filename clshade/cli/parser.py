@@ -56,6 +56,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=models_command.cmd_models)
 
     p = sub.add_parser("devices", help="list OpenCL platforms and devices")
+    p.add_argument("--tune", action="store_true", help="measure every device's build choices and the devices' "
+                   "order again (≤ 10 s a device) and show the measurements")
     p.set_defaults(func=devices.cmd_devices)
 
     _add_compare(sub)
@@ -137,9 +139,9 @@ def lobe_registry(args: argparse.Namespace) -> Registry:
             raise ClshadeError(f"--param {item!r}: expected NAME=VALUE")
         values[name.strip()] = value.strip()
     registry = Registry.from_env().with_params(values)
-    for folder in getattr(args, "lobes", []):
-        registry = registry.with_lobes(folder)
-        registry.lobes      # read now: a broken lobe file fails before the command starts
+    if getattr(args, "lobes", []):
+        registry = registry.with_lobes(*args.lobes)
+        registry.lobes      # read now, once for all folders: a broken lobe file fails before the command starts
     if values:
         declared = {p.name for l in registry.lobes.values() if l.origin == BRDF_FILE for p in l.params}
         for spec in (getattr(args, "model", None), getattr(args, "models", None)):

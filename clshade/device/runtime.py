@@ -2,8 +2,11 @@
 cache of built programs and kernels keyed by (source, build options).
 
 Device choice, in order: the `device` argument (CLI `--device`), the
-environment variable CLSHADE_DEVICE, then the default — a CPU device, PoCL
-preferred and the highest PoCL version first. A device spec is `P:D`
+environment variable CLSHADE_DEVICE, then the default — the fastest healthy CPU
+device as measured once on this machine (clshade/device/tune.py, cached), or with
+tuning off (CLSHADE_TUNE=fixed) the first healthy CPU device in RUNTIME_PREFERENCE.
+The image kernels' build choices (BuildChoice) are the device's measured ones the
+same way, else today's fixed rule (FIXED). A device spec is `P:D`
 (platform and device index from `clshade devices`), `cpu`/`gpu`, or a
 case-insensitive substring of "platform name, platform version, device name"
 (e.g. `PoCL 3.1`). Two PoCL installs are both named "Portable Computing
@@ -11,18 +14,19 @@ Language", so select by version or device, never by name alone.
 """
 from __future__ import annotations
 
+import copy
 import hashlib
 import os
 import re
 import warnings
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass, fields, replace
 from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
 from clshade.cachedir import binary_cache_dir, read_entry, write_entry
-from clshade.device import health
+from clshade.device import health, tuned
 from clshade.device.buildlog import relocate
 from clshade.diagnostics import stderr_captured
 from clshade.errors import ClshadeError, first_error
@@ -151,13 +155,13 @@ class Selection:
 
 def choose_device(spec: str | None = None) -> Selection:
     """Pick a healthy OpenCL device by spec (see module docstring). The default is the first
-    healthy device in `preference` order; an explicit spec naming a broken device fails in one
-    line naming the device, the compiler's reason and the remedy."""
+    healthy device in `default_order` (measured, else `preference`); an explicit spec naming a
+    broken device fails in one line naming the device, the compiler's reason and the remedy."""
     spec = spec or os.environ.get(ENV_DEVICE) or None
     devices = list_devices()
     if spec is None:
         skipped = []
-        for info, device in sorted(devices, key=lambda item: preference(item[0])):
+        for info, device in default_order(devices):
             state = device_health(info, device)
             if state.ok:
                 return Selection(info, device, tuple(skipped))
@@ -170,6 +174,40 @@ def choose_device(spec: str | None = None) -> Selection:
         raise ClshadeError(f"device {info.spec} {info.description} cannot build OpenCL programs: {state.reason}; "
                            f"{health.remedy(info)}")
     return Selection(info, device)
+
+
+def default_order(devices: list[tuple[DeviceInfo, object]]) -> list[tuple[DeviceInfo, object]]:
+    """The devices in the default's order: `preference` order, with the CPU devices in their measured
+    order instead (`measured_ranking`) where tuning is on and the ranking could be measured."""
+    ordered = sorted(devices, key=lambda item: preference(item[0]))
+    ranking = measured_ranking(ordered)
+    if ranking is None:
+        return ordered
+    position = {key: i for i, key in enumerate(ranking.get("order", []))}
+    cpus = [item for item in ordered if "cpu" in item[0].kind]
+    rest = [item for item in ordered if "cpu" not in item[0].kind]
+    # Stable: a device the ranking does not list (broken when it was measured) keeps its place after those it lists.
+    cpus.sort(key=lambda item: position.get(tuned.key_hash(device_key(*item)), len(position)))
+    return cpus + rest
+
+
+def device_key(info: DeviceInfo, device) -> dict:
+    """What the tuned build choice of this device depends on (clshade/device/tuned.py)."""
+    return tuned.device_key(info, str(device.version), str(device.driver_version))
+
+
+def measured_ranking(ordered: list[tuple[DeviceInfo, object]]) -> dict | None:
+    """The measured ranking of the CPU devices (clshade/device/tune.py, `rank`): from the cache, else
+    measured now in a child process; None with tuning off, with fewer than two CPU devices, or when
+    it could not be measured (the caller keeps `preference` order)."""
+    if tuned.mode() != tuned.AUTO:
+        return None
+    cpus = [(info, device) for info, device in ordered if "cpu" in info.kind]
+    if len(cpus) < 2:
+        return None
+    key = tuned.ranking_key([device_key(info, device) for info, device in cpus])
+    entry, _ = tuned.lookup(tuned.RANKING, key, ["rank"])
+    return entry if entry is not None and entry.get("status") == tuned.MEASURED else None
 
 
 def _match(spec: str, devices: list[tuple[DeviceInfo, object]]) -> tuple[DeviceInfo, object]:
@@ -225,6 +263,109 @@ CACHED_STORES = "-DCLSHADE_CACHED_STORES"
 # PREFETCH_AHEAD). CLSHADE_NO_PREFETCH=1 leaves the hint out.
 ENV_NO_PREFETCH = "CLSHADE_NO_PREFETCH"
 NO_PREFETCH = "-DCLSHADE_NO_PREFETCH"
+# The work-group size of every dispatch (the kernels use no local memory and guard the tail of a
+# padded global size, so any size runs them). CLSHADE_LOCAL_SIZE=N forces one.
+LOCAL_SIZE = 64
+ENV_LOCAL_SIZE = "CLSHADE_LOCAL_SIZE"
+MATH_CHOICES = ("auto", "library", "inline")
+STORE_CHOICES = ("streaming", "plain")
+
+
+@dataclass(frozen=True)
+class BuildChoice:
+    """The image kernels' build choices on a device. The defaults are today's rule (FIXED): `math`
+    "auto" (simd.h writes the builtins inline only where PoCL's AVX-512 builtin library meets a
+    target without AVX-512; "library" / "inline" force either way), streaming `stores` and the
+    G-buffer `prefetch` where the compiler targets x86 (simd.h; "plain" / False leave them out),
+    `lanes` per work-item None = the device's rule (`Runtime.native_simd` on CPUs, 1 on GPUs) and
+    `local` work-group size None = LOCAL_SIZE (at most the device's maximum)."""
+    math: str = "auto"
+    stores: str = "streaming"
+    prefetch: bool = True
+    lanes: int | None = None
+    local: int | None = None
+
+    def __post_init__(self) -> None:
+        if self.math not in MATH_CHOICES or self.stores not in STORE_CHOICES or not isinstance(self.prefetch, bool):
+            raise ValueError(f"build choice {self!r}: math one of {MATH_CHOICES}, stores one of {STORE_CHOICES}")
+        if self.lanes is not None and str(self.lanes) not in SIMD_WIDTHS:
+            raise ValueError(f"build choice lanes={self.lanes!r}: expected one of {', '.join(SIMD_WIDTHS)}")
+        if self.local is not None and not (isinstance(self.local, int) and self.local >= 1):
+            raise ValueError(f"build choice local={self.local!r}: expected a positive work-group size")
+
+    def options(self) -> tuple[str, ...]:
+        """The build options that make this choice (none for FIXED)."""
+        return (((LIBRARY_MATH,) if self.math == "library" else (INLINE_MATH,) if self.math == "inline" else ())
+                + ((CACHED_STORES,) if self.stores == "plain" else ())
+                + ((NO_PREFETCH,) if not self.prefetch else ()))
+
+    def changes(self, other: "BuildChoice | None" = None) -> tuple[str, ...]:
+        """The fields that differ from `other` (default FIXED), in field order."""
+        other = FIXED if other is None else other
+        return tuple(f.name for f in fields(self) if getattr(self, f.name) != getattr(other, f.name))
+
+    def label(self) -> str:
+        """What the choice changes from today's rule (`math inline, plain stores, 16 lanes`), or "today's rule"."""
+        names = {"math": f"math {self.math}", "stores": f"{self.stores} stores",
+                 "prefetch": "prefetch" if self.prefetch else "no prefetch",
+                 "lanes": f"{self.lanes} lanes", "local": f"work-group {self.local}"}
+        return ", ".join(names[k] for k in self.changes()) or "today's rule"
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, doc: dict) -> "BuildChoice":
+        """The choice a cache entry or results file holds; ValueError / TypeError when it is not one."""
+        if not isinstance(doc, dict) or set(doc) != {f.name for f in fields(cls)}:
+            raise ValueError(f"not a build choice: {doc!r}")
+        return cls(**doc)
+
+
+#: Today's rule: what every device gets with tuning off, and the default the tuner must beat.
+FIXED = BuildChoice()
+
+
+def forced(choice: BuildChoice) -> tuple[BuildChoice, tuple[str, ...]]:
+    """`choice` with the environment's switches applied over it, and the switches that changed
+    it: CLSHADE_LIBRARY_MATH=1 / CLSHADE_INLINE_MATH=1 (library wins where both are set, as in
+    simd.h), CLSHADE_CACHED_STORES=1, CLSHADE_NO_PREFETCH=1, CLSHADE_LOCAL_SIZE=N. CLSHADE_SIMD is
+    read where the lanes are (`Runtime.simd`), as before."""
+    changes: dict[str, object] = {}
+    if _flag(ENV_LIBRARY_MATH):
+        changes["math"] = "library"
+    elif _flag(ENV_INLINE_MATH):
+        changes["math"] = "inline"
+    if _flag(ENV_CACHED_STORES):
+        changes["stores"] = "plain"
+    if _flag(ENV_NO_PREFETCH):
+        changes["prefetch"] = False
+    text = os.environ.get(ENV_LOCAL_SIZE, "").strip()
+    if text:
+        if not text.isdigit() or int(text) < 1:
+            raise ClshadeError(f"{ENV_LOCAL_SIZE}={text!r}: expected a positive work-group size")
+        changes["local"] = int(text)
+    names = {"math": ENV_LIBRARY_MATH if _flag(ENV_LIBRARY_MATH) else ENV_INLINE_MATH, "stores": ENV_CACHED_STORES,
+             "prefetch": ENV_NO_PREFETCH, "local": ENV_LOCAL_SIZE}
+    return replace(choice, **changes), tuple(names[k] for k in changes)
+
+
+def tuned_choice(info: DeviceInfo, device) -> tuple[BuildChoice, str]:
+    """The device's measured build choice and where it comes from: the cache (clshade/device/tuned.py),
+    else measured now in a child process (clshade/device/tune.py); FIXED where tuning is off or
+    could not measure (the reason says which)."""
+    if tuned.mode() != tuned.AUTO:
+        return FIXED, f"tuning off: {tuned.ENV_TUNE}={os.environ.get(tuned.ENV_TUNE, '').strip()}"
+    key = device_key(info, device)
+    entry, why = tuned.lookup(tuned.DEVICE, key, ["device", info.spec, "--key", tuned.key_hash(key)])
+    if entry is not None and entry.get("status") == tuned.MEASURED:
+        try:
+            return BuildChoice.from_dict(entry["choice"]), f"measured on this device, key {tuned.key_hash(key)[:12]}"
+        except (KeyError, TypeError, ValueError):
+            why = f"unreadable choice in {tuned.entry_path(tuned.DEVICE, key)}"
+    elif entry is not None:
+        why = str(entry.get("reason", "not measured"))
+    return FIXED, f"not measured: {why}"
 
 
 def host_has_avx512f() -> bool:
@@ -243,8 +384,11 @@ def _flag(name: str) -> bool:
 class Runtime:
     """One OpenCL context and in-order profiling queue on the chosen device."""
 
-    def __init__(self, device: str | None = None, options: tuple[str, ...] = ()) -> None:
-        """`options`: build options added to every program (e.g. LIBRARY_MATH, INLINE_MATH)."""
+    def __init__(self, device: str | None = None, options: tuple[str, ...] = (),
+                 choice: BuildChoice | None = None) -> None:
+        """`options`: build options added to every program (e.g. LIBRARY_MATH, INLINE_MATH), after
+        the build `choice` (default: the device's tuned one, `tuned_choice`); the environment's
+        switches (`forced`) apply over either."""
         cl = _cl()
         self.cl = cl
         chosen = choose_device(device)
@@ -254,11 +398,38 @@ class Runtime:
         self.queue = cl.CommandQueue(self.context, properties=cl.command_queue_properties.PROFILING_ENABLE)
         self._programs: dict[str, object] = {}
         self._kernels: dict[tuple[str, str], object] = {}
-        self.options = (tuple(options) + (("-DCLSHADE_HOST_AVX512F",) if host_has_avx512f() else ())
-                        + ((LIBRARY_MATH,) if _flag(ENV_LIBRARY_MATH) else ())
-                        + ((INLINE_MATH,) if _flag(ENV_INLINE_MATH) else ())
-                        + ((CACHED_STORES,) if _flag(ENV_CACHED_STORES) else ())
-                        + ((NO_PREFETCH,) if _flag(ENV_NO_PREFETCH) else ()))
+        self._facts: dict[tuple[str, ...], dict[str, bool]] = {}
+        self._base_options = tuple(options) + (("-DCLSHADE_HOST_AVX512F",) if host_has_avx512f() else ())
+        self._honour_env = True
+        if choice is None:
+            choice, self.choice_source = tuned_choice(self.info, self.device)
+        else:
+            self.choice_source = "given"
+        self.choice, self.forced_by = forced(choice)
+        self.options = self._options(self.choice)
+
+    def _options(self, choice: BuildChoice) -> tuple[str, ...]:
+        """The explicit options, the host's AVX-512 flag, then the choice's (the order they always had)."""
+        return self._base_options + choice.options()
+
+    def with_choice(self, choice: BuildChoice) -> "Runtime":
+        """This runtime (its context, queue and built programs shared) building with `choice`
+        exactly: the environment's switches (CLSHADE_INLINE_MATH, CLSHADE_SIMD, ...) do not apply.
+        What the tuner times (clshade/device/tune.py)."""
+        clone = copy.copy(self)
+        clone.choice, clone.choice_source, clone.forced_by = choice, "given", ()
+        clone._honour_env = False
+        clone.options = clone._options(choice)
+        return clone
+
+    def build_record(self) -> dict[str, object]:
+        """What the image kernels built here get and why: the choice, where it comes from (measured,
+        fixed rule, given), the switches that forced parts of it, and what the device then compiles
+        (lanes, work-group size, and simd.h's x86 paths as probed). For results files and listings."""
+        return dict(choice=self.choice.as_dict(), label=self.choice.label(), source=self.choice_source,
+                    forced_by=list(self.forced_by) + ([ENV_SIMD] if self._env_simd() else []),
+                    simd=self.simd, local_size=self.local_size, inline_math=self.inline_math,
+                    streaming_stores=self.streaming_stores, prefetch=self.prefetches)
 
     def kernel(self, source: str, name: str, options: tuple[str, ...] = (), label: str = "") -> object:
         """Build (once) and return kernel `name` from `source` with build `options`
@@ -367,8 +538,9 @@ class Runtime:
         device's native float vector width (CL_DEVICE_NATIVE_VECTOR_WIDTH_FLOAT:
         16 with AVX-512, 8 with AVX2, 4 with SSE), capped at 8 when the runtime's
         compiler target has no AVX-512 (see `native_simd`); 1 on GPUs, whose
-        hardware vectorises. CLSHADE_SIMD overrides."""
-        text = os.environ.get(ENV_SIMD, "").strip()
+        hardware vectorises. The build choice's `lanes` (measured: clshade/device/tune.py)
+        replace that rule where the device builds them; CLSHADE_SIMD overrides both."""
+        text = self._env_simd()
         if text:
             if text not in SIMD_WIDTHS:
                 raise ClshadeError(f"{ENV_SIMD}={text!r}: expected one of {', '.join(SIMD_WIDTHS)}")
@@ -376,7 +548,13 @@ class Runtime:
                 raise ClshadeError(f"{ENV_SIMD}={text!r}: device {self.info.description} compiles without "
                                    f"AVX-512 (use 1, 4 or 8)")
             return int(text)
+        lanes = self.choice.lanes
+        if lanes is not None and not (lanes == 16 and "cpu" in self.info.kind and self.native_simd < 16):
+            return lanes
         return self.native_simd if "cpu" in self.info.kind else 1
+
+    def _env_simd(self) -> str:
+        return os.environ.get(ENV_SIMD, "").strip() if self._honour_env else ""
 
     @property
     def native_simd(self) -> int:
@@ -423,22 +601,31 @@ class Runtime:
         x86, probed on the device; CLSHADE_NO_PREFETCH=1 leaves it out)."""
         return self._simd_h_defines("CLSHADE_PREFETCH")
 
+    #: The macros of kernels/simd.h that say which of its paths a build takes (one probe reads all).
+    SIMD_H_MACROS = ("CLSHADE_INLINE_MATH", "CLSHADE_STREAMING_STORES", "CLSHADE_PREFETCH")
+
     def _simd_h_defines(self, macro: str) -> bool:
-        """Whether kernels/simd.h defines `macro` when built on this device with these options."""
-        source = ((kernels_dir() / "simd.h").read_text(encoding="utf-8") + "\n__kernel void probe(__global int* out) {\n"
-                  f"#ifdef {macro}\n out[0] = 1;\n#else\n out[0] = 0;\n#endif\n}}\n")
-        kernel = self.kernel(source, "probe", label="simd.h probe")
-        out = np.zeros(1, np.int32)
-        buf = self.empty(out.nbytes)
-        kernel.set_args(buf)
-        self.cl.enqueue_nd_range_kernel(self.queue, kernel, (1,), (1,)).wait()
-        self.cl.enqueue_copy(self.queue, out, buf)
-        return bool(out[0])
+        """Whether kernels/simd.h defines `macro` when built on this device with these options
+        (one probe program per set of options, every SIMD_H_MACROS at once)."""
+        if self.options not in self._facts:
+            body = "".join(f"#ifdef {m}\n out[{i}] = 1;\n#else\n out[{i}] = 0;\n#endif\n"
+                           for i, m in enumerate(self.SIMD_H_MACROS))
+            source = ((kernels_dir() / "simd.h").read_text(encoding="utf-8")
+                      + "\n__kernel void probe(__global int* out) {\n" + body + "}\n")
+            kernel = self.kernel(source, "probe", label="simd.h probe")
+            out = np.zeros(len(self.SIMD_H_MACROS), np.int32)
+            buf = self.empty(out.nbytes)
+            kernel.set_args(buf)
+            self.cl.enqueue_nd_range_kernel(self.queue, kernel, (1,), (1,)).wait()
+            self.cl.enqueue_copy(self.queue, out, buf)
+            self._facts[self.options] = dict(zip(self.SIMD_H_MACROS, (bool(x) for x in out)))
+        return self._facts[self.options][macro]
 
     @property
     def local_size(self) -> int:
-        """Work-group size used for every dispatch (one size: PoCL compiles per local size)."""
-        return int(min(64, self.device.max_work_group_size))
+        """Work-group size used for every dispatch (one size: PoCL compiles per local size): the
+        build choice's, else LOCAL_SIZE; at most the device's maximum."""
+        return int(min(self.choice.local or LOCAL_SIZE, self.device.max_work_group_size))
 
     def global_size(self, count: int) -> int:
         """`count` padded up to a multiple of the local size (kernels guard the tail)."""

@@ -25,7 +25,10 @@ its tangent frame.
 """
 from __future__ import annotations
 
+import math
+import os
 import re
+import stat
 from dataclasses import dataclass, replace
 from pathlib import Path
 from types import MappingProxyType
@@ -33,6 +36,8 @@ from typing import Mapping
 
 from clshade.errors import ClshadeError
 from clshade.models.glsl.emitter import translate
+from clshade import budget
+from clshade.models.glsl.limits import MAX_FLOAT
 from clshade.models.lobe import BRDF_FILE, Lobe, Param
 
 FAMILY = "brdf"
@@ -52,10 +57,17 @@ def lobe_id(path: Path) -> str:
 
 
 def _number(path: Path, line: int, name: str, text: str) -> float:
+    """A number of a parameter line: finite and within float range (the kernel's float build
+    compiles it in: NaN or an infinity would reach the OpenCL compiler as `nan`, `inf`)."""
     try:
-        return float(text)
+        value = float(text)
     except ValueError:
         raise ClshadeError(f"{path}:{line}: parameter {name!r}: {text!r} is not a number") from None
+    if not math.isfinite(value):
+        raise ClshadeError(f"{path}:{line}: parameter {name!r}: {text!r} is not a finite number")
+    if abs(value) > MAX_FLOAT:
+        raise ClshadeError(f"{path}:{line}: parameter {name!r}: {text} is past the largest float ({MAX_FLOAT:.8g})")
+    return value
 
 
 def parse_value(kind: str, text: str, where: str):
@@ -94,11 +106,7 @@ class BrdfSource:
 
 def read_source(path: Path) -> BrdfSource:
     """The blocks of a .brdf file; errors name the file and the line."""
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ClshadeError(f"{path}: cannot read ({exc})") from exc
-    lines = text.splitlines()
+    lines = budget.read_text(path, "lobe file", budget.MAX_LOBE_FILE_BYTES).splitlines()
     first = next(((i, l.strip()) for i, l in enumerate(lines, 1) if l.strip() and not l.strip().startswith("#")),
                  (1, ""))
     if first[1] != "analytic":
@@ -116,6 +124,9 @@ def read_source(path: Path) -> BrdfSource:
                     raise ClshadeError(f"{path}:{i}: '::begin {name}' inside '::begin {current}'")
                 if name not in ("parameters", "shader"):
                     raise ClshadeError(f"{path}:{i}: unknown block '::begin {name}' (parameters or shader)")
+                if name in blocks:
+                    raise ClshadeError(f"{path}:{i}: a second '::begin {name}' block (the first begins at line "
+                                       f"{blocks[name][0] - 1})")
                 current, start = name, i
                 blocks[name] = (i + 1, [])
             else:
@@ -143,10 +154,17 @@ def read_source(path: Path) -> BrdfSource:
             raise ClshadeError(f"{path}:{at}: parameter line {raw.strip()!r} is not 'TYPE NAME ...'")
         if kind == "float" and len(words) == 5:
             low, high, default = (_number(path, at, name, w) for w in words[2:5])
+            if not low <= default <= high:
+                raise ClshadeError(f"{path}:{at}: parameter {name!r}: default {default:g} outside its range "
+                                   f"[{low:g}, {high:g}]")
             ranges[name] = (low, high)
             params.append((kind, name, (default,), at))
         elif kind == "color" and len(words) == 5:
-            params.append((kind, name, tuple(_number(path, at, name, w) for w in words[2:5]), at))
+            rgb = tuple(_number(path, at, name, w) for w in words[2:5])
+            if not all(0.0 <= c <= 1.0 for c in rgb):
+                raise ClshadeError(f"{path}:{at}: colour parameter {name!r}: default {' '.join(words[2:5])} has a "
+                                   f"component outside [0, 1]")
+            params.append((kind, name, rgb, at))
         elif kind == "bool" and len(words) == 3:
             params.append((kind, name, (1.0 if _number(path, at, name, words[2]) else 0.0,), at))
         else:

@@ -7,13 +7,16 @@ are read once per process and never change.
 """
 from __future__ import annotations
 
+import math
 import re
+import unicodedata
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 from types import MappingProxyType
 from typing import Mapping
 
+from clshade import budget
 from clshade.errors import ClshadeError
 from clshade.resources import kernels_dir
 
@@ -76,9 +79,27 @@ LOBE_FUNCTIONS = {"diffuse": ("real", "diffuse_lobe"), "specular": ("vec3", "spe
 ID_PATTERN = re.compile(r"[a-z][a-z0-9_]*")
 
 
+# Characters a lobe file's path may not hold: the kernel source names the file in `#line N "path"`
+# markers, which a line break, a quote or a backslash would end or change (C has no escape there
+# that every compiler reads back), and a compiler's log is read line by line.
+_PATH_BREAKING = frozenset('"\\')
+_LINE_BREAKING_CATEGORIES = frozenset({"Cc", "Zl", "Zp"})    # control characters, line and paragraph separators
+
+
+def check_lobe_path(path: Path) -> Path:
+    """`path` when it can be named in a `#line` marker; else a one-line error naming it (escaped)."""
+    text = str(path)
+    bad = next((c for c in text if c in _PATH_BREAKING or unicodedata.category(c) in _LINE_BREAKING_CATEGORIES), None)
+    if bad is not None:
+        raise ClshadeError(f"{ascii(text)[1:-1]}: a lobe file's path may not hold {ascii(bad)} (control characters, "
+                           f"quotes and backslashes would break the kernel's #line markers); rename it")
+    return path
+
+
 def parse_lobe(path: Path, origin: str = BUILT_IN) -> Lobe:
-    """A lobe file's header and code; errors name the file and the header line (`path:line: ...`)."""
-    text = path.read_text(encoding="utf-8")
+    """A lobe file's header and code; errors name the file and the header line (`path:line: ...`).
+    The file must be a regular file of at most budget.MAX_LOBE_FILE_BYTES of UTF-8."""
+    text = budget.read_text(path, "lobe file", budget.MAX_LOBE_FILE_BYTES)
     where = str(path)
     match = _HEADER.search(text)
     if not match:
@@ -118,9 +139,16 @@ def parse_lobe(path: Path, origin: str = BUILT_IN) -> Lobe:
         try:
             if len(cells) != 5:
                 raise ValueError
-            params.append(Param(cells[0], float(cells[1]), float(cells[2]), float(cells[3]), cells[4]))
+            low, high, default = float(cells[1]), float(cells[2]), float(cells[3])
         except ValueError:
             raise ClshadeError(f"{where}:{at}: param {value!r} is not 'name | min | max | default | text'") from None
+        # NaN, inf and 1e309 would reach the compiler and JSON (`clshade models --json`, the viewer).
+        for key, number, written in zip(("min", "max", "default"), (low, high, default), cells[1:4]):
+            if not math.isfinite(number):
+                raise ClshadeError(f"{where}:{at}: param {cells[0]}: {key} = {written} is not a finite number")
+        if not low <= default <= high:
+            raise ClshadeError(f"{where}:{at}: param {cells[0]}: default {default:g} is outside [{low:g}, {high:g}]")
+        params.append(Param(cells[0], low, high, default, cells[4]))
     uses = frozenset(u.strip() for u in single.get("uses", "-").split(",") if u.strip() not in ("", "-"))
     unknown = sorted(uses - USES)
     if unknown:

@@ -67,6 +67,7 @@ def perf_markdown(doc: dict) -> str:
          f"{doc['cache_band_pixels']} px, dispatched twice and the second timed, scaled to the frame by covered "
          "work-items: its instructions without the trip to memory.", "",
          markdown(PERF_RUNTIME_HEADER, _perf_runtime_rows(doc["runtimes"]))]
+    L += _perf_choice_lines(doc["runtimes"])
     L += _perf_noise_lines(doc)
     L += ["", "## Peers (same G-buffer, same rounds; verified against clshade on covered pixels, ≤ 1e-4 relative)", "",
           markdown(["peer", "model", "ms", "max rel diff (all covered)", "max rel diff (well-conditioned)", "verified",
@@ -102,6 +103,18 @@ def _perf_peer_row(p: dict) -> list[str]:
             "column only" if p["ill_conditioned_pixels"] else "")
     return [f"{p['peer']} {p['version']}", p["model"], cell(p["median_ms"], ".2f"), cell(p["max_rel_diff"], ".1e"),
             cell(p["max_rel_diff_well_conditioned"], ".1e"), "yes" if p["verified"] else "NO", note]
+
+
+def _perf_choice_lines(runtimes: list[dict]) -> list[str]:
+    """What `default` built on each runtime: its build choice (measured on the device, or today's rule)
+    and where it came from; the other builds add their one switch to it. Results measured before the
+    choices were recorded have none."""
+    rows = {(rt["device"], rt["choice"], rt["choice_source"]) for rt in runtimes
+            if rt.get("build") == "default" and "choice" in rt}
+    if not rows:
+        return []
+    return ["", "Build choices of `default` (the other builds add their one switch to it): "
+            + "; ".join(f"{short_device(d)}: {label} ({source})" for d, label, source in sorted(rows)) + "."]
 
 
 def _perf_noise_lines(doc: dict) -> list[str]:

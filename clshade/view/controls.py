@@ -7,12 +7,18 @@ scene at hand (`Limits`: its materials, its lights, the lobes' declared paramete
 ranges) and returns a frozen `Controls`, or raises ControlError naming the key,
 the value and the reason, which the page shows. Nothing unchecked reaches the
 renderer.
+
+The models a state names are resolved once, when it is checked, and travel with its
+Controls: a lobe file or folder a message names is read for that message only (the
+session's registry never changes), from the folders the session's registry is confined
+to (ViewSession: the scene's folder and the lobe folders given to the command).
 """
 from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass
+import re
+from dataclasses import dataclass, field
 from typing import Any
 
 from clshade.errors import ClshadeError
@@ -34,6 +40,9 @@ ZOOM_RANGE = (0.02, 50.0)
 LIGHT_SCALE_RANGE = (0.0, 100.0)
 #: Largest |azimuth| in degrees (the page keeps it small; this bounds the float math).
 MAX_AZIMUTH = 1e6
+#: A light's key in `lights`: its index in ASCII digits (str.isdigit would take '²', which int() refuses);
+#: four digits are plenty under budget.MAX_LIGHTS.
+LIGHT_INDEX = re.compile(r"[0-9]{1,4}")
 
 
 class ControlError(ClshadeError):
@@ -56,9 +65,14 @@ class Controls:
     # (material, ((param, value), …)); a colour's value is (R, G, B)
     materials: tuple[tuple[str, tuple[tuple[str, float | tuple[float, float, float]], ...]], ...] = ()
     lights: tuple[tuple[int, tuple[float, float, float] | None, float | None], ...] = ()  # (index, direction, scale)
+    # (spec, Model) of model A and B as parse_controls resolved them; empty for Controls made by hand
+    resolved: tuple[tuple[str, Model], ...] = field(default=(), compare=False, repr=False)
 
     def models(self, registry: Registry) -> tuple[Model, Model]:
-        return registry.resolve(self.model_a), registry.resolve(self.model_b)
+        """Models A and B: as resolved when the state was checked, else resolved in `registry`."""
+        known = dict(self.resolved)
+        a, b = (known[spec] if spec in known else registry.resolve(spec) for spec in (self.model_a, self.model_b))
+        return a, b
 
 
 def material_params(registry: Registry) -> dict[str, Param]:
@@ -112,7 +126,10 @@ def parse_message(text: str | bytes) -> dict[str, Any]:
 
 
 def _shown(value: Any) -> str:
-    text = json.dumps(value) if not isinstance(value, float) else repr(value)
+    try:
+        text = json.dumps(value) if not isinstance(value, float) else repr(value)
+    except ValueError:      # an int of over 4300 digits, which str() refuses
+        text = f"an integer of {value.bit_length()} bits"
     return text if len(text) <= 60 else text[:57] + "..."
 
 
@@ -123,9 +140,13 @@ def _fail(key: str, value: Any, why: str) -> ControlError:
 def _number(key: str, value: Any, low: float, high: float) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise _fail(key, value, "must be a number")
-    if not math.isfinite(value) or not low <= value <= high:
+    try:
+        number = float(value)           # an int past float's range (JSON's 10**400) overflows
+    except OverflowError:
+        number = math.inf
+    if not math.isfinite(number) or not low <= number <= high:
         raise _fail(key, value, f"must be within [{low:g}, {high:g}]")
-    return float(value)
+    return number
 
 
 def _boolean(key: str, value: Any) -> bool:
@@ -140,14 +161,15 @@ def _table(key: str, value: Any) -> dict[str, Any]:
     return value
 
 
-def _model(key: str, value: Any, registry: Registry) -> str:
+def _model(key: str, value: Any, registry: Registry) -> tuple[str, Model]:
+    """The spec and its Model (a lobe file it names is read now, once)."""
     if not isinstance(value, str) or not value.strip() or len(value) > MAX_MODEL_SPEC:
         raise _fail(key, value, f"must be a model name of 1 to {MAX_MODEL_SPEC} characters")
     try:
-        registry.resolve(value)
+        model = registry.resolve(value)
     except ClshadeError as exc:
         raise _fail(key, value, str(exc).removeprefix(f"model {value!r}: ")) from None
-    return value.strip()
+    return value.strip(), model
 
 
 def _direction(key: str, value: Any) -> tuple[float, float, float]:
@@ -186,8 +208,8 @@ def _materials(value: Any, limits: Limits) -> tuple:
 def _lights(value: Any, limits: Limits) -> tuple:
     out = []
     for index_text, light in _table("lights", value).items():
-        key = f"lights.{index_text}"
-        if not index_text.isdigit() or int(index_text) >= len(limits.light_kinds):
+        key = f"lights.{index_text[:20]}"
+        if not LIGHT_INDEX.fullmatch(index_text) or int(index_text) >= len(limits.light_kinds):
             raise _fail(key, light, f"no such light; the scene has {len(limits.light_kinds)} (0 to "
                                     f"{len(limits.light_kinds) - 1})")
         index = int(index_text)
@@ -227,12 +249,17 @@ def parse_controls(value: Any, limits: Limits) -> Controls:
         raise _fail("samples", samples, f"must be an integer within [1, {MAX_SAMPLES}]")
     if max(limits.width, limits.height) * samples > 16384:
         raise _fail("samples", samples, f"{limits.width}x{limits.height} × {samples} exceeds the raster limit 16384")
+    azimuth = _number("azimuth", state["azimuth"], -MAX_AZIMUTH, MAX_AZIMUTH)
+    elevation = _number("elevation", state["elevation"], -MAX_ELEVATION, MAX_ELEVATION)
+    distance = _number("distance", state["distance"], *limits.distance)
+    model_a, a = _model("model_a", state["model_a"], limits.registry)
+    model_b, b = _model("model_b", state["model_b"], limits.registry)
     return Controls(
-        azimuth=_number("azimuth", state["azimuth"], -MAX_AZIMUTH, MAX_AZIMUTH),
-        elevation=_number("elevation", state["elevation"], -MAX_ELEVATION, MAX_ELEVATION),
-        distance=_number("distance", state["distance"], *limits.distance),
-        model_a=_model("model_a", state["model_a"], limits.registry),
-        model_b=_model("model_b", state["model_b"], limits.registry),
+        azimuth=azimuth,
+        elevation=elevation,
+        distance=distance,
+        model_a=model_a,
+        model_b=model_b,
         split=_boolean("split", state["split"]),
         diff=_boolean("diff", state["diff"]),
         exposure=_number("exposure", state["exposure"], *EXPOSURE_RANGE),
@@ -241,4 +268,5 @@ def parse_controls(value: Any, limits: Limits) -> Controls:
         specular_aa=_boolean("specular_aa", state["specular_aa"]),
         materials=_materials(state.get("materials", {}), limits),
         lights=_lights(state.get("lights", {}), limits),
+        resolved=((model_a, a), (model_b, b)),
     )

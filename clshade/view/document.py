@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from clshade.errors import ClshadeError
+from clshade.models.registry import LOBE_SUFFIXES
 from clshade.render.scene import TEXTURE_KEYS
 
 _BARE_KEY = re.compile(r"^[A-Za-z0-9_-]+$")
@@ -119,8 +120,8 @@ def applied(base: dict[str, Any], controls, position, width: int, height: int) -
 
 
 def relocated(doc: dict[str, Any], scene_dir: Path, out_dir: Path) -> dict[str, Any]:
-    """`doc` with its relative mesh and texture paths rewritten for a file in `out_dir`
-    (they name the same files as from `scene_dir`)."""
+    """`doc` with its relative mesh, texture and lobe paths (render.lobes, a lobe file as
+    render.model) rewritten for a file in `out_dir` (they name the same files as from `scene_dir`)."""
     doc = copy.deepcopy(doc)
     if Path(scene_dir).resolve() == Path(out_dir).resolve():
         return doc
@@ -130,6 +131,11 @@ def relocated(doc: dict[str, Any], scene_dir: Path, out_dir: Path) -> dict[str, 
         if isinstance(value, str) and not Path(value).is_absolute():
             table[key] = os.path.relpath(Path(scene_dir).resolve() / value, Path(out_dir).resolve())
 
+    render = doc.get("render")
+    if isinstance(render, dict):
+        move(render, "lobes")
+        if Path(str(render.get("model", ""))).suffix in LOBE_SUFFIXES:
+            move(render, "model")
     for material in doc.get("materials", {}).values():
         for key in TEXTURE_KEYS:
             move(material, key)

@@ -81,11 +81,22 @@ class Page:
         self.skipped = 0
 
     async def send_json(self, data: dict) -> None:
+        """Send `data` as JSON, which has no NaN or Infinity: a message holding one is logged and
+        replaced by an error naming it (the page's JSON.parse would refuse the whole message)."""
+        try:
+            text = json.dumps(data, allow_nan=False)
+        except ValueError as exc:
+            self.server.log(f"clshade view: internal error: a {data.get('type')} message is not JSON ({exc})")
+            seq = data.get("seq")
+            text = json.dumps(dict(type="error", seq=seq if isinstance(seq, int) else None,
+                                   message=f"internal error: the {data.get('type')} message holds a number "
+                                           f"JSON cannot carry ({exc})"))
         if not self.ws.closed:
-            await self.ws.send_str(json.dumps(data))
+            await self.ws.send_str(text)
 
     async def error(self, seq: Any, message: str) -> None:
-        await self.send_json(dict(type="error", seq=seq if isinstance(seq, int) else None, message=message))
+        echoed = isinstance(seq, int) and not isinstance(seq, bool) and abs(seq) < 2 ** 53    # a number JS reads exactly
+        await self.send_json(dict(type="error", seq=seq if echoed else None, message=message))
 
     async def receive(self, text: str) -> None:
         """Check one message; queue what it asks for, or answer with an error."""
@@ -113,6 +124,9 @@ class Page:
             self.wake.set()
         except ClshadeError as exc:
             await self.error(seq, str(exc))
+        except Exception as exc:  # noqa: BLE001 — a bug must not drop the page's connection
+            self.server.log("clshade view: internal error\n" + traceback.format_exc())
+            await self.error(seq, f"internal error: {type(exc).__name__}: {exc}"[:300])
 
     async def run(self) -> None:
         """Two stages on two threads, each taking the newest state it can: the raster thread
@@ -259,7 +273,11 @@ class ViewServer:
             self._linger_task.cancel()
         task = asyncio.create_task(page.run())
         try:
-            await page.send_json(self.session.hello())
+            try:
+                hello = self.session.hello()
+            except ClshadeError as exc:     # the page shows it; its messages are answered as ever
+                hello = dict(type="error", seq=None, message=str(exc))
+            await page.send_json(hello)
             async for message in ws:
                 if message.type == WSMsgType.TEXT:
                     await page.receive(message.data)

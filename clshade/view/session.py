@@ -43,7 +43,7 @@ from clshade.diagnostics import note
 from clshade.errors import ClshadeError
 from clshade.models.lobe import SURFACE_PARAMS
 from clshade.models.model import PRESETS, presets
-from clshade.models.registry import Registry
+from clshade.models.registry import Registry, lobe_path
 from clshade.pipeline import Timings
 from clshade.render.gbuffer import GBuffer, build_gbuffer, face_planes, material_table
 from clshade.render.arrays import PlanePool, keep_freed_memory
@@ -59,8 +59,9 @@ from clshade.view.document import applied, dumps, relocated
 
 #: Frames of each model kept for its statistics (avg FPS, 1 % low): about two seconds of dragging.
 HISTORY = 120
-#: Names "save" accepts: one file name stem in the output folder, no path.
-SAVE_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
+#: Names "save" accepts: one file name stem in the output folder, no path (matched whole: fullmatch,
+#: as `$` would let a trailing newline through).
+SAVE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
 #: Colours of the difference view's scale bar on the page.
 RAMP_STEPS = 160
 #: The stage of an orbit frame's visibility buffer and G-buffer on the device (clshade.device.visibility);
@@ -206,10 +207,16 @@ class ViewSession:
     def __init__(self, scene_path: str | Path, out_dir: str | Path, width: int | None = None,
                  height: int | None = None, device: str | None = None, device_gbuffer: bool = True,
                  registry: Registry | None = None) -> None:
-        """`registry`: the command's lobes (default: the built-ins); the scene's lobe folders are added."""
+        """`registry`: the command's lobes (default: the built-ins); the scene's lobe folders are added.
+        The page may name lobe files and folders only inside the scene's folder, the lobe folders
+        given to the command or the scene (--lobes, $CLSHADE_LOBES, render.lobes) and the scene's own
+        model file (Registry.confined), a relative one taken from the scene's folder."""
         self.base_scene = load_scene(scene_path, registry)
-        self.registry = (registry or Registry()).with_lobes(*self.base_scene.lobes)
         self.path = Path(scene_path).resolve()
+        given = (registry or Registry()).with_lobes(*self.base_scene.lobes)
+        own = lobe_path(self.base_scene.model)         # render.model naming a lobe file or folder
+        self.model = self.base_scene.model if own is None else str(own.resolve())
+        self.registry = given.confined(self.path.parent, *([own] if own is not None else []))
         self.base_doc = tomllib.loads(self.path.read_text(encoding="utf-8"))
         for name, value in (("--width", width), ("--height", height)):
             if value is not None and not 1 <= value <= MAX_RESOLUTION:
@@ -245,7 +252,7 @@ class ViewSession:
     def initial_controls(self) -> dict:
         s = self.base_scene
         other = "phong" if s.model != "phong" else "ggx_correlated"
-        return dict(azimuth=0.0, elevation=self.orbit.elevation, distance=self.orbit.distance, model_a=s.model,
+        return dict(azimuth=0.0, elevation=self.orbit.elevation, distance=self.orbit.distance, model_a=self.model,
                     model_b=other, split=False, diff=False, exposure=s.exposure, tonemap=s.tonemap,
                     samples=s.samples, specular_aa=s.specular_aa, materials={}, lights={})
 
@@ -489,7 +496,7 @@ class ViewSession:
         """Write NAME.toml (the current view as a scene), NAME.png and NAME.exr of model A (and
         NAME_b.png of model B when the split shows it) into the output folder; `clshade render
         NAME.toml -o NAME.png` writes the same pixels."""
-        if not isinstance(name, str) or not SAVE_NAME.match(name):
+        if not isinstance(name, str) or not SAVE_NAME.fullmatch(name):
             raise ClshadeError(f"save name {str(name)[:70]!r}: use 1 to 64 letters, digits, '_', '-' or '.', "
                                f"starting with a letter or digit")
         scene, doc = self.scene(controls)

@@ -43,6 +43,20 @@ def test_top_level_keys(report):
     assert report["width"] == 64 and report["height"] == 48 and report["frames"] == 20
 
 
+def test_the_build_choices_are_recorded(report):
+    """The JSON names the build the kernels ran with (the tuned choice, here today's rule: the suite runs
+    with CLSHADE_TUNE=fixed) and what the device compiled; the printed line says the same."""
+    from clshade.cli.commands.bench import build_line
+    from clshade.device.runtime import FIXED, get_runtime
+    build = report["device"]["build"]
+    rt = get_runtime()
+    assert build["choice"] == FIXED.as_dict() and build["source"] == "tuning off: CLSHADE_TUNE=fixed"
+    assert (build["simd"], build["local_size"], build["inline_math"], build["streaming_stores"], build["prefetch"]) \
+        == (rt.simd, rt.local_size, rt.inline_math, rt.streaming_stores, rt.prefetches)
+    line = build_line(build)
+    assert line.startswith("build choices: today's rule (tuning off") and f"{rt.simd} lanes" in line
+
+
 def test_model_rows(report):
     keys = documented_keys("Per model")
     assert {"model", "mean_ms", "avg_fps", "low1_fps", "low01_fps", "median_ms", "p99_ms", "host_overhead_ms",

@@ -61,6 +61,31 @@ def test_bench_options_are_checked(tmp_path, capsys, args, needle):
     refused(capsys, ["bench", str(write_scene(tmp_path)), "--frames", "1", *args], needle)
 
 
+@pytest.mark.parametrize("value, needles", [
+    ("rho_d=nan", ("--param rho_d: 'nan' is not a finite number",)),
+    ("alpha_x=1e309", ("--param alpha_x: '1e309' is not a finite number",)),
+    ("rho_d=0.5,-inf,0", ("--param rho_d", "not a finite number")),
+    ("rho_d=-5", ("--param rho_d=-5: R, G and B must be within [0, 1]", "ward.brdf")),
+])
+def test_param_values_are_refused_in_one_line(capsys, tmp_path, value, needles):
+    """NaN, inf, 1e309 and a colour outside [0, 1] never reach the compiler (`undeclared identifier 'inf'`)
+    nor the frame (negative radiance): one line naming the parameter, exit status 2."""
+    ward = str(SCENES / "lobes" / "ward.brdf")
+    refused(capsys, ["render", RED_BALL, "-m", ward, "--param", value, *SIZE, "-o", str(tmp_path / "x.png")], *needles)
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_a_lobe_file_named_none_renders_itself(capsys, tmp_path):
+    """`none` is the registry's "no lobe": a file so named gets its folder's prefix and shades the frame."""
+    from clshade.render.image import read_image
+    (tmp_path / "none.brdf").write_text((SCENES / "lobes" / "ward.brdf").read_text(encoding="utf-8"),
+                                        encoding="utf-8")
+    code, out, err = run_cli(capsys, ["render", RED_BALL, "-m", str(tmp_path / "none.brdf"), *SIZE,
+                                      "-o", str(tmp_path / "x.exr")])
+    assert code == 0 and err == "" and f"{tmp_path.name.lower()}_none" in out, out + err
+    assert read_image(tmp_path / "x.exr")[..., :3].max() > 0.01
+
+
 @pytest.mark.parametrize("model", ["", " ", ","])
 def test_stability_with_an_empty_model_is_refused(capsys, model):
     refused(capsys, ["check", "stability", "--model", model], "no model given")

@@ -10,7 +10,9 @@ every PoCL build fail, and CLSHADE_FORCE_BROKEN fakes it for any other device.
 from __future__ import annotations
 
 import json
+import math
 import os
+import statistics
 import subprocess
 import sys
 from pathlib import Path
@@ -264,19 +266,26 @@ def test_a_device_that_computes_wrong_values_is_broken(monkeypatch):
 
 
 def test_the_default_order_is_the_measured_order(checkout):
-    """RUNTIME_PREFERENCE ranks the healthy CPU runtimes of benchmarks/results/runtimes.json as
-    their measured kernel times do (fastest first), and the file was measured with that order."""
+    """The default device is the fastest healthy CPU runtime as measured: benchmarks/results/runtimes.json
+    (each runtime with its tuned build) names its fastest as the default. RUNTIME_PREFERENCE, the order used
+    with tuning off (CLSHADE_TUNE=fixed: today's rule on every runtime), ranks the runtimes as their
+    today's-rule times in benchmarks/results/tuning.json do (geometric mean over the models)."""
     doc = json.loads((checkout / "benchmarks" / "results" / "runtimes.json").read_text(encoding="utf-8"))
     measured = [d for d in doc["devices"] if d["healthy"] and "cpu" in d["kind"]]
     assert len({d["runtime"] for d in measured}) >= 2, "runtimes.json compares fewer than two runtimes"
     by_speed = [d["runtime"] for d in sorted(measured, key=lambda d: d["geomean_median_ms"])]
-    by_preference = [d["runtime"] for d in sorted(measured, key=lambda d: runtime.preference(
-        runtime.DeviceInfo(0, 0, d["platform"], d["platform_version"], d["device"], d["kind"])))]
-    assert by_preference == by_speed, (by_preference, by_speed)
     assert doc["runtime_preference"] == list(runtime.RUNTIME_PREFERENCE)
     assert doc["default"]["runtime"] == by_speed[0]
     for d in measured:     # every runtime's images were checked against the oracle in the same run
         assert all(r["max_rel_error"] is not None for r in d["models"].values()), d["runtime"]
+    tuning = json.loads((checkout / "benchmarks" / "results" / "tuning.json").read_text(encoding="utf-8"))
+    rule = {e["runtime"]: (e["key"], math.exp(statistics.fmean(math.log(s["rule_ms"]) for s in e["summary"].values())))
+            for e in tuning["runtimes"] if e.get("summary")}
+    assert len(rule) >= 2, "tuning.json times today's rule on fewer than two runtimes"
+    by_rule = sorted(rule, key=lambda r: rule[r][1])
+    by_preference = sorted(rule, key=lambda r: runtime.preference(runtime.DeviceInfo(
+        0, 0, rule[r][0]["platform"], rule[r][0]["platform_version"], rule[r][0]["device"], "cpu")))
+    assert by_preference == by_rule, (by_preference, {r: round(rule[r][1], 3) for r in by_rule})
 
 
 def test_no_opencl_platform(tmp_path, capsys, monkeypatch):

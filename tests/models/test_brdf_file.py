@@ -86,3 +86,78 @@ def test_broken_brdf_on_the_command_line(capsys, tmp_path):
     path = write_brdf(tmp_path, "oops", "vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) { return L ** 2; }")
     err = refused(capsys, ["render", str(SCENES / "red_ball.toml"), "-m", path, "-o", str(tmp_path / "x.png")])
     assert err.startswith(f"clshade: error: {path}:6: syntax error")
+
+
+# ------------------------------------------------------------------ hostile .brdf files
+
+def test_a_define_may_name_another(tmp_path, runtime):
+    """#define of a #define expands, also of one defined after it (as in C, where it is used); a
+    macro naming itself stays a name (no endless expansion)."""
+    from lobe_helpers import directions, eval_at
+    shader = ("#define TWICE_K (2.0 * K)\n#define K HALF\n#define HALF 0.5\n#define SELF SELF\n"
+              "vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) { float SELF = 3.0; return vec3(TWICE_K, SELF, K); }")
+    f = eval_at(BUILT_IN.resolve(write_brdf(tmp_path, "defines", shader)), directions(8))
+    np.testing.assert_allclose(f, np.tile([1.0, 3.0, 0.5], (8, 1)))
+
+
+def test_a_chain_of_defines_is_expanded_without_recursion():
+    """5,000 #defines each naming the next: an expansion loop, not 5,000 nested calls."""
+    from clshade.models.glsl.lexer import tokenize
+    text = "".join(f"#define M{k} M{k + 1}\n" for k in range(5000)) + "#define M5000 1.0\nM0"
+    assert [t.text for t in tokenize(text, "t.brdf")] == ["1.0", ""]
+
+
+def _file(tmp_path, parameters: str, shader: str = "vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) { return L; }",
+          extra: str = "") -> str:
+    path = tmp_path / "hostile.brdf"
+    path.write_text(f"analytic\n::begin parameters\n{parameters}\n::end parameters\n::begin shader\n{shader}\n"
+                    f"::end shader\n{extra}", encoding="utf-8")
+    return str(path)
+
+
+@pytest.mark.parametrize("parameters, extra, needles", [
+    ("float k 0 1 0.5",
+     "::begin shader\nvec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) { return V; }\n::end shader\n",
+     (":8: a second '::begin shader' block (the first begins at line 5)",)),
+    ("float k 0 1 0.5", "::begin parameters\nfloat q 0 1 0.5\n::end parameters\n",
+     (":8: a second '::begin parameters' block (the first begins at line 2)",)),
+    ("float k nan 1 0.5", "", (":3: parameter 'k': 'nan' is not a finite number",)),
+    ("float k 0 inf 0.5", "", (":3: parameter 'k': 'inf' is not a finite number",)),
+    ("float k 0 1 1e309", "", (":3: parameter 'k': '1e309' is not a finite number",)),
+    ("float k 0 1e39 1", "", (":3: parameter 'k': 1e39 is past the largest float",)),
+    ("float a 0 1 0.5\ncolor k 0 -Infinity 1", "", (":4: parameter 'k': '-Infinity' is not a finite number",)),
+    ("bool k NaN", "", (":3: parameter 'k': 'NaN' is not a finite number",)),
+    ("float k 0 1 2", "", (":3: parameter 'k': default 2 outside its range [0, 1]",)),
+    ("float k 1 0 0.5", "", (":3: parameter 'k': default 0.5 outside its range [1, 0]",)),
+    ("color k 0 -5 1", "", (":3: colour parameter 'k': default 0 -5 1 has a component outside [0, 1]",)),
+])
+def test_bad_blocks_and_numbers_fail_in_one_line(capsys, tmp_path, parameters, extra, needles):
+    """A second block is refused (it silently replaced the first); NaN, an infinity or a float past
+    float range in a range, default or colour name the file, line and parameter (they reached the
+    OpenCL compiler as `nan`, `inf`)."""
+    path = _file(tmp_path, parameters, extra=extra)
+    for args in (["render", str(SCENES / "red_ball.toml"), "-m", path, "-o", str(tmp_path / "x.png")],
+                 ["check", "stability", "--model", path]):
+        refused(capsys, args, *(f"{path}{n}" for n in needles))
+
+
+def test_a_file_past_the_size_limit(capsys, tmp_path):
+    """A .brdf file past budget.MAX_LOBE_FILE_BYTES is refused before it is read whole (a 10 MB file of
+    ';' once took 3.9 GB)."""
+    from clshade.budget import MAX_LOBE_FILE_BYTES
+    shader = "vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) { " + ";" * MAX_LOBE_FILE_BYTES + " return L; }"
+    path = _file(tmp_path, "", shader)
+    refused(capsys, ["render", str(SCENES / "red_ball.toml"), "-m", path, "-o", str(tmp_path / "x.png")],
+            f"{path}: lobe file is larger than the limit of {MAX_LOBE_FILE_BYTES} bytes")
+
+
+def test_a_special_file_is_not_read(tmp_path):
+    """read_source refuses a FIFO without opening it (opening one blocks until a writer comes)."""
+    import os
+    from pathlib import Path
+    from clshade.errors import ClshadeError
+    from clshade.models.brdf_file import read_source
+    fifo = tmp_path / "pipe.brdf"
+    os.mkfifo(fifo)
+    with pytest.raises(ClshadeError, match="not a regular file"):
+        read_source(Path(fifo))

@@ -5,6 +5,8 @@ The translator itself is tests/models/test_glsl.py, the .brdf format tests/model
 """
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -235,3 +237,259 @@ def test_checks_cover_the_users_lobes_by_default(monkeypatch):
     assert "lambert+ggx_correlated" in ids and {"ward", "lommel_seeliger", "ggx_brdf"} <= set(ids)
     assert [m.id for m in registry.user_models()] == [i for i in ids if registry.resolve(i).is_users]
     assert [m.id for m in stability.grid_models()] == [i for i in ids if not registry.resolve(i).is_users]
+
+
+# ------------------------------------------------------------------ hostile lobe files, folders and --param
+
+def _cl_lobe(ident: str, params: str = "", padding: str = "") -> str:
+    """The text of a diffuse .cl lobe `ident` with header `params` lines (`param: ...`) and `padding`."""
+    return (f"/*! clshade-model\n * id: {ident}\n * name: n\n * kind: diffuse\n * family: diffuse\n * formula: f\n"
+            f" * source: s\n{params} */\n{padding}INLINE real diffuse_lobe(const Geometry g, const Surface s) "
+            "{ return 1.0f; }\n")
+
+
+def _one_line(info) -> str:
+    text = str(info.value)
+    assert "\n" not in text, text
+    return text
+
+
+CONSTANT = "vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y) { return vec3(0.25); }"
+
+
+def test_reserved_words_are_never_a_users_lobe_id(tmp_path):
+    """`none` means "no lobe" and `all`/group names mean lists: a file so named gets its folder prefix,
+    so `-m none.brdf` shades with that file (not black), `-m none.cl` likewise."""
+    folder = tmp_path / "mine"
+    folder.mkdir()
+    for name in ("none", "all", "diffuse"):
+        write_brdf(folder, name, CONSTANT)
+    (folder / "empirical.cl").write_text(_cl_lobe("empirical"), encoding="utf-8")
+    lone = tmp_path / "none.cl"
+    lone.write_text(_cl_lobe("none"), encoding="utf-8")
+    model = BUILT_IN.resolve(str(folder / "none.brdf"))
+    assert model.specular == "mine_none" and model.specular_lobe.path == folder / "none.brdf"
+    assert BUILT_IN.resolve(str(lone)).diffuse != NONE and BUILT_IN.resolve(str(lone)).lobes
+    ids = set(BUILT_IN.with_lobes(folder).lobes)
+    assert {"mine_none", "mine_all", "mine_diffuse", "mine_empirical"} <= ids
+    assert not {"none", "all", "diffuse", "empirical"} & ids
+
+
+def test_an_at_sign_in_a_lobe_files_name_is_no_fresnel_suffix(tmp_path):
+    path = write_brdf(tmp_path, "ward@home", CONSTANT)
+    model = BUILT_IN.resolve(path)
+    assert model.id == "ward_home" and model.specular_lobe.path.name == "ward@home.brdf"
+    with pytest.raises(ClshadeError, match="drop '@dielectric'"):      # a real suffix is still checked
+        BUILT_IN.resolve("lambert@dielectric")
+
+
+@pytest.mark.parametrize("name", ["new\nline", 'quo"te', "back\\slash", "tab\tbed", "sep\u2028arator"])
+def test_a_lobe_path_no_line_marker_can_name_is_refused(tmp_path, name):
+    """The kernel names each lobe file in `#line N "path"`: a path that would break the marker is refused
+    in one line (escaped), whether named as a model, given as --lobes or found in a folder."""
+    folder = tmp_path / "odd"
+    folder.mkdir()
+    path = write_brdf(folder, name, CONSTANT)
+    for attempt in (lambda: BUILT_IN.resolve(path), lambda: BUILT_IN.with_lobes(path).lobes,
+                    lambda: BUILT_IN.with_lobes(folder).lobes):
+        with pytest.raises(ClshadeError, match="would break the kernel's #line markers") as info:
+            attempt()
+        _one_line(info)
+
+
+@pytest.mark.parametrize("value", ["nan", "inf", "-inf", "1e309", "0.5,inf,0", "0.2,0.2,NaN"])
+@pytest.mark.parametrize("name", ["rho_d", "alpha_x", "isotropic"])
+def test_param_values_must_be_finite(value, name):
+    """NaN, inf and 1e309 (inf as a double) never reach the compiler: one line naming the parameter."""
+    with pytest.raises(ClshadeError) as info:
+        BUILT_IN.with_params({name: value}).resolve(str(LOBES / "ward.brdf"))
+    assert _one_line(info).startswith(f"--param {name}: ") and "not a finite number" in str(info.value)
+
+
+@pytest.mark.parametrize("value", ["-5", "0.5,1.5,0", "0,0,-0.001"])
+def test_a_colour_param_outside_its_range_is_refused(value):
+    """A colour is declared [0, 1] per channel (a negative one gives negative radiance): refused like a float
+    outside its range, naming the parameter, the range and the file."""
+    with pytest.raises(ClshadeError) as info:
+        BUILT_IN.with_params({"rho_d": value}).resolve(str(LOBES / "ward.brdf"))
+    assert _one_line(info).startswith(f"--param rho_d={value}: R, G and B must be within [0, 1]")
+    assert "ward.brdf" in str(info.value)
+    ward = BUILT_IN.with_params({"rho_d": "0,1,0.5"}).resolve(str(LOBES / "ward.brdf"))
+    assert next(p for p in ward.specular_lobe.params if p.name == "rho_d").value == (0.0, 1.0, 0.5)
+
+
+@pytest.mark.parametrize("line, message", [
+    (" * param: p | 0 | nan | 0.5 | x\n", ":9: param p: max = nan is not a finite number"),
+    (" * param: p | -inf | 1 | 0.5 | x\n", ":9: param p: min = -inf is not a finite number"),
+    (" * param: p | 0 | 1 | 1e309 | x\n", ":9: param p: default = 1e309 is not a finite number"),
+    (" * param: p | 0 | 1 | 2 | x\n", ":9: param p: default 2 is outside [0, 1]"),
+])
+def test_cl_header_params_must_be_finite(tmp_path, line, message):
+    path = tmp_path / "header.cl"
+    path.write_text(_cl_lobe("header", params=" * uses: -\n" + line), encoding="utf-8")
+    with pytest.raises(ClshadeError) as info:
+        BUILT_IN.with_lobes(path).lobes
+    assert _one_line(info) == f"{path}{message}"
+
+
+def test_models_json_never_writes_nan(capsys, monkeypatch):
+    """`clshade models --json` is JSON (no NaN or Infinity): a lobe that carried one is named instead."""
+    import argparse
+    import dataclasses
+    import json
+    from types import SimpleNamespace
+    from clshade.cli.commands.models import cmd_models
+    monkeypatch.setattr("clshade.verify.plausibility.physically_based", lambda **kw: {})
+    ward = BUILT_IN.resolve(str(LOBES / "ward.brdf")).specular_lobe
+    bad = dataclasses.replace(ward, params=(dataclasses.replace(ward.params[2], high=float("nan")),))
+    args = argparse.Namespace(json=True, registry=SimpleNamespace(lobes={**BUILT_IN.lobes, "ward": ward}))
+    assert cmd_models(args) == 0
+    json.loads(capsys.readouterr().out, parse_constant=lambda name: pytest.fail(f"{name} in the JSON"))
+    args.registry = SimpleNamespace(lobes={**BUILT_IN.lobes, "ward": bad})
+    with pytest.raises(ClshadeError) as info:
+        cmd_models(args)
+    assert str(info.value).startswith(f"{ward.source}: param alpha_x: a number that is not finite")
+
+
+def test_a_lobe_file_that_is_not_utf8_is_one_line(tmp_path):
+    path = tmp_path / "latin.cl"
+    path.write_bytes(_cl_lobe("latin").replace("name: n", "name: caf\xe9").encode("latin-1"))
+    with pytest.raises(ClshadeError, match="cannot read lobe file \\(not UTF-8") as info:
+        BUILT_IN.with_lobes(tmp_path).lobes
+    assert _one_line(info).startswith(str(path))
+
+
+def test_a_symbolic_link_loop_as_lobes_is_one_line(tmp_path, capsys, monkeypatch):
+    from conftest import refused
+    loop = tmp_path / "loop"
+    (tmp_path / "back").symlink_to(loop)
+    loop.symlink_to(tmp_path / "back")
+    with pytest.raises(ClshadeError, match="cannot resolve the \\$CLSHADE_LOBES folder"):
+        Registry.from_env({LOBES_ENV: str(loop)})
+    with pytest.raises(ClshadeError, match="cannot resolve the lobe file or folder"):
+        BUILT_IN.with_lobes(loop)
+    refused(capsys, ["models", "--lobes", str(loop)], str(loop), "cannot resolve")
+    monkeypatch.setenv(LOBES_ENV, str(loop))
+    refused(capsys, ["models"], str(loop), "CLSHADE_LOBES")
+
+
+def _unblock(fifo) -> None:
+    """Let a reader stuck opening `fifo` go on (it reads an empty file)."""
+    import os
+    try:
+        os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
+    except OSError:         # no reader waiting: nothing to unblock
+        pass
+
+
+def test_special_files_are_refused_without_being_opened(tmp_path, checkout):
+    """A FIFO, a device (a link to /dev/null: reading /dev/zero would never end) and a socket named like a
+    lobe are refused wherever a lobe is read — in a folder, as --lobes, as a model — unopened."""
+    import os
+    import socket
+    import threading
+    made = {}
+    for kind in ("fifo", "device", "socket"):
+        folder = tmp_path / kind
+        folder.mkdir()
+        (folder / "fine.cl").write_text(_cl_lobe("fine"), encoding="utf-8")
+        made[kind] = folder / "odd.brdf"
+    os.mkfifo(made["fifo"])
+    made["device"].symlink_to("/dev/null")
+    server = socket.socket(socket.AF_UNIX)
+    server.bind(str(made["socket"]))
+    answers: dict = {}
+
+    def attempt(key, call):
+        try:
+            call()
+            answers[key] = "accepted"
+        except ClshadeError as exc:
+            answers[key] = str(exc)
+        except Exception as exc:     # noqa: BLE001 — the answer today: a traceback's exception
+            answers[key] = f"{type(exc).__name__}: {exc}"
+
+    def attempts():
+        for kind, path in made.items():
+            attempt((kind, "folder"), lambda: BUILT_IN.with_lobes(path.parent).lobes)
+            attempt((kind, "--lobes"), lambda: BUILT_IN.with_lobes(path).lobes)
+            attempt((kind, "-m"), lambda: BUILT_IN.resolve(str(path)))
+
+    worker = threading.Thread(target=attempts, daemon=True)
+    worker.start()
+    worker.join(timeout=20)
+    while worker.is_alive():        # stuck opening the FIFO: let it go on, then fail below
+        _unblock(made["fifo"])
+        worker.join(timeout=1)
+    server.close()
+    words = {"fifo": "a FIFO", "device": "a device", "socket": "a socket"}
+    for (kind, where), answer in answers.items():
+        assert answer.startswith((str(made[kind]), str(made[kind].resolve()))), (kind, where, answer)
+        assert f"lobe file is {words[kind]}, not a regular file" in answer, (kind, where, answer)
+    assert len(answers) == 9
+
+
+@pytest.mark.parametrize("suffix", [".cl", ".brdf"])
+def test_a_lobe_file_over_the_size_limit_is_refused(tmp_path, suffix):
+    from clshade import budget
+    padding = "/" * (budget.MAX_LOBE_FILE_BYTES + 1)
+    if suffix == ".cl":
+        path = tmp_path / "big.cl"
+        path.write_text(_cl_lobe("big", padding=padding + "\n"), encoding="utf-8")
+    else:
+        path = Path(write_brdf(tmp_path, "big", CONSTANT + "\n" + padding))
+    for attempt in (lambda: BUILT_IN.with_lobes(tmp_path).lobes, lambda: BUILT_IN.with_lobes(path),
+                    lambda: BUILT_IN.resolve(str(path))):
+        with pytest.raises(ClshadeError) as info:
+            attempt()
+        assert _one_line(info) == f"{path}: lobe file is larger than the limit of {budget.MAX_LOBE_FILE_BYTES} bytes"
+
+
+def test_a_lobe_folder_over_the_file_count_limit_is_refused_before_reading(tmp_path, capsys, monkeypatch):
+    """10,000 lobe files: refused by count, before any is read (it took minutes and gigabytes to read
+    them all for `clshade models`); a folder at the limit is read."""
+    import time
+    from clshade import budget
+    from conftest import refused
+    many = tmp_path / "many"
+    many.mkdir()
+    for i in range(10_000):
+        (many / f"lobe{i:05d}.cl").write_text(_cl_lobe(f"lobe{i:05d}"), encoding="utf-8")
+    start = time.perf_counter()
+    with pytest.raises(ClshadeError) as info:
+        BUILT_IN.with_lobes(many).lobes
+    assert _one_line(info) == (f"{many}: more than {budget.MAX_LOBE_FOLDER_FILES} lobe files (*.cl, *.brdf), "
+                               f"the limit of a lobe folder; split it")
+    refused(capsys, ["models", "--lobes", str(many)], str(many), str(budget.MAX_LOBE_FOLDER_FILES))
+    assert time.perf_counter() - start < 60      # reading them all took minutes; the count is milliseconds
+    small = tmp_path / "small"
+    small.mkdir()
+    for i in range(4):
+        (small / f"lobe{i}.cl").write_text(_cl_lobe(f"lobe{i}"), encoding="utf-8")
+    (small / ".hidden.cl").write_text("not a lobe", encoding="utf-8")      # hidden files are not lobes
+    monkeypatch.setattr(budget, "MAX_LOBE_FOLDER_FILES", 4)
+    assert {f"lobe{i}" for i in range(4)} <= set(BUILT_IN.with_lobes(small).lobes)
+    (small / "lobe4.cl").write_text(_cl_lobe("lobe4"), encoding="utf-8")
+    with pytest.raises(ClshadeError, match="more than 4 lobe files"):
+        BUILT_IN.with_lobes(small).lobes
+
+
+def test_lobes_folders_are_read_once_each(tmp_path, monkeypatch):
+    """`--lobes A --lobes B --lobes C` reads each lobe file once (not A, then A and B, then A, B and C)."""
+    import argparse
+    import clshade.models.registry as registry_module
+    from clshade.cli.parser import lobe_registry
+    folders = []
+    for name in "abc":
+        folder = tmp_path / name
+        folder.mkdir()
+        for i in range(2):
+            (folder / f"{name}{i}.cl").write_text(_cl_lobe(f"{name}{i}"), encoding="utf-8")
+        folders.append(str(folder))
+    reads = []
+    real = registry_module.parse_lobe
+    monkeypatch.setattr(registry_module, "parse_lobe", lambda path, origin: reads.append(path) or real(path, origin))
+    monkeypatch.delenv(LOBES_ENV, raising=False)
+    registry = lobe_registry(argparse.Namespace(lobes=folders, param=[], model=None))
+    assert {f"{n}{i}" for n in "abc" for i in range(2)} <= set(registry.lobes)
+    assert len(reads) == 6

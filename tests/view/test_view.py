@@ -7,6 +7,7 @@ import asyncio
 import dataclasses
 import json
 import tomllib
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -379,7 +380,7 @@ def test_saved_view_renders_bit_for_bit(session, tmp_path, monkeypatch, samples,
         assert a.shape == b.shape and np.array_equal(a, b, equal_nan=True), mine
 
 
-@pytest.mark.parametrize("name", ["../up", "a/b", ".hidden", "", "x" * 65, "robot", None])
+@pytest.mark.parametrize("name", ["../up", "a/b", ".hidden", "", "x" * 65, "robot", None, "a\n", "view\n"])
 def test_save_names_stay_in_the_output_folder(tmp_path, name):
     (tmp_path / "robot.toml").write_text(ROBOT.read_text(encoding="utf-8"), encoding="utf-8")
     s = ViewSession(tmp_path / "robot.toml", tmp_path, 16, 16)
@@ -739,3 +740,155 @@ def test_a_device_that_fails_its_check_leaves_the_host_path(tmp_path, monkeypatc
         assert DEVICE_GBUFFER_STAGE not in f.stages
         for view in h.views:
             np.testing.assert_array_equal(f.views[view], h.views[view])
+
+
+# ---------------------------------------------------------------- hostile messages and lobe paths
+
+
+class StrictSocket(FakeSocket):
+    """Reads what the server sends as the page's JSON.parse does: no NaN or Infinity."""
+
+    async def send_str(self, text):
+        self.sent.append(json.loads(text, parse_constant=lambda name: pytest.fail(f"{name} sent to the page")))
+
+
+def _answers(session, texts: list[str]) -> tuple[list, object]:
+    """What a page gets for these messages (every one is answered; none raises), and the Page."""
+    from clshade.view.server import Page, ViewServer
+    server = ViewServer(session, log=lambda text: None)
+
+    async def scenario():
+        ws = StrictSocket()
+        page = Page(server, ws)
+        for text in texts:
+            await page.receive(text)
+        return ws, page
+
+    ws, page = asyncio.run(scenario())
+    server.executor.shutdown()
+    return ws.sent, page
+
+
+@pytest.mark.parametrize("change, key", [
+    (dict(azimuth=10 ** 400), "azimuth"), (dict(distance=-10 ** 400), "distance"),
+    (dict(materials={"steel": {"roughness": 10 ** 400}}), "materials.steel.roughness"),
+    (dict(materials={"steel": {"base_color": [0.5, 10 ** 400, 0.5]}}), "materials.steel.base_color[1]"),
+    (dict(lights={"0": {"scale": 10 ** 400}}), "lights.0.scale"),
+    (dict(lights={"²": {"scale": 1.0}}), "lights.²"), (dict(lights={"١": {"scale": 1.0}}), "lights.١"),
+    (dict(lights={"9" * 5000: {"scale": 1.0}}), "no such light"),
+])
+def test_numbers_past_a_float_and_odd_light_indices_answer_an_error(session, change, key):
+    """An int too large for a float, a light index of a superscript or 5000 digits: an error naming the key,
+    and the page goes on (a good state after it is taken)."""
+    sent, page = _answers(session, [json.dumps(dict(type="state", seq=8, controls=controls(session, **change))),
+                                    json.dumps(dict(type="state", seq=9, controls=controls(session)))])
+    assert [m["type"] for m in sent] == ["error"] and sent[0]["seq"] == 8
+    assert key in sent[0]["message"] and "Traceback" not in sent[0]["message"]
+    assert page.pending is not None and page.pending[0] == 9
+
+
+def test_the_page_never_gets_nan(session):
+    """A message holding NaN or Infinity is not JSON: the page gets an error naming it instead."""
+    from clshade.view.server import Page, ViewServer
+    server = ViewServer(session, log=lambda text: None)
+
+    async def scenario():
+        ws = StrictSocket()
+        await Page(server, ws).send_json(dict(type="oracle", seq=3, max_rel_error=float("nan")))
+        return ws.sent
+
+    sent = asyncio.run(scenario())
+    server.executor.shutdown()
+    assert sent[0]["type"] == "error" and sent[0]["seq"] == 3 and "oracle message" in sent[0]["message"]
+
+
+def _scene_folder(tmp_path):
+    """tmp/scene/robot.toml with lobes/ward.brdf beside it, and tmp/outside/ holding ward.brdf and a .cl whose
+    header line would be echoed in an error; scene/escape links to outside/."""
+    scene, outside = tmp_path / "scene", tmp_path / "outside"
+    (scene / "lobes").mkdir(parents=True)
+    outside.mkdir()
+    (scene / "robot.toml").write_text(ROBOT.read_text(encoding="utf-8"), encoding="utf-8")
+    ward = (scenes_dir() / "lobes" / "ward.brdf").read_text(encoding="utf-8")
+    for folder in (scene / "lobes", outside):
+        (folder / "ward.brdf").write_text(ward, encoding="utf-8")
+    (outside / "secret.cl").write_text("/*! clshade-model\n * SECRET LINE 42\n */\n", encoding="utf-8")
+    (scene / "escape").symlink_to(outside)
+    return scene, outside
+
+
+def test_model_paths_are_confined_to_the_scenes_folder(tmp_path, monkeypatch):
+    """The page may name lobe files and folders in the scene's folder (relative ones from there, whatever the
+    current folder) and in lobe folders given to the command; elsewhere, through `..`, `~` or a link, it is
+    refused before anything there is read."""
+    scene, outside = _scene_folder(tmp_path)
+    given = tmp_path / "given"
+    given.mkdir()
+    (given / "mine.brdf").write_text((scene / "lobes" / "ward.brdf").read_text(encoding="utf-8"), encoding="utf-8")
+    monkeypatch.chdir(outside)
+    s = ViewSession(scene / "robot.toml", tmp_path, 16, 16, registry=Registry().with_lobes(given))
+    for spec in (str(outside / "ward.brdf"), str(outside / "secret.cl"), "../outside/ward.brdf",
+                 "escape/ward.brdf", "escape/secret.cl", str(outside) + "/", "escape/", "~/ward.brdf"):
+        with pytest.raises(ControlError) as info:
+            parse_controls(controls(s, model_a=spec), s.limits)
+        assert "outside the folders lobe files are read from here" in str(info.value), spec
+        assert "SECRET" not in str(info.value)
+    with pytest.raises(ControlError, match="no such lobe file"):    # the current folder's ward.brdf is not read
+        parse_controls(controls(s, model_a="ward.brdf"), s.limits)
+    for spec, path in (("lobes/ward.brdf", scene / "lobes" / "ward.brdf"),
+                       (str(scene / "lobes" / "ward.brdf"), scene / "lobes" / "ward.brdf"),
+                       (str(given / "mine.brdf"), given / "mine.brdf")):
+        c = parse_controls(controls(s, model_a=spec, model_b="ggx_correlated/kdks"), s.limits)
+        a, b = c.models(s.registry)
+        assert a.specular_lobe.path == path and b.workflow == "kdks"
+    chosen = parse_controls(controls(s, model_a="lobes/ward.brdf"), s.limits)
+    assert s.render(chosen).models == {"a": "ward"}
+    s.save(chosen, "saved")             # in tmp_path: the relative lobe path is rewritten for the saved scene
+    from clshade.render.scene import load_scene
+    assert Path(load_scene(tmp_path / "saved.toml").model).resolve() == scene / "lobes" / "ward.brdf"
+
+
+def test_a_message_naming_a_broken_or_fifo_folder_leaves_the_server_answering(tmp_path):
+    """A folder with a broken lobe, or with a FIFO named like one, is answered with an error; the registry
+    stays as the command built it (a later page's hello and frame are as ever) and the server keeps
+    answering (the FIFO is never opened, so nothing waits for a writer)."""
+    import os
+    import aiohttp
+    from clshade.view.server import ServerThread
+    scene, _ = _scene_folder(tmp_path)
+    (scene / "bad").mkdir()
+    (scene / "bad" / "broken.cl").write_text("/*! clshade-model\n * id: broken\n */\n", encoding="utf-8")
+    (scene / "pipe").mkdir()
+    fifo = scene / "pipe" / "x.cl"
+    os.mkfifo(fifo)
+    s = ViewSession(scene / "robot.toml", tmp_path, 16, 16)
+    strict = dict(loads=lambda text: json.loads(text, parse_constant=lambda name: pytest.fail(name)))
+
+    async def visit(url):
+        got = []
+        async with aiohttp.ClientSession() as http:
+            async with http.ws_connect(url + "ws") as ws:
+                hello = await ws.receive_json(timeout=60, **strict)
+                for seq, folder in ((1, f"{scene}/bad/"), (2, f"{scene}/pipe/")):
+                    await ws.send_str(json.dumps(dict(type="state", seq=seq,
+                                                      controls=dict(hello["controls"], model_a=folder))))
+                    got.append(await ws.receive_json(timeout=20, **strict))
+            async with http.ws_connect(url + "ws") as ws:       # a later page
+                hello = await ws.receive_json(timeout=60, **strict)
+                await ws.send_str(json.dumps(dict(type="state", seq=3, controls=hello["controls"])))
+                frame = await ws.receive(timeout=60)
+        return got, hello, frame
+
+    running = ServerThread(s)
+    try:
+        with running as url:
+            got, hello, frame = asyncio.run(visit(url))
+    finally:
+        try:        # a server stuck opening the FIFO goes on (and the test has failed above)
+            os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
+        except OSError:
+            pass
+    assert [(m["type"], m["seq"]) for m in got] == [("error", 1), ("error", 2)]
+    assert "broken.cl:3: header lacks" in got[0]["message"] and "lobe file is a FIFO" in got[1]["message"]
+    assert hello["type"] == "hello" and "broken" not in {l["id"] for l in hello["lobes"]}
+    assert frame.type == aiohttp.WSMsgType.BINARY

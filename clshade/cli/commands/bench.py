@@ -68,6 +68,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
                         height=args.height, lights=args.lights, ladder=args.ladder, numpy_frames=args.numpy_frames,
                         device=args.device, progress=None if args.no_progress else progress)
     print(bench_text(doc))
+    print(build_line(doc["device"]["build"]))
     if args.peers:
         from clshade.report.perf import perf_markdown
         doc["peers"] = _peers(args, models, registry)
@@ -80,6 +81,15 @@ def cmd_bench(args: argparse.Namespace) -> int:
     if args.plot:
         bench_plots(doc, Path(args.plot))
     return 0
+
+
+def build_line(build: dict) -> str:
+    """The build choices the benchmark ran with (the JSON's device.build), in one line."""
+    yes = {True: "on", False: "off"}
+    forced = f"; forced by {', '.join(build['forced_by'])}" if build["forced_by"] else ""
+    return (f"build choices: {build['label']} ({build['source']}{forced}): {build['simd']} lanes, work-group "
+            f"{build['local_size']}, inline math {yes[build['inline_math']]}, streaming stores "
+            f"{yes[build['streaming_stores']]}, prefetch {yes[build['prefetch']]}")
 
 
 def _peers(args: argparse.Namespace, models: list, registry) -> dict:

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 
 from clshade.cli.common import progress_bar
@@ -34,7 +35,14 @@ def cmd_models(args: argparse.Namespace) -> int:
                       for l in lobes.values()],
             "groups": {k: list(v) for k, v in GROUPS.items()},
         }
-        print(json.dumps(data, indent=2, ensure_ascii=False))
+        try:        # JSON has no NaN or Infinity; the lobe readers refuse them, this says which if one passed
+            text = json.dumps(data, indent=2, ensure_ascii=False, allow_nan=False)
+        except ValueError:
+            bad = [f"{l.source}: param {p.name}" for l in lobes.values() for p in l.params
+                   if not all(math.isfinite(x) for x in (p.low, p.high, p.default, *p.value))]
+            where = bad[0] if bad else "clshade models --json"
+            raise ClshadeError(f"{where}: a number that is not finite cannot be written as JSON") from None
+        print(text)
         return 0
     print("Presets (the study's shaders):")
     for m in presets():

@@ -1,6 +1,14 @@
 """The third stage of the GLSL translator: a typed emitter of OpenCL C over clshade's
 lane types (simd.h: `real`, `vec3`, `mask`) and kernels/glsl.h, and `translate`, the
 three stages in a row.
+
+The output stays linear in the shader: an operand's code appears once in its expression's (a
+swizzle calls a helper, `x_sw<N>_<components>`, rather than repeating its operand per component).
+What the OpenCL compiler then expands is bounded too (limits.py): each function's code with the
+#defines of globals and the functions it calls inlined (MAX_CODE_BYTES), and the iterations its
+for loops run, loops restricted to GLSL ES 1.00's constant form (Appendix A) so that their trip
+count is known (MAX_LOOP_ITERATIONS). A call graph with a cycle (recursion, which GLSL forbids)
+is refused naming the functions.
 """
 from __future__ import annotations
 
@@ -9,6 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from clshade.models.glsl.lexer import TranslateError, fail
+from clshade.models.glsl.limits import INT_MAX, INT_MIN, MAX_CODE_BYTES, MAX_FLOAT, MAX_LOOP_ITERATIONS
 from clshade.models.glsl.parser import (UNSUPPORTED_TYPES, Assign, Binary, Block, Call, Decl, ExprStmt, For,
                                         Function, If, Index, Member, Name, Node, Num, Program, Return, Ternary,
                                         Unary, parse)
@@ -37,6 +46,33 @@ GEOMETRIC = {"dot", "length", "distance", "normalize", "cross", "reflect"}
 INT_FOLD = {"+": operator.add, "-": operator.sub, "*": operator.mul}
 
 
+# A for loop's condition and the comparison it becomes with the counter on the left (`3 > i`: `i < 3`).
+RELATIONS = ("<", "<=", ">", ">=", "==", "!=")
+MIRRORED = {"<": ">", "<=": ">=", ">": "<", ">=": "<=", "==": "==", "!=": "!="}
+
+
+@dataclass
+class Cost:
+    """What a function (or a global's #define) puts before the OpenCL compiler where it is used:
+    its bytes of code (the #defines of globals it reads expanded), the iterations of its own for
+    loops, and its calls (callee's C name, the product of the trip counts of the loops around the
+    call, line), in source order with its loops as calls of None."""
+    bytes: int = 0
+    steps: list[tuple[str | None, int, int]] = field(default_factory=list)
+
+
+class _Code(list):
+    """Lines of generated code that count their bytes as they are appended (MAX_CODE_BYTES)."""
+
+    def __init__(self, count) -> None:
+        super().__init__()
+        self._count = count
+
+    def append(self, line: str) -> None:
+        self._count(line)
+        super().append(line)
+
+
 @dataclass
 class Value:
     type: str
@@ -52,6 +88,7 @@ class Symbol:
     assignable: bool
     literal: str | None = None     # a const int's value (a constant index, an exponent)
     role: str | None = None        # which of BRDF's L, V, N, X, Y an argument of BRDF is
+    cost: Cost | None = None       # a global's: its #define, expanded where it is read
 
 
 @dataclass(eq=False)
@@ -86,8 +123,14 @@ class Emitter:
     def __init__(self, program: Program, path: str, params: dict[str, tuple[str, str]]) -> None:
         """`params`: the file's parameters by name, (GLSL type, OpenCL C value)."""
         self.prog, self.path = program, path
-        self.head: list[str] = []          # the #defines of parameters and constant globals
-        self.out: list[str] = []           # the functions
+        self.total = 0                     # bytes of generated code so far (MAX_CODE_BYTES)
+        self.at = 1                        # the line being emitted, for a limit's message
+        self.head: list[str] = _Code(self._count)     # the #defines of parameters and constant globals
+        self.out: list[str] = _Code(self._count)      # the functions
+        self.swizzles: dict[str, str] = {}            # helper name → definition (`x_sw3_zyx`)
+        self.cost = Cost()                 # of the function (or global) being emitted
+        self.costs: dict[str, tuple[Defined, Cost]] = {}    # by function C name
+        self.loops = 1                     # trip counts of the loops around what is emitted, multiplied
         self.globals: dict[str, Symbol] = {}
         self.global_vars: list[GlobalVar] = []
         self.functions: dict[str, list[Defined]] = {}
@@ -103,6 +146,13 @@ class Emitter:
 
     def error(self, line: int, message: str) -> TranslateError:
         return fail(self.path, line, message)
+
+    def _count(self, line: str) -> None:
+        """Count a line of generated code; refused once the code passes MAX_CODE_BYTES."""
+        self.total += len(line) + 1
+        self.cost.bytes += len(line) + 1
+        if self.total > MAX_CODE_BYTES or self.cost.bytes > MAX_CODE_BYTES:
+            raise self.error(self.at, _too_much_code("the generated OpenCL C"))
 
     # -- program
     def emit(self) -> str:
@@ -122,10 +172,61 @@ class Emitter:
             elif item.body is not None:
                 self.function(item)
         self.place_globals()
+        self.check_calls()
         # Prototypes first: GLSL lets a function call one defined further down after a prototype.
         protos = [f"INLINE {CTYPE[d.fn.type]} {d.cname}({', '.join(self._signature(d.fn))});"
                   for same in self.functions.values() for d in same if d.fn.type != "void"]
-        return "\n".join(self.head + protos + self.out) + "\n"
+        return "\n".join([*self.head, *self.swizzles.values(), *protos, *self.out]) + "\n"
+
+    def check_calls(self) -> None:
+        """Refuse recursion (a cycle of calls, named), then any function whose code with its calls
+        inlined passes MAX_CODE_BYTES or whose loops, with those of the functions it calls, run
+        more than MAX_LOOP_ITERATIONS iterations; callees are measured before their callers."""
+        inlined: dict[str, int] = {}
+        iterations: dict[str, int] = {}
+        state: dict[str, int] = {}          # 1: on the path being explored, 2: measured
+        for root in self.costs:
+            if root in state:
+                continue
+            path = [root]
+            state[root] = 1
+            pending = [iter(self.costs[root][1].steps)]
+            while pending:
+                step = next(pending[-1], None)
+                if step is None:
+                    pending.pop()
+                    done = path.pop()
+                    state[done] = 2
+                    self._measure(done, inlined, iterations)
+                    continue
+                callee, _, line = step
+                if callee is None or state.get(callee) == 2:
+                    continue
+                if state.get(callee) == 1:
+                    cycle = path[path.index(callee):] + [callee]
+                    names = " → ".join(repr(self.costs[c][0].fn.name) for c in cycle)
+                    raise self.error(line, f"recursion: {names} (GLSL forbids a function calling itself, "
+                                           f"directly or through others)")
+                path.append(callee)
+                state[callee] = 1
+                pending.append(iter(self.costs[callee][1].steps))
+
+    def _measure(self, cname: str, inlined: dict[str, int], iterations: dict[str, int]) -> None:
+        """Inlined bytes and loop iterations of one function whose callees are measured; both
+        saturate just past their limit (sums of products grow without bound otherwise)."""
+        d, cost = self.costs[cname]
+        size, runs = cost.bytes, 0
+        for callee, times, line in cost.steps:
+            if callee is not None:
+                size = min(size + inlined[callee], MAX_CODE_BYTES + 1)
+                if size > MAX_CODE_BYTES:
+                    raise self.error(line, _too_much_code(f"{d.fn.name!r} with the functions it calls inlined"))
+            runs = min(runs + times * (1 if callee is None else iterations[callee]), MAX_LOOP_ITERATIONS + 1)
+            if runs > MAX_LOOP_ITERATIONS:
+                raise self.error(line, f"one call of {d.fn.name!r} runs more than {MAX_LOOP_ITERATIONS} for loop "
+                                       f"iterations, those of the functions it calls included (the translator's "
+                                       f"MAX_LOOP_ITERATIONS)")
+        inlined[cname], iterations[cname] = size, runs
 
     def register_functions(self) -> None:
         """Every function definition by name (several for an overloaded name), and BRDF's C name.
@@ -169,17 +270,21 @@ class Emitter:
         self.out.append(f'#line {line} "{self.path}"')
 
     def global_decl(self, decl: Decl) -> None:
-        """A global: `const` ones are #defines; a non-const one is placed by place_globals."""
+        """A global: `const` ones are #defines; a non-const one is placed by place_globals. Either
+        is expanded where it is read: its Cost goes with its Symbol."""
         for name, init, line in decl.names:
             self._declare_global(name, line)
+            self.at, self.cost = line, Cost()
             value = self.coerce(self.expr(init), decl.type, line) if init is not None else Value(decl.type, ZERO[decl.type])
+            cost, self.cost = self.cost, Cost()
+            cost.bytes += len(value.code)
             literal = value.literal if decl.type == "int" else None
             if decl.const:
-                self.globals[name] = Symbol(decl.type, GLOBAL + name, False, literal)
+                self.globals[name] = Symbol(decl.type, GLOBAL + name, False, literal, cost=cost)
                 self.head.append(f'#line {line} "{self.path}"')
                 self.head.append(f"#define {GLOBAL}{name} ({value.code})")
             else:
-                var = GlobalVar(decl.type, GLOBAL + name, True, name=name, line=line, init=value.code)
+                var = GlobalVar(decl.type, GLOBAL + name, True, cost=cost, name=name, line=line, init=value.code)
                 self.globals[name] = var
                 self.global_vars.append(var)
 
@@ -209,6 +314,8 @@ class Emitter:
                                                 f"{names[writer]!r}{also} (clshade translates a global that no "
                                                 f"function assigns, or one that only BRDF uses)")
             decls.append(f"    {CTYPE[g.type]} {g.cname} = {g.init};")
+        for line in decls:
+            self._count(line)
         self.out[self.brdf_at:self.brdf_at] = decls
 
     # -- functions
@@ -222,6 +329,8 @@ class Emitter:
         for i, (ptype, pname) in enumerate(fn.params):
             self.scopes[0][pname] = Symbol(ptype, ARG + pname, True, role="LVNXY"[i] if brdf else None)
         self.current = d
+        self.at, self.cost, self.loops = fn.line, Cost(), 1
+        self.costs[d.cname] = (d, self.cost)
         self.line(fn.line)
         # The pixel's Surface goes last: parameters that are material keys read it.
         self.out.append(f"INLINE {CTYPE[fn.type]} {d.cname}({', '.join(self._signature(fn))}) {{")
@@ -258,6 +367,7 @@ class Emitter:
 
     def statement(self, s: Node, pred: str | None, depth: int) -> None:
         pad = "    " * depth
+        self.at = s.line
         if isinstance(s, Block):
             self.out.append(f"{pad}{{")
             self.block(s.body, pred, depth + 1)
@@ -325,15 +435,21 @@ class Emitter:
             self.out.append(f"{pad}}}")
         if branches[1] is not None:
             out, reads = self.out, set(self.reads)
-            self.out = []
+            self.out = _Code(self._count)      # counted all the same: a hostile dead branch meets the limit
             self.block(branches[1], pred, depth + 1)
             self.out, self.reads = out, reads
 
     def for_loop(self, s: For, pred: str | None, depth: int) -> None:
+        """A for loop of GLSL ES 1.00's form (Appendix A): an int counter from a constant, compared
+        with a constant, stepped by a constant, not assigned in the body; so its trip count is
+        known: one that never ends, or runs past MAX_LOOP_ITERATIONS with the loops around it, is
+        refused."""
         pad = "    " * depth
         start = self.expr(s.start)
         if start.type != "int":
             raise self.error(s.line, f"for loop counter {s.var!r} starts at a {start.type}, not an int")
+        if start.literal is None:
+            raise self.error(s.line, f"{_LOOP_FORM}: {s.var!r} does not start at a constant int")
         cname = f"u_l{self._next()}_{s.var}"
         # The counter and the body share one scope (GLSL's for-statement has no new scope).
         counter = {s.var: Symbol("int", cname, False)}
@@ -341,16 +457,53 @@ class Emitter:
         cond = self.expr(s.cond, int_compare=True)
         if cond.type != "int_bool":
             raise self.error(s.line, "unsupported construct: a for loop condition other than a comparison of ints")
-        step = s.step
-        assert isinstance(step, Assign)
-        inc = self.expr(step.value)
-        if inc.type != "int":
-            raise self.error(s.line, "for loop step must add or subtract an int")
+        relation, bound = self._loop_bound(s)
+        step, inc = self._loop_step(s)
         self.line(s.line)
-        self.out.append(f"{pad}for (int {cname} = {start.code}; {cond.code}; {cname} {step.op} {inc.code}) {{")
+        self.out.append(f"{pad}for (int {cname} = {start.code}; {cond.code}; {cname} += {inc.code}) {{")
         self.scopes.pop()
+        first = int(start.literal)
+        trips = trip_count(first, relation, bound, step)
+        if trips is None:
+            raise self.error(s.line, f"for loop over {s.var!r} never ends: from {first} in steps of {step}, "
+                                     f"{s.var} {relation} {bound} stays true")
+        outer = self.loops
+        self.loops = min(outer * trips, MAX_LOOP_ITERATIONS + 1)
+        if self.loops > MAX_LOOP_ITERATIONS:
+            around = f" inside loops of {outer} iterations" if outer > 1 else ""
+            raise self.error(s.line, f"for loop over {s.var!r} runs {trips} iterations{around}, past the translator's "
+                                     f"MAX_LOOP_ITERATIONS ({MAX_LOOP_ITERATIONS})")
+        self.cost.steps.append((None, self.loops, s.line))
         self.block(s.body, pred, depth + 1, scope=counter)
+        self.loops = outer
         self.out.append(f"{pad}}}")
+
+    def _loop_bound(self, s: For) -> tuple[str, int]:
+        """(relation, bound) of a loop condition `i < N` or `N > i` with N a constant int."""
+        c = s.cond
+        if isinstance(c, Binary) and c.op in RELATIONS:
+            for mine, other, relation in ((c.left, c.right, c.op), (c.right, c.left, MIRRORED[c.op])):
+                if isinstance(mine, Name) and mine.id == s.var:
+                    bound = self.expr(other)
+                    if bound.type == "int" and bound.literal is not None:
+                        return relation, int(bound.literal)
+        raise self.error(s.line, f"{_LOOP_FORM}: its condition does not compare {s.var!r} with a constant int")
+
+    def _loop_step(self, s: For) -> tuple[int, Value]:
+        """The constant a loop's step adds to its counter: `i++`, `i--`, `i += N`, `i -= N`, `i = i ± N`."""
+        a = s.step
+        assert isinstance(a, Assign)
+        value = a.value
+        sign = {"+=": 1, "-=": -1}.get(a.op)
+        if a.op == "=" and isinstance(value, Binary) and value.op in ("+", "-") and \
+                isinstance(value.left, Name) and value.left.id == s.var:
+            sign, value = (1 if value.op == "+" else -1), value.right
+        if sign is not None:
+            inc = self.expr(value)
+            if inc.type == "int" and inc.literal is not None:
+                step = sign * int(inc.literal)
+                return step, Value("int", str(step), str(step))
+        raise self.error(s.line, f"{_LOOP_FORM}: its step does not add a constant int to {s.var!r}")
 
     def _next(self) -> int:
         self.counter += 1
@@ -423,9 +576,19 @@ class Emitter:
 
     # -- expressions
     def expr(self, n: Node, int_compare: bool = False) -> Value:
+        """The typed code of an expression; refused past MAX_CODE_BYTES before it is appended."""
+        v = self._expr(n, int_compare)
+        if len(v.code) > MAX_CODE_BYTES:
+            raise self.error(n.line, _too_much_code("an expression's OpenCL C"))
+        return v
+
+    def _expr(self, n: Node, int_compare: bool) -> Value:
         if isinstance(n, Num):
             if n.is_int:
                 return Value("int", n.text, n.text)
+            if float(n.text) > MAX_FLOAT:
+                raise self.error(n.line, f"float literal {n.text} is past the largest float ({MAX_FLOAT:.8g}): "
+                                         f"infinite in the kernel")
             return Value("float", f"G_LIT({_float_text(n.text)})", n.text)
         if isinstance(n, Name):
             if n.id in ("true", "false"):
@@ -433,6 +596,8 @@ class Emitter:
             sym = self.lookup(n.id, n.line)
             if sym.role is not None:
                 self.reads.add(sym.role)
+            if sym.cost is not None:
+                self._expand(sym.cost, n.line)
             if sym.cname.startswith(PARAM) and sym.type == "bool":
                 return _bool(self.params[sym.cname[len(PARAM):]][1] == "G_TRUE")
             return Value(sym.type, sym.cname, sym.literal)
@@ -448,8 +613,8 @@ class Emitter:
                 return v
             if v.type in ("vec2", "vec3"):
                 return Value(v.type, f"g{DIM[v.type]}_neg({v.code})")
-            lit = None if v.literal is None else "-" + v.literal
-            return Value(v.type, f"(-{v.code})", lit if v.type == "int" else None)
+            lit = None if v.literal is None or v.type != "int" else self._folded(-int(v.literal), n.line)
+            return Value(v.type, f"(-{v.code})", lit)
         if isinstance(n, Binary):
             return self.binary(n, int_compare)
         if isinstance(n, Ternary):
@@ -475,8 +640,7 @@ class Emitter:
                 return Value("float", f"({v.code}).{comps[0]}")
             if len(comps) == 4:
                 raise self.error(n.line, f"unsupported construct: four-component swizzle .{n.field} (vec4)")
-            parts = ", ".join(f"({v.code}).{c}" for c in comps)
-            return Value(f"vec{len(comps)}", f"v{len(comps)}({parts})")
+            return Value(f"vec{len(comps)}", f"{self._swizzler(DIM[v.type], comps)}({v.code})")
         if isinstance(n, Index):
             v = self.expr(n.value)
             if v.type not in ("vec2", "vec3"):
@@ -486,6 +650,13 @@ class Emitter:
             raise self.error(n.line, "unsupported construct: assignment inside an expression")
         raise self.error(n.line, f"unsupported construct: {type(n).__name__}")
 
+    def _expand(self, cost: Cost, line: int) -> None:
+        """A global's #define read here: its code and calls count where it is expanded."""
+        self.cost.bytes += cost.bytes
+        if self.cost.bytes > MAX_CODE_BYTES:
+            raise self.error(line, _too_much_code("the OpenCL C with the #defines of globals expanded"))
+        self.cost.steps += [(callee, self.loops * times, at) for callee, times, at in cost.steps]
+
     def _const_index(self, n: Index, size: int) -> int:
         idx = self.expr(n.index)
         if idx.type != "int" or idx.literal is None:
@@ -494,6 +665,16 @@ class Emitter:
         if not 0 <= i < size:
             raise self.error(n.line, f"index {i} out of range for a vec{size}")
         return i
+
+    def _swizzler(self, size: int, comps: list[str]) -> str:
+        """The helper reading components `comps` of a vec<size>: the operand is evaluated once."""
+        name = f"x_sw{size}_{''.join(comps)}"
+        if name not in self.swizzles:
+            parts = ", ".join(f"v.{c}" for c in comps)
+            self.swizzles[name] = (f"INLINE vec{len(comps)} {name}(const vec{size} v) "
+                                   f"{{ return v{len(comps)}({parts}); }}")
+            self._count(self.swizzles[name])
+        return name
 
     def _swizzle(self, text: str, size: int, line: int) -> list[str]:
         for names in SWIZZLE_SETS:
@@ -571,7 +752,7 @@ class Emitter:
         if kind == "int":
             lit = None
             if a.literal is not None and b.literal is not None and op in INT_FOLD:
-                lit = str(INT_FOLD[op](int(a.literal), int(b.literal)))
+                lit = self._folded(INT_FOLD[op](int(a.literal), int(b.literal)), line)
             return Value("int", f"({a.code} {op} {b.code})", lit)
         if kind == "float":
             fa, fb = self.coerce(a, kind, line), self.coerce(b, kind, line)
@@ -583,6 +764,13 @@ class Emitter:
             return Value("vec3", f"v3scale({vec.code}, {self.coerce(sc, 'float', line).code})")
         fa, fb = self.coerce(a, kind, line), self.coerce(b, kind, line)
         return Value(kind, f"g{d}_{name}({fa.code}, {fb.code})")
+
+    def _folded(self, value: int, line: int) -> str:
+        """A folded constant int expression's value; refused outside GLSL's 32-bit int."""
+        if not INT_MIN <= value <= INT_MAX:
+            raise self.error(line, f"constant int expression is {value}, outside GLSL's int range "
+                                   f"[{INT_MIN}, {INT_MAX}]")
+        return str(value)
 
     def call(self, n: Call) -> Value:
         name = n.name
@@ -597,6 +785,7 @@ class Emitter:
             d = self.overload(name, args, n.line)
             if d.cname == self.entry:
                 raise self.error(n.line, "BRDF may not be called by the shader")
+            self.cost.steps.append((d.cname, self.loops, n.line))
             code = [self.coerce(a, t, n.line).code for a, t in zip(args, d.types)]
             return Value(d.fn.type, f"{d.cname}({', '.join([*code, 's'])})")
         if name in COMPONENTWISE or (name == "atan" and len(args) == 2):
@@ -689,18 +878,46 @@ class Emitter:
         arity = {"dot": 2, "length": 1, "distance": 2, "normalize": 1, "cross": 2, "reflect": 2}[name]
         if len(args) != arity:
             raise self.error(line, f"{name}() takes {arity} argument{'s' if arity > 1 else ''}, got {len(args)}")
-        kinds = {a.type for a in args}
-        if len(kinds) != 1 or kinds.pop() not in ("float", "vec2", "vec3", "int"):
+        # An int argument is a float (GLSL's implicit conversion): dot(0.5, 2) is a product.
+        kinds = {"float" if a.type == "int" else a.type for a in args}
+        if len(kinds) != 1 or next(iter(kinds)) not in ("float", "vec2", "vec3"):
             raise self.error(line, f"{name}({', '.join(a.type for a in args)}): arguments must be one vector type")
-        kind = "float" if args[0].type == "int" else args[0].type
+        kind = kinds.pop()
         d = DIM[kind]
         if name in ("cross", "reflect") and d != 3:
             raise self.error(line, f"{name}() takes vec3 arguments")
-        code = ", ".join(self.coerce(a, kind, line).code for a in args)
+        code = [self.coerce(a, kind, line).code for a in args]
         result = "float" if name in ("dot", "length", "distance") else kind
         if name == "dot" and d == 1:
-            return Value("float", f"({code.replace(', ', ' * ', 1)})")
-        return Value(result, f"g{d}_{name}({code})")
+            return Value("float", f"({code[0]} * {code[1]})")
+        return Value(result, f"g{d}_{name}({', '.join(code)})")
+
+
+_LOOP_FORM = ("unsupported construct: a for loop not of the form 'for (int i = A; i < B; i += C)' with constant "
+              "A, B and C (GLSL ES 1.00, Appendix A)")
+
+
+def trip_count(first: int, relation: str, bound: int, step: int) -> int | None:
+    """How many times `for (i = first; i RELATION bound; i += step)` runs its body; None if never
+    stops (the counter moves away from the bound, stays put, or steps over the value it must meet)."""
+    holds = {"<": operator.lt, "<=": operator.le, ">": operator.gt, ">=": operator.ge, "==": operator.eq,
+             "!=": operator.ne}[relation]
+    if not holds(first, bound):
+        return 0
+    if relation == "==":
+        return None if step == 0 else 1
+    if relation == "!=":
+        gap = bound - first
+        return gap // step if step != 0 and gap % step == 0 and gap // step > 0 else None
+    if relation in ("<", "<="):
+        last = bound if relation == "<=" else bound - 1
+        return (last - first) // step + 1 if step > 0 else None
+    last = bound if relation == ">=" else bound + 1
+    return (first - last) // -step + 1 if step < 0 else None
+
+
+def _too_much_code(what: str) -> str:
+    return f"{what} passes {MAX_CODE_BYTES} bytes (the translator's MAX_CODE_BYTES)"
 
 
 def _float_text(text: str) -> str:

@@ -2,13 +2,20 @@
 
 The grammar is the subset clshade.models.glsl translates (its package docstring);
 any other construct is refused with one error naming it, the file and the line.
+
+Nesting is bounded (limits.MAX_NESTING) twice: the parser counts the levels it recurses into
+(a parenthesis, an operand, a block) and refuses past the limit before Python's stack runs out;
+`check_nesting` then measures the tree without recursion, which also bounds what the parser
+builds in a loop (`a + b + c …`, `v.x.x …`), so that the emitter's recursion over the tree is
+bounded as well.
 """
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 from clshade.models.glsl.lexer import Token, TranslateError, fail, tokenize
+from clshade.models.glsl.limits import INT_MAX, MAX_NESTING
 
 
 @dataclass
@@ -142,6 +149,13 @@ class Parser:
 
     def __init__(self, tokens: list[Token], path: str) -> None:
         self.t, self.i, self.path = tokens, 0, path
+        self.depth = 0         # levels of nesting the parser is inside (MAX_NESTING)
+
+    def deeper(self, levels: int = 1) -> None:
+        """Enter `levels` more levels of nesting; refused past MAX_NESTING."""
+        self.depth += levels
+        if self.depth > MAX_NESTING:
+            raise self.error(too_deep())
 
     # -- token helpers
     @property
@@ -274,6 +288,12 @@ class Parser:
         return self.block() if self.tok.text == "{" else [self.statement()]
 
     def statement(self) -> Node:
+        self.deeper()
+        node = self._statement()
+        self.depth -= 1
+        return node
+
+    def _statement(self) -> Node:
         tok = self.tok
         self._refuse_word(tok)
         if tok.text == "{":
@@ -330,11 +350,14 @@ class Parser:
 
     # -- expressions, lowest precedence first
     def expression(self) -> Node:
+        """An expression, assignments included (right-associative: `a = b = c`)."""
+        self.deeper()
         left = self.ternary()
         if self.tok.text in ASSIGN_OPS:
             op = self.tok
             self.i += 1
-            return Assign(op.line, op.text, left, self.expression())
+            left = Assign(op.line, op.text, left, self.expression())
+        self.depth -= 1
         return left
 
     def ternary(self) -> Node:
@@ -344,34 +367,51 @@ class Parser:
             self.i += 1
             then = self.expression()
             self.expect(":")
-            return Ternary(line, cond, then, self.ternary())
+            self.deeper()
+            other = self.ternary()
+            self.depth -= 1
+            return Ternary(line, cond, then, other)
         return cond
 
     # GLSL's binary operators by precedence, loosest first (the bitwise ones are refused).
     LEVELS = (("||",), ("^^",), ("&&",), ("==", "!="), ("<", ">", "<=", ">="), ("+", "-"), ("*", "/", "%"))
+    PRECEDENCE = {op: level for level, ops in enumerate(LEVELS) for op in ops}
 
     def binary(self, level: int) -> Node:
-        if level == len(self.LEVELS):
-            return self.unary()
-        left = self.binary(level + 1)
-        while self.tok.kind == "op" and self.tok.text in self.LEVELS[level]:
+        """Operators of precedence `level` or tighter, left-associative (precedence climbing: one
+        recursion per tighter operator on the right, not one per level of the table)."""
+        left = self.unary()
+        while self.tok.kind == "op" and self.PRECEDENCE.get(self.tok.text, -1) >= level:
             op = self.tok
             self.i += 1
-            left = Binary(op.line, op.text, left, self.binary(level + 1))
+            self.deeper()
+            right = self.binary(self.PRECEDENCE[op.text] + 1)
+            self.depth -= 1
+            left = Binary(op.line, op.text, left, right)
         if self.tok.text in ("&", "|", "^", "~", "<<", ">>") and self.tok.kind == "op":
             raise self.error(f"unsupported construct: bitwise operator {self.tok.text!r}")
         return left
 
     def unary(self) -> Node:
-        tok = self.tok
-        if tok.text in ("-", "+", "!") and tok.kind == "op":
-            self.i += 1
-            return Unary(tok.line, tok.text, self.unary())
-        if tok.text in ("++", "--"):
-            raise self.error(f"unsupported construct: {tok.text} outside a for loop's step")
-        if tok.text == "~":
-            raise self.error("unsupported construct: bitwise operator '~'")
-        return self.postfix()
+        """Prefix operators (a loop: `- - - x` costs no stack), then a postfix expression."""
+        ops: list[Token] = []
+        while True:
+            tok = self.tok
+            if tok.text in ("-", "+", "!") and tok.kind == "op":
+                self.i += 1
+                ops.append(tok)
+                self.deeper()
+                continue
+            if tok.text in ("++", "--"):
+                raise self.error(f"unsupported construct: {tok.text} outside a for loop's step")
+            if tok.text == "~":
+                raise self.error("unsupported construct: bitwise operator '~'")
+            break
+        node = self.postfix()
+        for tok in reversed(ops):
+            node = Unary(tok.line, tok.text, node)
+        self.depth -= len(ops)
+        return node
 
     def postfix(self) -> Node:
         node = self.primary()
@@ -393,6 +433,8 @@ class Parser:
             self.i += 1
             text = tok.text.rstrip("fF")
             is_int = re.fullmatch(r"\d+", text) is not None
+            if is_int and int(text) > INT_MAX:
+                raise self.error(f"integer literal {text} is past GLSL's int range (largest {INT_MAX})")
             return Num(tok.line, text, is_int)
         if self.accept("("):
             node = self.expression()
@@ -407,16 +449,56 @@ class Parser:
                     if self.tok.text == "void" and self.peek().text == ")":
                         self.i += 2
                     else:
+                        self.deeper()
                         while True:
                             args.append(self.ternary())
                             if self.accept(")"):
                                 break
                             self.expect(",")
+                        self.depth -= 1
                 return Call(tok.line, tok.text, args)
             return Name(tok.line, tok.text)
         raise self.error(f"syntax error: unexpected {tok.text or 'end of shader'!r}")
 
 
+def too_deep() -> str:
+    return (f"nested deeper than {MAX_NESTING} levels (expressions, statements and blocks inside one another; "
+            f"the translator's MAX_NESTING)")
+
+
+def _children(node: Node) -> list[Node]:
+    """The nodes directly below `node`: its Node fields, the nodes of its list fields, and a
+    declaration's initialisers."""
+    out: list[Node] = []
+    for f in fields(node):
+        value = getattr(node, f.name)
+        if isinstance(value, Node):
+            out.append(value)
+        elif isinstance(value, list):
+            for item in value:
+                if isinstance(item, Node):
+                    out.append(item)
+                elif isinstance(item, tuple) and len(item) == 3 and isinstance(item[1], Node):
+                    out.append(item[1])      # Decl.names: (name, initialiser, line)
+    return out
+
+
+def check_nesting(prog: Program, path: str) -> None:
+    """Refuse a tree deeper than MAX_NESTING (counted from a function's statements or a global's
+    declaration), at the line of its first node past the limit; an explicit stack, no recursion."""
+    stack: list[tuple[Node, int]] = []
+    for item in prog.items:
+        roots = (item.body or []) if isinstance(item, Function) else [item]
+        stack.extend((node, 1) for node in roots)
+    while stack:
+        node, depth = stack.pop()
+        if depth > MAX_NESTING:
+            raise fail(path, node.line, too_deep())
+        stack.extend((child, depth + 1) for child in _children(node))
+
+
 def parse(text: str, path: str, first_line: int = 1) -> Program:
     """The AST of a shader (GLSL subset); TranslateError on anything outside it."""
-    return Parser(tokenize(text, path, first_line), path).program()
+    prog = Parser(tokenize(text, path, first_line), path).program()
+    check_nesting(prog, path)
+    return prog

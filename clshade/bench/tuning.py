@@ -1,0 +1,117 @@
+"""Is the tuned build the fastest on a real frame? Every healthy CPU runtime's build choices on one
+full frame, per model beside today's rule and the tuned pick (clshade/device/tune.py).
+
+On each runtime the tuner's race runs first, afresh (its entry goes to the cache as on any first run;
+its pick and key are in the document), then every choice it raced (and its pick) shades the frame with
+each model and that model's copy kernel, in interleaved rounds with perf's protocol: every item in a new
+seeded random order each round, the process idle before each (timing.settle), each timed as the second
+of two back-to-back runs (perf.timed_after_itself); medians. The target: the tuned build within
+TARGET of the fastest choice for every model. benchmarks/measure/tuning.py writes it,
+clshade.report.tuning renders it.
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from clshade import __version__
+from clshade.bench import perf
+from clshade.device import tuned, tune
+from clshade.device.runtime import FIXED, BuildChoice, Runtime, healthy_devices
+from clshade.device.shade import Shader, scene_features
+from clshade.device.timing import settle
+from clshade.models.registry import Registry
+from clshade.pipeline import prepare_frame
+from clshade.render.scene import load_scene
+
+SCHEMA = "clshade-tuning/1"
+#: The issue's target: on every runtime the default (tuned) build within 5 % of the fastest choice, every model.
+TARGET = 0.05
+
+
+def _device_ms(shader: Shader, dispatch) -> float:
+    event = shader.enqueue(dispatch)
+    event.wait()
+    return (event.profile.end - event.profile.start) * 1e-6
+
+
+def measure_runtime(spec: str, frame, features, models: list, rounds: int, warmup: int, seed: int) -> dict:
+    """One runtime: the tuner's race afresh, then every raced choice × model × (shade, copy) on `frame`."""
+    entry = tune.measure_device(spec)
+    base = Runtime(spec, choice=FIXED)
+    out = dict(spec=spec, runtime=base.info.runtime, device=base.info.description, key=entry["key"],
+               key_hash=entry["key_hash"], tuning=entry)
+    if entry["status"] != tuned.MEASURED:
+        out["error"] = f"the tuner failed: {entry.get('reason', '')}"
+        return out
+    pick = BuildChoice.from_dict(entry["choice"])
+    choices = [BuildChoice.from_dict(r["choice"]) for r in entry["candidates"] if r["status"] != "failed"]
+    choices += [pick] if pick not in choices else []
+    items, rows = [], []
+    for choice in choices:
+        rt = base.with_choice(choice)
+        shader = Shader(rt, frame.gbuffer, frame.scene, frame.camera, frame.shadows)
+        row = dict(choice=choice.as_dict(), label=choice.label(), is_rule=choice == FIXED, is_tuned=choice == pick,
+                   **tune.build_facts(base, choice), times={})
+        mine = []
+        try:
+            for m in models:
+                for kernel in ("shade", "copy"):
+                    row["times"][(m.id, kernel)] = []
+                    mine.append((row["times"][(m.id, kernel)], shader, shader.prepare(m, features, entry=kernel)))
+        except Exception as exc:  # noqa: BLE001 - a choice this runtime cannot build is a result
+            row["error"] = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+            mine = []
+        items += mine
+        rows.append(row)
+    rng = np.random.default_rng(seed)
+    for r in range(warmup + rounds):
+        for k in rng.permutation(len(items)):
+            times, shader, d = items[k]
+            settle()
+            ms = perf.timed_after_itself(lambda: _device_ms(shader, d))
+            if r >= warmup:
+                times.append(ms)
+    for row in rows:
+        times = row.pop("times")
+        if "error" in row:
+            continue
+        row["models"] = {}
+        for m in models:
+            shade, copy = (float(np.median(times[(m.id, e)])) for e in ("shade", "copy"))
+            row["models"][m.id] = dict(median_ms=shade, copy_ms=copy, copy_ratio=shade / copy)
+    ok = [r for r in rows if "error" not in r]
+    rule = next(r for r in ok if r["is_rule"])
+    chosen = next(r for r in ok if r["is_tuned"])
+    summary = {}
+    for m in models:
+        best = min(ok, key=lambda r: r["models"][m.id]["median_ms"])
+        best_ms = best["models"][m.id]["median_ms"]
+        summary[m.id] = dict(rule_ms=rule["models"][m.id]["median_ms"], tuned_ms=chosen["models"][m.id]["median_ms"],
+                             best_ms=best_ms, best=best["label"],
+                             rule_vs_best=rule["models"][m.id]["median_ms"] / best_ms,
+                             tuned_vs_best=chosen["models"][m.id]["median_ms"] / best_ms,
+                             tuned_within_target=chosen["models"][m.id]["median_ms"] <= (1 + TARGET) * best_ms,
+                             tuned_copy_ratio=chosen["models"][m.id]["copy_ratio"])
+    out.update(choices=rows, summary=summary,
+               geomean_tuned_vs_best=math.exp(float(np.mean([math.log(s["tuned_vs_best"]) for s in summary.values()]))))
+    return out
+
+
+def measure(scene_path: str, width: int, height: int, model_names: str, rounds: int, warmup: int,
+            seed: int = 41) -> dict:
+    """Every healthy CPU runtime (`measure_runtime`), then the tuner's race of the runtimes (the default device)."""
+    tuned.forget()
+    frame = prepare_frame(load_scene(scene_path), width, height)
+    features = scene_features(frame.scene, geometry=frame.geometry)
+    models = Registry().resolve_many(model_names)
+    runtimes = [measure_runtime(info.spec, frame, features, models, rounds, warmup, seed)
+                for info, _ in healthy_devices("cpu")]
+    ranking = tune.rank_devices() if len(runtimes) >= 2 else None
+    return dict(schema=SCHEMA, clshade_version=__version__, created=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+                scene=scene_path.rsplit("/", 1)[-1], width=width, height=height, pixels=frame.gbuffer.pixels,
+                rounds=rounds, warmup=warmup, seed=seed, timed_run=perf.TIMED_RUN, target=TARGET,
+                models=[m.id for m in models], runtimes=runtimes, ranking=ranking,
+                met=all(s["tuned_within_target"] for rt in runtimes for s in rt.get("summary", {}).values()))

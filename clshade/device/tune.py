@@ -1,0 +1,577 @@
+"""Measure a device's build choices, and the order of the devices, once (clshade/device/tuned.py keeps them).
+
+What is tuned (runtime.BuildChoice): the math builtins (the OpenCL library's or kernels/simd.h's inline
+ones), the image rows' stores (streaming or plain), the G-buffer prefetch (on or off), the lanes per
+work-item (4, 8 or 16, up to the device's native width; 1 lane is the scalar code PoCL does not
+vectorise, simd.h) and the work-group size (LOCAL_SIZES beside runtime.LOCAL_SIZE). The prefetch has
+one distance (gbuffer.h, PREFETCH_PIXELS), so it is on or off. A choice is a candidate only where it
+changes the code on this device, as probed there: Intel's CPU compiler defines no __AVX__, so on its
+runtime the math, stores and prefetch choices are one build each and only lanes and work-group size race.
+
+The candidates are today's rule (FIXED, the default) and each single change from it (`candidates`);
+where two or more changes each beat the default clearly, their combination then races the best of them.
+Each candidate shades a calibration frame (CALIBRATION_SCENE at CALIBRATION_SIZE) with
+CALIBRATION_MODELS in interleaved rounds: every candidate × model once a round, in a new random order,
+each timed as the second of two back-to-back dispatches (the first loads the caches with the item's own
+data, whatever ran before it). From MIN_ROUNDS rounds on, `judge` compares every candidate with the
+fastest by their paired ratio over the rounds; the noise band is NOISE_Z standard errors of that ratio
+(from the rounds' spread), never under NOISE_FLOOR. A candidate outside the band is clearly slower (and
+leaves the race); those inside are tied, and a tie goes to the preferred one: the default, then the one
+with the fewest changes. The race ends when the pick is settled (every tie is a difference confidently
+under NOISE_FLOOR) or when TUNE_BUDGET_S (builds included) is spent: then the preferred of the tied
+stands, the default wherever it is still tied. On a noisy machine, or where nothing is clearly faster,
+the default stays.
+
+The default device is picked the same way (`rank_devices`): each healthy CPU device, built with its own
+tuned choice, races on the same frame; a tie goes to the first in runtime.RUNTIME_PREFERENCE order.
+
+    python -m clshade.device.tune device P:D [--key HASH]   # one device (runtime.py runs this on a cache miss)
+    python -m clshade.device.tune rank                      # the order of the CPU devices (each one tuned first)
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import random
+import statistics
+import sys
+import time
+from dataclasses import dataclass, field, replace
+from typing import Callable, Hashable, Iterable, TextIO
+
+from clshade.device import tuned
+from clshade.device.runtime import (FIXED, RUNTIME_PREFERENCE, SIMD_WIDTHS, BuildChoice, Runtime, device_key,
+                                    healthy_devices, list_devices, preference)
+from clshade.device.shade import Shader, scene_features
+from clshade.device.timing import settle, timed_dispatch
+from clshade.device.variants import Features
+from clshade.errors import ClshadeError
+from clshade.models.registry import Registry
+from clshade.render.gbuffer import GBuffer, build_gbuffer
+from clshade.render.meshes import build_geometry
+from clshade.render.raster import rasterize
+from clshade.render.scene import Camera, Scene, load_scene
+from clshade.resources import scenes_dir
+
+#: Seconds one device's tuning may take, its builds included: the first run of clshade on a new
+#: device, driver or kernel waits this long at most per device (once; then the cache answers).
+TUNE_BUDGET_S = 10.0
+#: The same for the race of the devices that picks the default one.
+RANK_BUDGET_S = 10.0
+#: No new candidate is built once this share of the budget is spent: the rest times rounds. A cold
+#: build of the two calibration kernels takes ~1 s on two busy cores, so about half the candidates of
+#: a PoCL device get built on a first run there (the most telling first: `candidates`).
+BUILD_SHARE = 0.6
+#: The frame: the study's 25 balls (roughness 0 to 1, sky around them). At 1280×720 its G-buffer and
+#: image (~48 B a pixel, ~44 MB) overflow the last-level cache of the CPUs we know (32 MiB on the EPYC),
+#: as a full frame's traffic does, so the stores and prefetch choices meet memory; a round of a dozen
+#: candidates × two models still takes well under 0.2 s.
+CALIBRATION_SCENE = "sphere_grid.toml"
+CALIBRATION_SIZE = (1280, 720)
+#: An empirical lobe (powers: exp2, log2) and a microfacet one (sqrt, divisions) over Lambert: between
+#: them the builtins the math choice changes, at the two ends of the models' cost.
+CALIBRATION_MODELS = ("lambert+blinn_phong", "lambert+ggx_correlated")
+#: Work-group sizes raced beside runtime.LOCAL_SIZE (64): a quarter and four times it. PoCL runs a
+#: work-group as one loop on one thread, so the size trades the loop's overhead against the balance
+#: of the work over the cores.
+LOCAL_SIZES = (16, 256)
+#: Rounds before any judgement: the median and spread of fewer move with a single preempted run.
+MIN_ROUNDS = 5
+#: A gap is real beyond this many standard errors of the paired log ratio: with about ten comparisons
+#: a tuning, one-sided 3σ (0.13 % each) keeps a false pick to about one tuning in a hundred.
+NOISE_Z = 3.0
+#: Nothing under 2 % counts as faster: the target is the default within 5 % of the fastest choice, and
+#: the rest of that is room for the calibration frame differing from the frames users shade.
+NOISE_FLOOR = 0.02
+MAD_SIGMA = 1.4826        # the median absolute deviation × this = σ for normally spread values
+MEDIAN_SE = 1.2533        # √(π/2): the standard error of a median of n values is this × σ / √n
+ROUND_SEED = 41           # the rounds' random orders (seeded: a rerun orders them alike)
+
+Candidate = Hashable
+#: Per candidate, per round: {model: ms}, or None for a round it did not run.
+Rounds = dict[Candidate, list["dict[str, float] | None"]]
+
+
+# ---------------------------------------------------------------- the race (no device: any timer)
+
+
+@dataclass(frozen=True)
+class Gap:
+    """Candidate b against a over the rounds both ran: the median of the per-round log time ratio
+    (mean over the models), its standard error from the rounds' spread, and the rounds."""
+    log_ratio: float
+    se: float
+    rounds: int
+
+    @property
+    def band(self) -> float:
+        """The noise band in log units: NOISE_Z standard errors, at least NOISE_FLOOR."""
+        return max(math.log1p(NOISE_FLOOR), NOISE_Z * self.se)
+
+    @property
+    def clearly_slower(self) -> bool:
+        return self.log_ratio > self.band
+
+    @property
+    def clearly_faster(self) -> bool:
+        return self.log_ratio < -self.band
+
+    @property
+    def equivalent(self) -> bool:
+        """The whole band around the gap lies inside NOISE_FLOOR: more rounds cannot make it count."""
+        return abs(self.log_ratio) + NOISE_Z * self.se <= math.log1p(NOISE_FLOOR)
+
+    @property
+    def ratio(self) -> float:
+        return math.exp(self.log_ratio)
+
+
+def gap(rounds: Rounds, a: Candidate, b: Candidate) -> Gap:
+    """b against a (positive: b slower) from the rounds both ran."""
+    diffs = [statistics.fmean(math.log(rb[m]) - math.log(ra[m]) for m in ra)
+             for ra, rb in zip(rounds[a], rounds[b]) if ra and rb]
+    if not diffs:
+        return Gap(0.0, math.inf, 0)
+    mid = statistics.median(diffs)
+    mad = statistics.median(abs(d - mid) for d in diffs)
+    return Gap(mid, MAD_SIGMA * mad * MEDIAN_SE / math.sqrt(len(diffs)), len(diffs))
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """What the rounds so far say: the `pick` (the preferred of those `tied` with the `best`), whether
+    it is `settled`, the candidates clearly `slower` than the best, each one's gap to the best."""
+    pick: Candidate
+    settled: bool
+    best: Candidate
+    tied: tuple
+    slower: tuple
+    gaps: dict
+    reason: str
+
+
+def judge(rounds: Rounds, order: list) -> Verdict:
+    """The verdict on the candidates of `order` (preference order: the default first) with at least
+    MIN_ROUNDS rounds. The best is the fastest against the first of them (the reference, timed in every
+    round); the pick is the reference where it is tied with the best, else the preferred of the tied that
+    is clearly faster than the reference, else the best. Too few rounds: the first candidate, unsettled."""
+    live = [c for c in order if sum(1 for r in rounds.get(c, ()) if r) >= MIN_ROUNDS]
+    if not live:
+        first = next((c for c in order if c in rounds), order[0])
+        return Verdict(first, False, first, (first,), (), {}, f"fewer than {MIN_ROUNDS} rounds measured")
+    ref = live[0]
+    vs_ref = {c: gap(rounds, ref, c) for c in live}
+    best = min(live, key=lambda c: (vs_ref[c].log_ratio if c != ref else 0.0, live.index(c)))
+    gaps = {c: gap(rounds, best, c) for c in live if c != best}
+    slower = tuple(c for c in live if c != best and gaps[c].clearly_slower)
+    tied = tuple(c for c in live if c not in slower)
+    if ref in tied:
+        pick = ref
+    else:
+        pick = next((c for c in tied if vs_ref[c].clearly_faster), best)
+    settled = all(gaps[c].equivalent for c in tied if c != best)
+    if len(tied) == 1:
+        reason = "clear: every other choice is slower by more than the noise band"
+    elif settled:
+        reason = (f"tied: {len(tied)} choices within {NOISE_FLOOR:.0%} of the fastest (inside the noise floor); "
+                  "the preferred kept")
+    else:
+        reason = f"{len(tied)} choices inside the noise band of the fastest; the preferred kept"
+    return Verdict(pick, settled, best, tied, slower, gaps, reason)
+
+
+@dataclass
+class Race:
+    """A finished race: its candidates in preference order, the rounds, the last verdict, the
+    candidates that failed to build (one-line reasons) and those the budget left unbuilt."""
+    order: list
+    rounds: Rounds
+    verdict: Verdict
+    failed: dict = field(default_factory=dict)
+    unbuilt: list = field(default_factory=list)
+    seconds: float = 0.0
+    budget_spent: bool = False
+
+
+def race(order: list, models: list[str], prepare: Callable[[Candidate], None],
+         timer: Callable[[Candidate, str], float], budget_s: float, clock: Callable[[], float] = time.monotonic,
+         seed: int = ROUND_SEED, progress: Callable[[str], None] | None = None,
+         before_item: Callable[[], object] | None = None) -> Race:
+    """Build each candidate of `order` (`prepare`; one that raises is left out with its reason) while
+    BUILD_SHARE of the budget allows, then time rounds (`timer(candidate, model)` → ms; `before_item` runs before
+    each) until `judge` settles or `budget_s` (from the call) is spent. The verdict's pick is the result."""
+    start = clock()
+    failed: dict = {}
+    ready: list = []
+    unbuilt: list = []
+    builds: list[float] = []
+    for c in order:
+        spent = clock() - start
+        if ready and spent + (statistics.fmean(builds) if builds else 0.0) > BUILD_SHARE * budget_s:
+            unbuilt.append(c)
+            continue
+        if progress:
+            progress(f"building {len(ready) + len(failed) + 1}/{len(order)}")
+        t0 = clock()
+        try:
+            prepare(c)
+        except Exception as exc:  # noqa: BLE001 - a choice the device cannot build is a result, not a stop
+            failed[c] = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+            continue
+        builds.append(clock() - t0)
+        ready.append(c)
+    rounds: Rounds = {c: [] for c in ready}
+    if len(ready) < 2:
+        pick = ready[0] if ready else order[0]
+        verdict = Verdict(pick, True, pick, (pick,), (), {},
+                          "the only choice that builds here" if ready else "no choice builds here")
+        return Race(order, rounds, verdict, failed, unbuilt, clock() - start, False)
+    rng = random.Random(seed)
+    live = list(ready)
+    verdict = judge(rounds, ready)
+    spent_out = False
+    while True:
+        if clock() - start > budget_s:
+            spent_out = True
+            break
+        items = [(c, m) for c in live for m in models]
+        rng.shuffle(items)
+        row: dict = {c: {} for c in live}
+        for c, m in items:
+            if before_item:
+                before_item()
+            row[c][m] = timer(c, m)
+        for c in ready:
+            rounds[c].append(row.get(c))
+        verdict = judge(rounds, ready)
+        if progress:
+            behind = verdict.gaps.get(verdict.pick)
+            progress(f"round {len(rounds[ready[0]])}: {len(verdict.tied)} tied"
+                     + (f", the fastest {1 - 1 / behind.ratio:.1%} ahead of the pick" if behind else ""))
+        if verdict.settled:
+            break
+        # The reference stays in every round (every gap is paired with it); a new fastest can bring one back.
+        live = [c for c in ready if c not in verdict.slower or c == ready[0]]
+    if spent_out and not verdict.settled:
+        verdict = replace(verdict, reason=f"budget ({budget_s:.0f} s) spent: " + verdict.reason)
+    return Race(order, rounds, verdict, failed, unbuilt, clock() - start, spent_out)
+
+
+# ---------------------------------------------------------------- on a device
+
+
+class Progress:
+    """One line on stderr, rewritten in place, only when stderr is a terminal."""
+
+    def __init__(self, title: str, stream: TextIO | None = None) -> None:
+        self.stream = stream if stream is not None else sys.stderr
+        self.on = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.title = title
+        self.width = 0
+
+    def __call__(self, text: str) -> None:
+        if self.on:
+            line = f"clshade: {self.title}: {text}"
+            self.stream.write("\r" + line.ljust(self.width))
+            self.stream.flush()
+            self.width = len(line)
+
+    def done(self, text: str) -> None:
+        if self.on:
+            self(text)
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+@dataclass
+class CalibrationFrame:
+    """The frame every candidate shades: CALIBRATION_SCENE at a size (no shadows, one sample a pixel)."""
+    scene: Scene
+    camera: Camera
+    gbuffer: GBuffer
+    features: Features
+
+
+def calibration_frame(size: tuple[int, int] = CALIBRATION_SIZE) -> CalibrationFrame:
+    """Rasterise CALIBRATION_SCENE at `size` into its G-buffer."""
+    scene = load_scene(scenes_dir() / CALIBRATION_SCENE)
+    camera = scene.camera.with_size(*size)
+    geometry = build_geometry(scene)
+    fragments = rasterize(geometry.vertices, geometry.faces, camera.view_matrix(), camera.projection_matrix(),
+                          camera.width, camera.height, cull_backfaces=geometry.cull)
+    gbuffer = build_gbuffer(scene, geometry, fragments, camera)
+    return CalibrationFrame(scene, camera, gbuffer, scene_features(scene, geometry=geometry))
+
+
+def candidates(rt: Runtime) -> list[BuildChoice]:
+    """FIXED, then each single change from it that makes other code on rt's device, most telling
+    first (the budget may not build them all): math, stores, prefetch, lanes (widest first), work-group size."""
+    base = rt.with_choice(FIXED)
+    out = [FIXED]
+    library, inline = rt.with_choice(BuildChoice(math="library")), rt.with_choice(BuildChoice(math="inline"))
+    if library.inline_math != inline.inline_math:
+        out.append(BuildChoice(math="library" if base.inline_math else "inline"))
+    if base.streaming_stores:
+        out.append(BuildChoice(stores="plain"))
+    if base.prefetches:
+        out.append(BuildChoice(prefetch=False))
+    if "cpu" in rt.info.kind:
+        widths = sorted((int(w) for w in SIMD_WIDTHS if 4 <= int(w) <= base.native_simd), reverse=True)
+        out += [BuildChoice(lanes=w) for w in widths if w != base.simd]
+    limit = int(rt.device.max_work_group_size)
+    out += [BuildChoice(local=size) for size in LOCAL_SIZES if size <= limit and size != base.local_size]
+    return out
+
+
+def build_facts(rt: Runtime, choice: BuildChoice) -> dict:
+    """What `choice` compiles on rt's device: lanes, work-group size and simd.h's x86 paths. The paths
+    come from the probes `candidates` ran (today's rule, and each math choice): plain stores and no
+    prefetch only undefine their own macro in simd.h, so they need no probe of their own."""
+    crt, base = rt.with_choice(choice), rt.with_choice(BuildChoice(math=choice.math))
+    return dict(simd=crt.simd, local_size=crt.local_size, inline_math=base.inline_math,
+                streaming_stores=choice.stores == "streaming" and crt.simd >= 8 and base.streaming_stores,
+                prefetch=choice.prefetch and base.prefetches)
+
+
+def combined(winners: list[BuildChoice]) -> BuildChoice:
+    """The changes of `winners` (fastest first) together; where two change one field, the faster's."""
+    changes: dict[str, object] = {}
+    for w in winners:
+        for name in w.changes():
+            changes.setdefault(name, getattr(w, name))
+    return replace(FIXED, **changes)
+
+
+class DeviceBench:
+    """The calibration frame's dispatches on one device, a Shader per build choice (each its own
+    programs and arguments) on one context."""
+
+    def __init__(self, rt: Runtime, frame: CalibrationFrame, models: list) -> None:
+        self.rt, self.frame, self.models = rt, frame, models
+        self.dispatches: dict[tuple[Candidate, str], tuple[Shader, object]] = {}
+        self.facts: dict[Candidate, dict] = {}
+
+    def prepare(self, choice: BuildChoice) -> None:
+        """Build choice's kernels and run each once (PoCL compiles a kernel per work-group size at
+        its first launch), and record what the device then compiles; once per choice."""
+        if choice in self.facts:
+            return
+        crt = self.rt.with_choice(choice)
+        shader = Shader(crt, self.frame.gbuffer, self.frame.scene, self.frame.camera)
+        for m in self.models:
+            d = shader.prepare(m, self.frame.features)
+            shader.enqueue(d).wait()
+            self.dispatches[(choice, m.id)] = (shader, d)
+        self.facts[choice] = build_facts(self.rt, choice)
+
+    def time(self, choice: Candidate, model: str) -> float:
+        """Device ms of the second of two back-to-back dispatches."""
+        shader, d = self.dispatches[(choice, model)]
+        shader.enqueue(d).wait()
+        return timed_dispatch(shader, d)[0]
+
+
+def _rows(result: Race, label: Callable[[Candidate], dict], models: list[str], reference: Candidate) -> list[dict]:
+    """One table row per candidate: its median ms per model, rounds, ratio to `reference` and status."""
+    v = result.verdict
+    out = []
+    for c in result.order:
+        row = dict(label(c))
+        runs = [r for r in result.rounds.get(c, ()) if r]
+        if c in result.failed:
+            row.update(status="failed", reason=result.failed[c])
+        elif c in result.unbuilt:
+            row.update(status="not measured (budget)")
+        else:
+            row.update(median_ms={m: statistics.median(r[m] for r in runs) for m in models} if runs else {},
+                       rounds=len(runs),
+                       status="picked" if c == v.pick else "tied" if c in v.tied else
+                       "slower" if c in v.slower else "not judged")
+            if c != reference and reference in result.rounds:
+                g = gap(result.rounds, reference, c)
+                if g.rounds:
+                    row.update(vs_default=g.ratio, band=math.expm1(g.band))
+        out.append(row)
+    return out
+
+
+@dataclass
+class Tuning:
+    """The outcome of `tune_choices`: the pick, why, the races run (the singles, then maybe the
+    combination) and each candidate's gap to today's rule."""
+    pick: BuildChoice
+    decision: str
+    stages: list
+    vs_rule: dict
+
+
+def tune_choices(order: list[BuildChoice], models: list[str], prepare: Callable[[BuildChoice], None],
+                 timer: Callable[[BuildChoice, str], float], budget_s: float,
+                 clock: Callable[[], float] = time.monotonic, progress: Callable[[str], None] | None = None) -> Tuning:
+    """Race `order` (FIXED first, then single changes); where two or more changes each beat FIXED
+    clearly and the race settled, race their combination against the pick with what is left of the budget
+    (the pick keeps a tie)."""
+    start = clock()
+    first = race(order, models, prepare, timer, budget_s, clock, progress=progress)
+    pick, decision, stages = first.verdict.pick, first.verdict.reason, [first]
+    # Each candidate of the first race against today's rule (log ratio of times, < 0 faster).
+    vs_rule = {c: gap(first.rounds, FIXED, c) for c in first.rounds if FIXED in first.rounds}
+    winners = sorted((c for c, g in vs_rule.items() if g.clearly_faster), key=lambda c: vs_rule[c].log_ratio)
+    combo = combined(winners)
+    if len(winners) >= 2 and first.verdict.settled and combo not in order:
+        second = race([pick, combo], models, prepare, timer, budget_s - (clock() - start), clock, progress=progress)
+        stages.append(second)
+        decision = (f"{decision}; then the {len(winners)} clear winners combined against the fastest: "
+                    f"{second.verdict.reason}")
+        if second.verdict.pick == combo:
+            vs_rule[combo] = Gap(vs_rule[pick].log_ratio + gap(second.rounds, pick, combo).log_ratio, math.nan, 0)
+            pick = combo
+    if pick == FIXED:
+        decision = f"kept today's rule ({decision})"
+    elif pick in vs_rule:
+        decision = f"{pick.label()}: {1 - vs_rule[pick].ratio:.1%} faster than today's rule ({decision})"
+    else:
+        decision = f"{pick.label()}: today's rule does not build here ({decision})"
+    return Tuning(pick, decision, stages, vs_rule)
+
+
+def tune_device(rt: Runtime, budget_s: float = TUNE_BUDGET_S, frame: CalibrationFrame | None = None,
+                progress: Callable[[str], None] | None = None, clock: Callable[[], float] = time.monotonic) -> dict:
+    """Race rt's device's build choices on the calibration frame (`candidates`, `tune_choices`); the
+    cache entry's body (tuned.write adds the key)."""
+    start = clock()
+    frame = frame or calibration_frame()
+    registry = Registry()
+    models = [registry.resolve(m) for m in CALIBRATION_MODELS]
+    names = [m.id for m in models]
+    bench = DeviceBench(rt, frame, models)
+    order = candidates(rt)
+    result = tune_choices(order, names, bench.prepare, bench.time, budget_s - (clock() - start), clock, progress)
+    pick, stages = result.pick, result.stages
+
+    def label(c: BuildChoice) -> dict:
+        return dict(choice=c.as_dict(), label=c.label(), changes=list(c.changes()), **bench.facts.get(c, {}))
+
+    rows = _rows(stages[0], label, names, FIXED)
+    if len(stages) > 1:
+        row = _rows(stages[1], label, names, stages[1].order[0])[1]       # the combination, against the first pick
+        row["stage"] = 2
+        row["vs_first_pick"] = row.pop("vs_default", None)
+        row.pop("band", None)
+        rows.append(row)
+    return dict(status=tuned.MEASURED, choice=pick.as_dict(), label=pick.label(), decision=result.decision,
+                device=rt.info.description, runtime=rt.info.runtime, seconds=round(clock() - start, 2),
+                budget_s=budget_s, budget_spent=any(st.budget_spent for st in stages),
+                rounds=[len(next(iter(st.rounds.values()), [])) for st in stages],
+                calibration=dict(scene=CALIBRATION_SCENE, width=frame.camera.width, height=frame.camera.height,
+                                 models=list(CALIBRATION_MODELS)),
+                noise=dict(z=NOISE_Z, floor=NOISE_FLOOR, min_rounds=MIN_ROUNDS), candidates=rows)
+
+
+def measure_device(spec: str, expect: str | None = None, budget_s: float = TUNE_BUDGET_S,
+                   frame: CalibrationFrame | None = None, stream: TextIO | None = None) -> dict:
+    """Tune device `spec` and store its entry (a failure is stored too, with its reason); `expect`: the
+    key hash the caller computed, checked against the device found at `spec`."""
+    rt = Runtime(spec, choice=FIXED)
+    key = device_key(rt.info, rt.device)
+    if expect is not None and expect != tuned.key_hash(key):
+        raise ClshadeError(f"device {spec} is {rt.info.description}, not the device asked for (key {expect})")
+    progress = Progress(f"measuring the build choices of {rt.info.runtime} ({rt.info.device}, once; "
+                        f"≤ {budget_s:.0f} s)", stream)
+    try:
+        body = tune_device(rt, budget_s, frame, progress)
+    except Exception as exc:  # noqa: BLE001 - kept as a failed entry, so that it is not retried on every run
+        body = dict(status=tuned.FAILED, reason=(str(exc).strip().splitlines() or [type(exc).__name__])[0],
+                    device=rt.info.description)
+    progress.done(body.get("label", body.get("reason", "")))
+    return tuned.write(tuned.DEVICE, key, body)
+
+
+def rank_devices(budget_s: float = RANK_BUDGET_S, retune: bool = False, stream: TextIO | None = None,
+                 frame: CalibrationFrame | None = None) -> dict:
+    """Tune every healthy CPU device that has no entry (every one with `retune`), then race them, each with
+    its tuned choice, and store the order (the first is the default device)."""
+    devices = healthy_devices("cpu")
+    if not devices:
+        raise ClshadeError("no healthy CPU device to rank (`clshade devices`)")
+    frame = frame or calibration_frame()
+    keys = [device_key(info, device) for info, device in devices]
+    choices: dict[str, BuildChoice] = {}
+    for (info, _), key in zip(devices, keys):
+        entry = None if retune else tuned.read(tuned.DEVICE, key)
+        if entry is None:
+            entry = measure_device(info.spec, tuned.key_hash(key), frame=frame, stream=stream)
+        try:
+            choices[info.spec] = BuildChoice.from_dict(entry["choice"]) if entry["status"] == tuned.MEASURED else FIXED
+        except (KeyError, TypeError, ValueError):
+            choices[info.spec] = FIXED
+    all_cpus = [device_key(info, device) for info, device in _cpu_devices()]
+    registry = Registry()
+    models = [registry.resolve(m) for m in CALIBRATION_MODELS]
+    names = [m.id for m in models]
+    benches = {info.spec: DeviceBench(Runtime(info.spec, choice=FIXED), frame, models) for info, _ in devices}
+    progress = Progress(f"measuring which of {len(devices)} CPU runtimes is fastest (once; ≤ {budget_s:.0f} s)",
+                        stream)
+    result = race([info.spec for info, _ in devices], names, lambda s: benches[s].prepare(choices[s]),
+                  lambda s, m: benches[s].time(choices[s], m), budget_s, progress=progress, before_item=settle)
+    v = result.verdict
+    score = {s: gap(result.rounds, v.best, s).log_ratio for s in result.rounds if result.rounds[s]}
+    rest = sorted((s for s in score if s != v.pick), key=lambda s: (score[s], result.order.index(s)))
+    by_spec = {info.spec: (info, key) for (info, _), key in zip(devices, keys)}
+    order = [tuned.key_hash(by_spec[s][1]) for s in [v.pick, *rest]]
+    info0 = by_spec[v.pick][0]
+    progress.done(f"{info0.runtime} ({v.reason})")
+
+    def label(s: str) -> dict:
+        info, key = by_spec[s]
+        return dict(spec=s, runtime=info.runtime, device=info.description, key_hash=tuned.key_hash(key),
+                    choice=choices[s].as_dict(), label=choices[s].label())
+
+    body = dict(status=tuned.MEASURED, order=order, default=info0.runtime,
+                decision=f"{info0.runtime} ({v.reason}; ties go to RUNTIME_PREFERENCE order: "
+                         f"{', '.join(RUNTIME_PREFERENCE)})",
+                seconds=round(result.seconds, 2), budget_s=budget_s, budget_spent=result.budget_spent,
+                calibration=dict(scene=CALIBRATION_SCENE, width=frame.camera.width, height=frame.camera.height,
+                                 models=list(CALIBRATION_MODELS)),
+                devices=_rows(result, label, names, result.order[0]))
+    return tuned.write(tuned.RANKING, tuned.ranking_key(all_cpus), body)
+
+
+def _cpu_devices() -> list:
+    """Every CPU device listed, healthy or not, in preference order: the ranking's key (runtime.measured_ranking)."""
+    return [item for item in sorted(list_devices(), key=lambda item: preference(item[0])) if "cpu" in item[0].kind]
+
+
+def retune_all(stream: TextIO | None = None, budget_s: float = TUNE_BUDGET_S) -> tuple[list[dict], dict | None]:
+    """`clshade devices --tune`: every healthy device's build choices measured again, then the CPU
+    devices' order; (the device entries, the ranking entry or None with fewer than two CPU devices)."""
+    tuned.forget()
+    frame = calibration_frame()
+    entries = [measure_device(info.spec, frame=frame, stream=stream, budget_s=budget_s)
+               for info, _ in healthy_devices(kind=None)]
+    ranking = rank_devices(retune=False, stream=stream, frame=frame) if len(_cpu_devices()) >= 2 else None
+    tuned.forget()
+    return entries, ranking
+
+
+def main(argv: Iterable[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m clshade.device.tune", description=__doc__.splitlines()[0])
+    sub = ap.add_subparsers(dest="what", required=True)
+    one = sub.add_parser("device", help="measure one device's build choices")
+    one.add_argument("spec", help="P:D from `clshade devices`")
+    one.add_argument("--key", help="the key hash the caller expects of that device")
+    sub.add_parser("rank", help="measure the order of the CPU devices (each one's choices first, where missing)")
+    args = ap.parse_args(list(argv) if argv is not None else None)
+    try:
+        if args.what == "device":
+            entry = measure_device(args.spec, args.key)
+        else:
+            entry = rank_devices()
+    except ClshadeError as exc:
+        print(f"clshade: measuring the build choices failed: {exc}", file=sys.stderr)
+        return 2
+    return 0 if entry.get("status") == tuned.MEASURED else 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
