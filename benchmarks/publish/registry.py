@@ -18,6 +18,7 @@ from clshade.report.bench import bench_1080p_markdown, readme_table, targets_tab
 from clshade.report.effects import effects_markdown
 from clshade.report.glsl_oracle import glsl_oracle_markdown
 from clshade.report.host import host_ab_markdown, memory_markdown, startup_markdown
+from clshade.report.mitsuba import mitsuba_envmap_markdown
 from clshade.report.mutants import mutants_markdown
 from clshade.report.perf import perf_markdown
 from clshade.report.raster import raster_markdown
@@ -139,6 +140,11 @@ RESULTS: tuple[Result, ...] = (
             "clshade/compare.py", "scenes/white_sphere.toml", "benchmarks/measure/brdf_explorer.py"),
            (Rendering(OUT + "brdf_explorer.md", brdf_explorer_markdown),),
            "BRDF Explorer's collection through models, render, bench, check stability and compare"),
+    Result(OUT + "mitsuba_envmap.json", "python -m benchmarks.measure.mitsuba_envmap",
+           ("clshade/render/environment.py", "clshade/verify/environment_oracle.py", "scenes/environment.toml",
+            "scenes/environments", "benchmarks/measure/mitsuba_envmap.py"),
+           (Rendering(OUT + "mitsuba_envmap.md", mitsuba_envmap_markdown),),
+           "clshade's truth under a sky against Mitsuba 3's envmap emitter (needs pip install mitsuba)"),
     Result(OUT + "mutants.json", "python -m benchmarks.mutation.run",
            ("benchmarks/mutation", "kernels", "clshade", "tests", "scenes", "pyproject.toml"),
            (Rendering(OUT + "mutants.md", mutants_markdown),),
