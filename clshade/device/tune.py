@@ -14,7 +14,7 @@ them: each family races on its own CALIBRATION_MODELS, one after the other, with
 (TUNE_BUDGET_S, builds included): each family gets an equal share of what the families before it left
 (`family_budget`). The device's general choice, for a model of a family not measured (a user lobe of a
 family of its own) and for kernels of no model, is the candidate fastest on average over the families
-against today's rule (`general_choice`).
+against today's rule where that is clear of the noise band (`general_choice`).
 
 The candidates are today's rule (FIXED, the default) and each single change from it (`candidates`);
 where two or more changes each beat the default clearly, their combination then races the best of them.
@@ -469,14 +469,20 @@ def family_budget(budget_s: float, spent_s: float, families_left: int) -> float:
 
 def general_choice(tunings: dict[str, Tuning]) -> tuple[BuildChoice, str]:
     """The device's choice for kernels of no measured family: of the candidates every family timed, the
-    one with the lowest mean (over the families) log ratio to today's rule, where that mean is faster by
-    more than NOISE_FLOOR; else today's rule."""
+    one with the lowest mean (over the families) log ratio to today's rule, where that mean is clearly
+    faster (its noise band: NOISE_Z standard errors of the mean, from each family's, at least NOISE_FLOOR);
+    else today's rule."""
     common = set.intersection(*(set(t.vs_rule) for t in tunings.values())) if tunings else set()
-    means = {c: statistics.fmean(t.vs_rule[c].log_ratio for t in tunings.values()) for c in common}
-    best = min(means, key=lambda c: (means[c], len(c.changes())), default=FIXED)
-    if best == FIXED or means[best] >= -math.log1p(NOISE_FLOOR):
-        return FIXED, f"kept today's rule (no choice is more than {NOISE_FLOOR:.0%} faster over the families)"
-    return best, f"{best.label()}: {1 - math.exp(means[best]):.1%} faster than today's rule over the families"
+    means = {}
+    for c in common - {FIXED}:
+        gaps = [t.vs_rule[c] for t in tunings.values()]
+        if all(math.isfinite(g.se) for g in gaps):
+            means[c] = Gap(statistics.fmean(g.log_ratio for g in gaps),
+                           math.sqrt(sum(g.se ** 2 for g in gaps)) / len(gaps), min(g.rounds for g in gaps))
+    best = min(means, key=lambda c: (means[c].log_ratio, len(c.changes())), default=None)
+    if best is None or not means[best].clearly_faster:
+        return FIXED, "kept today's rule (no choice is clearly faster over the families)"
+    return best, f"{best.label()}: {1 - means[best].ratio:.1%} faster than today's rule over the families"
 
 
 def tune_families(order: list[BuildChoice], families: dict[str, list[str]],

@@ -217,4 +217,4 @@ def test_bench_and_devices_name_the_family_choices(family_device, runtime, cache
     monkeypatch.delenv("CLSHADE_DEVICE", raising=False)
     assert main(["devices"]) == 0
     out = capsys.readouterr().out
-    assert "per model family: diffuse 4 lanes, work-group 16, empirical plain stores, microfacet work-group 32" in out
+    assert "per model family (the above for other families): diffuse 4 lanes, work-group 16, empirical plain stores, microfacet work-group 32" in out

@@ -52,7 +52,7 @@ def cmd_devices(args: argparse.Namespace) -> int:
             status += f"; build: {choice.label()} ({source})"
             families = tuned_family_choices(info, device)
             if families:
-                status += "; per model family: " + ", ".join(f"{f} {c.label()}" for f, c in families.items())
+                status += "; per model family (the above for other families): " + ", ".join(f"{f} {c.label()}" for f, c in families.items())
         print(f"{mark} {info.spec}  {info.kind:10s} {info.device}  |  {info.platform} | {info.platform_version}")
         print(f"        {info.runtime}: {status}")
     print(f"(* = default: {default_rule(default, ranking is not None)}; choose with --device P:D or CLSHADE_DEVICE)")
