@@ -451,7 +451,7 @@ class Runtime:
         (tuning off, or a user lobe of a family of its own: the general choice)."""
         family = model.family
         choice = self.family_choices.get(family)
-        if choice is None or choice == self.choice:
+        if choice is None:
             return self
         if family not in self._by_family:
             clone = copy.copy(self)
