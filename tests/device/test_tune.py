@@ -366,8 +366,9 @@ def test_a_small_race_on_the_device(runtime):
                                                               "not measured (budget)"}   # a third of 6 s: few rounds
     # (A family's share can go to its builds on a loaded machine: at least one family timed rounds.)
     assert any(e["rounds"][0] >= 1 for e in body["families"].values())
-    # The shares are stored rounded to 0.01 s each: three may round up by 0.005 s.
-    assert body["budget_s"] == 6.0 and sum(e["budget_s"] for e in body["families"].values()) <= 6.0 + 0.015
+    # Each family may spend an equal part of what is left: the first a third (stored rounded to 0.01 s).
+    shares = [e["budget_s"] for e in body["families"].values()]
+    assert body["budget_s"] == 6.0 and shares[0] <= 6.0 / 3 + 0.005 and max(shares) <= 6.0
     assert BuildChoice.from_dict(body["choice"]) in [*order, *(BuildChoice.from_dict(r["choice"])
                                                              for e in body["families"].values()
                                                              for r in e["candidates"])]
