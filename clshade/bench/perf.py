@@ -169,7 +169,7 @@ def compare(scene_path: str, models: list, width: int | None, height: int | None
         its data in cache."""
         rt = c["shader"].rt
         first, count = c["band"]
-        ev = rt.cl.enqueue_nd_range_kernel(rt.queue, d.kernel, (count,), (rt.local_size,),
+        ev = rt.cl.enqueue_nd_range_kernel(rt.queue, d.kernel, (count,), (d.local_size,),
                                            global_work_offset=(first,))
         ev.wait()
         return (ev.profile.end - ev.profile.start) * 1e-6

@@ -268,7 +268,7 @@ def summarize(cases: list[Case], copy_ms: dict[tuple, list[float]], error: bool 
         row["channels"] = list(variant.channels)
         row["bytes_per_pixel"] = c.gbuffer.bytes_per_pixel(variant.channels, c.features.half_gbuffer) + OUTPUT_BYTES
         row["mean_bytes_per_pixel"] = c.gbuffer.mean_bytes_per_pixel(
-            variant.channels, c.features.half_gbuffer, c.shader.rt.simd, OUTPUT_BYTES)
+            variant.channels, c.features.half_gbuffer, c.shader.rt.for_model(c.model).simd, OUTPUT_BYTES)
         row["copy_mean_ms"] = copy_mean
         row["copy_ratio"] = stats["mean_ms"] / copy_mean
         row["fast_math"], row["half_gbuffer"] = c.features.fast_math, c.features.half_gbuffer

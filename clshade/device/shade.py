@@ -113,6 +113,7 @@ class Dispatch:
     variant: Variant
     kernel: object
     global_size: int
+    local_size: int           # the work-group size of its build (the model family's choice: Runtime.for_model)
     entry: str = "shade"
 
 
@@ -177,22 +178,24 @@ class Shader:
     def prepare(self, model: Model, features: Features, entry: str = "shade") -> Dispatch:
         """Build (once) and bind the kernel for (model, features); `entry` is shade or copy."""
         variant = self.variant(model, features)
-        simd = 1 if features.count_terms else self.rt.simd   # count.h counts one pixel per work-item
-        key = (variant.key, entry, self.rt.info.spec, simd)
+        rt = self.rt.for_model(model)                # the build choice of the model's family
+        simd = 1 if features.count_terms else rt.simd   # count.h counts one pixel per work-item
+        key = (variant.key, entry, rt.info.spec, simd, rt.options, rt.local_size)
         if key in self._dispatches:
             dispatch = self._dispatches[key]
             if key in self._unbound:        # prepared before a rebind(): its arguments set again
                 dispatch.kernel.set_args(*self._arguments(dispatch))
                 self._unbound.discard(key)
             return dispatch
-        built = self.rt.kernel(variant.source(f"{entry}.cl", simd), entry, variant.options(),
-                               label=f"{model.id} ({entry})")
+        built = rt.kernel(variant.source(f"{entry}.cl", simd), entry, variant.options(),
+                          label=f"{model.id} ({entry})")
         # The runtime shares one kernel object per program; arguments are state of the
         # kernel object, so every dispatch binds its own (another Shader, or the same
         # program with other runtime switches, must not rebind ours).
         cl = self.rt.cl
         kernel = cl.Kernel(built.get_info(cl.kernel_info.PROGRAM), entry)
-        dispatch = Dispatch(variant, kernel, self.rt.global_size((self.gb.pixels + simd - 1) // simd), entry)
+        dispatch = Dispatch(variant, kernel, rt.global_size((self.gb.pixels + simd - 1) // simd), rt.local_size,
+                            entry)
         kernel.set_args(*self._arguments(dispatch))
         self._dispatches[key] = dispatch
         return dispatch
@@ -269,7 +272,7 @@ class Shader:
         """Enqueue one frame; returns the OpenCL event (shading and resolve as one
         event when supersampling)."""
         event = self.rt.cl.enqueue_nd_range_kernel(self.rt.queue, dispatch.kernel, (dispatch.global_size,),
-                                                   (self.rt.local_size,))
+                                                   (dispatch.local_size,))
         return self.resolver.enqueue(event) if self.resolver is not None else event
 
     def read(self) -> np.ndarray:

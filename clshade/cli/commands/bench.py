@@ -89,7 +89,10 @@ def build_line(build: dict) -> str:
     forced = f"; forced by {', '.join(build['forced_by'])}" if build["forced_by"] else ""
     return (f"build choices: {build['label']} ({build['source']}{forced}): {build['simd']} lanes, work-group "
             f"{build['local_size']}, inline math {yes[build['inline_math']]}, streaming stores "
-            f"{yes[build['streaming_stores']]}, prefetch {yes[build['prefetch']]}")
+            f"{yes[build['streaming_stores']]}, prefetch {yes[build['prefetch']]}"
+            + ("; per model family (its kernels build with): "
+               + ", ".join(f"{f} {label}" for f, label in build["families"].items())
+               + "; the above for other families" if build.get("families") else ""))
 
 
 def _peers(args: argparse.Namespace, models: list, registry) -> dict:

@@ -128,7 +128,9 @@ def _explain(model, result) -> None:
     print(f"samples: {n}x{n} per pixel on an ordered grid, resolved on the device (kernels/resolve.cl)" if n > 1
           else "samples: 1 per pixel (centre)")
     print(f"build options: {' '.join(variant.options()) or '(none)'}")
-    simd = shader.rt.simd
+    built = shader.rt.for_model(model)           # the build choice of the model's family
+    print(f"build choice: {built.choice.label()} ({built.choice_source})")
+    simd = built.simd
     print("defines: " + " ".join(f"{k}={v}" for k, v in {"SIMD": str(simd), **variant.defines()}.items()))
     print(f"device: {shader.rt.info.description}; {simd} pixel{'s' if simd > 1 else ''} per work-item "
           f"(kernels/simd.h; CLSHADE_SIMD to override)")
