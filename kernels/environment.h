@@ -10,7 +10,16 @@
  *                         the study's ambient), ENV_SH9 (irradiance from 9 SH coefficients,
  *                         Ramamoorthi & Hanrahan 2001, × albedo / π), ENV_SAMPLED, or ENV_NONE
  *                         (the model has no diffuse lobe)
- *   ENV_SPECULAR          the specular lobe's rung: ENV_SAMPLED or ENV_NONE
+ *   ENV_SPECULAR          the specular lobe's rung: ENV_SAMPLED, ENV_SPLIT_SUM (Karis 2013: a
+ *                         prefiltered mip chain times a DFG table), ENV_SPLIT_SUM_MS (the same
+ *                         with Fdez-Agüera 2019's multiple-scattering compensation) or ENV_NONE
+ *   ENV_SPLIT_FAMILY      the split sum's lobe family (ENV_LOBE_*): its lookup coordinate t is the
+ *                         roughness (GGX, Beckmann) or (2/(e + 2))^¼ of the exponent e (Phong,
+ *                         Blinn–Phong); clshade/render/prefilter.py
+ *   ENV_SPLIT_FRESNEL     1: the DFG table is Schlick's scale and bias of F0 (microfacet lobes);
+ *                         0: the normalised empirical lobe's albedo, × ENV_SPLIT_NORM's factor
+ *   ENV_SPLIT_NORM        0: none, 1: Phong's 2π/(e + 2), 2: Blinn–Phong's 8π/(e + 8)
+ *   ENV_LEVELS, ENV_DFG_SIZE  the mip chain's levels and the DFG table's nodes per axis
  *   ENV_LOBE_SAMPLING     the distribution the sampled rung draws for the specular lobe:
  *                         ENV_LOBE_{NONE, GGX, BECKMANN, PHONG, BLINN_PHONG}
  *   ENV_COSINE_SAMPLING   1: the sampled rung also draws cosine-weighted directions
@@ -21,6 +30,10 @@
  *   env_params  float4 rows: (cos θ, sin θ, W, H), (mean radiance, 0), 9 × (SH coefficient × Â_l/π, 0)
  *   env_map     W·H float4: texel radiance RGB and the map strategy's pdf per steradian
  *   env_cdf     the marginal CDF over rows (H + 1 floats), then each row's CDF over its columns (W + 1)
+ * and for the split-sum rungs (MipChain.table, .texels, prefilter.dfg_table):
+ *   env_levels  ENV_LEVELS × (first texel, W, H, 0) floats: the levels of env_mips
+ *   env_mips    the levels' texels (float4: RGB, 0), level 0 the map itself
+ *   env_dfg     ENV_DFG_SIZE² (A, B) pairs, n·v the slow axis, t the fast one
  *
  * The sampled rung: N samples per pixel shared round-robin among its strategies (cosine, the lobe's
  * distribution, the map), each strategy on its own Hammersley set of n_s points with a per-pixel
@@ -34,6 +47,8 @@
 #define ENV_CONSTANT 1
 #define ENV_SH9      2
 #define ENV_SAMPLED  3
+#define ENV_SPLIT_SUM    4
+#define ENV_SPLIT_SUM_MS 5
 
 #define ENV_LOBE_NONE        0
 #define ENV_LOBE_GGX         1
@@ -61,6 +76,17 @@
 #endif
 
 #define ENV_SAMPLED_RUNG (ENV_DIFFUSE == ENV_SAMPLED || ENV_SPECULAR == ENV_SAMPLED)
+#define ENV_SPLIT_SUM_RUNG (ENV_SPECULAR == ENV_SPLIT_SUM || ENV_SPECULAR == ENV_SPLIT_SUM_MS)
+
+/* The split-sum rungs' extra arguments of shade.cl (none for the other rungs). */
+#if ENV_SPLIT_SUM_RUNG
+#define ENV_SPLIT_PARAMS , __global const float* env_levels, __global const float4* env_mips, \
+                           __global const float* env_dfg
+#define ENV_SPLIT_ARGS , env_levels, env_mips, env_dfg
+#else
+#define ENV_SPLIT_PARAMS
+#define ENV_SPLIT_ARGS
+#endif
 
 /* The real SH basis of bands 0–2, +y the polar axis (clshade/render/environment.py, SH_C*). */
 #define ENV_SH_C0 0.282094792f
@@ -98,6 +124,9 @@ INLINE mask env_texel_index(vec3 d, float4 p0) {
     mask row = min(max(convert_mask_sat(floor(v * p0.w)), 0), h - 1);
     return row * w + col;
 }
+
+/* The mirror of v about unit h. */
+INLINE vec3 env_reflect(vec3 v, vec3 h) { return v3sub(v3scale(h, 2.0f * v3dot(v, h)), v); }
 
 typedef struct { vec3 L; real pdf; } EnvTexel;
 
@@ -244,9 +273,6 @@ INLINE vec3 env_spherical(vec3 x, vec3 y, vec3 z, real cos_theta, real phi) {
 INLINE vec3 env_sample_cosine(vec3 n, vec3 x, vec3 y, real a, real b) {
     return env_spherical(x, y, n, sqrt(1.0f - a), 2.0f * CLSHADE_PI * b);
 }
-
-/* The mirror of v about unit h. */
-INLINE vec3 env_reflect(vec3 v, vec3 h) { return v3sub(v3scale(h, 2.0f * v3dot(v, h)), v); }
 
 #if ENV_HAS_LOBE
 /* The lobe's distribution: GGX or Beckmann normals with density D(h)(n·h) (Walter et al. 2007,
@@ -403,12 +429,99 @@ INLINE vec3 env_sampled(vec3 n, vec3 v, const Surface s, uindex pixel, uint samp
 }
 #endif
 
+/* ---- the split-sum rungs ---------------------------------------------------------- */
+
+#if ENV_SPLIT_SUM_RUNG
+
+/* The smallest E = A + B the energy compensation divides by: GGX's albedo at α = 1 and grazing n·v
+ * is ~0.02, so the floor acts only on a broken table (a bias of 0 above it). */
+#define ENV_MIN_ALBEDO 1.0e-3f
+
+INLINE real env_lerp(real a, real b, real t) { return a + (b - a) * t; }
+
+/* Level k (per lane) of the mip chain at map coordinates (u, v): bilinear between texel centres,
+ * u wrapping, v clamped (as env_background). */
+INLINE vec3 env_level(__global const float* levels, __global const float4* mips, mask k, real u, real v) {
+    real wf = gather(levels, 4 * k + 1), hf = gather(levels, 4 * k + 2);
+    mask base = convert_mask_sat(gather(levels, 4 * k)), w = convert_mask_sat(wf), h = convert_mask_sat(hf);
+    real x = u * wf - 0.5f, y = v * hf - 0.5f;
+    real x0 = floor(x), y0 = floor(y);
+    real fx = x - x0, fy = y - y0;
+    mask c0 = convert_mask_sat(x0), r0 = convert_mask_sat(y0);
+    mask c1 = c0 + 1;
+    c0 = c0 < 0 ? c0 + w : c0;
+    c1 = c1 >= w ? c1 - w : c1;
+    mask r1 = min(max(r0 + 1, 0), h - 1);
+    r0 = min(max(r0, 0), h - 1);
+    vec3 top = v3mix(env_fetch(mips, base + r0 * w + c0).L, env_fetch(mips, base + r0 * w + c1).L, fx);
+    vec3 bottom = v3mix(env_fetch(mips, base + r1 * w + c0).L, env_fetch(mips, base + r1 * w + c1).L, fx);
+    return v3mix(top, bottom, fy);
+}
+
+/* The lookup coordinate t in [0, 1] of the lobe (clshade/render/prefilter.py): the roughness, or
+ * (2/(e + 2))^¼ for an exponent e (two square roots, no pow). */
+INLINE real env_split_t(const Surface s) {
+#if ENV_SPLIT_FAMILY == ENV_LOBE_GGX || ENV_SPLIT_FAMILY == ENV_LOBE_BECKMANN
+    return saturate(s.roughness);
+#else
+    return saturate(sqrt(sqrt(2.0f / (fmax(s.shininess, 0.0f) + 2.0f))));
+#endif
+}
+
+/* The specular lobe's reflected sky radiance by the split sum: the chain at the mirror direction r
+ * of v (linear between the levels around t·(ENV_LEVELS − 1)) times the DFG table at (n·v, t),
+ * bilinear between its nodes. */
+INLINE vec3 env_split_sum(vec3 n, vec3 v, const Surface s, __constant float4* P, __global const float* levels,
+                          __global const float4* mips, __global const float* dfg) {
+    real nv = saturate(fmax(v3dot(n, v), MIN_N_DOT_V));
+    real t = env_split_t(s);
+    real u, w;
+    env_uv(env_to_map(env_reflect(v, n), P[0]), &u, &w);
+    real lod = t * (real)(ENV_LEVELS - 1);
+    real l0 = fmin(floor(lod), (real)(ENV_LEVELS - 2));
+    mask k0 = convert_mask_sat(l0);
+    vec3 pre = v3mix(env_level(levels, mips, k0, u, w), env_level(levels, mips, k0 + 1, u, w), lod - l0);
+    real x = nv * (real)(ENV_DFG_SIZE - 1), y = t * (real)(ENV_DFG_SIZE - 1);
+    real x0 = fmin(floor(x), (real)(ENV_DFG_SIZE - 2)), y0 = fmin(floor(y), (real)(ENV_DFG_SIZE - 2));
+    real fx = x - x0, fy = y - y0;
+    mask i = 2 * (convert_mask_sat(x0) * ENV_DFG_SIZE + convert_mask_sat(y0));
+    const int row = 2 * ENV_DFG_SIZE;
+    real A = env_lerp(env_lerp(gather(dfg, i), gather(dfg, i + 2), fy),
+                      env_lerp(gather(dfg, i + row), gather(dfg, i + row + 2), fy), fx);
+#if ENV_SPLIT_FRESNEL
+    real B = env_lerp(env_lerp(gather(dfg, i + 1), gather(dfg, i + 3), fy),
+                      env_lerp(gather(dfg, i + row + 1), gather(dfg, i + row + 3), fy), fx);
+#if FRESNEL == FRESNEL_SCHLICK
+    vec3 f0 = s.f0;
+    real f90 = s.f90;
+#else
+    vec3 f0 = fresnel_cos((real)(1.0f), s);   /* the exact Fresnel's F0, Schlick's curve to 1 */
+    real f90 = (real)(1.0f);
+#endif
+    vec3 spec = v3add(v3scale(f0, A), v3s(f90 * B));
+#if ENV_SPECULAR == ENV_SPLIT_SUM_MS
+    real k = 1.0f / fmax(A + B, ENV_MIN_ALBEDO) - 1.0f;
+    spec = v3mul(spec, v3(1.0f + f0.x * k, 1.0f + f0.y * k, 1.0f + f0.z * k));
+#endif
+#else
+    real e = fmax(s.shininess, 0.0f);
+#if ENV_SPLIT_NORM == 1
+    A = A * ((2.0f * CLSHADE_PI) / (e + 2.0f));
+#elif ENV_SPLIT_NORM == 2
+    A = A * ((8.0f * CLSHADE_PI) / (e + 8.0f));
+#endif
+    vec3 spec = v3s(A);
+#endif
+    return v3scale(v3mul(pre, spec), s.ks);
+}
+#endif
+
 /* ---- the sky's light on one pixel ------------------------------------------------- */
 
-/* Reflected sky radiance towards v: the diffuse rung plus the sampled lobes. `pixel` is the lanes'
+/* Reflected sky radiance towards v: the diffuse rung plus the sampled lobes or the split sum. `pixel` is the lanes'
  * pixel index in the frame (the sampled rung's hash), `samples` the sample count N. */
 INLINE vec3 environment_light(vec3 n, vec3 v, const Surface s, uindex pixel, uint samples, __constant float4* P,
-                              __global const float4* map, __global const float* cdf) {
+                              __global const float4* map, __global const float* cdf ENV_SPLIT_PARAMS) {
     vec3 L = SUM_START;
 #if ENV_DIFFUSE == ENV_CONSTANT
     L = v3add(L, env_diffuse_reflected(v3c(P[1].xyz), s));
@@ -417,6 +530,9 @@ INLINE vec3 environment_light(vec3 n, vec3 v, const Surface s, uindex pixel, uin
 #endif
 #if ENV_SAMPLED_RUNG
     L = v3add(L, env_sampled(n, v, s, pixel, samples, P, map, cdf));
+#endif
+#if ENV_SPLIT_SUM_RUNG
+    L = v3add(L, env_split_sum(n, v, s, P, env_levels, env_mips, env_dfg));
 #endif
     return L;
 }

@@ -187,6 +187,7 @@ __kernel void shade(
 #if HAS_ENVIRONMENT
     , __constant float4* env_params, __global const float4* env_map, __global const float* env_cdf
     , const uint env_samples, const uint env_first_pixel   /* N; the band's first pixel in the frame */
+    ENV_SPLIT_PARAMS                                     /* the split-sum rungs' tables */
 #endif
     , const float4 background,
     __global float4* out
@@ -352,7 +353,7 @@ __kernel void shade(
 #endif
 #if HAS_ENVIRONMENT
         vec3 sky = environment_light(n, v, s, (uindex)(first + env_first_pixel) + LANE_IOTA, env_samples,
-                                     env_params, env_map, env_cdf);
+                                     env_params, env_map, env_cdf ENV_SPLIT_ARGS);
 #if HAS_OCCLUSION
         sky = v3scale(sky, saturate(VLOAD(i, occlusion)));   /* the sky is unoccluded but for AO */
 #endif

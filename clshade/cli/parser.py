@@ -108,11 +108,13 @@ def _add_aa_options(p: argparse.ArgumentParser) -> None:
 
 def _add_environment_options(p: argparse.ArgumentParser) -> None:
     """The rungs of the scene's [environment] (scenes/README.md): --environment-diffuse, -specular, -samples."""
-    from clshade.render.environment import DIFFUSE_RUNGS, LATER_SPECULAR_RUNGS, MAX_SAMPLES, SPECULAR_RUNGS
+    from clshade.render.environment import DIFFUSE_RUNGS, MAX_SAMPLES, SPECULAR_RUNGS
     p.add_argument("--environment-diffuse", choices=DIFFUSE_RUNGS,
                    help="the diffuse lobe's rung under the sky (default: the scene's environment.diffuse)")
-    p.add_argument("--environment-specular", choices=SPECULAR_RUNGS + LATER_SPECULAR_RUNGS,
-                   help="the specular lobe's rung under the sky (split_sum, split_sum_ms: not yet)")
+    p.add_argument("--environment-specular", choices=SPECULAR_RUNGS,
+                   help="the specular lobe's rung under the sky: split_sum (prefiltered map × DFG table), "
+                        "split_sum_ms (+ multiple-scattering compensation) or sampled "
+                        "(default: the scene's environment.specular)")
     p.add_argument("--environment-samples", type=int, metavar="N",
                    help=f"samples per pixel of the sampled rungs, 1 … {MAX_SAMPLES} (environment.samples)")
 

@@ -22,8 +22,9 @@ from clshade.device.runtime import Runtime
 from clshade.render.arrays import padded
 from clshade.render.scene import Camera, Light, Scene
 from clshade.render.shadows import ShadowMaps
-from clshade.device.variants import EnvironmentFeatures, Features, Variant
-from clshade.render.environment import Environment, prepare_spec
+from clshade.device.variants import EnvironmentFeatures, Features, Variant, environment_rungs, split_family
+from clshade.render import prefilter
+from clshade.render.environment import SPLIT_SUM_RUNGS, Environment, prepare_spec
 
 LIGHT_ORDER = ("directional", "point", "spot")
 LIGHT_KIND = {"directional": 0, "point": 1, "spot": 2}      # LIGHT_* in shade.cl (general kernel)
@@ -151,6 +152,7 @@ class Shader:
             self.env_params = runtime.to_device(self.environment.params())
             self.env_map = runtime.to_device(self.environment.texels())
             self.env_cdf = runtime.to_device(self.environment.cdf())
+        self._split_tables: dict[tuple[str, str], object] = {}   # the split sum's, uploaded when first asked
         self.samples = scene.samples
         self.resolver = None
         if self.samples > 1:
@@ -229,22 +231,39 @@ class Shader:
                 if features.ambient:
                     args.append(self.ambient)
             if features.environment is not None:
-                args += self._environment_arguments()
+                args += self._environment_arguments(variant)
         # Both entries write the background where no pixel is covered (copy.cl says why).
         args += [self.background, self.out]
         if features.count_terms:
             args.append(self.term_counts)
         return args
 
-    def _environment_arguments(self) -> list[object]:
+    def _environment_arguments(self, variant: Variant) -> list[object]:
         """The sky's arguments of shade.cl (kernels/environment.h): its tables, the sample count N of
         the sampled rung and the index of this G-buffer's first pixel in the whole frame (a band's
-        rows start further down), so that each pixel's samples are the same however the frame is cut."""
+        rows start further down), so that each pixel's samples are the same however the frame is cut;
+        for a split-sum rung, the model's mip chain and DFG table."""
         if self.environment is None:
             raise ValueError("a variant with an environment needs a scene with one")
         first = self.camera.crop[0] * self.gb.width if self.camera.crop else 0
-        return [self.env_params, self.env_map, self.env_cdf, np.uint32(self.scene.environment.samples),
+        args = [self.env_params, self.env_map, self.env_cdf, np.uint32(self.scene.environment.samples),
                 np.uint32(first)]
+        _, specular = environment_rungs(variant.model, variant.features.environment)
+        if specular in SPLIT_SUM_RUNGS:
+            args += self._split_sum_tables(variant.model, specular)
+        return args
+
+    def _split_sum_tables(self, model, rung: str) -> list[object]:
+        """The device copies of the model's prefiltered mip chain (its level table, its texels) and
+        DFG table (clshade/render/prefilter.py), uploaded once per lobe family and lobe."""
+        fam, lobe = split_family(model, rung), model.specular_lobe.id
+        if ("chain", fam) not in self._split_tables:
+            chain = prefilter.mip_chain(self.environment.radiance, fam)
+            self._split_tables["chain", fam] = (self.rt.to_device(chain.table().reshape(-1)),
+                                                self.rt.to_device(chain.texels()))
+        if ("dfg", lobe) not in self._split_tables:
+            self._split_tables["dfg", lobe] = self.rt.to_device(prefilter.dfg_table(lobe).reshape(-1))
+        return [*self._split_tables["chain", fam], self._split_tables["dfg", lobe]]
 
     def rebind(self, gbuffer: GBuffer, scene: Scene, camera: Camera | None = None) -> None:
         """Shade another G-buffer of the same size with the same lights, shadow maps,

@@ -22,7 +22,9 @@ import numpy as np
 
 from clshade.models.lobe import BRDF_FILE
 from clshade.models.model import NONE, Model
-from clshade.render.environment import LOBE_SAMPLING
+from clshade.errors import ClshadeError
+from clshade.render import prefilter
+from clshade.render.environment import LOBE_SAMPLING, SPLIT_SUM_RUNGS
 from clshade.resources import kernels_dir
 
 # The per-material constants (surface.h, MATERIAL_STRIDE float4 per material).
@@ -43,7 +45,10 @@ FAST_MATH = "-cl-fast-relaxed-math"
 IMAGE_ENTRIES = ("shade.cl", "copy.cl")
 
 # kernels/environment.h: a rung by name, and the specular lobe's sampling (render/environment.py).
-ENV_RUNG_DEFINES = {"none": "ENV_NONE", "constant": "ENV_CONSTANT", "sh9": "ENV_SH9", "sampled": "ENV_SAMPLED"}
+ENV_RUNG_DEFINES = {"none": "ENV_NONE", "constant": "ENV_CONSTANT", "sh9": "ENV_SH9", "sampled": "ENV_SAMPLED",
+                    "split_sum": "ENV_SPLIT_SUM", "split_sum_ms": "ENV_SPLIT_SUM_MS"}
+# The split sum's normalisation of the empirical lobes' table (kernels/environment.h ENV_SPLIT_NORM).
+ENV_SPLIT_NORM = {"phong": "1", "blinn_phong": "2"}
 ENV_LOBE_DEFINES = {None: "ENV_LOBE_NONE", "ggx": "ENV_LOBE_GGX", "beckmann": "ENV_LOBE_BECKMANN",
                     "phong": "ENV_LOBE_PHONG", "blinn_phong": "ENV_LOBE_BLINN_PHONG"}
 
@@ -107,6 +112,9 @@ class Features:
         env = self.environment
         out.append("environment: " + ("off" if env is None else
                    f"on (kernels/environment.h): diffuse {env.diffuse}, specular {env.specular}"
+                   + (f" (a {prefilter.LEVELS}-level prefiltered mip chain × a {prefilter.DFG_SIZE}² DFG table"
+                      + (", energy compensation" if env.specular == "split_sum_ms" else "") + ")"
+                      if env.specular in SPLIT_SUM_RUNGS else "")
                    + (", sky behind the scene" if env.background else "")
                    + ("" if env.map_sampling or "sampled" not in (env.diffuse, env.specular)
                       else ", a constant sky: no map sampling")))
@@ -317,9 +325,32 @@ def environment_defines(model: Model, env: EnvironmentFeatures | None) -> dict[s
         d["ENV_LOBE_SAMPLING"] = ENV_LOBE_DEFINES[lobe_sampling(model) if specular == "sampled" else None]
         d["ENV_COSINE_SAMPLING"] = str(int("cosine" in strategies))
         d["ENV_MAP_SAMPLING"] = str(int("map" in strategies))
+    if specular in SPLIT_SUM_RUNGS:
+        d.update(split_sum_defines(model, specular))
     if env.background:
         d["ENV_BACKGROUND"] = "1"
     return d
+
+
+def split_family(model: Model, rung: str) -> str:
+    """The prefilter family of the model's specular lobe for a split-sum rung; refused in one line
+    for a lobe without one (a user's)."""
+    fam = lobe_sampling(model)
+    if fam is None:
+        lobe = model.specular_lobe.id if model.specular_lobe is not None else model.specular
+        raise ClshadeError(f"model {model.id!r}: environment.specular = {rung!r} prefilters the sky for built-in "
+                           f"specular lobes only (GGX, Beckmann, Phong, Blinn–Phong), not {lobe!r}: "
+                           f"use specular = 'sampled'")
+    return fam
+
+
+def split_sum_defines(model: Model, rung: str) -> dict[str, str]:
+    """kernels/environment.h's split-sum defines of the model's specular lobe."""
+    fam = split_family(model, rung)
+    lobe = model.specular_lobe.id
+    return {"ENV_SPLIT_FAMILY": ENV_LOBE_DEFINES[fam], "ENV_SPLIT_FRESNEL": str(int(lobe in prefilter.FRESNEL_LOBES)),
+            "ENV_SPLIT_NORM": ENV_SPLIT_NORM.get(lobe, "0"), "ENV_LEVELS": str(prefilter.LEVELS),
+            "ENV_DFG_SIZE": str(prefilter.DFG_SIZE)}
 
 
 def geometry_defines(model: Model) -> dict[str, str]:

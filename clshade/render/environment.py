@@ -27,11 +27,11 @@ from clshade.diagnostics import stderr_captured
 from clshade.errors import ClshadeError, located
 from clshade.render.textures import _read_pixels, _to_rgb
 
-# The rungs of the ladder (scenes/README.md). split_sum and split_sum_ms are the issue's next
-# milestone: named here so that asking for one is refused as "not yet", not as a typo.
+# The rungs of the ladder (scenes/README.md), cheapest first: the one list of what exists.
 DIFFUSE_RUNGS = ("constant", "sh9", "sampled")
-SPECULAR_RUNGS = ("none", "sampled")
-LATER_SPECULAR_RUNGS = ("split_sum", "split_sum_ms")
+SPECULAR_RUNGS = ("none", "split_sum", "split_sum_ms", "sampled")
+# The rungs that prefilter the map per specular lobe family (clshade/render/prefilter.py).
+SPLIT_SUM_RUNGS = ("split_sum", "split_sum_ms")
 DEFAULT_DIFFUSE = "sh9"
 DEFAULT_SPECULAR = "sampled"
 # Samples per pixel of the sampled rungs: 64 brings a rough GGX robot under a soft sky to ~1 %
@@ -92,12 +92,10 @@ class EnvironmentSpec:
 
 def check_rungs(diffuse: str, specular: str, samples: int) -> str | None:
     """Why a rung combination is refused (None when it is fine)."""
-    if specular in LATER_SPECULAR_RUNGS:
-        return f"{specular!r} is not implemented yet (specular rungs now: {', '.join(SPECULAR_RUNGS)})"
     if diffuse not in DIFFUSE_RUNGS:
         return f"diffuse must be one of {', '.join(DIFFUSE_RUNGS)}"
     if specular not in SPECULAR_RUNGS:
-        return f"specular must be one of {', '.join(SPECULAR_RUNGS + LATER_SPECULAR_RUNGS)}"
+        return f"specular must be one of {', '.join(SPECULAR_RUNGS)}"
     if not 1 <= samples <= MAX_SAMPLES:
         return f"samples must be within [1, {MAX_SAMPLES}]"
     return None

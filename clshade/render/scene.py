@@ -601,9 +601,7 @@ def _environment(file: Path, table: Any) -> env.EnvironmentSpec:
     uniform = r.vector("uniform", None, 0.0, 1e30, allow_scalar=True)
     if (path is None) == (uniform is None):
         raise located("needs exactly one of 'map' (a file) or 'uniform' (a colour)", file, "environment")
-    specular = r.string("specular", env.DEFAULT_SPECULAR, env.SPECULAR_RUNGS + env.LATER_SPECULAR_RUNGS)
-    if specular in env.LATER_SPECULAR_RUNGS:
-        raise r.error("specular", env.check_rungs(env.DEFAULT_DIFFUSE, specular, 1))
+    specular = r.string("specular", env.DEFAULT_SPECULAR, env.SPECULAR_RUNGS)
     spec = env.EnvironmentSpec(
         map=path, uniform=uniform,
         intensity=r.number("intensity", 1.0, 0.0, 1e30),

@@ -4,6 +4,7 @@ rung against the irradiance of a sky with known coefficients, the map's orientat
 it, a turned sky equal to the camera and scene turned back, and the sampled rung's reproducibility."""
 from __future__ import annotations
 
+import dataclasses
 
 import numpy as np
 import pytest
@@ -11,7 +12,8 @@ import pytest
 from clshade import budget
 from clshade.device.shade import scene_features
 from clshade.models.registry import Registry
-from clshade.pipeline import render
+from clshade.pipeline import prepare_frame, render
+from clshade.render.environment import DIFFUSE_RUNGS, SPECULAR_RUNGS
 from clshade.render.scene import load_scene
 
 from conftest import SCENES, refused, render_refused, run_cli, write_scene
@@ -74,7 +76,7 @@ def test_a_map_over_the_budget_is_refused_before_it_is_decoded(tmp_path, capsys,
 
 
 @pytest.mark.parametrize("sky, render_keys, needle", [
-    (dict(uniform=1.0, specular="split_sum"), {}, "environment.specular = 'split_sum': 'split_sum' is not implemented yet"),
+    (dict(uniform=1.0, specular="split"), {}, "did you mean 'split_sum'?"),
     (dict(uniform=1.0, map="sky.exr"), {}, "needs exactly one of 'map' (a file) or 'uniform'"),
     (dict(intensity=2.0), {}, "needs exactly one of 'map'"),
     (dict(uniform=1.0, samples=0), {}, "environment.samples = 0: must be within [1, 1024]"),
@@ -90,7 +92,6 @@ def test_bad_environment_keys_are_refused(tmp_path, capsys, sky, render_keys, ne
 
 
 @pytest.mark.parametrize("flags, needle", [
-    (["--environment-specular", "split_sum"], "--environment-specular split_sum: 'split_sum' is not implemented yet"),
     (["--environment-samples", "2000"], "--environment-samples 2000: samples must be within [1, 1024]"),
 ])
 def test_bad_environment_flags_are_refused(tmp_path, capsys, flags, needle):
@@ -115,9 +116,11 @@ def test_environment_flags_need_an_environment(tmp_path, capsys):
 # ---------------------------------------------------------------- the furnace: every rung
 
 
-@pytest.mark.parametrize("diffuse", ["constant", "sh9", "sampled"])
-def test_white_lambert_under_a_white_sky_is_one_in_every_rung(tmp_path, diffuse):
-    s = load_scene(write_scene(tmp_path, white_sphere(dict(uniform=[1.0, 1.0, 1.0], diffuse=diffuse, samples=16))))
+@pytest.mark.parametrize("diffuse", DIFFUSE_RUNGS)
+@pytest.mark.parametrize("specular", SPECULAR_RUNGS)
+def test_white_lambert_under_a_white_sky_is_one_in_every_rung(tmp_path, diffuse, specular):
+    s = load_scene(write_scene(tmp_path, white_sphere(dict(uniform=[1.0, 1.0, 1.0], diffuse=diffuse, specular=specular,
+                                                          samples=16))))
     values = covered(render(s, LAMBERT).image)
     assert len(values) > 200
     assert np.abs(values - 1.0).max() <= FURNACE_TOLERANCE, (diffuse, values.min(), values.max())
@@ -276,3 +279,102 @@ def test_bundled_scene_renders_with_rung_flags_and_explains_them(tmp_path, capsy
     from clshade.render.image import read_image
     image = read_image(out)
     assert np.isfinite(image).all() and image[..., :3].min() >= 0 and image[..., :3].max() > 0.05
+
+
+# ---------------------------------------------------------------- the split-sum rungs
+
+GGX = Registry().resolve("ggx_correlated")
+# Roughness of the four spheres of the conductor test: from near-mirror to the roughest.
+ROUGHNESS = (0.05, 0.3, 0.6, 1.0)
+# The DFG table's rule (up to 2.3e-3 at grazing, tests/render/test_prefilter.py) and its bilinear
+# interpolation between nodes 1/31 apart: the split sum's own error under a uniform sky, where the
+# prefiltered factor is exactly 1 (measured at most 1.3e-3 on these pixels).
+SPLIT_ALBEDO_TOLERANCE = 3e-3
+# split_sum_ms of an F0 = 1 conductor: E·(1 + (1/E − 1)) = 1 up to float32 rounding of a few operations.
+MS_TOLERANCE = 1e-3
+
+
+def conductor_spheres(sky: dict) -> str:
+    """Four white (F0 = 1) metal spheres of ROUGHNESS in a row under `sky`."""
+    mats = [material(f"m{i}", base_color=[1.0, 1.0, 1.0], roughness=r, metallic=1.0) for i, r in enumerate(ROUGHNESS)]
+    objs = [obj(primitive="sphere", radius=0.45, subdivisions=5, translate=[-1.5 + i, 0.0, 0.0], material=f"m{i}")
+            for i in range(len(ROUGHNESS))]
+    return scene(camera(position=[0.0, 0.0, 5.0], fov=34.0, width=96, height=32), table("environment", **sky),
+                 *mats, *objs)
+
+
+def reference_albedo(mu: float, roughness: float) -> float:
+    """E(μ) of ggx_correlated with F = 1 by the float64 reference (clshade.verify.reference)."""
+    from clshade.verify.reference import albedo, compose
+
+    def f(n, l, v):
+        h = l + v
+        h = h / np.linalg.norm(h, axis=1, keepdims=True)
+        out = compose.ggx_correlated(l[:, 2], v[:, 2], h[:, 2], np.sum(v * h, axis=1), max(roughness ** 2, 1e-4))
+        return np.asarray(out).reshape(len(l), -1)[:, 0]
+    return float(albedo.directional_albedo(f, 16, v=(np.sqrt(max(1.0 - mu * mu, 0.0)), 0.0, mu)))
+
+
+@pytest.fixture(scope="module")
+def conductor_frame(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("conductors")
+    s = load_scene(write_scene(folder, conductor_spheres(dict(uniform=1.0, diffuse="constant", specular="split_sum"))))
+    frame = prepare_frame(s)
+    from clshade.verify import reference as R
+    px = R.pixels(frame.gbuffer, frame.camera)
+    return s, frame, px
+
+
+def _pick(px, roughness: float) -> list[int]:
+    """Pixels of the sphere of `roughness` spread over n·v: one nearest each of 0.1, 0.3, 0.6, 0.9, 1."""
+    nv = np.sum(px.n * px.v, axis=1)
+    mine = np.flatnonzero(np.abs(px.roughness - roughness) < 1e-6)
+    return [int(mine[np.argmin(np.abs(nv[mine] - target))]) for target in (0.1, 0.3, 0.6, 0.9, 1.0)]
+
+
+def test_split_sum_of_an_f0_one_conductor_is_the_reference_albedo(conductor_frame):
+    """A GGX conductor with F0 = 1 under a uniform white sky: split_sum is E(μ), single scatter, at every
+    roughness from 0.05 to 1 and n·v from grazing to normal (the prefiltered sky is 1 exactly)."""
+    s, frame, px = conductor_frame
+    image = render(s, GGX, frame=frame).image[..., :3].reshape(-1, 3)
+    for r in ROUGHNESS:
+        for k in _pick(px, r):
+            mu = float(px.n[k] @ px.v[k])
+            want = reference_albedo(mu, r)
+            assert np.abs(image[px.index[k]] - want).max() < SPLIT_ALBEDO_TOLERANCE, (r, mu, image[px.index[k]], want)
+
+
+def test_split_sum_ms_of_an_f0_one_conductor_is_one(conductor_frame):
+    """Energy compensation: the same conductor reflects the whole white sky, 1 within 1e-3, where single
+    scattering loses up to ~40 % at roughness 1."""
+    s, frame, px = conductor_frame
+    s2 = dataclasses.replace(s, environment=dataclasses.replace(s.environment, specular="split_sum_ms"))
+    image = render(s2, GGX, frame=dataclasses.replace(frame, scene=s2)).image[..., :3].reshape(-1, 3)
+    values = image[px.index]
+    assert np.abs(values - 1.0).max() < MS_TOLERANCE, (values.min(), values.max())
+    single = render(s, GGX, frame=frame).image[..., :3].reshape(-1, 3)[px.index]
+    assert single.min() < 0.8          # the compensation has something to do
+
+
+def test_split_sum_refuses_a_users_lobe_and_names_the_model():
+    from clshade.device.variants import EnvironmentFeatures, environment_defines
+    from clshade.errors import ClshadeError
+    model = Registry().with_lobes(SCENES / "lobes" / "ward.brdf").resolve("ward")
+    with pytest.raises(ClshadeError, match=r"model '.*ward.*': environment.specular = 'split_sum' .* "
+                                           r"use specular = 'sampled'"):
+        environment_defines(model, EnvironmentFeatures(specular="split_sum"))
+    assert environment_defines(model, EnvironmentFeatures(specular="sampled"))["ENV_SPECULAR"] == "ENV_SAMPLED"
+
+
+def test_split_sum_is_compiled_only_when_asked_and_explained(tmp_path, capsys):
+    from clshade.device.variants import EnvironmentFeatures, environment_defines
+    assert "ENV_SPLIT_FAMILY" not in environment_defines(GGX, EnvironmentFeatures(specular="sampled"))
+    d = environment_defines(Registry().resolve("phong"), EnvironmentFeatures(specular="split_sum_ms"))
+    assert d["ENV_SPECULAR"] == "ENV_SPLIT_SUM_MS" and d["ENV_SPLIT_FAMILY"] == "ENV_LOBE_PHONG"
+    assert d["ENV_SPLIT_FRESNEL"] == "0" and d["ENV_SPLIT_NORM"] == "1"
+    code, stdout, err = run_cli(capsys, ["render", str(SCENES / "environment.toml"), "-o", str(tmp_path / "r.exr"),
+                                         "--width", "24", "--height", "24", "--explain",
+                                         "--environment-specular", "split_sum"])
+    assert code == 0 and err == "", err
+    assert "specular split_sum (a 6-level prefiltered mip chain × a 32² DFG table)" in stdout
+    assert "ENV_SPECULAR=ENV_SPLIT_SUM " in stdout and "ENV_SPLIT_FAMILY=ENV_LOBE_GGX" in stdout
