@@ -198,7 +198,7 @@ class SkyErrorJob:
         sky = np.concatenate(self.sky) if self.sky else np.zeros((0, 3))
         truth = environment_oracle.Truth(self.pixels.index, np.sum(self.pixels.n * self.pixels.v, axis=1),
                                          self.rest + sky * self.occlusion[:, None], self.subdivisions)
-        return dict(type="sky_error", label=self.label, pixels=self.total,
+        return dict(type="sky_error", label=self.label,
                     **environment_oracle.errors(self.image, truth))
 
 
