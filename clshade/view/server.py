@@ -84,6 +84,7 @@ class Page:
         self.wake = asyncio.Event()
         self.skipped = 0
         self.sky_task: asyncio.Task | None = None     # the sky error being integrated
+        self.sky_busy = False                         # a sky error asked for and not yet answered
 
     async def send_json(self, data: dict) -> None:
         """Send `data` as JSON, which has no NaN or Infinity: a message holding one is logged and
@@ -120,8 +121,10 @@ class Page:
                 self.pending = (seq or 0, controls, time.perf_counter())
             elif kind in ("save", "oracle", "sky_error"):
                 controls = parse_controls(message.get("controls"), limits)
-                if kind == "sky_error" and self.sky_task is not None and not self.sky_task.done():
-                    raise ControlError("sky_error: a sky error is being measured; wait for its result")
+                if kind == "sky_error":
+                    if self.sky_busy:
+                        raise ControlError("sky_error: a sky error is being measured; wait for its result")
+                    self.sky_busy = True
                 self.jobs.append((kind, seq or 0, controls, message.get("name")))
             elif kind == "bye":
                 await self.ws.close()
@@ -180,8 +183,11 @@ class Page:
                         result = await self.server.call(call, self, seq)
                         if sending is not None:
                             await sending
-                        if result is not None and kind == "sky_error":
-                            self.sky_task = asyncio.create_task(self._sky_error(seq, result))
+                        if kind == "sky_error":
+                            if result is None:      # refused (no sky): the page has its error
+                                self.sky_busy = False
+                            else:
+                                self.sky_task = asyncio.create_task(self._sky_error(seq, result))
                         elif result is not None:
                             await self.send_json(dict(result, seq=seq))
                 if raster is None and self.pending is not None:
@@ -206,6 +212,12 @@ class Page:
     async def _sky_error(self, seq: int, job) -> None:
         """Integrate a sky error's truth step by step on the oracle thread (frames go on), sending its
         progress after each step and its result at the end."""
+        try:
+            await self._sky_steps(seq, job)
+        finally:
+            self.sky_busy = False
+
+    async def _sky_steps(self, seq: int, job) -> None:
         steps = job.steps()
         while True:
             done = await self.server.call(lambda: next(steps, "finished"), self, seq, self.server.oracle_executor)
