@@ -141,10 +141,11 @@ def test_a_rung_change_builds_a_variant_and_uploads_nothing(sky):
         assert frame.costs["a"] == cost_label(frame.models["a"], sky.last["scene"].environment)
         assert frame.stats[frame.costs["a"]]["frames"] >= 1
     assert {f"{frame.models['a']} [{d}|sampled ×4]" for d in env.DIFFUSE_RUNGS} <= set(frame.ladder)
-    more = sky.render(checked(sky, dict(samples=16)))                 # an argument: bound again, not uploaded
+    assert frame.environment["diffuse"] == "sampled" and frame.environment["samples"] == 4
+    more = sky.render(checked(sky, dict(diffuse="sampled", samples=16)))    # an argument: bound again, not uploaded
     assert sky._shader.value is shader and "upload" not in more.stages and more.environment["samples"] == 16
-    assert (more.views["a"] != frame.views["a"]).any()
-    turned = sky.render(checked(sky, dict(samples=16, rotation=90.0)))    # new sky data: uploaded
+    assert (more.views["a"] != frame.views["a"]).any()                      # the kernel took the new count
+    turned = sky.render(checked(sky, dict(diffuse="sampled", samples=16, rotation=90.0)))   # new sky data: uploaded
     assert "upload" in turned.stages and (turned.views["a"] != more.views["a"]).any()
 
 
