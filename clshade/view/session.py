@@ -38,6 +38,7 @@ from clshade.device.runtime import get_runtime
 from clshade.device import visibility as device_visibility
 from clshade.device.shade import Shader, scene_features
 from clshade.device.timing import timed_dispatch
+from clshade.device.variants import environment_defines
 from clshade.device.visibility import DeviceGBuffer
 from clshade.diagnostics import note
 from clshade.errors import ClshadeError
@@ -138,18 +139,17 @@ def cost_label(model_id: str, spec: env.EnvironmentSpec | None) -> str:
     return f"{model_id} [{rungs}]" if rungs else model_id
 
 
-def rung_info(scene: Scene, features) -> dict | None:
-    """What the page shows of the sky a frame was shaded with: the map, its rungs and the kernel
-    variant's environment features (EnvironmentFeatures: the compile-time choice)."""
+def rung_info(scene: Scene, features, model) -> dict | None:
+    """What the page shows of the sky a frame was shaded with: the map, its rungs and the defines
+    of model A's kernel variant under it (clshade.device.variants.environment_defines: what is compiled)."""
     spec = scene.environment
     if spec is None:
         return None
-    sky = features.environment
+    defines = environment_defines(model, features.environment)
     return dict(sky=spec.map.name if spec.map is not None else "uniform " + ", ".join(f"{c:g}" for c in spec.uniform),
                 diffuse=spec.diffuse, specular=spec.specular, samples=spec.samples, rotation=spec.rotation,
                 intensity=spec.intensity, rungs=rung_label(spec),
-                variant=f"ENV diffuse={sky.diffuse} specular={sky.specular} map_sampling={int(sky.map_sampling)} "
-                        f"background={int(sky.background)}")
+                variant=" ".join(f"{k}={v}" for k, v in defines.items()))
 
 
 def sky_files(folder: Path) -> tuple[str, ...]:
@@ -593,7 +593,7 @@ class ViewSession:
             stats[label] = frame_stats(times[:, 0], times[:, 1]) | dict(frames=len(times))
         return ViewFrame(width, height, views, timings, stats, {k: m.id for k, m in shown.items()}, scale,
                          reshade_only=not any(s in timings for s in ("rasterize", "g-buffer", DEVICE_GBUFFER_STAGE)),
-                         costs=labels, environment=rung_info(scene, features), ladder=self.ladder())
+                         costs=labels, environment=rung_info(scene, features, model_a), ladder=self.ladder())
 
     def ladder(self) -> dict[str, float]:
         """Mean device ms per frame of every model and rung combination shaded so far (its recent frames)."""

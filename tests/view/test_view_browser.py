@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from clshade.cli import main
+from clshade.device.variants import ENV_RUNG_DEFINES
 from clshade.render.image import read_image
 from clshade.resources import scenes_dir
 from clshade.view import headless
@@ -272,10 +273,11 @@ def test_environment_picker_rungs_and_error(browser, sky_served):
         for rung in rungs:
             header = choose(browser, f"env_{key}", rung)
             sky = header["environment"]
-            assert sky[key] == rung and f"{key}={rung} " in sky["variant"] + " ", sky
+            define = f"ENV_{key.upper()}={ENV_RUNG_DEFINES[rung]}"
+            assert sky[key] == rung and f"{define} " in sky["variant"] + " ", sky
             assert header["costs"]["a"] == f"{header['models']['a']} [{sky['rungs']}]"
             assert header["stats"][header["costs"]["a"]]["mean_ms"] > 0
-            assert f"{key}={rung}" in js(browser, "return document.getElementById('rungs').textContent;")
+            assert define in js(browser, "return document.getElementById('rungs').textContent;")
     ladder = js(browser, "return window.clshadeView.lastFrame.ladder;")
     assert len(ladder) >= len(hello["rungs"]["diffuse"]) + len(hello["rungs"]["specular"]) - 1
     for key, value, field in (("env_rotation", 90, "rotation"), ("env_intensity", 2, "intensity")):

@@ -11,6 +11,7 @@ import tomllib
 import numpy as np
 import pytest
 
+from clshade.device.variants import ENV_RUNG_DEFINES
 from clshade.render import environment as env
 from clshade.render.scene import load_scene
 from clshade.resources import scenes_dir
@@ -137,7 +138,8 @@ def test_a_rung_change_builds_a_variant_and_uploads_nothing(sky):
     for diffuse in env.DIFFUSE_RUNGS:
         frame = sky.render(checked(sky, dict(diffuse=diffuse)))
         assert sky._shader.value is shader and "upload" not in frame.stages and frame.reshade_only
-        assert frame.environment["diffuse"] == diffuse and f"diffuse={diffuse} " in frame.environment["variant"]
+        assert frame.environment["diffuse"] == diffuse
+        assert f"ENV_DIFFUSE={ENV_RUNG_DEFINES[diffuse]} " in frame.environment["variant"] + " "
         assert frame.costs["a"] == cost_label(frame.models["a"], sky.last["scene"].environment)
         assert frame.stats[frame.costs["a"]]["frames"] >= 1
     assert {f"{frame.models['a']} [{d}|sampled ×4]" for d in env.DIFFUSE_RUNGS} <= set(frame.ladder)
