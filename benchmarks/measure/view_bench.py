@@ -125,7 +125,8 @@ def _fit_window(driver, size: tuple[int, int]) -> None:
         driver.execute_async_script("const [w, h, done] = arguments; const wait = () => window.innerWidth === w && "
                                     "window.innerHeight === h ? requestAnimationFrame(() => done()) : "
                                     "setTimeout(wait, 20); wait();", width, height)
-        css = driver.execute_script("const c = document.getElementById('frame'); return [c.clientWidth, c.clientHeight];")
+        css = driver.execute_script("const c = document.getElementById('frame'); "
+                                    "return [c.clientWidth, c.clientHeight];")
         if tuple(css) == size:
             break
         width, height = width + size[0] - css[0], height + size[1] - css[1]

@@ -86,7 +86,8 @@ def dumps(doc: dict[str, Any]) -> str:
 def applied(base: dict[str, Any], controls, position, width: int, height: int) -> dict[str, Any]:
     """`base` (the scene file's tables) with `controls` (clshade.view.controls.Controls) and
     the orbit camera `position` written in; `base` itself is not changed. Only the tables
-    written here are copied ([environment] replaced, never changed in place); the rest (objects, meshes) is shared with `base`, which the
+    written here are copied ([environment] replaced, never changed in place); the rest (objects,
+    meshes) is shared with `base`, which the
     scene parser only reads (tests/view/test_view.py checks that `base` stays as it was)."""
     doc = dict(base)
     doc["camera"] = dict(doc.get("camera", {}))

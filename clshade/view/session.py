@@ -646,7 +646,8 @@ class ViewSession:
         occlusion = np.ones(len(px.index))
         if "occlusion" in gbuffer.channels:
             occlusion = np.clip(gbuffer.channels["occlusion"][px.index].astype(np.float64), 0.0, 1.0)
-        rest = reference.radiance(gbuffer, scene, model, camera=camera, shadows=last["shadows"]).reshape(-1, 3)[px.index]
+        rest = reference.radiance(gbuffer, scene, model, camera=camera, shadows=last["shadows"])
+        rest = rest.reshape(-1, 3)[px.index]
         return SkyErrorJob(cost_label(model.id, scene.environment), model, px,
                            env.prepare_spec(scene.environment, scene.path), occlusion, rest, image)
 

@@ -112,16 +112,17 @@ function showLadder(ladder) {       // every model and rung shaded so far: its c
   body.innerHTML = "";
   for (const label of Object.keys(ladder).sort()) {
     const row = body.insertRow();
-    [label, ladder[label].toFixed(2), label in skyErrors ? skyErrors[label].toExponential(2) : ""]
+    [label, ladder[label].toFixed(2), skyErrors[label] != null ? skyErrors[label].toExponential(2) : ""]
       .forEach((t) => { row.insertCell().textContent = t; });
   }
 }
 
 function showSkyError(m) {
+  const e = (x) => x === null ? "—" : x.toExponential(2);       // no error where the truth is all zero
   skyErrors[m.label] = m.rel_rmse;
-  const grazing = m.by_nv.find((b) => b.pixels > 0);
-  $("sky_error_out").textContent = `${m.label}: rel RMSE ${m.rel_rmse.toExponential(2)}, max ${m.max_rel.toExponential(2)}` +
-    ` over ${m.pixels} pixels` + (grazing ? `; n·v ≤ ${grazing.nv[1]}: ${grazing.rel_rmse.toExponential(2)}` : "");
+  const grazing = m.by_nv.find((bin) => bin.pixels > 0);
+  $("sky_error_out").textContent = `${m.label}: rel RMSE ${e(m.rel_rmse)}, max ${e(m.max_rel)} over ${m.pixels} pixels` +
+    (grazing ? `; n·v ≤ ${grazing.nv[1]}: ${e(grazing.rel_rmse)}` : "");
   if (lastFrame) showLadder(lastFrame.ladder);
 }
 
@@ -159,7 +160,9 @@ ws.onmessage = (event) => {
   else if (m.type === "error") { showError(m.message); $("error").dataset.seq = m.seq ?? seq; }
   else if (m.type === "saved") $("saved").textContent = `wrote ${m.files.join(", ")} in ${m.folder}\n` + m.commands.join("\n");
   else if (m.type === "oracle") showOracle(m);
-  else if (m.type === "sky_progress" && progress.push(m)) $("sky_error_out").textContent = `measuring ${m.label}: ${m.done}/${m.total} pixels…`;
+  else if (m.type === "sky_progress" && progress.push(m)) {
+    $("sky_error_out").textContent = `measuring ${m.label}: ${m.done}/${m.total} pixels…`;
+  }
   else if (m.type === "sky_error") showSkyError(m);
   else if (m.type === "sent") {
     const r = records.findLast((x) => x.seq === m.seq);
