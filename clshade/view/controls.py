@@ -103,6 +103,14 @@ class SkyControls:
     intensity: float
 
 
+def canvas_cap(text: str, name: str) -> tuple[int, int]:
+    """A cap written WxH (each within [1, MAX_RESOLUTION]); refused in one line naming `name`."""
+    match = re.fullmatch(r"([0-9]{1,5})x([0-9]{1,5})", text.strip())
+    if not match or not all(1 <= int(g) <= MAX_RESOLUTION for g in match.groups()):
+        raise ClshadeError(f"{name} = {text[:40]!r}: expected WxH, each within [1, {MAX_RESOLUTION}] (e.g. 1920x1080)")
+    return int(match[1]), int(match[2])
+
+
 def fit_canvas(width: int, height: int, cap: tuple[int, int]) -> tuple[int, int]:
     """width × height scaled down, its aspect kept, to fit within cap (each side at least 1)."""
     scale = min(1.0, cap[0] / width, cap[1] / height)

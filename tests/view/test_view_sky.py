@@ -16,7 +16,8 @@ from clshade.render import environment as env
 from clshade.render.scene import load_scene
 from clshade.resources import scenes_dir
 from clshade.verify import environment_oracle
-from clshade.view.controls import MAX_CANVAS, ControlError, fit_canvas, parse_controls
+from clshade.errors import ClshadeError
+from clshade.view.controls import MAX_CANVAS, ControlError, canvas_cap, fit_canvas, parse_controls
 from clshade.view.session import SKY_ERROR_STEP, ViewSession, cost_label
 
 SKY_SCENE = scenes_dir() / "environment.toml"
@@ -226,3 +227,28 @@ def test_a_saved_view_keeps_its_sky(sky, tmp_path):
     s.save(checked(s, dict(sky="environments/courtyard_128x64.exr")), "map")
     scene = load_scene(out / "map.toml")
     assert scene.environment.map == (SKY_SCENE.parent / "environments" / "courtyard_128x64.exr").resolve()
+
+
+@pytest.mark.parametrize("text, cap", [("1920x1080", (1920, 1080)), (" 640x360 ", (640, 360)), ("1x16384", (1, 16384))])
+def test_the_canvas_cap_flag(text, cap):
+    assert canvas_cap(text, "--max-canvas") == cap
+
+
+@pytest.mark.parametrize("text", ["1920", "0x10", "1920x1080x2", "20000x10", "-5x5", "axb", ""])
+def test_a_bad_canvas_cap_is_refused(text):
+    with pytest.raises(ClshadeError, match="--max-canvas"):
+        canvas_cap(text, "--max-canvas")
+
+
+def test_the_view_command_refuses_a_bad_cap(tmp_path, capsys):
+    from clshade.cli import main
+    assert main(["view", str(SKY_SCENE), "--max-canvas", "big", "--no-browser", "-o", str(tmp_path)]) == 2
+    assert "--max-canvas = 'big'" in capsys.readouterr().err
+
+
+def test_a_smaller_cap_limits_the_frames(tmp_path):
+    s = ViewSession(ROBOT, tmp_path, max_canvas=(320, 200))
+    c = checked(s, width=1000, height=500)
+    assert (c.width, c.height) == (320, 160) and s.hello()["max_canvas"] == [320, 200]
+    frame = s.render(c)
+    assert (frame.width, frame.height) == (320, 160)
