@@ -368,7 +368,7 @@ function start(m) {
 
 function startSky(m) {             // the environment picker and the rung controls, from the server's lists
   const sky = controls.environment;
-  if (m.scene_sky) $("sky").append(new Option(`scene: ${m.scene_sky}`, ""));
+  if (m.scene_sky) $("sky").append(new Option("the scene's own", ""));
   for (const name of m.skies) $("sky").append(new Option(name, name));
   for (const rung of m.rungs.diffuse) $("env_diffuse").append(new Option(rung, rung));
   for (const rung of m.rungs.specular) $("env_specular").append(new Option(rung, rung));
