@@ -197,9 +197,13 @@ def _add_view(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("view", help="explore lighting models live in the browser",
                        description="Serve a local web page that renders SCENE live: drag to orbit, wheel to zoom, "
                                    "two models split on one G-buffer, |A - B|, sliders from the models' parameters, "
-                                   "each model's shading time; save writes a scene that `clshade render` reproduces.")
+                                   "each model's shading time, an environment picker with the rungs' cost and error; "
+                                   "save writes a scene that `clshade render` reproduces. Without --width/--height the "
+                                   "canvas follows the window (device pixel ratio included), up to --max-canvas.")
     p.add_argument("scene", help="scene file (TOML)")
     _add_size(p)
+    p.add_argument("--max-canvas", default="1920x1080", metavar="WxH",
+                   help="largest canvas rendered when it follows the window (default 1920x1080; aspect kept)")
     p.add_argument("-o", "--output-dir", default=".", metavar="DIR",
                    help="folder where 'save' writes NAME.toml, NAME.png and NAME.exr (default: the current folder)")
     p.add_argument("--host", default="127.0.0.1",
