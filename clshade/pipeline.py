@@ -68,7 +68,7 @@ SETUP_STAGE = "triangle setup"
 #: Geometries whose stages (raster mesh, device tables) are kept for the next frame of the process.
 KEPT_STAGES = 4
 
-_default_mode = {"mode": "auto", "device": None}
+_default_mode: dict[str, object] = {"mode": "auto", "device": None, "taken": None}
 #: (device, geometry and face tables digest) → None where that device made the NumPy rasterizer's
 #: G-buffer bit for bit, else what differed: each device and geometry is verified once per process.
 _VERIFIED: dict[tuple, str | None] = {}
@@ -79,13 +79,15 @@ _STAGES: OrderedDict[tuple, "GBufferStage"] = OrderedDict()
 @contextmanager
 def use_gbuffer(mode: str | None, device: str | None = None):
     """Run the block with `mode` (GBUFFER_MODES; None keeps the current) as the G-buffer path of
-    every prepare_frame that names none, on `device` (the command's --device)."""
+    every prepare_frame that names none, on `device` (the command's --device). Yields the list of
+    the distinct GBufferPaths the block's frames took (what a command reports)."""
     if mode is not None and mode not in GBUFFER_MODES:
         raise ClshadeError(f"--gbuffer = {mode!r}: choose from {', '.join(GBUFFER_MODES)}")
     saved = dict(_default_mode)
-    _default_mode.update(mode=mode or saved["mode"], device=device)
+    taken: list[GBufferPath] = []
+    _default_mode.update(mode=mode or saved["mode"], device=device, taken=taken)
     try:
-        yield
+        yield taken
     finally:
         _default_mode.update(saved)
 
@@ -163,6 +165,9 @@ class GBufferStage:
     def _set(self, path: GBufferPath) -> None:
         if path != self.path:
             note("pipeline", path.line())       # `clshade --debug` prints it
+        taken = _default_mode["taken"]
+        if taken is not None and path not in taken:
+            taken.append(path)
         self.path = path
 
     def raster(self, camera: Camera) -> Fragments | ViewSetup:
