@@ -345,7 +345,8 @@ def render(scene: Scene | str | Path, model: Model, *, width: int | None = None,
     """Render one model; the returned Render keeps the frame and shader for reuse.
     `general` renders with the general kernel (same result, slower)."""
     timings = Timings()
-    rt = runtime or get_runtime(device)
+    with timings.stage("opencl setup"):
+        rt = runtime or get_runtime(device)
     frame = frame or prepare_frame(scene, width, height, timings, tangents=reads_tangents([model]), runtime=rt)
     with timings.stage("opencl setup"):
         shader = Shader(rt, frame.gbuffer, frame.scene, frame.camera, frame.shadows)
