@@ -224,7 +224,7 @@ def test_whole_frame_lows_are_the_slow_tail(runtime, monkeypatch):
 def test_each_stage_is_timed_as_its_own(runtime, monkeypatch):
     """A raster stage made slow shows in the rasterize column only."""
     import time
-    slow_s = 0.08                       # far above what a 48x32 frame's other stages take
+    slow_s = 0.3                        # far above what a 48x32 frame's other stages take, even on a loaded machine
     real = pipeline.GBufferStage.raster
 
     def raster(self, camera):
