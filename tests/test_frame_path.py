@@ -237,3 +237,21 @@ def test_each_stage_is_timed_as_its_own(runtime, monkeypatch):
     assert stages["rasterize"] >= slow_s * 1e3
     assert all(stages[s] < slow_s * 1e3 for s in whole.STAGES if s != "rasterize")
     assert row["whole_frame_ms_median"] >= sum(stages.values()) * 0.99
+
+
+@pytest.mark.parametrize("samples", [1, 2])
+def test_whole_frames_reuse_buffers_and_show_the_reference_image(runtime, samples):
+    """The whole-frame stream (one PlanePool, one Shader rebound frame after frame) gives, camera after camera,
+    the image of a fresh render from the NumPy rasterizer's G-buffer, bit for bit (N×N samples resolved)."""
+    scene = dataclasses.replace(load_scene(SCENES / "robot.toml"), samples=samples)
+    geometry = build_geometry(scene)
+    model = BUILT_IN.resolve("ggx_correlated")
+    stream = whole.FrameStream(scene, geometry, None, runtime, [model])
+    for azimuth in (0.0, 2.0, 90.0):
+        camera = whole.orbit(scene.camera.with_size(72, 40), azimuth)
+        _, image = stream.frame(camera, model)
+        moved = dataclasses.replace(scene, camera=camera)
+        frame = prepare_frame(moved, geometry=geometry, runtime=runtime, gbuffer="host")
+        expected = render(moved, model, runtime=runtime, frame=frame).image
+        np.testing.assert_array_equal(_bits(image), _bits(expected))
+    assert stream.stage.path.path == ("device" if device_visibility.supports(runtime, geometry) else "host")

@@ -32,6 +32,7 @@ from clshade.pipeline import Timings, gbuffer_stage, reads_tangents
 from clshade.render.arrays import PlanePool, worker_count
 from clshade.render.gbuffer import face_planes
 from clshade.render.meshes import Geometry, build_geometry
+from clshade.render.samples import supersampled
 from clshade.render.scene import Camera, Scene
 from clshade.render.shadows import ShadowMaps, build_shadow_maps
 
@@ -56,8 +57,10 @@ class FrameStream:
         self.shader: Shader | None = None
 
     def frame(self, camera: Camera, model: Model) -> tuple[dict[str, float], np.ndarray]:
-        """One whole frame of `model` from `camera`: (seconds per stage and 'frame', the image)."""
+        """One whole frame of `model` from `camera`: (seconds per stage and 'frame', the image; N×N
+        samples per pixel (the scene's) rasterized at N·W × N·H and resolved on the device)."""
         scratch = Timings()             # the path's one-off work (its check, face tables) lands here
+        camera = supersampled(camera, self.scene.samples)
         t0 = time.perf_counter()
         raster = self.stage.raster(camera)
         t1 = time.perf_counter()
