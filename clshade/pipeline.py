@@ -179,8 +179,8 @@ class GBufferStage:
             setup = setup_view(self.mesh, view, proj, camera.width, camera.height)
             if setup is not None:
                 return setup
-            self._host(f"{len(self.geometry.faces)} faces: more than one face batch of {FACE_BATCH} "
-                       "(the device path resolves one)")
+            self._host(f"{len(self.geometry.faces)} faces, more than one face batch of {FACE_BATCH}: "
+                       "the device path resolves one")
         else:
             self._host(self._refusal)
         return rasterize_mesh(self.mesh, view, proj, camera.width, camera.height)
