@@ -255,3 +255,13 @@ def test_whole_frames_reuse_buffers_and_show_the_reference_image(runtime, sample
         expected = render(moved, model, runtime=runtime, frame=frame).image
         np.testing.assert_array_equal(_bits(image), _bits(expected))
     assert stream.stage.path.path == ("device" if device_visibility.supports(runtime, geometry) else "host")
+
+
+def test_the_perf_tables_name_each_runtimes_path(runtime):
+    """benchmarks/measure/perf.py's whole frames (whole_frames_on) record and print each runtime's path."""
+    from clshade.report.perf import perf_whole_frame_markdown
+    scene = load_scene(SCENES / "robot.toml")
+    out = whole.whole_frames_on(scene, BUILT_IN.resolve("lambert"), [runtime], 64, 36, frames=1, gbuffer="host")
+    assert out[0]["gbuffer"] == dict(path="host", reason="--gbuffer host")
+    text = "\n".join(perf_whole_frame_markdown(out))
+    assert "Raster and G-buffer: " in text and ": host (--gbuffer host)" in text
