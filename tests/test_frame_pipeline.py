@@ -265,3 +265,24 @@ def test_the_perf_tables_name_each_runtimes_path(runtime):
     assert out[0]["gbuffer"] == dict(path="host", reason="--gbuffer host")
     text = "\n".join(perf_whole_frame_markdown(out))
     assert "Raster and G-buffer: " in text and ": host (--gbuffer host)" in text
+
+
+def test_overlapped_frames_are_the_sequential_frames(runtime):
+    """With the next frame's triangle setup on a second thread, an orbit gives the same images, bit for bit,
+    as frame after frame; and the bench says it overlapped only where the device path ran."""
+    scene = load_scene(SCENES / "robot.toml")
+    geometry = build_geometry(scene)
+    _device_or_skip(runtime, geometry)
+    model = BUILT_IN.resolve("ggx_correlated")
+    cameras = [whole.orbit(scene.camera.with_size(80, 45), 7.0 * k) for k in range(5)]
+    sequential = whole.FrameStream(scene, geometry, None, runtime, [model])
+    expected = [image for _, image in sequential.frames(cameras, model)]
+    overlapped = whole.FrameStream(scene, geometry, None, runtime, [model])
+    overlapped.frame(cameras[0], model)          # the path is chosen (and checked) on a first frame
+    got = list(overlapped.frames(cameras, model, overlap=True))
+    assert len(got) == len(cameras)
+    for (t, image), want in zip(got, expected):
+        np.testing.assert_array_equal(_bits(image), _bits(want))
+        assert set(t) == {*whole.STAGES, "frame"}
+    assert whole.orbit_bench(scene, [model], runtime, 48, 27, 2, overlap=True)["overlap"]
+    assert not whole.orbit_bench(scene, [model], runtime, 48, 27, 2, gbuffer="host", overlap=True)["overlap"]

@@ -20,6 +20,7 @@ import dataclasses
 import math
 import os
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -59,10 +60,43 @@ class FrameStream:
     def frame(self, camera: Camera, model: Model) -> tuple[dict[str, float], np.ndarray]:
         """One whole frame of `model` from `camera`: (seconds per stage and 'frame', the image; N×N
         samples per pixel (the scene's) rasterized at N·W × N·H and resolved on the device)."""
-        scratch = Timings()             # the path's one-off work (its check, face tables) lands here
         camera = supersampled(camera, self.scene.samples)
         t0 = time.perf_counter()
+        raster, raster_s = self._raster(camera)
+        t, image = self._finish(camera, raster, raster_s, model)
+        t["frame"] = time.perf_counter() - t0
+        return t, image
+
+    def frames(self, cameras: list[Camera], model: Model, overlap: bool = False):
+        """Whole frames of `model` from each camera in turn, as (stage seconds, image). `overlap`, on the
+        device path once a frame has chosen it: the host's triangle setup of the next frame runs on a
+        second thread while this frame's G-buffer, shading and read-back run (the same images); 'frame'
+        is then the time from one image to the next, and the stages overlap."""
+        if not (overlap and self.stage.path is not None and self.stage.path.path == "device"):
+            for camera in cameras:
+                yield self.frame(camera, model)
+            return
+        cams = [supersampled(c, self.scene.samples) for c in cameras]
+        with ThreadPoolExecutor(max_workers=1) as worker:
+            ahead = worker.submit(self._raster, cams[0]) if cams else None
+            last = time.perf_counter()
+            for k, camera in enumerate(cams):
+                raster, raster_s = ahead.result()
+                if k + 1 < len(cams):
+                    ahead = worker.submit(self._raster, cams[k + 1])
+                t, image = self._finish(camera, raster, raster_s, model)
+                now = time.perf_counter()
+                t["frame"], last = now - last, now
+                yield t, image
+
+    def _raster(self, camera: Camera) -> tuple[object, float]:
+        start = time.perf_counter()
         raster = self.stage.raster(camera)
+        return raster, time.perf_counter() - start
+
+    def _finish(self, camera: Camera, raster, raster_s: float, model: Model) -> tuple[dict[str, float], np.ndarray]:
+        """The stages after the raster: G-buffer, upload (Shader rebound), shade, read back."""
+        scratch = Timings()             # the path's one-off work (its check, face tables) lands here
         t1 = time.perf_counter()
         gbuffer, _, _ = self.stage.build(self.scene, camera, raster, scratch, self.faces, pool=self.pool)
         t2 = time.perf_counter()
@@ -77,9 +111,7 @@ class FrameStream:
         t4 = time.perf_counter()
         image = self.shader.read()
         t5 = time.perf_counter()
-        t = dict(zip(STAGES, (t1 - t0, t2 - t1, t3 - t2, t4 - t3, t5 - t4)))
-        t["frame"] = t5 - t0
-        return t, image
+        return dict(zip(STAGES, (raster_s, t2 - t1, t3 - t2, t4 - t3, t5 - t4))), image
 
 
 def orbit(camera: Camera, degrees: float) -> Camera:
@@ -137,22 +169,28 @@ def _path(stream: FrameStream) -> dict[str, str]:
 
 
 def orbit_bench(scene: Scene, models: list[Model], runtime: Runtime, width: int | None, height: int | None,
-                frames: int, step_degrees: float = 2.0, gbuffer: str | None = None) -> dict[str, object]:
+                frames: int, step_degrees: float = 2.0, gbuffer: str | None = None,
+                overlap: bool = False) -> dict[str, object]:
     """`clshade bench --whole-frames N`: N whole frames per model (after one untimed frame each),
-    the camera orbiting and the models interleaved at each camera position. Per model the frame
-    statistics of whole frames (clshade.bench.run.frame_stats: average FPS, 1 % and 0.1 % lows),
-    `whole_frame_ms_median`, `whole_frame_low1_fps` and the stage medians."""
+    the camera orbiting and the models interleaved at each camera position (with `overlap`, see
+    FrameStream.frames, each model's orbit in turn). Per model the frame statistics of whole frames
+    (clshade.bench.run.frame_stats: average FPS, 1 % and 0.1 % lows), `whole_frame_ms_median`,
+    `whole_frame_low1_fps` and the stage medians."""
     geometry = build_geometry(scene)
     shadows = build_shadow_maps(scene, geometry) if scene.shadow_lights else None
     stream = FrameStream(scene, geometry, shadows, runtime, models, gbuffer)
     base = scene.camera.with_size(width, height)
+    cameras = [orbit(base, step_degrees * k) for k in range(frames + 1)]
     timed: dict[str, list[dict[str, float]]] = {m.id: [] for m in models}
-    for k in range(frames + 1):
-        camera = orbit(base, step_degrees * k)
+    for model in models:
+        stream.frame(cameras[0], model)                 # untimed: the path's check, the kernel build
+    if overlap:
         for model in models:
-            t, _ = stream.frame(camera, model)
-            if k > 0:
-                timed[model.id].append(t)
+            timed[model.id] = [t for t, _ in stream.frames(cameras[1:], model, overlap=True)]
+    else:
+        for camera in cameras[1:]:
+            for model in models:
+                timed[model.id].append(stream.frame(camera, model)[0])
     rows = []
     for model in models:
         ms = np.array([f["frame"] for f in timed[model.id]]) * 1e3
@@ -165,7 +203,7 @@ def orbit_bench(scene: Scene, models: list[Model], runtime: Runtime, width: int 
     return dict(scene=_shown(scene.path), width=base.width, height=base.height, frames=frames,
                 step_degrees=step_degrees, triangles=int(len(geometry.faces)), host_threads=worker_count(),
                 device=runtime.info.description, gbuffer=_path(stream), stages=list(STAGES),
-                load_average=_load_average(), models=rows)
+                overlap=overlap and stream.stage.path.path == "device", load_average=_load_average(), models=rows)
 
 
 def _load_average() -> float | None:

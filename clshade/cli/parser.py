@@ -244,6 +244,9 @@ def _add_bench(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--whole-frames", type=int, metavar="N", default=0,
                    help="also time N whole frames per model with the camera orbiting (setup, raster and "
                         "G-buffer, upload, shade, read back): average FPS, 1 %% and 0.1 %% lows, the stage split")
+    p.add_argument("--overlap", action="store_true",
+                   help="with --whole-frames on the device G-buffer path: the next frame's triangle setup on a "
+                        "second thread while this frame is made on the device (the same images)")
     p.add_argument("--device", metavar="D", help="OpenCL device (see `clshade devices`)")
     p.add_argument("--peers", metavar="P,Q", help="also time peers (numba, drjit; pip install 'clshade[peers]') on "
                    "the same G-buffer with every PoCL runtime and the STREAM anchor, in interleaved rounds")

@@ -171,7 +171,9 @@ def whole_frame_text(wf: dict) -> str:
               *(stage_names.get(s, f"{s} ms") for s in wf["stages"])]
     return "\n".join([f"Whole frames: {scene} {wf['width']}x{wf['height']}, {wf['triangles']} triangles, camera "
                       f"orbiting {wf['step_degrees']:g}° a frame, host stages on {wf['host_threads']} threads, "
-                      f"g-buffer: {path['path']} ({path['reason']})", markdown(header, rows)])
+                      f"g-buffer: {path['path']} ({path['reason']})"
+                      + ("; the next frame's triangle setup overlapping this frame (frame = image to image)"
+                         if wf.get("overlap") else ""), markdown(header, rows)])
 
 
 def bench_plots(doc: dict, path: Path) -> None:

@@ -97,7 +97,7 @@ def _whole_frames(args: argparse.Namespace, scene, models: list) -> dict:
     from clshade.device.runtime import get_runtime
     from clshade.report.bench import whole_frame_text
     doc = orbit_bench(scene, models, get_runtime(args.device), args.width, args.height, args.whole_frames,
-                      gbuffer=args.gbuffer)
+                      gbuffer=args.gbuffer, overlap=args.overlap)
     print()
     print(whole_frame_text(doc))
     return doc
