@@ -65,7 +65,8 @@ GBUFFER_MODES = ("auto", "host", "device")
 #: The stage of the device's visibility buffer and G-buffer; the host's triangle setup before it is SETUP_STAGE.
 DEVICE_GBUFFER_STAGE = "visibility + g-buffer (device)"
 SETUP_STAGE = "triangle setup"
-#: Geometries whose stages (raster mesh, device tables) are kept for the next frame of the process.
+#: Geometries whose stages (raster mesh, device tables) are kept for the next frame of the process: a
+#: few, as the sweep and aa alternate between a handful of geometries and each holds its device tables.
 KEPT_STAGES = 4
 
 _default_mode: dict[str, object] = {"mode": "auto", "device": None, "taken": None}
