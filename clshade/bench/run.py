@@ -331,8 +331,9 @@ class Bench:
         scene = scene if isinstance(scene, Scene) else load_scene(scene)
         if lights is not None:
             scene = with_lights(scene, lights)
-        frame = prepare_frame(scene, width, height, tangents=tangents)
-        return cls(frame, get_runtime(device), scene_features(frame.scene, geometry=frame.geometry), device)
+        runtime = get_runtime(device)
+        frame = prepare_frame(scene, width, height, tangents=tangents, runtime=runtime)
+        return cls(frame, runtime, scene_features(frame.scene, geometry=frame.geometry), device)
 
     def shader(self, gbuffer: GBuffer | None = None, scene: Scene | None = None) -> Shader:
         """The Shader for (gbuffer, scene), uploaded once. Shaders share the runtime:

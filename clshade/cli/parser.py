@@ -72,9 +72,19 @@ def build_parser() -> argparse.ArgumentParser:
     for name, command in sub.choices.items():
         if name not in ("check", "devices"):
             _add_lobe_options(command)
+        if name in ("render", "compare", "bench", "aa"):
+            _add_gbuffer(command)
     for command in checks.choices.values():
         _add_lobe_options(command)
     return parser
+
+
+def _add_gbuffer(p: argparse.ArgumentParser) -> None:
+    """--gbuffer: which path makes the raster and G-buffer (clshade.pipeline.GBufferStage)."""
+    p.add_argument("--gbuffer", choices=("auto", "host", "device"), default="auto",
+                   help="raster and G-buffer: on the device where it is supported and verified bit for bit "
+                        "against the NumPy rasterizer on this device (auto, default), the NumPy rasterizer "
+                        "(host), or the device path required (device; refused where it cannot serve)")
 
 
 def _add_size(p: argparse.ArgumentParser) -> None:
@@ -237,6 +247,12 @@ def _add_bench(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--csv", metavar="OUT", help="write the per-model table as CSV")
     p.add_argument("--plot", metavar="OUT.png", help="bar chart of FPS and lows (ladder plot beside it)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    p.add_argument("--whole-frames", type=int, metavar="N", default=0,
+                   help="also time N whole frames per model with the camera orbiting (setup, raster and "
+                        "G-buffer, upload, shade, read back): average FPS, 1 %% and 0.1 %% lows, the stage split")
+    p.add_argument("--overlap", action="store_true",
+                   help="with --whole-frames on the device G-buffer path: the next frame's triangle setup on a "
+                        "second thread while this frame is made on the device (the same images)")
     p.add_argument("--device", metavar="D", help="OpenCL device (see `clshade devices`)")
     p.add_argument("--peers", metavar="P,Q", help="also time peers (numba, drjit; pip install 'clshade[peers]') on "
                    "the same G-buffer with every PoCL runtime and the STREAM anchor, in interleaved rounds")

@@ -35,22 +35,20 @@ from clshade.bench.run import compared_pixels, frame_stats, grazing_pixels, rela
 from clshade.compare import difference, false_colour
 from clshade.device.display import Display
 from clshade.device.runtime import get_runtime
-from clshade.device import visibility as device_visibility
 from clshade.device.shade import Shader, scene_features
 from clshade.device.timing import timed_dispatch
 from clshade.device.variants import environment_defines
-from clshade.device.visibility import DeviceGBuffer
 from clshade.diagnostics import note
 from clshade.errors import ClshadeError
 from clshade.models.lobe import SURFACE_PARAMS
 from clshade.models.model import PRESETS, presets
 from clshade.models.registry import Registry, lobe_path
-from clshade.pipeline import Timings
-from clshade.render.gbuffer import GBuffer, build_gbuffer, face_planes, material_table
+from clshade.pipeline import DEVICE_GBUFFER_STAGE, GBufferStage, Timings
+from clshade.render.gbuffer import GBuffer, face_planes, material_table
 from clshade.render.arrays import PlanePool, keep_freed_memory
 from clshade.render.image import check_output_path, to_display, write_encoded
 from clshade.render.meshes import build_geometry
-from clshade.render.raster import Fragments, RasterMesh, ViewSetup, rasterize_mesh, setup_view
+from clshade.render.raster import Fragments, RasterMesh, ViewSetup
 from clshade.render.samples import supersampled
 from clshade.render.scene import MAX_RESOLUTION, Scene, camera_from_data, load_scene, parse_scene, scene_from_data
 from clshade.render.shadows import build_shadow_maps
@@ -66,9 +64,6 @@ HISTORY = 120
 SAVE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
 #: Colours of the difference view's scale bar on the page.
 RAMP_STEPS = 160
-#: The stage of an orbit frame's visibility buffer and G-buffer on the device (clshade.device.visibility);
-#: its `rasterize` stage is then the host's triangle setup only.
-DEVICE_GBUFFER_STAGE = "visibility + g-buffer (device)"
 #: Per-pixel G-buffer channels a material fills from its own values (G-buffer rebuilt or patched):
 #: (channel, the Material field it takes, its components).
 CHANNEL_FIELDS = (("base", "base_color", 3), ("roughness", "roughness", 1), ("metallic", "metallic", 1))
@@ -338,10 +333,9 @@ class ViewSession:
         self.history: dict[str, deque] = {}
         self._geometry, self._raster, self._shadows = _Kept(), _Kept(), _Kept()
         self._gbuffer, self._shader, self._faces = _Kept(), _Kept(), _Kept()
-        self._device_gbuffer = _Kept()
-        # Orbit frames: the host rasterizer stops after the triangle setup and the device makes the
-        # visibility buffer and the G-buffer (clshade.device.visibility; build_gbuffer's planes, bit
-        # for bit).
+        # Orbit frames through the frame pipeline's G-buffer stage: the host rasterizer stops after the
+        # triangle setup and the device makes the visibility buffer and the G-buffer where verified
+        # (clshade.device.visibility; build_gbuffer's planes, bit for bit).
         self.device_gbuffer = device_gbuffer
         #: Why the device path was turned off (its first frame differed from the host's, or it
         #: failed to build), else None.
@@ -448,41 +442,23 @@ class ViewSession:
         return shadows, gbuffer, shader
 
     def _rasterize(self, geometry, camera) -> Fragments | ViewSetup:
-        """The triangle setup where the device does the rest of the raster and the G-buffer
-        (clshade.device.visibility: no textures, doubles and 64-bit atomics, one face batch),
-        else the fragments."""
-        mesh, view, proj = self._mesh_of(geometry), camera.view_matrix(), camera.projection_matrix()
-        if self.device_gbuffer and device_visibility.supports(self.runtime, geometry):
-            setup = setup_view(mesh, view, proj, camera.width, camera.height)
-            if setup is not None:
-                return setup
-        return rasterize_mesh(mesh, view, proj, camera.width, camera.height)
+        """The frame pipeline's raster stage (clshade.pipeline.GBufferStage): the triangle setup
+        where the device makes the rest of the raster and the G-buffer (no textures, doubles and
+        64-bit atomics, one face batch, its check passed), else the fragments."""
+        return self._frame_stage(geometry).raster(camera)
 
-    def _proven_device(self, scene: Scene, geometry, camera, faces) -> DeviceGBuffer | None:
-        """The device's G-buffer kernels for this geometry and its face tables, once they have made
-        the host's G-buffer of a small frame of this view (device_visibility.verify); None, with
-        the device path turned off for the session and the reason noted, when they did not or
-        failed to build."""
-        if self.device_gbuffer_off is not None:
-            return None
-        try:
-            device = DeviceGBuffer(self.runtime, geometry, faces)
-            reason = device_visibility.verify(device, scene, geometry, self._mesh_of(geometry), camera, faces)
-        except (ClshadeError, self.runtime.cl.Error) as exc:
-            device, reason = None, f"{type(exc).__name__}: {exc}"
-        if reason is None:
-            return device
-        self.device_gbuffer, self.device_gbuffer_off = False, reason
-        note("viewer", f"the device's visibility buffer is off on {self.runtime.info.description}, the host "
-                       f"rasterizes: {reason}")
-        return None
+    def _frame_stage(self, geometry) -> GBufferStage:
+        """The frame pipeline's raster and G-buffer stages of `geometry` (its raster mesh, device
+        tables and the path's check made once per geometry)."""
+        kept = self._geometry.extra
+        if kept.get("stage_of") is not geometry:
+            kept["stage"] = GBufferStage(geometry, self.runtime, "auto" if self.device_gbuffer else "host")
+            kept["stage_of"] = geometry
+        return kept["stage"]
 
     def _mesh_of(self, geometry) -> RasterMesh:
         """The RasterMesh of `geometry` (its checks and face planes made once per geometry)."""
-        kept = self._geometry.extra
-        if kept.get("mesh_of") is not geometry:
-            kept["mesh"], kept["mesh_of"] = RasterMesh(geometry.vertices, geometry.faces, geometry.cull), geometry
-        return kept["mesh"]
+        return self._frame_stage(geometry).mesh
 
     def _shader_for(self, scene: Scene, gbuffer: GBuffer, camera, shadows, timings: Timings) -> Shader:
         """The kept Shader (its device tables and bound kernels) rebound to a new G-buffer
@@ -528,24 +504,14 @@ class ViewSession:
             mats = list(scene.materials.values())
             faces = self._stage(self._faces, (geometry_key, _face_key(mats)), lambda: face_planes(geometry, mats),
                                 timings, "face tables")
-            device = None
-            if isinstance(fragments, ViewSetup):   # coverage, winners and the G-buffer on the device
-                device = self._stage(self._device_gbuffer, (geometry_key, _face_key(mats)),
-                                     lambda: self._proven_device(scene, geometry, camera, faces), timings,
-                                     "g-buffer kernel")
-            if device is not None:
-                with timings.stage(DEVICE_GBUFFER_STAGE):
-                    gbuffer, cover = device.build(fragments, table, self._planes)
-            else:
-                if isinstance(fragments, ViewSetup):    # the device path was just turned off
-                    with timings.stage("rasterize"):
-                        host = rasterize_mesh(self._mesh_of(geometry), camera.view_matrix(),
-                                              camera.projection_matrix(), camera.width, camera.height)
-                    cover = np.zeros(camera.width * camera.height, np.uint8)
-                    cover[host.pixels] = 1
-                    fragments = host
-                with timings.stage("g-buffer"):
-                    gbuffer = build_gbuffer(scene, geometry, fragments, camera, faces=faces, pool=self._planes)
+            stage = self._frame_stage(geometry)
+            gbuffer, host, cover = stage.build(scene, camera, fragments, timings, faces, table, self._planes)
+            if isinstance(fragments, ViewSetup) and host is not None:     # the device path was just turned off
+                cover = np.zeros(camera.width * camera.height, np.uint8)
+                cover[host.pixels] = 1
+                self.device_gbuffer, self.device_gbuffer_off = False, stage.path.reason
+                note("viewer", f"the device's visibility buffer is off on {self.runtime.info.description}, the "
+                               f"host rasterizes: {stage.path.reason}")
         kept.value, kept.extra = gbuffer, dict(fragments=raster, table=table, values=values, groups=groups,
                                                cover=cover)
         return gbuffer

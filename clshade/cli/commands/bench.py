@@ -41,6 +41,7 @@ def _check_bench_options(args: argparse.Namespace) -> None:
     budget.check_count("--frames", args.frames, budget.MAX_FRAMES, low=1)
     budget.check_count("--warmup", args.warmup, budget.MAX_FRAMES)
     budget.check_count("--numpy-frames", args.numpy_frames, budget.MAX_FRAMES)
+    budget.check_count("--whole-frames", args.whole_frames, budget.MAX_FRAMES)
     if args.lights is not None:
         budget.check_count("--lights", args.lights, budget.MAX_LIGHTS)
     if args.peers is not None:
@@ -56,6 +57,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
     import json
     from clshade.bench.run import run_bench
     from clshade.outputs import write_text_atomic
+    from clshade.pipeline import use_gbuffer
     from clshade.report.bench import bench_csv, bench_plots, bench_text
     _check_bench_options(args)
     scene = load_scene_with_overrides(args.scene, args)
@@ -63,12 +65,17 @@ def cmd_bench(args: argparse.Namespace) -> int:
     _check_bench_outputs(args, scene.inputs())
     registry = args.registry.with_lobes(*scene.lobes)
     models = registry.resolve_many(args.models)
-    with progress_bar("bench", "round") as progress:
+    with progress_bar("bench", "round") as progress, use_gbuffer(args.gbuffer, args.device) as paths:
         doc = run_bench(scene, models, args.frames, args.warmup, width=args.width,
                         height=args.height, lights=args.lights, ladder=args.ladder, numpy_frames=args.numpy_frames,
                         device=args.device, progress=None if args.no_progress else progress)
+    doc["gbuffer"] = [dict(path=p.path, reason=p.reason) for p in paths]
     print(bench_text(doc))
     print(build_line(doc["device"]["build"]))
+    for path in paths:
+        print(path.line())
+    if args.whole_frames:
+        doc["whole_frames"] = _whole_frames(args, scene, models)
     if args.peers:
         from clshade.report.perf import perf_markdown
         doc["peers"] = _peers(args, models, registry)
@@ -81,6 +88,19 @@ def cmd_bench(args: argparse.Namespace) -> int:
     if args.plot:
         bench_plots(doc, Path(args.plot))
     return 0
+
+
+def _whole_frames(args: argparse.Namespace, scene, models: list) -> dict:
+    """`--whole-frames N`: N orbit frames per model through the frame pipeline (clshade.bench.frame),
+    printed beside the dispatch tables."""
+    from clshade.bench.frame import orbit_bench
+    from clshade.device.runtime import get_runtime
+    from clshade.report.bench import whole_frame_text
+    doc = orbit_bench(scene, models, get_runtime(args.device), args.width, args.height, args.whole_frames,
+                      gbuffer=args.gbuffer, overlap=args.overlap)
+    print()
+    print(whole_frame_text(doc))
+    return doc
 
 
 def build_line(build: dict) -> str:

@@ -68,7 +68,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     with progress_bar("render", "band") as progress:
         result = render_streamed(scene, model, keep, width=cam.width, height=cam.height, device=args.device,
                                  half_gbuffer=args.half, fast_math=args.fast_math, general=args.general,
-                                 timings=timings, progress=progress)
+                                 timings=timings, progress=progress, gbuffer=args.gbuffer)
     warning = _light_warning(scene, result.geometry.has_emission)
     if warning:
         print(f"clshade: warning: {warning}", file=sys.stderr)
@@ -113,6 +113,7 @@ def _explain(model, result) -> None:
           f"({shader.gb.bytes_per_pixel(variant.channels, result.features.half_gbuffer)} B/pixel read, 16 B written)")
     print("G-buffer normals: " + ("unit or zero, not normalised again (UNIT_NORMALS)" if variant.unit_normals
                                   else "normalised in the kernel"))
+    print(result.gbuffer_path.line())
     if result.bands > 1:
         print(f"bands: {result.bands} (rows rasterised, written to the G-buffer and shaded band by band)")
     if result.shadows is not None:
