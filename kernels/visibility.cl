@@ -325,11 +325,12 @@ __kernel void visibility(
 #define SET_FLOATS 10                       /* base factor 3, roughness, metallic, emissive 3, normal scale, occlusion strength */
 #define SET_SLOTS 5                         /* base colour, metallic-roughness, normal, emissive, occlusion */
 
-/* np.mod(a, n) of an integral double: the sign of n. */
-inline long wrap(double a, int n) {
+/* np.mod(a, n) of an integral double: the sign of n (fmod only outside [0, n), the rare case). */
+inline int wrap(double a, int n) {
+    if (a >= 0.0 && a < (double)n) return (int)a;
     double m = fmod(a, (double)n);
     if (m != 0.0 && m < 0.0) m = m + (double)n;
-    return (long)m;
+    return (int)m;
 }
 
 /* textures.py:_bilinear on one level (w x h texels of 3 floats from `texels`). */
@@ -339,8 +340,8 @@ inline float3 bilinear(__global const float* texels, int w, int h, double u, dou
     y = y * (double)h - 0.5;
     const double x0 = floor(x), y0 = floor(y);
     const float fx = (float)(x - x0), fy = (float)(y - y0);
-    const long i0 = wrap(y0, h), j0 = wrap(x0, w);
-    const long i1 = (i0 + 1) % h, j1 = (j0 + 1) % w;
+    const int i0 = wrap(y0, h), j0 = wrap(x0, w);
+    const int i1 = i0 + 1 < h ? i0 + 1 : 0, j1 = j0 + 1 < w ? j0 + 1 : 0;     /* (i0 + 1) % h: repeat */
     const float3 a = vload3(i0 * w + j0, texels), b = vload3(i0 * w + j1, texels);
     const float3 c = vload3(i1 * w + j0, texels), d = vload3(i1 * w + j1, texels);
     const float gx = 1.0f - fx, gy = 1.0f - fy;
