@@ -195,3 +195,21 @@ def test_a_textured_view_needs_its_matrices(textured):
                        cam.projection_matrix(), W, H)
     with pytest.raises(ValueError, match="mvp"):
         device.build(dataclasses.replace(setup, mvp=None), material_table(scene))
+
+
+def test_the_viewer_orbits_a_textured_scene_on_the_device(tmp_path):
+    """The live viewer takes the device path for textured.toml (supports and verify pass) and
+    shows the frames of a session that rasterizes on the host: orbit, a slider, a close view."""
+    from clshade.view.controls import parse_controls
+    from clshade.view.session import DEVICE_GBUFFER_STAGE, ViewSession
+    path = scenes_dir() / "textured.toml"
+    device, host = ViewSession(path, tmp_path, 96, 64), ViewSession(path, tmp_path, 96, 64, device_gbuffer=False)
+    usable(device.runtime, build_geometry(load_scene(path)))
+    states = [{}, dict(materials={"bumpy": {"roughness": 0.5}}), dict(azimuth=40.0), dict(azimuth=95.0, distance=3.0)]
+    for state in states:
+        d, h = (s.render(parse_controls(dict(s.initial_controls(), **state), s.limits)) for s in (device, host))
+        assert device.device_gbuffer_off is None
+        assert DEVICE_GBUFFER_STAGE in d.stages and DEVICE_GBUFFER_STAGE not in h.stages or "materials" in state
+        for view in h.views:    # RGBA8: a pixel within TEXTURE_TOLERANCE may round to the next code
+            differ = np.abs(d.views[view].astype(int) - h.views[view]).max(axis=-1)
+            assert differ.max() <= 1 and np.count_nonzero(differ) <= TEXTURE_DIFFER_SHARE * differ.size, view
