@@ -1,8 +1,8 @@
 /* visibility.cl — the visibility buffer and the G-buffer from it, on the device, bit for bit
  * the G-buffer that clshade/render/gbuffer.py:build_gbuffer makes from rasterize_mesh's
- * fragments (scenes without textures, hence without an occlusion channel; the live viewer,
- * clshade/device/visibility.py). Two kernels, after the host's triangle setup
- * (clshade/render/raster/batches.py:setup_view):
+ * fragments (the live viewer, clshade/device/visibility.py). Two kernels, after the host's
+ * triangle setup (clshade/render/raster/batches.py:setup_view), and a third, `texture` (at the
+ * end of this file), for textured faces:
  *
  * cover — the rasterizer's coverage and depth resolve (raster/tiles.py), one work-item per
  *   TILE x TILE tile of a triangle's pixel box, a row LANES columns at a time, one per lane:
@@ -27,6 +27,8 @@
  *   then build_gbuffer's per-pixel step, in float: the normal interpolated from the face's
  *         corner normals, ((0 + b0 n0) + b1 n1) + b2 n2, scaled by 1/|n| (0 stays 0); the
  *         face's base colour, roughness, metallic, material (and emission).
+ *   Where HAS_TEXTURES, the pixel's face when it has a texture set and its barycentrics, for
+ *   kernel `texture`; where HAS_OCCLUSION, occlusion 1 (covered) or 0.
  *   A pixel whose depth or normal is not finite keeps roughness, metallic and material,
  *   and gets zero depth, normal, base colour and emission; `cover` says which pixels are
  *   covered (1), empty (0) or so replaced (2). Empty pixels get zero everywhere.
