@@ -35,45 +35,12 @@ from clshade.render import environment as E
 from clshade.render.scene import Scene, load_scene
 from clshade.verify import environment_oracle as O
 from clshade.verify import reference
+from clshade.verify.environment_rungs import SAMPLE_LADDER, Rung, ladder_rungs  # noqa: F401 (re-exported)
 
 SCHEMA = "clshade-environment-bench/1"
-#: The sample ladder of the sampled rungs by default: N from 1 to the top the issue asks for (×4 a step:
-#: the Monte Carlo error halves per step, so each step is visible on a log plot).
-SAMPLE_LADDER = (1, 4, 16, 64, 256, 1024)
 #: Precompute repetitions: the cold prepare() is timed this many times and the median kept (the first
 #: call also pays NumPy's import-time warm-up).
 PRECOMPUTE_REPEATS = 3
-
-
-@dataclass(frozen=True)
-class Rung:
-    """One configuration of the ladder: a diffuse and a specular rung, and N when one of them samples."""
-    diffuse: str
-    specular: str
-    samples: int | None = None
-
-    @property
-    def label(self) -> str:
-        n = f" N={self.samples}" if self.samples is not None else ""
-        return f"{self.diffuse}/{self.specular}{n}"
-
-
-def ladder_rungs(samples: tuple[int, ...] = SAMPLE_LADDER) -> list[Rung]:
-    """Every diffuse × specular rung of clshade.render.environment, a sampling one once per N of `samples`."""
-    samples = tuple(dict.fromkeys(samples))
-    for n in samples:
-        if E.check_rungs(E.DEFAULT_DIFFUSE, "none", n):
-            raise ClshadeError(f"sample ladder: N = {n}: {E.check_rungs(E.DEFAULT_DIFFUSE, 'none', n)}")
-    if not samples:
-        raise ClshadeError("sample ladder: no N given")
-    out = []
-    for d in E.DIFFUSE_RUNGS:
-        for s in E.SPECULAR_RUNGS:
-            if "sampled" in (d, s):
-                out += [Rung(d, s, n) for n in samples]
-            else:
-                out.append(Rung(d, s))
-    return out
 
 
 def parse_samples(text: str) -> tuple[int, ...]:

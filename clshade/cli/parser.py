@@ -287,4 +287,6 @@ def _add_checks(checks: argparse._SubParsersAction) -> None:
     p.add_argument("--device", metavar="D", help="OpenCL device (see `clshade devices`)")
     p.add_argument("--model", metavar="M", help="restrict to these models (comma-separated; default: every preset, "
                    "microfacet presets with each Fresnel)")
+    p.add_argument("--no-environment", action="store_true",
+                   help="skip the environment cases (a sun sky in every rung: NaN/Inf/negative, fireflies)")
     p.set_defaults(func=check.cmd_stability)
