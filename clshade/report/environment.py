@@ -40,29 +40,27 @@ def precompute_table(doc: dict) -> str:
                       cell(pre["total_bytes"] / 1e6, ".3f"), cell(pre["device_bytes"] / 1e6, ".3f"), parts]])
 
 
-def _cheapest(rows: list[dict]) -> dict:
-    return min(rows, key=lambda r: r["mean_ms"])
-
-
 def answer(doc: dict) -> list[str]:
-    """The study's question under this sky, from the rows: each model's time beside Lambert's at the same
-    rung, and what each rung buys (its error and time beside the cheapest rung of the model)."""
-    rows = doc["rows"]
-    lines = []
+    """The study's question under this sky, from the rows: each model's time over Lambert's at the same rung
+    and N (median and range over the rungs both ran), and what its rungs buy: the cheapest rung's error and
+    the most accurate rung's, with its time over the cheapest."""
     by_model: dict[str, list[dict]] = {}
-    for r in rows:
+    for r in doc["rows"]:
         by_model.setdefault(r["model"], []).append(r)
-    lambert = {(r["diffuse"], r["specular"], r["samples"]): r for r in by_model.get("lambert", [])}
+    lambert = {(r["diffuse"], r["specular"], r["samples"]): r["mean_ms"] for r in by_model.get("lambert", [])}
+    lines = []
     for model, rs in by_model.items():
-        base = _cheapest(rs)
+        base = min(rs, key=lambda r: r["mean_ms"])
         best = min((r for r in rs if r["rel_rmse"] is not None), key=lambda r: r["rel_rmse"], default=None)
-        text = f"- **{model}**: cheapest rung {base['rung']} at {base['mean_ms']:.3f} ms, {_pct(base['rel_rmse'])} RMSE"
+        text = f"- **{model}**: cheapest rung {base['rung']} ({base['mean_ms']:.3f} ms, {_pct(base['rel_rmse'])} RMSE)"
         if best is not None:
-            text += (f"; most accurate {best['rung']} at {_pct(best['rel_rmse'])} RMSE for "
+            text += (f"; most accurate {best['rung']} ({_pct(best['rel_rmse'])} RMSE) for "
                      f"{best['mean_ms'] / base['mean_ms']:.1f}× the cheapest rung's time")
-        same = lambert.get((base["diffuse"], base["specular"], base["samples"]))
-        if model != "lambert" and same is not None:
-            text += f"; {base['mean_ms'] / same['mean_ms']:.2f}× Lambert's time at that rung"
+        ratios = sorted(r["mean_ms"] / lambert[k] for r in rs
+                        if (k := (r["diffuse"], r["specular"], r["samples"])) in lambert)
+        if model != "lambert" and ratios:
+            text += (f"; {ratios[len(ratios) // 2]:.2f}× Lambert's time at the same rung (median of "
+                     f"{len(ratios)}, {ratios[0]:.2f}–{ratios[-1]:.2f}×)")
         lines.append(text + ".")
     return lines
 
