@@ -82,3 +82,6 @@ def test_a_nan_from_the_kernel_fails_the_check(monkeypatch):
     bad = [f for f in rep.failures() if "nan" in f]
     assert bad and all("sampled" in f for f in bad) and not rep.ok
     assert rep.as_dict()["environment_summary"]["nan"] == len([r for r in results if r.rung.endswith("/sampled")])
+    from clshade.report.stability import stability_text
+    text = stability_text(rep)
+    assert "environment (precise build, raw radiance): NaN " in text and "FAIL phong" in text and "FAILED" in text
