@@ -84,4 +84,4 @@ def test_a_nan_from_the_kernel_fails_the_check(monkeypatch):
     assert rep.as_dict()["environment_summary"]["nan"] == len([r for r in results if r.rung.endswith("/sampled")])
     from clshade.report.stability import stability_text
     text = stability_text(rep)
-    assert "environment (precise build, raw radiance): NaN " in text and "FAIL phong" in text and "FAILED" in text
+    assert "environment (precise build, raw radiance): NaN " in text and "FAIL lambert+phong under synthetic sun" in text and "FAILED" in text
