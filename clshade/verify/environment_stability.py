@@ -211,5 +211,5 @@ def summary(results: list[EnvironmentResult]) -> dict[str, object]:
                 fireflies=sum(r.fireflies for r in counted), firefly_pixels=sum(r.firefly_pixels for r in counted),
                 firefly_definition=f"luminance > {FIREFLY_FACTOR:g} × the float64 truth's at the pixel, where "
                                    f"roughness ≥ {FIREFLY_MIN_ROUGHNESS:g} and n·v > 0, diffuse-sampled rungs, synthetic "
-                                   f"sun sky ({SUN_RATIO:g} × the mean)",
+                                   f"sun sky ({SUN_RATIO:g} × the mean of the rest)",
                 sun_ratio=SUN_RATIO, samples=list(ENV_SAMPLES), cosines=list(ENV_COSINES), roughness=list(ENV_ROUGHNESS))
