@@ -241,6 +241,11 @@ def _add_bench(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--lights", type=int, help="use exactly N lights (extra directional lights are added)")
     _add_aa_options(p)
     p.add_argument("--ladder", action="store_true", help="also run the approximation ladders")
+    p.add_argument("--environment-ladder", metavar="N,N", default=None,
+                   help="a scene with an [environment]: the sample counts of the sampled rungs "
+                        "(default 1,4,16,64,256,1024; docs/environment-ladder.md)")
+    p.add_argument("--oracle-pixels", type=int, metavar="K", default=None,
+                   help="a scene with an [environment]: pixels the float64 truth integrates (default 256)")
     p.add_argument("--numpy-frames", type=int, default=NUMPY_FRAMES,
                    help=f"NumPy frames per model, spread over the timed rounds (median; default {NUMPY_FRAMES})")
     p.add_argument("--json", metavar="OUT", help="write the results as JSON (docs/bench-schema.md)")
@@ -304,4 +309,6 @@ def _add_checks(checks: argparse._SubParsersAction) -> None:
     p.add_argument("--device", metavar="D", help="OpenCL device (see `clshade devices`)")
     p.add_argument("--model", metavar="M", help="restrict to these models (comma-separated; default: every preset, "
                    "microfacet presets with each Fresnel)")
+    p.add_argument("--no-environment", action="store_true",
+                   help="skip the environment cases (a sun sky in every rung: NaN/Inf/negative, fireflies)")
     p.set_defaults(func=check.cmd_stability)

@@ -6,7 +6,7 @@ import sys
 from pathlib import Path
 
 from clshade import budget
-from clshade.cli.common import check_size, load_scene_with_overrides, progress_bar, refuse_environment
+from clshade.cli.common import check_size, load_scene_with_overrides, progress_bar
 from clshade.errors import ClshadeError
 
 
@@ -61,7 +61,11 @@ def cmd_bench(args: argparse.Namespace) -> int:
     from clshade.report.bench import bench_csv, bench_plots, bench_text
     _check_bench_options(args)
     scene = load_scene_with_overrides(args.scene, args)
-    refuse_environment(scene, "bench")
+    if scene.environment is not None:
+        return _environment_bench(args, scene)
+    for flag, value in (("--environment-ladder", args.environment_ladder), ("--oracle-pixels", args.oracle_pixels)):
+        if value is not None:
+            raise ClshadeError(f"{flag}: {scene.path or 'the scene'} has no [environment] table (the ladder needs a sky)")
     _check_bench_outputs(args, scene.inputs())
     registry = args.registry.with_lobes(*scene.lobes)
     models = registry.resolve_many(args.models)
@@ -101,6 +105,37 @@ def _whole_frames(args: argparse.Namespace, scene, models: list) -> dict:
     print()
     print(whole_frame_text(doc))
     return doc
+
+def _environment_bench(args: argparse.Namespace, scene) -> int:
+    """`clshade bench` on a scene with a sky: the environment ladder (clshade.bench.environment) instead of
+    the point-light tables; --json writes its document, --plot its error-vs-time plot."""
+    import json
+    from clshade.bench.environment import SAMPLE_LADDER, parse_samples, run_environment_bench
+    from clshade.outputs import write_text_atomic
+    from clshade.report.environment import environment_markdown, environment_plot
+    from clshade.verify.environment_oracle import DEFAULT_PIXELS
+    unsupported = [flag for flag, on in (("--ladder", args.ladder), ("--csv", args.csv), ("--peers", args.peers),
+                                         ("--lights", args.lights is not None),
+                                         ("--whole-frames", bool(args.whole_frames))) if on]
+    if unsupported:
+        raise ClshadeError(f"{unsupported[0]}: not measured with an [environment] ({scene.path or 'the scene'}): "
+                           "the environment ladder has --json and --plot")
+    samples = parse_samples(args.environment_ladder) if args.environment_ladder is not None else SAMPLE_LADDER
+    pixels = DEFAULT_PIXELS if args.oracle_pixels is None else budget.check_count(
+        "--oracle-pixels", args.oracle_pixels, budget.MAX_FRAMES, low=1)
+    _check_bench_outputs(args, scene.inputs())
+    models = args.registry.with_lobes(*scene.lobes).resolve_many(args.models)
+    with progress_bar("bench", "round") as progress:
+        doc = run_environment_bench(scene, models, args.frames, args.warmup, width=args.width, height=args.height,
+                                    samples=samples, oracle_pixels=pixels, device=args.device,
+                                    progress=None if args.no_progress else progress)
+    print(environment_markdown(doc))
+    print(build_line(doc["device"]["build"]))
+    if args.json:
+        write_text_atomic(args.json, json.dumps(doc, indent=2, ensure_ascii=False))
+    if args.plot:
+        environment_plot([doc], Path(args.plot))
+    return 0
 
 
 def build_line(build: dict) -> str:
