@@ -16,7 +16,7 @@ from clshade.report.accuracy import accuracy_markdown
 from clshade.report.brdf_explorer import brdf_explorer_markdown
 from clshade.report.bench import bench_1080p_markdown, readme_table, targets_table
 from clshade.report.effects import effects_markdown
-from clshade.report.environment import environment_results_markdown
+from clshade.report.environment import environment_answer_markdown, environment_results_markdown
 from clshade.report.glsl_oracle import glsl_oracle_markdown
 from clshade.report.host import host_ab_markdown, memory_markdown, startup_markdown
 from clshade.report.mitsuba import mitsuba_envmap_markdown
@@ -96,7 +96,8 @@ RESULTS: tuple[Result, ...] = (
            ("kernels", "clshade/render/environment.py", "clshade/render/prefilter.py", "clshade/bench/environment.py",
             "clshade/verify/environment_oracle.py", "clshade/verify/environment_rungs.py",
             "benchmarks/measure/environment.py"),
-           (Rendering(OUT + "environment.md", environment_results_markdown),),
+           (Rendering(OUT + "environment.md", environment_results_markdown),
+            _region("benchmarks/REPORT.md", "environment-answer", environment_answer_markdown)),
            "with its plot: the environment ladder (model × rung × N), error against the truth beside time"),
     Result(OUT + "aa.json", "clshade aa -o benchmarks/results/aa", ("kernels", "clshade/bench/aa.py"),
            (Rendering(OUT + "aa.md", aa_markdown),), "with its plots and crops: the anti-aliasing ladder"),

@@ -122,3 +122,16 @@ def environment_plot(docs: list[dict], path: Path) -> None:
     ax.set_ylabel("relative RMSE against the float64 truth")
     ax.grid(True, which="both", lw=0.3)
     finish(plt, fig, ax, path, "Environment ladder: error against time (lines: N = 1 … 1024)", 5)
+
+
+def environment_answer_markdown(doc: dict) -> str:
+    """benchmarks/REPORT.md's environment section (benchmarks/results/environment.json): per sky, what each
+    model's rungs buy and its time over Lambert's, with the link to the ladder tables and the plot."""
+    out = [f"From benchmarks/results/environment.json (`{doc.get('command', '')}`): the tables, the error split by "
+           "n·v and the precompute are in [results/environment.md](results/environment.md); error against time: "
+           "[results/environment.png](results/environment.png)."]
+    for run in doc["runs"]:
+        env = run["environment"]
+        sky = Path(env["map"]).name if env["map"] else f"uniform {env['uniform']}"
+        out += ["", f"**{sky}** ({run['width']}×{run['height']}, {run['device']['name']}):", "", *answer(run)]
+    return "\n".join(out)

@@ -99,9 +99,10 @@ def test_bad_environment_flags_are_refused(tmp_path, capsys, flags, needle):
     refused(capsys, ["render", str(path), "-o", str(tmp_path / "o.png"), *flags], needle)
 
 
-@pytest.mark.parametrize("command", ["bench", "aa"])
+@pytest.mark.parametrize("command", ["aa"])
 def test_commands_without_the_skys_truth_refuse_it(tmp_path, capsys, command):
-    """bench and aa measure against the point-light frame oracle: a sky there is refused, not mismeasured."""
+    """aa measures against the point-light frame oracle: a sky there is refused, not mismeasured (bench
+    measures the environment ladder instead: tests/bench/test_environment_bench.py)."""
     path = write_scene(tmp_path, white_sphere(dict(uniform=1.0)))
     refused(capsys, [command, str(path)], "scene.toml: environment: clshade " + command + " does not measure")
 
