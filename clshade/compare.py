@@ -41,7 +41,7 @@ def shade_all(frame: Frame, models: list[Model], runtime: Runtime, repeats: int 
               progress=None) -> list[Tile]:
     """Shade one G-buffer with every model; time each kernel (median device time);
     `progress(done, total)` after each model."""
-    shader = Shader(runtime, frame.gbuffer, frame.scene, frame.camera)
+    shader = Shader(runtime, frame.gbuffer, frame.scene, frame.camera, frame.shadows)
     features = scene_features(frame.scene, geometry=frame.geometry)
     tiles = []
     for model in models:
@@ -134,8 +134,9 @@ def compare_sheet(scene: Scene | str | Path, models: list[Model], *, width: int 
                   height: int | None = None, reference: Model | None = None, runtime: Runtime | None = None,
                   device: str | None = None, progress=None) -> tuple[np.ndarray, list[Tile]]:
     """The contact sheet (H, W, 3) display floats, and the shaded tiles; `progress(done, total)` per model."""
-    frame = prepare_frame(scene, width, height, tangents=reads_tangents(models + ([reference] if reference else [])))
     rt = runtime or get_runtime(device)
+    frame = prepare_frame(scene, width, height, tangents=reads_tangents(models + ([reference] if reference else [])),
+                          runtime=rt)
     tiles = shade_all(frame, models, rt, progress=progress)
     rows = []
     for group, items in group_rows(tiles):
@@ -166,7 +167,8 @@ def sweep_sheet(scene: Scene | str | Path, models: list[Model], roughness: tuple
     columns = []
     for r in roughness:
         mats = {k: dataclasses.replace(m, roughness=r) for k, m in scene.materials.items()}
-        frame = prepare_frame(dataclasses.replace(scene, materials=mats), size, size, tangents=reads_tangents(models))
+        frame = prepare_frame(dataclasses.replace(scene, materials=mats), size, size, tangents=reads_tangents(models),
+                              runtime=rt)
         columns.append((r, frame, shade_all(frame, models, rt, repeats=1)))
         if progress is not None:
             progress(len(columns), len(roughness))

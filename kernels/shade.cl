@@ -25,6 +25,8 @@
  *   UNIT_NORMALS                   the G-buffer's normals are unit or zero (clshade's own
  *                                  G-buffers): not normalised again, only the zero ones replaced
  *   HAS_SHADOWS, SHADOW_PCF        shadow-map lookup (shadow.h), PCF kernel width
+ *   HAS_ENVIRONMENT, ENV_*         light from the sky and the sky behind the scene
+ *                                  (environment.h; compile-time in the general kernel too)
  *   SIMD                           pixels per work-item (1, 4, 8 or 16)
  *   SPECULAR_AA                    specular lobe widened by the normal's screen-space
  *                                  variance (specular_aa.h); absent unless the scene asks
@@ -77,6 +79,9 @@
 #endif
 #ifndef HAS_TANGENT
 #define HAS_TANGENT 0
+#endif
+#ifndef HAS_ENVIRONMENT
+#define HAS_ENVIRONMENT 0
 #endif
 #ifndef ROUGHNESS_VALUE
 #define ROUGHNESS_VALUE 1.0f
@@ -179,6 +184,11 @@ __kernel void shade(
     , const float4 ambient
 #endif
 #endif
+#if HAS_ENVIRONMENT
+    , __constant float4* env_params, __global const float4* env_map, __global const float* env_cdf
+    , const uint env_samples, const uint env_first_pixel   /* N; the band's first pixel in the frame */
+    ENV_SPLIT_PARAMS                                     /* the split-sum rungs' tables */
+#endif
     , const float4 background,
     __global float4* out
 #ifdef COUNT_TERMS
@@ -197,6 +207,11 @@ __kernel void shade(
      * paths end in the one store4 below: gbuffer.h says why there is one site. */
     vec3 color = v3c(background.xyz);
     real alpha = (real)(background.w);
+#if HAS_ENVIRONMENT && ENV_BACKGROUND
+    if (!ALL(covered))
+        color = env_background(SIMD * i, width, inv_width2, inv_height2, cam_fwd, cam_right, cam_up,
+                               env_params, env_map);
+#endif
     if (!all_empty(z)) {
         /* Camera rays through the pixel centres; cam_right/cam_up are pre-scaled by
          * tan(fov/2)·aspect and tan(fov/2), so P = cam_pos + depth · ray. */
@@ -335,6 +350,14 @@ __kernel void shade(
 #if HAS_AMBIENT
         L = v3add(L, AMBIENT(ambient));
 #endif
+#endif
+#if HAS_ENVIRONMENT
+        vec3 sky = environment_light(n, v, s, (uindex)(first + env_first_pixel) + LANE_IOTA, env_samples,
+                                     env_params, env_map, env_cdf ENV_SPLIT_ARGS);
+#if HAS_OCCLUSION
+        sky = v3scale(sky, saturate(VLOAD(i, occlusion)));   /* the sky is unoccluded but for AO */
+#endif
+        L = v3add(L, sky);
 #endif
 #if HAS_EMISSIVE
         L = v3add(L, v3max(load3f(i, emissive, plane), 0.0f));

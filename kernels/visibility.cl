@@ -1,8 +1,8 @@
 /* visibility.cl — the visibility buffer and the G-buffer from it, on the device, bit for bit
  * the G-buffer that clshade/render/gbuffer.py:build_gbuffer makes from rasterize_mesh's
- * fragments (scenes without textures, hence without an occlusion channel; the live viewer,
- * clshade/device/visibility.py). Two kernels, after the host's triangle setup
- * (clshade/render/raster/batches.py:setup_view):
+ * fragments (the live viewer, clshade/device/visibility.py). Two kernels, after the host's
+ * triangle setup (clshade/render/raster/batches.py:setup_view), and a third, `texture` (at the
+ * end of this file), for textured faces:
  *
  * cover — the rasterizer's coverage and depth resolve (raster/tiles.py), one work-item per
  *   TILE x TILE tile of a triangle's pixel box, a row LANES columns at a time, one per lane:
@@ -27,6 +27,8 @@
  *   then build_gbuffer's per-pixel step, in float: the normal interpolated from the face's
  *         corner normals, ((0 + b0 n0) + b1 n1) + b2 n2, scaled by 1/|n| (0 stays 0); the
  *         face's base colour, roughness, metallic, material (and emission).
+ *   Where HAS_TEXTURES, the pixel's face when it has a texture set and its barycentrics, for
+ *   kernel `texture`; where HAS_OCCLUSION, occlusion 1 (covered) or 0.
  *   A pixel whose depth or normal is not finite keeps roughness, metallic and material,
  *   and gets zero depth, normal, base colour and emission; `cover` says which pixels are
  *   covered (1), empty (0) or so replaced (2). Empty pixels get zero everywhere.
@@ -172,6 +174,14 @@ __kernel void visibility(
     __global const float* face_emissive,    /* (3, F) */
     __global float* emissive,
 #endif
+#if HAS_TEXTURES
+    __global const int* face_texture,       /* (F,) the face's texture set, -1 for none */
+    __global int* tex_face,                 /* (plane,) the covered pixel's face where it is textured, else -1 */
+    __global float* tex_bary,               /* (3, plane) its barycentrics (the rasterizer's float32) */
+#endif
+#if HAS_OCCLUSION
+    __global float* occlusion,
+#endif
     __global float* depth, __global float* normal, __global float* base,
     __global float* roughness, __global float* metallic, __global uchar* material,
     __global uchar* cover)
@@ -200,6 +210,12 @@ __kernel void visibility(
         VSTORE(fzero, i, metallic);
         VSTORE((cvec)(0), i, material);
         VSTORE((cvec)(0), i, cover);
+#if HAS_TEXTURES
+        VSTORE((ivec)(-1), i, tex_face);
+#endif
+#if HAS_OCCLUSION
+        VSTORE(fzero, i, occlusion);
+#endif
         return;
     }
     VSTORE((lvec)(EMPTY_KEY), i, keys);    /* empty again for the next frame's cover */
@@ -275,4 +291,245 @@ __kernel void visibility(
     VSTORE(select(fzero, GF(face_metallic, f), hit), i, metallic);
     VSTORE(convert_cvec(select((ivec)(0), convert_ivec(GATHER(cvec, face_material, f)), hit)), i, material);
     VSTORE(convert_cvec(select(select((ivec)(0), (ivec)(2), hit), (ivec)(1), ok)), i, cover);
+#if HAS_OCCLUSION
+    VSTORE(select(fzero, (fvec)(1.0f), hit), i, occlusion);   /* textured pixels: kernel `texture` */
+#endif
+#if HAS_TEXTURES
+    VSTORE(select((ivec)(-1), f, hit & (GI(face_texture, f) >= 0)), i, tex_face);
+    VSTORE(b0, i, tex_bary);
+    VSTORE(b1, i, tex_bary + plane);
+    VSTORE(b2, i, tex_bary + 2 * plane);
+#endif
 }
+#if HAS_TEXTURES
+/* ---------------------------------------------------------------- textures
+ * texture — per textured pixel (tex_face >= 0), gbuffer.py:_texture_pixels and
+ * _apply_texture_set with textures.py's sampling, in their order of operations:
+ *   uv = (b0 uv0 + b1 uv1) + b2 uv2 and the tangent likewise, in double;
+ *   the screen derivatives of uv (gbuffer.uv_derivatives): with A = [c0 c1 c2] the clip
+ *         (x, y, w) of the face's corners, b = A^-1 (s, 1) normalised to sum 1 at the pixel
+ *         centre and one pixel right and down; 0 where det A = 0 or a difference is not finite;
+ *   per texture: λ = log2 max(|∂uv/∂x|, |∂uv/∂y|) in level-0 texels, clamped to the pyramid
+ *         (NaN and -inf give 0, +inf the last level); trilinear: (0 + (1 - f) bil(l0)) + f bil(l1),
+ *         l0 = floor λ, f = λ - l0 in float; bilinear with repeat wrapping, texel centres at
+ *         (i + 0.5) / size, row 0 at V = 1;
+ *   value = factor x texture (glTF); metallic-roughness: G roughness, B metallic; occlusion
+ *         1 + strength (R - 1); the normal map m = 2 t - 1, m.xy *= scale, in the frame
+ *         T = t - n (t.n) normalised (kept where |T|^2 <= MIN_TANGENT_LEN2), B = ±(n x T),
+ *         mapped = (m.x T + m.y B) + m.z n, normalised (kept where its length is 0).
+ *   A pixel whose depth, normal or base colour is then not finite is replaced as in `visibility`
+ *   (it keeps roughness, metallic and occlusion). Sums of three products that NumPy forms with
+ *   einsum are added (p0 + p2) + p1, as its SIMD loop does; the others in order.
+ * Not bit for bit: A^-1 (LAPACK's LU on the host, the adjugate here) and log2 round otherwise
+ * in the last bits of the level λ (clshade/device/visibility.py: TEXTURE_TOLERANCE).
+ */
+#define MIN_TANGENT_LEN2 1e-20              /* textures.py's */
+#define SET_FLOATS 10                       /* base factor 3, roughness, metallic, emissive 3, normal scale, occlusion strength */
+#define SET_SLOTS 5                         /* base colour, metallic-roughness, normal, emissive, occlusion */
+
+/* np.mod(a, n) of an integral double: the sign of n (fmod only outside [0, n), the rare case). */
+inline int wrap(double a, int n) {
+    if (a >= 0.0 && a < (double)n) return (int)a;
+    double m = fmod(a, (double)n);
+    if (m != 0.0 && m < 0.0) m = m + (double)n;
+    return (int)m;
+}
+
+/* textures.py:_bilinear on one level (w x h texels of 3 floats from `texels`). */
+inline float3 bilinear(__global const float* texels, int w, int h, double u, double v) {
+    const double x = u * (double)w - 0.5;
+    double y = 1.0 - v;
+    y = y * (double)h - 0.5;
+    const double x0 = floor(x), y0 = floor(y);
+    const float fx = (float)(x - x0), fy = (float)(y - y0);
+    const int i0 = wrap(y0, h), j0 = wrap(x0, w);
+    const int i1 = i0 + 1 < h ? i0 + 1 : 0, j1 = j0 + 1 < w ? j0 + 1 : 0;     /* (i0 + 1) % h: repeat */
+    const float3 a = vload3(i0 * w + j0, texels), b = vload3(i0 * w + j1, texels);
+    const float3 c = vload3(i1 * w + j0, texels), d = vload3(i1 * w + j1, texels);
+    const float gx = 1.0f - fx, gy = 1.0f - fy;
+    const float3 top = a * gx + b * fx;
+    const float3 bottom = c * gx + d * fx;
+    return top * gy + bottom * fy;
+}
+
+/* Texture.lod then Texture.sample: `info` (first level, levels, width, height), `level` (offset, w, h) rows. */
+inline float3 sample(__global const int* info, __global const int* level, __global const float* texels,
+                     double u, double v, double dx0, double dx1, double dy0, double dy1) {
+    const int first = info[0], levels = info[1];
+    const double w = (double)info[2], h = (double)info[3];
+    const double ax = dx0 * w, ay = dx1 * h, bx = dy0 * w, by = dy1 * h;
+    const double rx = sqrt(ax * ax + ay * ay), ry = sqrt(bx * bx + by * by);
+    const double rho = (isnan(rx) || isnan(ry)) ? NAN : fmax(rx, ry);
+    const double top = (double)(levels - 1);
+    double lam = log2(rho);
+    lam = isnan(lam) ? 0.0 : isinf(lam) ? (lam > 0.0 ? top : 0.0) : lam;
+    lam = fmin(fmax(lam, 0.0), top);
+    const int l0 = (int)floor(lam);
+    const float frac = (float)(lam - (double)l0);
+    const int l1 = min(l0 + 1, levels - 1);
+    __global const int* a = level + 3 * (first + l0);
+    float3 out = (1.0f - frac) * bilinear(texels + a[0], a[1], a[2], u, v);
+    out = 0.0f + out;
+    if (l1 != l0) {
+        __global const int* b = level + 3 * (first + l1);
+        out = out + frac * bilinear(texels + b[0], b[1], b[2], u, v);
+    }
+    return out;
+}
+
+/* uv_derivatives' uv_at: the UV at NDC point (sx, sy) of the face whose clip-space inverse is `inv`. */
+inline double2 uv_at(const double inv[3][3], double sx, double sy, const double2 uv[3]) {
+    double b[3];
+    for (int j = 0; j < 3; j++) {
+        const double p0 = inv[j][0] * sx, p1 = inv[j][1] * sy, p2 = inv[j][2];
+        b[j] = (p0 + p2) + p1;
+    }
+    const double total = (b[0] + b[1]) + b[2];
+    for (int j = 0; j < 3; j++)
+        b[j] = fabs(total) > 0.0 ? b[j] / total : 1.0 / 3.0;
+    double2 out = b[0] * uv[0] + b[1] * uv[1];
+    return out + b[2] * uv[2];
+}
+
+__kernel void texture(
+    const uint npix, const uint plane, const uint width, const uint height, const uint nface,
+    __global const int* tex_face, __global const float* tex_bary,
+    __global const double* mvp,             /* (3, 4): rows x, y, w of projection @ view */
+    __global const int* corners,            /* (3, F) */
+    __global const double* vertex,          /* (V, 3) */
+    __global const float* vertex_uv,        /* (V, 2) */
+    __global const float* vertex_tangent,   /* (V, 4): tangent, handedness */
+    __global const int* face_texture,
+    __global const float* set_value,        /* (S, SET_FLOATS) */
+    __global const double* set_uv_scale,    /* (S,) */
+    __global const int* set_slot,           /* (S, SET_SLOTS): texture, -1 for none */
+    __global const int* texture_info,       /* (T, 4) */
+    __global const int* level_info,         /* (levels, 3) */
+    __global const float* texels,
+#if HAS_EMISSIVE
+    __global float* emissive,
+#endif
+#if HAS_OCCLUSION
+    __global float* occlusion,
+#endif
+    __global float* depth, __global float* normal, __global float* base,
+    __global float* roughness, __global float* metallic, __global uchar* cover)
+{
+    const uint p = get_global_id(0);
+    if (p >= npix) return;
+    const int f = tex_face[p];
+    if (f < 0) return;
+    const int set = face_texture[f];
+    __global const float* value = set_value + SET_FLOATS * set;
+    __global const int* slot = set_slot + SET_SLOTS * set;
+    const double uv_scale = set_uv_scale[set];
+    const double bc[3] = {(double)tex_bary[p], (double)tex_bary[plane + p], (double)tex_bary[2 * plane + p]};
+    const int c[3] = {corners[f], corners[nface + f], corners[2 * nface + f]};
+    double2 uvc[3];
+    double4 tc[3];
+    for (int k = 0; k < 3; k++) {
+        uvc[k] = convert_double2(vload2(c[k], vertex_uv));
+        tc[k] = convert_double4(vload4(c[k], vertex_tangent));
+    }
+    double2 uv = bc[0] * uvc[0] + bc[1] * uvc[1];
+    uv = uv + bc[2] * uvc[2];
+    double4 tangent = bc[0] * tc[0] + bc[1] * tc[1];
+    tangent = tangent + bc[2] * tc[2];
+
+    /* The UV screen derivatives (uv_derivatives). */
+    double A[3][3];
+    for (int r = 0; r < 3; r++)
+        for (int k = 0; k < 3; k++) {
+            __global const double* m = mvp + 4 * r;
+            const double3 q = vload3(c[k], vertex);
+            double clip = m[0] * q.x + m[1] * q.y;
+            clip = clip + m[2] * q.z;
+            A[r][k] = clip + m[3];
+        }
+    const double c00 = A[1][1] * A[2][2] - A[1][2] * A[2][1];
+    const double c01 = A[1][2] * A[2][0] - A[1][0] * A[2][2];
+    const double c02 = A[1][0] * A[2][1] - A[1][1] * A[2][0];
+    const double det = A[0][0] * c00 + A[0][1] * c01 + A[0][2] * c02;
+    double2 dx = (double2)(0.0), dy = (double2)(0.0);
+    if (det != 0.0) {
+        const double r = 1.0 / det;
+        const double inv[3][3] = {
+            {c00 * r, (A[0][2] * A[2][1] - A[0][1] * A[2][2]) * r, (A[0][1] * A[1][2] - A[0][2] * A[1][1]) * r},
+            {c01 * r, (A[0][0] * A[2][2] - A[0][2] * A[2][0]) * r, (A[0][2] * A[1][0] - A[0][0] * A[1][2]) * r},
+            {c02 * r, (A[0][1] * A[2][0] - A[0][0] * A[2][1]) * r, (A[0][0] * A[1][1] - A[0][1] * A[1][0]) * r}};
+        const uint py = p / width, px = p - py * width;
+        double x = ((double)px + 0.5) / (double)width;
+        x = x * 2.0 - 1.0;
+        double y = ((double)py + 0.5) / (double)height;
+        y = 1.0 - y * 2.0;
+        const double2 centre = uv_at(inv, x, y, uvc);
+        dx = uv_at(inv, x + 2.0 / (double)width, y, uvc) - centre;
+        dy = uv_at(inv, x, y - 2.0 / (double)height, uvc) - centre;
+        if (!(isfinite(dx.x) && isfinite(dx.y) && isfinite(dy.x) && isfinite(dy.y)))
+            dx = dy = (double2)(0.0);
+    }
+    uv = uv * uv_scale;
+    dx = dx * uv_scale;
+    dy = dy * uv_scale;
+#define SAMPLE(s) sample(texture_info + 4 * (s), level_info, texels, uv.x, uv.y, dx.x, dx.y, dy.x, dy.y)
+
+    float3 b = vload3(0, value);
+    float rough = value[3], metal = value[4];
+    if (slot[0] >= 0) b = b * SAMPLE(slot[0]);
+    if (slot[1] >= 0) {
+        const float3 mr = SAMPLE(slot[1]);
+        rough = rough * mr.y;
+        metal = metal * mr.z;
+    }
+    roughness[p] = rough;
+    metallic[p] = metal;
+#if HAS_OCCLUSION
+    float occ = 1.0f;
+    if (slot[4] >= 0) {
+        occ = SAMPLE(slot[4]).x - 1.0f;
+        occ = 1.0f + value[9] * occ;
+    }
+    occlusion[p] = occ;
+#endif
+    if (cover[p] != 1) return;              /* replaced by `visibility`: stays so */
+    const double3 n = (double3)(normal[p], normal[plane + p], normal[2 * plane + p]);
+    double3 nm = n;
+    if (slot[2] >= 0) {
+        float3 m = SAMPLE(slot[2]) * 2.0f - 1.0f;
+        m.xy = m.xy * value[8];
+        const double3 t = tangent.xyz;
+        const double3 tn = t * n;
+        double3 T = t - n * ((tn.x + tn.z) + tn.y);
+        const double3 tt = T * T;
+        const double tlen2 = (tt.x + tt.z) + tt.y;
+        const bool good = tlen2 > MIN_TANGENT_LEN2;
+        T = T / sqrt(good ? tlen2 : 1.0);
+        const double sign = tangent.w < 0.0 ? -1.0 : 1.0;
+        const double3 B = sign * (double3)(n.y * T.z - n.z * T.y, n.z * T.x - n.x * T.z, n.x * T.y - n.y * T.x);
+        double3 mapped = (double)m.x * T + (double)m.y * B;
+        mapped = mapped + (double)m.z * n;
+        const double3 mm = mapped * mapped;
+        const double length = sqrt((mm.x + mm.y) + mm.z);
+        if (good && length > 0.0) nm = mapped / length;
+    }
+    const float3 nf = convert_float3(nm);
+#if HAS_EMISSIVE
+    float3 e = vload3(0, value + 5);
+    if (slot[3] >= 0) e = e * SAMPLE(slot[3]);
+#endif
+    const bool ok = isfinite(depth[p]) && isfinite(nf.x) && isfinite(nf.y) && isfinite(nf.z)
+                    && isfinite(b.x) && isfinite(b.y) && isfinite(b.z);
+    const float3 zero = (float3)(0.0f);
+    const float3 nw = ok ? nf : zero, bw = ok ? b : zero;
+    normal[p] = nw.x; normal[plane + p] = nw.y; normal[2 * plane + p] = nw.z;
+    base[p] = bw.x; base[plane + p] = bw.y; base[2 * plane + p] = bw.z;
+#if HAS_EMISSIVE
+    const float3 ew = ok ? e : zero;
+    emissive[p] = ew.x; emissive[plane + p] = ew.y; emissive[2 * plane + p] = ew.z;
+#endif
+    if (!ok) {
+        depth[p] = 0.0f;
+        cover[p] = 2;
+    }
+}
+#endif

@@ -3,7 +3,11 @@ kernels, the peers, the STREAM anchor, whole frames and the targets (clshade.ben
 `python -m benchmarks.publish` renders perf_1080p.md). Run it on a quiet machine, with the peers
 installed (`pip install -e '.[bench,peers]'`).
 
-    python -m benchmarks.measure.perf [--rounds 200] [--frame-frames 30] [--peers numba,drjit]
+    python -m benchmarks.measure.perf [--rounds 200] [--frame-frames 30] [--peers numba,drjit] [--gbuffer auto]
+
+The whole frames go through the frame pipeline of `clshade render` and `clshade bench --whole-frames`
+(clshade.bench.frame, clshade.pipeline.GBufferStage): the device's visibility buffer and G-buffer
+where verified on each runtime, else the NumPy rasterizer; each runtime's result names its path.
 """
 from __future__ import annotations
 
@@ -12,6 +16,7 @@ import sys
 
 from benchmarks.publish.results_io import RESULTS, write_result
 from clshade.bench import perf
+from clshade.pipeline import GBUFFER_MODES, use_gbuffer
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -25,10 +30,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--frame-frames", type=int, default=30,
                     help="whole frames per runtime (half before the rounds, half after)")
     ap.add_argument("--peers", default="numba,drjit")
+    ap.add_argument("--gbuffer", choices=GBUFFER_MODES, default="auto",
+                    help="the whole frames' raster and G-buffer path (clshade render --gbuffer)")
     ap.add_argument("--out", default=str(RESULTS / "perf_1080p.json"))
     a = ap.parse_args(argv)
-    doc = perf.run(a.scene, a.width, a.height, a.rounds, a.warmup, a.frame_scene, a.frame_frames,
-                   tuple(p for p in a.peers.split(",") if p))
+    with use_gbuffer(a.gbuffer):
+        doc = perf.run(a.scene, a.width, a.height, a.rounds, a.warmup, a.frame_scene, a.frame_frames,
+                       tuple(p for p in a.peers.split(",") if p))
     doc["command"] = "python -m benchmarks.measure.perf " + " ".join(sys.argv[1:] if argv is None else argv)
     write_result(a.out, doc)             # PoCL CPU and the NumPy/Numba/Dr.Jit peers: the host's CPU
     return 0

@@ -16,8 +16,10 @@ from clshade.report.accuracy import accuracy_markdown
 from clshade.report.brdf_explorer import brdf_explorer_markdown
 from clshade.report.bench import bench_1080p_markdown, readme_table, targets_table
 from clshade.report.effects import effects_markdown
+from clshade.report.environment import environment_answer_markdown, environment_results_markdown
 from clshade.report.glsl_oracle import glsl_oracle_markdown
 from clshade.report.host import host_ab_markdown, memory_markdown, startup_markdown
+from clshade.report.mitsuba import mitsuba_envmap_markdown
 from clshade.report.mutants import mutants_markdown
 from clshade.report.perf import perf_markdown
 from clshade.report.raster import raster_markdown
@@ -90,6 +92,13 @@ RESULTS: tuple[Result, ...] = (
     Result(OUT + "effects.json", "python -m benchmarks.measure.effects_bench",
            ("kernels", "benchmarks/measure/effects_bench.py"),
            (Rendering(OUT + "effects.md", effects_markdown),), "what each scene effect costs per model"),
+    Result(OUT + "environment.json", "python -m benchmarks.measure.environment",
+           ("kernels", "clshade/render/environment.py", "clshade/render/prefilter.py", "clshade/bench/environment.py",
+            "clshade/verify/environment_oracle.py", "clshade/verify/environment_rungs.py",
+            "benchmarks/measure/environment.py"),
+           (Rendering(OUT + "environment.md", environment_results_markdown),
+            _region("benchmarks/REPORT.md", "environment-answer", environment_answer_markdown)),
+           "with its plot: the environment ladder (model × rung × N), error against the truth beside time"),
     Result(OUT + "aa.json", "clshade aa -o benchmarks/results/aa", ("kernels", "clshade/bench/aa.py"),
            (Rendering(OUT + "aa.md", aa_markdown),), "with its plots and crops: the anti-aliasing ladder"),
     Result(OUT + "raster.json", "python -m benchmarks.measure.raster_bench",
@@ -139,6 +148,11 @@ RESULTS: tuple[Result, ...] = (
             "clshade/compare.py", "scenes/white_sphere.toml", "benchmarks/measure/brdf_explorer.py"),
            (Rendering(OUT + "brdf_explorer.md", brdf_explorer_markdown),),
            "BRDF Explorer's collection through models, render, bench, check stability and compare"),
+    Result(OUT + "mitsuba_envmap.json", "python -m benchmarks.measure.mitsuba_envmap",
+           ("clshade/render/environment.py", "clshade/verify/environment_oracle.py", "scenes/environment.toml",
+            "scenes/environments", "benchmarks/measure/mitsuba_envmap.py"),
+           (Rendering(OUT + "mitsuba_envmap.md", mitsuba_envmap_markdown),),
+           "clshade's truth under a sky against Mitsuba 3's envmap emitter (needs pip install mitsuba)"),
     Result(OUT + "mutants.json", "python -m benchmarks.mutation.run",
            ("benchmarks/mutation", "kernels", "clshade", "tests", "scenes", "pyproject.toml"),
            (Rendering(OUT + "mutants.md", mutants_markdown),),

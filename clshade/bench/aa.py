@@ -419,8 +419,9 @@ def run(scene_path: str | Path, models: list[Model], *, width: int | None = None
                frames=frames, warmup=warmup, device=device_record(runtime),
                definitions=dict(
                    frame_time="device time of one frame: shading kernel start to resolve kernel end, mean over "
-                              "frames interleaved across rungs; raster_ms: host rasterisation + G-buffer, median "
-                              "of 3 (NumPy, grows with the samples; not in the frame time)",
+                              "frames interleaved across rungs; raster_ms: rasterisation + G-buffer by the frame "
+                              "pipeline's path (the JSON's gbuffer), median of 3 (grows with the samples; not in "
+                              "the frame time)",
                    error=f"per pixel max over RGB of |L - L_true| / max(|L_true|, {REL_ERROR_FLOOR:g} * peak(L_true)), "
                          f"mean over the pixel set; L_true: {truth_samples}x{truth_samples} ordered-grid samples "
                          f"per pixel, float64 reference",

@@ -169,7 +169,7 @@ def compare(scene_path: str, models: list, width: int | None, height: int | None
         its data in cache."""
         rt = c["shader"].rt
         first, count = c["band"]
-        ev = rt.cl.enqueue_nd_range_kernel(rt.queue, d.kernel, (count,), (rt.local_size,),
+        ev = rt.cl.enqueue_nd_range_kernel(rt.queue, d.kernel, (count,), (d.local_size,),
                                            global_work_offset=(first,))
         ev.wait()
         return (ev.profile.end - ev.profile.start) * 1e-6
@@ -321,8 +321,11 @@ def frame_miss_cause(wf: dict) -> str:
     m = wf["median_s"]
     host = m["rasterize"] + m["g-buffer"]
     threads = f" on {wf['host_threads']} threads" if "host_threads" in wf else ""
+    on_device = wf.get("gbuffer", {}).get("path") == "device"
+    stages = ("the host's triangle setup and the device's visibility + G-buffer (clshade/device/visibility.py)"
+              if on_device else f"the NumPy host stages{threads} (clshade/render/raster/, gbuffer.py)")
     why = (f"rasterize {m['rasterize'] / m['frame']:.0%} + G-buffer {m['g-buffer'] / m['frame']:.0%} of the frame: "
-           f"the NumPy host stages{threads} (clshade/render/raster/, gbuffer.py) take {host * 1e3:.0f} ms where "
+           f"{stages} take {host * 1e3:.0f} ms where "
            f"{(FRAME_BOUND_S - (m['frame'] - host)) * 1e3:.0f} ms are left beside the device stages; shading "
            f"{m['shade'] / m['frame']:.0%}")
     if "block_frame_s" in wf:

@@ -268,7 +268,7 @@ def summarize(cases: list[Case], copy_ms: dict[tuple, list[float]], error: bool 
         row["channels"] = list(variant.channels)
         row["bytes_per_pixel"] = c.gbuffer.bytes_per_pixel(variant.channels, c.features.half_gbuffer) + OUTPUT_BYTES
         row["mean_bytes_per_pixel"] = c.gbuffer.mean_bytes_per_pixel(
-            variant.channels, c.features.half_gbuffer, c.shader.rt.simd, OUTPUT_BYTES)
+            variant.channels, c.features.half_gbuffer, c.shader.rt.for_model(c.model).simd, OUTPUT_BYTES)
         row["copy_mean_ms"] = copy_mean
         row["copy_ratio"] = stats["mean_ms"] / copy_mean
         row["fast_math"], row["half_gbuffer"] = c.features.fast_math, c.features.half_gbuffer
@@ -331,8 +331,9 @@ class Bench:
         scene = scene if isinstance(scene, Scene) else load_scene(scene)
         if lights is not None:
             scene = with_lights(scene, lights)
-        frame = prepare_frame(scene, width, height, tangents=tangents)
-        return cls(frame, get_runtime(device), scene_features(frame.scene, geometry=frame.geometry), device)
+        runtime = get_runtime(device)
+        frame = prepare_frame(scene, width, height, tangents=tangents, runtime=runtime)
+        return cls(frame, runtime, scene_features(frame.scene, geometry=frame.geometry), device)
 
     def shader(self, gbuffer: GBuffer | None = None, scene: Scene | None = None) -> Shader:
         """The Shader for (gbuffer, scene), uploaded once. Shaders share the runtime:

@@ -2,11 +2,12 @@
 full frame, per model beside today's rule and the tuned pick (clshade/device/tune.py).
 
 On each runtime the tuner's race runs first, afresh (its entry goes to the cache as on any first run;
-its pick and key are in the document), then every choice it raced (and its pick) shades the frame with
+its pick per model family and key are in the document), then every choice it raced (and its picks) shades the frame with
 each model and that model's copy kernel, in interleaved rounds with perf's protocol: every item in a new
 seeded random order each round, the process idle before each (timing.settle), each timed as the second
 of two back-to-back runs (perf.timed_after_itself); medians. The target: the tuned build within
-TARGET of the fastest choice for every model. benchmarks/measure/tuning.py writes it,
+TARGET of the fastest choice for every model, the tuned build of a model being its family's pick
+(Runtime.for_model: Model.family; the general choice for a family the tuner did not measure). benchmarks/measure/tuning.py writes it,
 clshade.report.tuning renders it.
 """
 from __future__ import annotations
@@ -46,14 +47,23 @@ def measure_runtime(spec: str, frame, features, models: list, rounds: int, warmu
     if entry["status"] != tuned.MEASURED:
         out["error"] = f"the tuner failed: {entry.get('reason', '')}"
         return out
-    pick = BuildChoice.from_dict(entry["choice"])
-    choices = [BuildChoice.from_dict(r["choice"]) for r in entry["candidates"] if r["status"] != "failed"]
-    choices += [pick] if pick not in choices else []
+    general = BuildChoice.from_dict(entry["choice"])
+    picks = {f: BuildChoice.from_dict(body["choice"]) for f, body in entry["families"].items()}
+    choices: list[BuildChoice] = []
+    for body in entry["families"].values():
+        choices += [c for c in (BuildChoice.from_dict(r["choice"]) for r in body["candidates"]
+                                if r["status"] != "failed") if c not in choices]
+    choices += [c for c in (*picks.values(), general) if c not in choices]
+
+    def tuned_for(m) -> BuildChoice:
+        """The build the model gets by default: its family's pick, else the general choice."""
+        return picks.get(m.family, general)
     items, rows = [], []
     for choice in choices:
         rt = base.with_choice(choice)
         shader = Shader(rt, frame.gbuffer, frame.scene, frame.camera, frame.shadows)
-        row = dict(choice=choice.as_dict(), label=choice.label(), is_rule=choice == FIXED, is_tuned=choice == pick,
+        row = dict(choice=choice.as_dict(), label=choice.label(), is_rule=choice == FIXED,
+                   tuned_for=[f for f, c in picks.items() if c == choice] + (["general"] if choice == general else []),
                    **tune.build_facts(base, choice), times={})
         mine = []
         try:
@@ -84,12 +94,12 @@ def measure_runtime(spec: str, frame, features, models: list, rounds: int, warmu
             row["models"][m.id] = dict(median_ms=shade, copy_ms=copy, copy_ratio=shade / copy)
     ok = [r for r in rows if "error" not in r]
     rule = next(r for r in ok if r["is_rule"])
-    chosen = next(r for r in ok if r["is_tuned"])
     summary = {}
     for m in models:
+        chosen = next(r for r in ok if r["choice"] == tuned_for(m).as_dict())
         best = min(ok, key=lambda r: r["models"][m.id]["median_ms"])
         best_ms = best["models"][m.id]["median_ms"]
-        summary[m.id] = dict(rule_ms=rule["models"][m.id]["median_ms"], tuned_ms=chosen["models"][m.id]["median_ms"],
+        summary[m.id] = dict(family=m.family if m.family in picks else "general", tuned=chosen["label"], rule_ms=rule["models"][m.id]["median_ms"], tuned_ms=chosen["models"][m.id]["median_ms"],
                              best_ms=best_ms, best=best["label"],
                              rule_vs_best=rule["models"][m.id]["median_ms"] / best_ms,
                              tuned_vs_best=chosen["models"][m.id]["median_ms"] / best_ms,

@@ -34,10 +34,26 @@ def progress_bar(description: str, unit: str):
 
 
 def load_scene_with_overrides(path, args: argparse.Namespace):
-    """The scene file with the --samples / --specular-aa overrides."""
+    """The scene file with the --samples / --specular-aa overrides and, for the commands that have them,
+    --environment-diffuse / --environment-specular / --environment-samples."""
+    import dataclasses
+    from clshade.render.environment import with_overrides
     from clshade.render.samples import with_antialiasing
     from clshade.render.scene import load_scene
-    return with_antialiasing(load_scene(path, args.registry), args.samples, args.specular_aa)
+    scene = with_antialiasing(load_scene(path, args.registry), args.samples, args.specular_aa)
+    sky = with_overrides(scene.environment, getattr(args, "environment_diffuse", None),
+                         getattr(args, "environment_specular", None), getattr(args, "environment_samples", None))
+    return scene if sky is scene.environment else dataclasses.replace(scene, environment=sky)
+
+
+def refuse_environment(scene, command: str) -> None:
+    """Refuse a scene with an [environment] in a command whose truth does not include the sky yet (bench and
+    aa compare with the point-light frame oracle): one line, rather than errors against the wrong truth."""
+    if scene.environment is not None:
+        name = scene.path or "the scene"
+        raise ClshadeError(f"{name}: environment: clshade {command} does not measure environment light yet (its "
+                           f"truth is the point-light frame oracle); render and compare shade it, and "
+                           f"clshade.verify.environment_oracle measures its error")
 
 
 def check_size(value: int | None, name: str) -> int | None:

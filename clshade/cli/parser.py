@@ -45,6 +45,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--general", action="store_true",
                    help="shade with the general kernel (runtime light loop and effect switches): same image, slower")
     _add_aa_options(p)
+    _add_environment_options(p)
     _add_model_options(p)
     _add_device(p)
     p.set_defaults(func=render.cmd_render)
@@ -71,9 +72,19 @@ def build_parser() -> argparse.ArgumentParser:
     for name, command in sub.choices.items():
         if name not in ("check", "devices"):
             _add_lobe_options(command)
+        if name in ("render", "compare", "bench", "aa"):
+            _add_gbuffer(command)
     for command in checks.choices.values():
         _add_lobe_options(command)
     return parser
+
+
+def _add_gbuffer(p: argparse.ArgumentParser) -> None:
+    """--gbuffer: which path makes the raster and G-buffer (clshade.pipeline.GBufferStage)."""
+    p.add_argument("--gbuffer", choices=("auto", "host", "device"), default="auto",
+                   help="raster and G-buffer: on the device where it is supported and verified bit for bit "
+                        "against the NumPy rasterizer on this device (auto, default), the NumPy rasterizer "
+                        "(host), or the device path required (device; refused where it cannot serve)")
 
 
 def _add_size(p: argparse.ArgumentParser) -> None:
@@ -103,6 +114,19 @@ def _add_aa_options(p: argparse.ArgumentParser) -> None:
                    help="N×N samples per pixel, box-filtered on the device (default: the scene's render.samples)")
     p.add_argument("--specular-aa", action="store_true",
                    help="widen specular lobes by the normal's screen-space variance (render.specular_aa)")
+
+
+def _add_environment_options(p: argparse.ArgumentParser) -> None:
+    """The rungs of the scene's [environment] (scenes/README.md): --environment-diffuse, -specular, -samples."""
+    from clshade.render.environment import DIFFUSE_RUNGS, MAX_SAMPLES, SPECULAR_RUNGS
+    p.add_argument("--environment-diffuse", choices=DIFFUSE_RUNGS,
+                   help="the diffuse lobe's rung under the sky (default: the scene's environment.diffuse)")
+    p.add_argument("--environment-specular", choices=SPECULAR_RUNGS,
+                   help="the specular lobe's rung under the sky: split_sum (prefiltered map × DFG table), "
+                        "split_sum_ms (+ multiple-scattering compensation) or sampled "
+                        "(default: the scene's environment.specular)")
+    p.add_argument("--environment-samples", type=int, metavar="N",
+                   help=f"samples per pixel of the sampled rungs, 1 … {MAX_SAMPLES} (environment.samples)")
 
 
 def _add_lobe_options(p: argparse.ArgumentParser) -> None:
@@ -160,6 +184,7 @@ def _add_compare(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--height", type=int, default=None)
     p.add_argument("--tile", type=int, default=320, help="tile width when --width is not given (default 320)")
     _add_aa_options(p)
+    _add_environment_options(p)
     p.add_argument("--device")
     p.set_defaults(func=compare.cmd_compare)
 
@@ -182,9 +207,13 @@ def _add_view(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("view", help="explore lighting models live in the browser",
                        description="Serve a local web page that renders SCENE live: drag to orbit, wheel to zoom, "
                                    "two models split on one G-buffer, |A - B|, sliders from the models' parameters, "
-                                   "each model's shading time; save writes a scene that `clshade render` reproduces.")
+                                   "each model's shading time, an environment picker with the rungs' cost and error; "
+                                   "save writes a scene that `clshade render` reproduces. Without --width/--height the "
+                                   "canvas follows the window (device pixel ratio included), up to --max-canvas.")
     p.add_argument("scene", help="scene file (TOML)")
     _add_size(p)
+    p.add_argument("--max-canvas", default="1920x1080", metavar="WxH",
+                   help="largest canvas rendered when it follows the window (default 1920x1080; aspect kept)")
     p.add_argument("-o", "--output-dir", default=".", metavar="DIR",
                    help="folder where 'save' writes NAME.toml, NAME.png and NAME.exr (default: the current folder)")
     p.add_argument("--host", default="127.0.0.1",
@@ -212,12 +241,23 @@ def _add_bench(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--lights", type=int, help="use exactly N lights (extra directional lights are added)")
     _add_aa_options(p)
     p.add_argument("--ladder", action="store_true", help="also run the approximation ladders")
+    p.add_argument("--environment-ladder", metavar="N,N", default=None,
+                   help="a scene with an [environment]: the sample counts of the sampled rungs "
+                        "(default 1,4,16,64,256,1024; docs/environment-ladder.md)")
+    p.add_argument("--oracle-pixels", type=int, metavar="K", default=None,
+                   help="a scene with an [environment]: pixels the float64 truth integrates (default 256)")
     p.add_argument("--numpy-frames", type=int, default=NUMPY_FRAMES,
                    help=f"NumPy frames per model, spread over the timed rounds (median; default {NUMPY_FRAMES})")
     p.add_argument("--json", metavar="OUT", help="write the results as JSON (docs/bench-schema.md)")
     p.add_argument("--csv", metavar="OUT", help="write the per-model table as CSV")
     p.add_argument("--plot", metavar="OUT.png", help="bar chart of FPS and lows (ladder plot beside it)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    p.add_argument("--whole-frames", type=int, metavar="N", default=0,
+                   help="also time N whole frames per model with the camera orbiting (setup, raster and "
+                        "G-buffer, upload, shade, read back): average FPS, 1 %% and 0.1 %% lows, the stage split")
+    p.add_argument("--overlap", action="store_true",
+                   help="with --whole-frames on the device G-buffer path: the next frame's triangle setup on a "
+                        "second thread while this frame is made on the device (the same images)")
     p.add_argument("--device", metavar="D", help="OpenCL device (see `clshade devices`)")
     p.add_argument("--peers", metavar="P,Q", help="also time peers (numba, drjit; pip install 'clshade[peers]') on "
                    "the same G-buffer with every PoCL runtime and the STREAM anchor, in interleaved rounds")
@@ -269,4 +309,6 @@ def _add_checks(checks: argparse._SubParsersAction) -> None:
     p.add_argument("--device", metavar="D", help="OpenCL device (see `clshade devices`)")
     p.add_argument("--model", metavar="M", help="restrict to these models (comma-separated; default: every preset, "
                    "microfacet presets with each Fresnel)")
+    p.add_argument("--no-environment", action="store_true",
+                   help="skip the environment cases (a sun sky in every rung: NaN/Inf/negative, fireflies)")
     p.set_defaults(func=check.cmd_stability)

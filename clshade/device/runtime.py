@@ -6,7 +6,9 @@ environment variable CLSHADE_DEVICE, then the default — the fastest healthy CP
 device as measured once on this machine (clshade/device/tune.py, cached), or with
 tuning off (CLSHADE_TUNE=fixed) the first healthy CPU device in RUNTIME_PREFERENCE.
 The image kernels' build choices (BuildChoice) are the device's measured ones the
-same way, else today's fixed rule (FIXED). A device spec is `P:D`
+same way, else today's fixed rule (FIXED): one per model family (`Runtime.for_model`: the
+family of the model's specular lobe, or diffuse), the device's general choice for a family
+the tuner did not measure (a user lobe's own family) and for kernels of no model. A device spec is `P:D`
 (platform and device index from `clshade devices`), `cpu`/`gpu`, or a
 case-insensitive substring of "platform name, platform version, device name"
 (e.g. `PoCL 3.1`). Two PoCL installs are both named "Portable Computing
@@ -368,6 +370,21 @@ def tuned_choice(info: DeviceInfo, device) -> tuple[BuildChoice, str]:
     return FIXED, f"not measured: {why}"
 
 
+def tuned_family_choices(info: DeviceInfo, device) -> dict[str, BuildChoice]:
+    """The device's measured choice per model family (clshade/device/tuned.py, `families`); {} where
+    tuning is off or nothing was measured (every kernel then gets `tuned_choice`'s)."""
+    if tuned.mode() != tuned.AUTO:
+        return {}
+    key = device_key(info, device)
+    entry, _ = tuned.lookup(tuned.DEVICE, key, ["device", info.spec, "--key", tuned.key_hash(key)])
+    if entry is None or entry.get("status") != tuned.MEASURED:
+        return {}
+    try:
+        return {family: BuildChoice.from_dict(body["choice"]) for family, body in entry["families"].items()}
+    except (KeyError, TypeError, ValueError, AttributeError):
+        return {}
+
+
 def host_has_avx512f() -> bool:
     """Whether the host CPU reports AVX-512F (/proc/cpuinfo; False where unreadable)."""
     try:
@@ -401,8 +418,12 @@ class Runtime:
         self._facts: dict[tuple[str, ...], dict[str, bool]] = {}
         self._base_options = tuple(options) + (("-DCLSHADE_HOST_AVX512F",) if host_has_avx512f() else ())
         self._honour_env = True
+        self.family: str | None = None      # the model family this runtime builds for (None: the general choice)
+        self.family_choices: dict[str, BuildChoice] = {}
+        self._by_family: dict[str, Runtime] = {}
         if choice is None:
             choice, self.choice_source = tuned_choice(self.info, self.device)
+            self.family_choices = {f: forced(c)[0] for f, c in tuned_family_choices(self.info, self.device).items()}
         else:
             self.choice_source = "given"
         self.choice, self.forced_by = forced(choice)
@@ -419,14 +440,33 @@ class Runtime:
         clone = copy.copy(self)
         clone.choice, clone.choice_source, clone.forced_by = choice, "given", ()
         clone._honour_env = False
+        clone.family, clone.family_choices, clone._by_family = None, {}, {}
         clone.options = clone._options(choice)
         return clone
+
+    def for_model(self, model) -> "Runtime":
+        """The runtime that builds `model`'s image kernels (a models.model.Model): this one with the
+        choice measured for the model's family (Model.family: its specular lobe's, or diffuse), the
+        environment's switches over it; this one itself where that family has no measured choice
+        (tuning off, or a user lobe of a family of its own: the general choice)."""
+        family = model.family
+        choice = self.family_choices.get(family)
+        if choice is None:
+            return self
+        if family not in self._by_family:
+            clone = copy.copy(self)
+            clone.choice, clone.family, clone._by_family = choice, family, {}
+            clone.choice_source = f"{self.choice_source}; the {family} family's choice"
+            clone.options = clone._options(choice)
+            self._by_family[family] = clone
+        return self._by_family[family]
 
     def build_record(self) -> dict[str, object]:
         """What the image kernels built here get and why: the choice, where it comes from (measured,
         fixed rule, given), the switches that forced parts of it, and what the device then compiles
         (lanes, work-group size, and simd.h's x86 paths as probed). For results files and listings."""
         return dict(choice=self.choice.as_dict(), label=self.choice.label(), source=self.choice_source,
+                    family=self.family, families={f: c.label() for f, c in sorted(self.family_choices.items())},
                     forced_by=list(self.forced_by) + ([ENV_SIMD] if self._env_simd() else []),
                     simd=self.simd, local_size=self.local_size, inline_math=self.inline_math,
                     streaming_stores=self.streaming_stores, prefetch=self.prefetches)

@@ -22,7 +22,9 @@ from clshade.device.runtime import Runtime
 from clshade.render.arrays import padded
 from clshade.render.scene import Camera, Light, Scene
 from clshade.render.shadows import ShadowMaps
-from clshade.device.variants import Features, Variant
+from clshade.device.variants import EnvironmentFeatures, Features, Variant, environment_rungs, split_family
+from clshade.render import prefilter
+from clshade.render.environment import SPLIT_SUM_RUNGS, Environment, prepare_spec
 
 LIGHT_ORDER = ("directional", "point", "spot")
 LIGHT_KIND = {"directional": 0, "point": 1, "spot": 2}      # LIGHT_* in shade.cl (general kernel)
@@ -36,14 +38,19 @@ def scene_features(scene: Scene, half_gbuffer: bool = False, fast_math: bool = F
     count = {k: sum(1 for l in scene.lights if l.kind == k) for k in LIGHT_ORDER}
     shadows = bool(scene.shadow_lights)
     ambient = any(a > 0 for a in scene.ambient)
+    sky = None
+    if scene.environment is not None:
+        spec = scene.environment
+        sky = EnvironmentFeatures(spec.diffuse, spec.specular, not prepare_spec(spec, scene.path).constant,
+                                  scene.environment_background)
     return Features(num_dir=count["directional"], num_point=count["point"], num_spot=count["spot"],
                     ambient=ambient, shadows=shadows,
                     shadow_pcf=scene.shadow_pcf if shadows else 1,
                     textures=bool(geometry is not None and geometry.has_textures),
                     emissive=bool(geometry is not None and geometry.has_emission),
-                    occlusion=bool(ambient and geometry is not None and geometry.has_occlusion),
+                    occlusion=bool((ambient or sky is not None) and geometry is not None and geometry.has_occlusion),
                     half_gbuffer=half_gbuffer, fast_math=fast_math, general=general,
-                    specular_aa=scene.specular_aa,
+                    specular_aa=scene.specular_aa, environment=sky,
                     uniform=uniform_channels(geometry, list(scene.materials.values())) if geometry is not None else ())
 
 
@@ -107,6 +114,7 @@ class Dispatch:
     variant: Variant
     kernel: object
     global_size: int
+    local_size: int           # the work-group size of its build (the model family's choice: Runtime.for_model)
     entry: str = "shade"
 
 
@@ -138,6 +146,13 @@ class Shader:
         self._dispatches: dict[tuple, Dispatch] = {}
         self._unbound: set[tuple] = set()      # dispatches whose arguments name a G-buffer before rebind()
         self.term_counts = counts.zeros(runtime)   # the counting build's counters (Features.count_terms)
+        self.environment: Environment | None = None
+        if scene.environment is not None:
+            self.environment = prepare_spec(scene.environment, scene.path)
+            self.env_params = runtime.to_device(self.environment.params())
+            self.env_map = runtime.to_device(self.environment.texels())
+            self.env_cdf = runtime.to_device(self.environment.cdf())
+        self._split_tables: dict[tuple[str, str], object] = {}   # the split sum's, uploaded when first asked
         self.samples = scene.samples
         self.resolver = None
         if self.samples > 1:
@@ -165,22 +180,24 @@ class Shader:
     def prepare(self, model: Model, features: Features, entry: str = "shade") -> Dispatch:
         """Build (once) and bind the kernel for (model, features); `entry` is shade or copy."""
         variant = self.variant(model, features)
-        simd = 1 if features.count_terms else self.rt.simd   # count.h counts one pixel per work-item
-        key = (variant.key, entry, self.rt.info.spec, simd)
+        rt = self.rt.for_model(model)                # the build choice of the model's family
+        simd = 1 if features.count_terms else rt.simd   # count.h counts one pixel per work-item
+        key = (variant.key, entry, rt.info.spec, simd, rt.options, rt.local_size)
         if key in self._dispatches:
             dispatch = self._dispatches[key]
             if key in self._unbound:        # prepared before a rebind(): its arguments set again
                 dispatch.kernel.set_args(*self._arguments(dispatch))
                 self._unbound.discard(key)
             return dispatch
-        built = self.rt.kernel(variant.source(f"{entry}.cl", simd), entry, variant.options(),
-                               label=f"{model.id} ({entry})")
+        built = rt.kernel(variant.source(f"{entry}.cl", simd), entry, variant.options(),
+                          label=f"{model.id} ({entry})")
         # The runtime shares one kernel object per program; arguments are state of the
         # kernel object, so every dispatch binds its own (another Shader, or the same
         # program with other runtime switches, must not rebind ours).
         cl = self.rt.cl
         kernel = cl.Kernel(built.get_info(cl.kernel_info.PROGRAM), entry)
-        dispatch = Dispatch(variant, kernel, self.rt.global_size((self.gb.pixels + simd - 1) // simd), entry)
+        dispatch = Dispatch(variant, kernel, rt.global_size((self.gb.pixels + simd - 1) // simd), rt.local_size,
+                            entry)
         kernel.set_args(*self._arguments(dispatch))
         self._dispatches[key] = dispatch
         return dispatch
@@ -213,11 +230,40 @@ class Shader:
                     args += [np.uint32(self.shadows.size), self.shadow_maps, self.shadow_params]
                 if features.ambient:
                     args.append(self.ambient)
+            if features.environment is not None:
+                args += self._environment_arguments(variant)
         # Both entries write the background where no pixel is covered (copy.cl says why).
         args += [self.background, self.out]
         if features.count_terms:
             args.append(self.term_counts)
         return args
+
+    def _environment_arguments(self, variant: Variant) -> list[object]:
+        """The sky's arguments of shade.cl (kernels/environment.h): its tables, the sample count N of
+        the sampled rung and the index of this G-buffer's first pixel in the whole frame (a band's
+        rows start further down), so that each pixel's samples are the same however the frame is cut;
+        for a split-sum rung, the model's mip chain and DFG table."""
+        if self.environment is None:
+            raise ValueError("a variant with an environment needs a scene with one")
+        first = self.camera.crop[0] * self.gb.width if self.camera.crop else 0
+        args = [self.env_params, self.env_map, self.env_cdf, np.uint32(self.scene.environment.samples),
+                np.uint32(first)]
+        _, specular = environment_rungs(variant.model, variant.features.environment)
+        if specular in SPLIT_SUM_RUNGS:
+            args += self._split_sum_tables(variant.model, specular)
+        return args
+
+    def _split_sum_tables(self, model, rung: str) -> list[object]:
+        """The device copies of the model's prefiltered mip chain (its level table, its texels) and
+        DFG table (clshade/render/prefilter.py), uploaded once per lobe family and lobe."""
+        fam, lobe = split_family(model, rung), model.specular_lobe.id
+        if ("chain", fam) not in self._split_tables:
+            chain = prefilter.mip_chain(self.environment.radiance, fam)
+            self._split_tables["chain", fam] = (self.rt.to_device(chain.table().reshape(-1)),
+                                                self.rt.to_device(chain.texels()))
+        if ("dfg", lobe) not in self._split_tables:
+            self._split_tables["dfg", lobe] = self.rt.to_device(prefilter.dfg_table(lobe).reshape(-1))
+        return [*self._split_tables["chain", fam], self._split_tables["dfg", lobe]]
 
     def rebind(self, gbuffer: GBuffer, scene: Scene, camera: Camera | None = None) -> None:
         """Shade another G-buffer of the same size with the same lights, shadow maps,
@@ -245,7 +291,7 @@ class Shader:
         """Enqueue one frame; returns the OpenCL event (shading and resolve as one
         event when supersampling)."""
         event = self.rt.cl.enqueue_nd_range_kernel(self.rt.queue, dispatch.kernel, (dispatch.global_size,),
-                                                   (self.rt.local_size,))
+                                                   (dispatch.local_size,))
         return self.resolver.enqueue(event) if self.resolver is not None else event
 
     def read(self) -> np.ndarray:

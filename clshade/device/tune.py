@@ -8,9 +8,17 @@ one distance (gbuffer.h, PREFETCH_PIXELS), so it is on or off. A choice is a can
 changes the code on this device, as probed there: Intel's CPU compiler defines no __AVX__, so on its
 runtime the math, stores and prefetch choices are one build each and only lanes and work-group size race.
 
+The choice is made per model family (tuned.families(): the built-in lobes' `family` field, diffuse,
+empirical and microfacet; a model's family is Model.family), since the fastest build differs between
+them: each family races on its own CALIBRATION_MODELS, one after the other, within one device budget
+(TUNE_BUDGET_S, builds included): each family gets an equal share of what the families before it left
+(`family_budget`). The device's general choice, for a model of a family not measured (a user lobe of a
+family of its own) and for kernels of no model, is the candidate fastest on average over the families
+against today's rule where that is clear of the noise band (`general_choice`).
+
 The candidates are today's rule (FIXED, the default) and each single change from it (`candidates`);
 where two or more changes each beat the default clearly, their combination then races the best of them.
-Each candidate shades a calibration frame (CALIBRATION_SCENE at CALIBRATION_SIZE) with
+Each candidate shades a calibration frame (CALIBRATION_SCENE at CALIBRATION_SIZE) with its family's
 CALIBRATION_MODELS in interleaved rounds: every candidate × model once a round, in a new random order,
 each timed as the second of two back-to-back dispatches (the first loads the caches with the item's own
 data, whatever ran before it). From MIN_ROUNDS rounds on, `judge` compares every candidate with the
@@ -58,9 +66,9 @@ from clshade.resources import scenes_dir
 TUNE_BUDGET_S = 10.0
 #: The same for the race of the devices that picks the default one.
 RANK_BUDGET_S = 10.0
-#: No new candidate is built once this share of the budget is spent: the rest times rounds. A cold
-#: build of the two calibration kernels takes ~1 s on two busy cores, so about half the candidates of
-#: a PoCL device get built on a first run there (the most telling first: `candidates`).
+#: No new candidate is built once this share of a race's budget is spent: the rest times rounds. A cold
+#: build of one calibration kernel takes ~0.5 s on two busy cores, so of a family's third of the budget
+#: about half the candidates of a PoCL device get built on a first run there (the most telling first).
 BUILD_SHARE = 0.6
 #: The frame: the study's 25 balls (roughness 0 to 1, sky around them). At 1280×720 its G-buffer and
 #: image (~48 B a pixel, ~44 MB) overflow the last-level cache of the CPUs we know (32 MiB on the EPYC),
@@ -68,9 +76,11 @@ BUILD_SHARE = 0.6
 #: candidates × two models still takes well under 0.2 s.
 CALIBRATION_SCENE = "sphere_grid.toml"
 CALIBRATION_SIZE = (1280, 720)
-#: An empirical lobe (powers: exp2, log2) and a microfacet one (sqrt, divisions) over Lambert: between
-#: them the builtins the math choice changes, at the two ends of the models' cost.
-CALIBRATION_MODELS = ("lambert+blinn_phong", "lambert+ggx_correlated")
+#: Per family (tuned.families()), the models its race shades: the costliest diffuse lobe (Burley: pow,
+#: a Schlick-like weight); an empirical lobe (powers: exp2, log2); a microfacet one (sqrt, divisions),
+#: the specular ones over Lambert. One model each keeps a family's builds within its share of the budget.
+CALIBRATION_MODELS = {"diffuse": ("burley",), "empirical": ("lambert+blinn_phong",),
+                      "microfacet": ("lambert+ggx_correlated",)}
 #: Work-group sizes raced beside runtime.LOCAL_SIZE (64): a quarter and four times it. PoCL runs a
 #: work-group as one loop on one thread, so the size trades the loop's overhead against the balance
 #: of the work over the cores.
@@ -435,37 +445,104 @@ def tune_choices(order: list[BuildChoice], models: list[str], prepare: Callable[
     return Tuning(pick, decision, stages, vs_rule)
 
 
+def calibration_models(registry: Registry) -> dict[str, list]:
+    """Each family of tuned.families() with its CALIBRATION_MODELS resolved; a family without calibration
+    models, or a calibration model of another family, is a one-line error naming it."""
+    out = {}
+    for family in tuned.families():
+        if family not in CALIBRATION_MODELS:
+            raise ClshadeError(f"clshade/device/tune.py: CALIBRATION_MODELS has no models for the {family} family")
+        models = [registry.resolve(m) for m in CALIBRATION_MODELS[family]]
+        for m in models:
+            if m.family != family:
+                raise ClshadeError(f"clshade/device/tune.py: CALIBRATION_MODELS[{family!r}]: {m.id} is a "
+                                   f"{m.family} model")
+        out[family] = models
+    return out
+
+
+def family_budget(budget_s: float, spent_s: float, families_left: int) -> float:
+    """A family's share of the device budget: an equal part of what is left (what a family before it
+    did not use goes to the rest)."""
+    return max(0.0, budget_s - spent_s) / max(1, families_left)
+
+
+def general_choice(tunings: dict[str, Tuning]) -> tuple[BuildChoice, str]:
+    """The device's choice for kernels of no measured family: of the candidates every family timed, the
+    one with the lowest mean (over the families) log ratio to today's rule, where that mean is clearly
+    faster (its noise band: NOISE_Z standard errors of the mean, from each family's, at least NOISE_FLOOR);
+    else today's rule."""
+    common = set.intersection(*(set(t.vs_rule) for t in tunings.values())) if tunings else set()
+    means = {}
+    for c in common - {FIXED}:
+        gaps = [t.vs_rule[c] for t in tunings.values()]
+        if all(math.isfinite(g.se) for g in gaps):
+            means[c] = Gap(statistics.fmean(g.log_ratio for g in gaps),
+                           math.sqrt(sum(g.se ** 2 for g in gaps)) / len(gaps), min(g.rounds for g in gaps))
+    best = min(means, key=lambda c: (means[c].log_ratio, len(c.changes())), default=None)
+    if best is None or not means[best].clearly_faster:
+        return FIXED, "kept today's rule (no choice is clearly faster over the families)"
+    return best, f"{best.label()}: {1 - means[best].ratio:.1%} faster than today's rule over the families"
+
+
+def tune_families(order: list[BuildChoice], families: dict[str, list[str]],
+                  prepare: Callable[[BuildChoice, str], None], timer: Callable[[BuildChoice, str], float],
+                  budget_s: float, clock: Callable[[], float] = time.monotonic,
+                  progress: Callable[[str], None] | None = None) -> dict[str, tuple[Tuning, float]]:
+    """`tune_choices` once per family ({family: its model ids}), in order, each with `family_budget`
+    of `budget_s` (from the call); {family: (its Tuning, the budget it had)}."""
+    start = clock()
+    out: dict[str, tuple[Tuning, float]] = {}
+    for i, (family, names) in enumerate(families.items()):
+        share = family_budget(budget_s, clock() - start, len(families) - i)
+        say = (lambda text, f=family: progress(f"{f}: {text}")) if progress else None
+        out[family] = (tune_choices(order, names, lambda c, f=family: prepare(c, f), timer, share, clock, say),
+                       share)
+    return out
+
+
 def tune_device(rt: Runtime, budget_s: float = TUNE_BUDGET_S, frame: CalibrationFrame | None = None,
                 progress: Callable[[str], None] | None = None, clock: Callable[[], float] = time.monotonic) -> dict:
-    """Race rt's device's build choices on the calibration frame (`candidates`, `tune_choices`); the
-    cache entry's body (tuned.write adds the key)."""
+    """Race rt's device's build choices on the calibration frame per model family (`candidates`,
+    `tune_families`); the cache entry's body (tuned.write adds the key)."""
     start = clock()
     frame = frame or calibration_frame()
-    registry = Registry()
-    models = [registry.resolve(m) for m in CALIBRATION_MODELS]
-    names = [m.id for m in models]
-    bench = DeviceBench(rt, frame, models)
+    per_family = calibration_models(Registry())
+    benches = {f: DeviceBench(rt, frame, models) for f, models in per_family.items()}
+    family_of = {m.id: f for f, models in per_family.items() for m in models}
     order = candidates(rt)
-    result = tune_choices(order, names, bench.prepare, bench.time, budget_s - (clock() - start), clock, progress)
-    pick, stages = result.pick, result.stages
+    results = tune_families(order, {f: [m.id for m in ms] for f, ms in per_family.items()},
+                            lambda c, f: benches[f].prepare(c), lambda c, m: benches[family_of[m]].time(c, m),
+                            budget_s - (clock() - start), clock, progress)
+    families = {}
+    for family, (result, share) in results.items():
+        bench, names = benches[family], [m.id for m in per_family[family]]
 
-    def label(c: BuildChoice) -> dict:
-        return dict(choice=c.as_dict(), label=c.label(), changes=list(c.changes()), **bench.facts.get(c, {}))
+        def label(c: BuildChoice, bench: DeviceBench = bench) -> dict:
+            return dict(choice=c.as_dict(), label=c.label(), changes=list(c.changes()), **bench.facts.get(c, {}))
 
-    rows = _rows(stages[0], label, names, FIXED)
-    if len(stages) > 1:
-        row = _rows(stages[1], label, names, stages[1].order[0])[1]       # the combination, against the first pick
-        row["stage"] = 2
-        row["vs_first_pick"] = row.pop("vs_default", None)
-        row.pop("band", None)
-        rows.append(row)
-    return dict(status=tuned.MEASURED, choice=pick.as_dict(), label=pick.label(), decision=result.decision,
-                device=rt.info.description, runtime=rt.info.runtime, seconds=round(clock() - start, 2),
-                budget_s=budget_s, budget_spent=any(st.budget_spent for st in stages),
-                rounds=[len(next(iter(st.rounds.values()), [])) for st in stages],
+        stages = result.stages
+        rows = _rows(stages[0], label, names, FIXED)
+        if len(stages) > 1:
+            row = _rows(stages[1], label, names, stages[1].order[0])[1]   # the combination, against the first pick
+            row["stage"] = 2
+            row["vs_first_pick"] = row.pop("vs_default", None)
+            row.pop("band", None)
+            rows.append(row)
+        families[family] = dict(choice=result.pick.as_dict(), label=result.pick.label(), decision=result.decision,
+                                models=names, budget_s=round(share, 2),
+                                seconds=round(sum(st.seconds for st in stages), 2),
+                                budget_spent=any(st.budget_spent for st in stages),
+                                rounds=[len(next(iter(st.rounds.values()), [])) for st in stages], candidates=rows)
+    general, why = general_choice({f: r for f, (r, _) in results.items()})
+    return dict(status=tuned.MEASURED, choice=general.as_dict(), label=general.label(), decision=why,
+                families=families, device=rt.info.description, runtime=rt.info.runtime,
+                seconds=round(clock() - start, 2), budget_s=budget_s,
+                budget_split="each family in turn an equal share of what is left (builds included)",
+                budget_spent=any(f["budget_spent"] for f in families.values()),
                 calibration=dict(scene=CALIBRATION_SCENE, width=frame.camera.width, height=frame.camera.height,
-                                 models=list(CALIBRATION_MODELS)),
-                noise=dict(z=NOISE_Z, floor=NOISE_FLOOR, min_rounds=MIN_ROUNDS), candidates=rows)
+                                 models={f: list(CALIBRATION_MODELS[f]) for f in per_family}),
+                noise=dict(z=NOISE_Z, floor=NOISE_FLOOR, min_rounds=MIN_ROUNDS))
 
 
 def measure_device(spec: str, expect: str | None = None, budget_s: float = TUNE_BUDGET_S,
@@ -496,24 +573,33 @@ def rank_devices(budget_s: float = RANK_BUDGET_S, retune: bool = False, stream: 
         raise ClshadeError("no healthy CPU device to rank (`clshade devices`)")
     frame = frame or calibration_frame()
     keys = [device_key(info, device) for info, device in devices]
-    choices: dict[str, BuildChoice] = {}
+    per_family = calibration_models(Registry())
+    family_of = {m.id: f for f, models in per_family.items() for m in models}
+    choices: dict[str, dict[str, BuildChoice]] = {}      # per device, per family: its tuned choice
     for (info, _), key in zip(devices, keys):
         entry = None if retune else tuned.read(tuned.DEVICE, key)
         if entry is None:
             entry = measure_device(info.spec, tuned.key_hash(key), frame=frame, stream=stream)
         try:
-            choices[info.spec] = BuildChoice.from_dict(entry["choice"]) if entry["status"] == tuned.MEASURED else FIXED
+            choices[info.spec] = ({f: BuildChoice.from_dict(entry["families"][f]["choice"]) for f in per_family}
+                                  if entry["status"] == tuned.MEASURED else dict.fromkeys(per_family, FIXED))
         except (KeyError, TypeError, ValueError):
-            choices[info.spec] = FIXED
+            choices[info.spec] = dict.fromkeys(per_family, FIXED)
     all_cpus = [device_key(info, device) for info, device in _cpu_devices()]
-    registry = Registry()
-    models = [registry.resolve(m) for m in CALIBRATION_MODELS]
-    names = [m.id for m in models]
-    benches = {info.spec: DeviceBench(Runtime(info.spec, choice=FIXED), frame, models) for info, _ in devices}
+    names = list(family_of)
+    runtimes = {info.spec: Runtime(info.spec, choice=FIXED) for info, _ in devices}
+    benches = {(spec, f): DeviceBench(rt, frame, models) for spec, rt in runtimes.items()
+               for f, models in per_family.items()}
+
+    def prepare(spec: str) -> None:
+        for f in per_family:
+            benches[(spec, f)].prepare(choices[spec][f])
+
     progress = Progress(f"measuring which of {len(devices)} CPU runtimes is fastest (once; ≤ {budget_s:.0f} s)",
                         stream)
-    result = race([info.spec for info, _ in devices], names, lambda s: benches[s].prepare(choices[s]),
-                  lambda s, m: benches[s].time(choices[s], m), budget_s, progress=progress, before_item=settle)
+    result = race([info.spec for info, _ in devices], names, prepare,
+                  lambda s, m: benches[(s, family_of[m])].time(choices[s][family_of[m]], m), budget_s,
+                  progress=progress, before_item=settle)
     v = result.verdict
     score = {s: gap(result.rounds, v.best, s).log_ratio for s in result.rounds if result.rounds[s]}
     rest = sorted((s for s in score if s != v.pick), key=lambda s: (score[s], result.order.index(s)))
@@ -525,14 +611,15 @@ def rank_devices(budget_s: float = RANK_BUDGET_S, retune: bool = False, stream: 
     def label(s: str) -> dict:
         info, key = by_spec[s]
         return dict(spec=s, runtime=info.runtime, device=info.description, key_hash=tuned.key_hash(key),
-                    choice=choices[s].as_dict(), label=choices[s].label())
+                    families={f: c.as_dict() for f, c in choices[s].items()},
+                    label=", ".join(f"{f} {c.label()}" for f, c in choices[s].items()))
 
     body = dict(status=tuned.MEASURED, order=order, default=info0.runtime,
                 decision=f"{info0.runtime} ({v.reason}; ties go to RUNTIME_PREFERENCE order: "
                          f"{', '.join(RUNTIME_PREFERENCE)})",
                 seconds=round(result.seconds, 2), budget_s=budget_s, budget_spent=result.budget_spent,
                 calibration=dict(scene=CALIBRATION_SCENE, width=frame.camera.width, height=frame.camera.height,
-                                 models=list(CALIBRATION_MODELS)),
+                                 models=names),
                 devices=_rows(result, label, names, result.order[0]))
     return tuned.write(tuned.RANKING, tuned.ranking_key(all_cpus), body)
 

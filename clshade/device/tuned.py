@@ -9,6 +9,11 @@ stepping and feature flags), clshade's kernel sources (a hash of kernels/), the 
 it is measured again; an old entry is pruned once TUNE_CACHE_ENTRIES newer ones exist. The order of
 the CPU devices (which one is the default) is kept the same way, keyed by the set of their keys.
 
+A device's entry holds one choice per model family (`families`: the families of the built-in lobes,
+clshade.models.lobe's `family` field: diffuse, empirical, microfacet) beside the device's general
+choice (for kernels of no family of its own). An entry that lacks a family of today's registry (one
+measured before that family existed) is measured again.
+
 CLSHADE_TUNE says what happens:
     auto (default, or 1)  read the cache; where an entry is missing, measure once and keep it
     fixed (or 0)          today's fixed rule and RUNTIME_PREFERENCE order; no cache read, no measuring
@@ -35,6 +40,7 @@ from pathlib import Path
 from clshade.cachedir import ENV_NO_BINARY_CACHE, read_entry, tuning_cache_dir, write_entry
 from clshade.device import health
 from clshade.errors import ClshadeError
+from clshade.models.lobe import builtin_lobes
 from clshade.resources import kernels_dir
 
 ENV_TUNE = "CLSHADE_TUNE"
@@ -49,7 +55,7 @@ FAILED = "failed"
 SCHEMA = "clshade-tune/1"
 #: Part of every key: raised when what is measured changes (the candidates, the calibration frame, the
 #: rule that picks), so that entries measured the old way are measured again.
-TUNER_VERSION = 1
+TUNER_VERSION = 2
 #: Entries kept (one small JSON file each; a machine has a few devices, each new driver or kernel adds one).
 TUNE_CACHE_ENTRIES = 64
 #: The child process is stopped past this: the budgets (tune.TUNE_BUDGET_S per device, the same for the
@@ -111,6 +117,18 @@ def device_key(info, device_version: str, driver_version: str) -> dict:
             "environment": health.build_environment()}
 
 
+def families() -> tuple[str, ...]:
+    """The model families tuned apart, from the registry's metadata: every built-in lobe's `family`
+    (a model without a specular lobe is in the diffuse family: Model.family)."""
+    return tuple(sorted({lobe.family for lobe in builtin_lobes().values()}))
+
+
+def has_families(doc: dict, wanted: tuple[str, ...]) -> bool:
+    """Whether a measured device entry holds a readable choice for every family of `wanted`."""
+    got = doc.get("families")
+    return isinstance(got, dict) and all(isinstance(got.get(f), dict) and "choice" in got[f] for f in wanted)
+
+
 def ranking_key(device_keys: list[dict]) -> dict:
     """The key of the CPU devices' order: the set of their keys."""
     return {"tuner": TUNER_VERSION, "devices": sorted(key_hash(k) for k in device_keys)}
@@ -127,8 +145,8 @@ def entry_path(kind: str, key: dict) -> Path | None:
 
 
 def read(kind: str, key: dict) -> dict | None:
-    """The entry of `key`, or None: absent, unreadable, not JSON, or not an entry of this kind and key
-    (a damaged or foreign file is measured again and overwritten)."""
+    """The entry of `key`, or None: absent, unreadable, not JSON, not an entry of this kind and key, or
+    a measured device entry missing a family (`families`): each is measured again and overwritten."""
     path = entry_path(kind, key)
     raw = read_entry(path) if path is not None else None
     if not raw:
@@ -139,6 +157,8 @@ def read(kind: str, key: dict) -> dict | None:
         return None
     if (not isinstance(doc, dict) or doc.get("schema") != SCHEMA or doc.get("kind") != kind
             or doc.get("key") != key or doc.get("status") not in (MEASURED, FAILED)):
+        return None
+    if kind == DEVICE and doc["status"] == MEASURED and not has_families(doc, families()):
         return None
     return doc
 

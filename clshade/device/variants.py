@@ -22,6 +22,9 @@ import numpy as np
 
 from clshade.models.lobe import BRDF_FILE
 from clshade.models.model import NONE, Model
+from clshade.errors import ClshadeError
+from clshade.render import prefilter
+from clshade.render.environment import LOBE_SAMPLING, SPLIT_SUM_RUNGS
 from clshade.resources import kernels_dir
 
 # The per-material constants (surface.h, MATERIAL_STRIDE float4 per material).
@@ -40,6 +43,26 @@ FAST_MATH = "-cl-fast-relaxed-math"
 
 # Entries that shade whole images (SIMD pixels per work-item, gbuffer.h I/O).
 IMAGE_ENTRIES = ("shade.cl", "copy.cl")
+
+# kernels/environment.h: a rung by name, and the specular lobe's sampling (render/environment.py).
+ENV_RUNG_DEFINES = {"none": "ENV_NONE", "constant": "ENV_CONSTANT", "sh9": "ENV_SH9", "sampled": "ENV_SAMPLED",
+                    "split_sum": "ENV_SPLIT_SUM", "split_sum_ms": "ENV_SPLIT_SUM_MS"}
+# The split sum's normalisation of the empirical lobes' table (kernels/environment.h ENV_SPLIT_NORM).
+ENV_SPLIT_NORM = {"phong": "1", "blinn_phong": "2"}
+ENV_LOBE_DEFINES = {None: "ENV_LOBE_NONE", "ggx": "ENV_LOBE_GGX", "beckmann": "ENV_LOBE_BECKMANN",
+                    "phong": "ENV_LOBE_PHONG", "blinn_phong": "ENV_LOBE_BLINN_PHONG"}
+
+
+@dataclass(frozen=True)
+class EnvironmentFeatures:
+    """The sky of a frame (scenes/README.md, [environment]): the rungs it asks for, whether the
+    sampled rung may draw from the map (not for a constant sky) and whether the sky is shown
+    behind the scene. The sample count is a kernel argument, not a feature: N is a ladder of
+    one program."""
+    diffuse: str = "sh9"
+    specular: str = "none"
+    map_sampling: bool = True
+    background: bool = False
 
 
 @dataclass(frozen=True)
@@ -67,6 +90,7 @@ class Features:
     # The material table and the roughness / metallic channels read at run time, never compiled in
     # (no MAT_M*, no uniform channels): a material edit is new data, not a new program (the live viewer)
     runtime_material: bool = False
+    environment: EnvironmentFeatures | None = None   # light from the sky (kernels/environment.h), compile-time
 
     @property
     def num_lights(self) -> int:
@@ -85,6 +109,15 @@ class Features:
         out.append(f"G-buffer storage: {'half (normal, base colour)' if self.half_gbuffer else 'float32'}")
         out.append(f"math: {'fast-relaxed' if self.fast_math else 'precise'}")
         out.append(f"specular anti-aliasing: {'on (normal variance, kernels/specular_aa.h)' if self.specular_aa else 'off'}")
+        env = self.environment
+        out.append("environment: " + ("off" if env is None else
+                   f"on (kernels/environment.h): diffuse {env.diffuse}, specular {env.specular}"
+                   + (f" (a {prefilter.LEVELS}-level prefiltered mip chain × a {prefilter.DFG_SIZE}² DFG table"
+                      + (", energy compensation" if env.specular == "split_sum_ms" else "") + ")"
+                      if env.specular in SPLIT_SUM_RUNGS else "")
+                   + (", sky behind the scene" if env.background else "")
+                   + ("" if env.map_sampling or "sampled" not in (env.diffuse, env.specular)
+                      else ", a constant sky: no map sampling")))
         if self.runtime_material:
             out.append("material: table, roughness and metallic read at run time (nothing compiled in)")
         if self.uniform and not self.general:
@@ -188,10 +221,11 @@ class Variant:
         if f.count_terms:
             raw["COUNT_TERMS"] = "1"
         aa = {"SPECULAR_AA": "1"} if self.specular_aa else {}
+        sky = environment_defines(m, f.environment)    # compile-time in the general kernel too
         # The normals' contract is the G-buffer's, not a scene effect: the general kernel shares it.
         unit = {"UNIT_NORMALS": "1"} if self.unit_normals else {}
         if f.general:
-            return {"GENERAL": "1", **effects, **aa, **unit, **geometry_defines(m), "HAS_DIFFUSE": str(int(m.diffuse != NONE)),
+            return {"GENERAL": "1", **effects, **aa, **sky, **unit, **geometry_defines(m), "HAS_DIFFUSE": str(int(m.diffuse != NONE)),
                     "HAS_SPECULAR": str(int(m.specular != NONE)),
                     "SPECULAR_FRESNEL": str(int(m.uses_fresnel)),
                     "FRESNEL": FRESNEL_DEFINES[m.fresnel], "WORKFLOW": WORKFLOW_DEFINES[m.workflow], **raw}
@@ -222,6 +256,7 @@ class Variant:
             d["HALF_GBUFFER"] = "1"
         d.update(raw)
         d.update(aa)
+        d.update(sky)
         if self.baked_material is not None:
             values = np.asarray(self.baked_material, np.float32).reshape(4, 4)
             for r in range(4):
@@ -243,6 +278,8 @@ class Variant:
                 headers += ("shadow.h",)
             if entry == "shade.cl" and self.specular_aa:
                 headers += ("specular_aa.h",)
+            if entry == "shade.cl" and self.features.environment is not None:
+                headers += ("environment.h",)
         return assemble(self.model, defines, entry, headers=headers)
 
     @property
@@ -252,6 +289,68 @@ class Variant:
         the normals' contract and build options."""
         return (self.model.id, tuple(lobe.code for lobe in self.model.lobes), self.features, self.channels,
                 self.baked_material, self.unit_normals, self.options())
+
+
+def lobe_sampling(model: Model) -> str | None:
+    """The distribution the sampled rung draws for the model's specular lobe (LOBE_SAMPLING), None
+    for a model without one or a lobe of the user's (cosine and map sampling only)."""
+    lobe = model.specular_lobe
+    return None if lobe is None or lobe.is_users else LOBE_SAMPLING.get(lobe.id)
+
+
+def environment_rungs(model: Model, env: EnvironmentFeatures) -> tuple[str, str]:
+    """(diffuse, specular) rungs the kernel runs: "none" for a lobe the model lacks."""
+    return (env.diffuse if model.diffuse != NONE else "none", env.specular if model.specular != NONE else "none")
+
+
+def environment_strategies(model: Model, env: EnvironmentFeatures) -> tuple[str, ...]:
+    """The sampled rung's strategies, in kernels/environment.h's round-robin order (none without one)."""
+    diffuse, specular = environment_rungs(model, env)
+    if "sampled" not in (diffuse, specular):
+        return ()
+    lobe = lobe_sampling(model) if specular == "sampled" else None
+    out = ("cosine",) if diffuse == "sampled" or lobe is None else ()
+    out += (lobe,) if lobe is not None else ()
+    return out + (("map",) if env.map_sampling else ())
+
+
+def environment_defines(model: Model, env: EnvironmentFeatures | None) -> dict[str, str]:
+    """kernels/environment.h's defines for the model under the sky `env` (none without one)."""
+    if env is None:
+        return {}
+    diffuse, specular = environment_rungs(model, env)
+    d = {"HAS_ENVIRONMENT": "1", "ENV_DIFFUSE": ENV_RUNG_DEFINES[diffuse], "ENV_SPECULAR": ENV_RUNG_DEFINES[specular]}
+    strategies = environment_strategies(model, env)
+    if strategies:
+        d["ENV_LOBE_SAMPLING"] = ENV_LOBE_DEFINES[lobe_sampling(model) if specular == "sampled" else None]
+        d["ENV_COSINE_SAMPLING"] = str(int("cosine" in strategies))
+        d["ENV_MAP_SAMPLING"] = str(int("map" in strategies))
+    if specular in SPLIT_SUM_RUNGS:
+        d.update(split_sum_defines(model, specular))
+    if env.background:
+        d["ENV_BACKGROUND"] = "1"
+    return d
+
+
+def split_family(model: Model, rung: str) -> str:
+    """The prefilter family of the model's specular lobe for a split-sum rung; refused in one line
+    for a lobe without one (a user's)."""
+    fam = lobe_sampling(model)
+    if fam is None:
+        lobe = model.specular_lobe.id if model.specular_lobe is not None else model.specular
+        raise ClshadeError(f"model {model.id!r}: environment.specular = {rung!r} prefilters the sky for built-in "
+                           f"specular lobes only (GGX, Beckmann, Phong, Blinn–Phong), not {lobe!r}: "
+                           f"use specular = 'sampled'")
+    return fam
+
+
+def split_sum_defines(model: Model, rung: str) -> dict[str, str]:
+    """kernels/environment.h's split-sum defines of the model's specular lobe."""
+    fam = split_family(model, rung)
+    lobe = model.specular_lobe.id
+    return {"ENV_SPLIT_FAMILY": ENV_LOBE_DEFINES[fam], "ENV_SPLIT_FRESNEL": str(int(lobe in prefilter.FRESNEL_LOBES)),
+            "ENV_SPLIT_NORM": ENV_SPLIT_NORM.get(lobe, "0"), "ENV_LEVELS": str(prefilter.LEVELS),
+            "ENV_DFG_SIZE": str(prefilter.DFG_SIZE)}
 
 
 def geometry_defines(model: Model) -> dict[str, str]:

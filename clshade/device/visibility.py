@@ -3,22 +3,30 @@ rasterizer's coverage tests and depth resolve (kernel `cover`), then the winners
 barycentrics and depth and build_gbuffer's per-pixel interpolation (kernel `visibility`),
 bit for bit the G-buffer that build_gbuffer makes from rasterize_mesh's fragments.
 
+Textured geometry: its texture sets' mip pyramids are uploaded once (DeviceTextures, within
+clshade.budget's texture limits) and kernel `texture` samples them per textured pixel as
+gbuffer.py's _texture_pixels does (base colour, metallic-roughness, normal, emissive and
+occlusion maps; mip level, trilinear filtering, repeat wrapping). Every plane is bit for bit
+the host's but for the textured channels of a few textured pixels, whose mip level's last bits
+differ (TEXTURE_TOLERANCE says by how much and why).
+
 The live viewer's orbit frames use it: the host does the triangle setup
 (clshade.render.raster.setup_view), the device the rest, instead of NumPy's coverage grids,
-winners step and G-buffer passes. Scenes with textures (the texture sampling is NumPy's), a
-tangent channel, or a device without double precision or 64-bit atomics keep the host path
-(`supports`).
+winners step and G-buffer passes. A tangent channel, textures that are not RGB, or a device
+without double precision or 64-bit atomics keep the host path (`supports`).
 """
 from __future__ import annotations
 
 import numpy as np
 
+from clshade import budget
 from clshade.device.runtime import Runtime
 from clshade.render.arrays import PlanePool, aligned_zeros, padded
 from clshade.render.gbuffer import CHANNELS, GBuffer, build_gbuffer, channel_names, material_table
 from clshade.render.meshes import Geometry
 from clshade.render.raster import RasterMesh, ViewSetup, rasterize_mesh, setup_view
 from clshade.render.scene import Camera, Scene
+from clshade.render.textures import Texture, TextureSet
 from clshade.render.raster.resolve import EMPTY_KEY
 from clshade.resources import kernels_dir
 
@@ -29,11 +37,96 @@ EXACT_OPTIONS = ("-cl-fp32-correctly-rounded-divide-sqrt",)
 EXTENSIONS = ("cl_khr_fp64", "cl_khr_int64_base_atomics", "cl_khr_int64_extended_atomics")
 
 
+#: Per texture set, the float32 values kernel `texture` reads (SET_FLOATS there): base factor (3),
+#: roughness and metallic factors, emissive factor (3), normal scale, occlusion strength.
+SET_FLOATS = 10
+#: Per texture set, its textures in kernel `texture`'s slots (SET_SLOTS there), -1 for none.
+SET_SLOTS = ("base_color", "metallic_roughness", "normal", "emissive", "occlusion")
+#: The textured channels (base, roughness, metallic, normal, emission, occlusion) of a textured pixel
+#: may differ from the host's by this much (absolute; the channels are factors x [0, 1] texels and unit
+#: normals): the host inverts the faces' clip matrices with LAPACK's LU and takes the mip level's log2
+#: with NumPy's, the device with the adjugate and its own log2, so λ = log2 ρ can differ in its last
+#: bits; trilinear filtering is continuous in λ and in the UV, so a level or texel flip moves a value by
+#: about that relative error times the texels' range (measured: <= 7e-8 on the bundled scenes).
+TEXTURE_TOLERANCE = 1e-5
+#: The share of covered pixels whose textured channels may differ at all, by at most TEXTURE_TOLERANCE
+#: (measured: 1 pixel in 3.6e5 at 960x540 on textured.toml, none on the glTF samples; a wrong level,
+#: texel, wrap mode or channel changes most textured pixels).
+TEXTURE_DIFFER_SHARE = 1e-3
+#: The channels textures write (the others stay bit for bit the host's).
+TEXTURED_CHANNELS = ("normal", "base", "roughness", "metallic", "emissive", "occlusion")
+
+
+def texture_channels(runtime: Runtime, geometry: Geometry) -> bool:
+    """Whether the device can hold and sample `geometry`'s textures: RGB pyramids whose texels
+    fit in one device buffer (the device's largest allocation)."""
+    textures = _textures_of(geometry.texture_sets)
+    if any(t.levels[0].ndim != 3 or t.levels[0].shape[2] != 3 for t in textures):
+        return False
+    return 4 * sum(level.size for t in textures for level in t.levels) <= runtime.device.max_mem_alloc_size
+
+
 def supports(runtime: Runtime, geometry: Geometry) -> bool:
-    """Whether the device path gives build_gbuffer's G-buffer for this geometry: no textures
-    (sampled on the host), and a device with doubles and 64-bit atomics."""
+    """Whether the device path gives build_gbuffer's G-buffer for this geometry: a device with
+    doubles and 64-bit atomics, and textures it can hold (texture_channels)."""
     extensions = runtime.device.extensions.split()
-    return geometry.face_texture is None and all(e in extensions for e in EXTENSIONS)
+    if not all(e in extensions for e in EXTENSIONS):
+        return False
+    return geometry.face_texture is None or (geometry.uvs is not None and geometry.tangents is not None
+                                             and texture_channels(runtime, geometry))
+
+
+def _textures_of(sets: tuple[TextureSet, ...]) -> list[Texture]:
+    """The distinct textures of the sets (one upload for a texture that several sets share)."""
+    seen: dict[int, Texture] = {}
+    for t in sets:
+        for name in SET_SLOTS:
+            texture = getattr(t, name)
+            if texture is not None:
+                seen.setdefault(id(texture), texture)
+    return list(seen.values())
+
+
+class DeviceTextures:
+    """One geometry's texture sets on the device, uploaded once: every level of every texture in
+    one float buffer, a (texture: first level, levels, width, height) table, a (level: offset,
+    width, height) table, and each set's factors and slots (kernel `texture`'s tables)."""
+
+    def __init__(self, runtime: Runtime, geometry: Geometry) -> None:
+        sets = geometry.texture_sets
+        textures = _textures_of(sets)
+        index = {id(t): k for k, t in enumerate(textures)}
+        texels = sum(level.size for t in textures for level in t.levels)
+        budget.check_memory(f"the device copy of {len(textures)} textures ({texels // 3} texels)", 4 * texels)
+        info, levels, chunks, offset = [], [], [], 0
+        for t in textures:
+            info.append((len(levels), len(t.levels), *t.size))
+            for level in t.levels:
+                levels.append((offset, level.shape[1], level.shape[0]))
+                chunks.append(level.reshape(-1))
+                offset += level.size
+        values = np.zeros((max(len(sets), 1), SET_FLOATS), np.float32)
+        slots = np.full((max(len(sets), 1), len(SET_SLOTS)), -1, np.int32)
+        uv_scale = np.ones(max(len(sets), 1), np.float64)
+        with np.errstate(over="ignore"):        # a factor past float32's range is inf, as on the host
+            for k, t in enumerate(sets):
+                values[k] = [*t.base_factor, t.roughness_factor, t.metallic_factor, *t.emissive_factor,
+                             t.normal_scale, t.occlusion_strength]
+                uv_scale[k] = t.uv_scale
+                for j, name in enumerate(SET_SLOTS):
+                    texture = getattr(t, name)
+                    # The host samples the emissive map only where the set emits (TextureSet.has_emission).
+                    if texture is not None and (name != "emissive" or t.has_emission):
+                        slots[k, j] = index[id(texture)]
+        #: Bytes of texels on the device.
+        self.nbytes = 4 * texels
+        self.buffers = [runtime.to_device(a) for a in (
+            geometry.face_texture.astype(np.int32), values, uv_scale, slots,
+            np.array(info or [(0, 0, 0, 0)], np.int32), np.array(levels or [(0, 0, 0)], np.int32),
+            np.concatenate(chunks) if chunks else np.zeros(1, np.float32))]
+        self.mesh = [runtime.to_device(a) for a in (
+            np.ascontiguousarray(geometry.vertices, np.float64), np.ascontiguousarray(geometry.uvs, np.float32),
+            np.ascontiguousarray(geometry.tangents, np.float32))]
 
 
 class DeviceGBuffer:
@@ -44,21 +137,28 @@ class DeviceGBuffer:
         """`faces`: face_planes(geometry, materials) (without tangents); `lanes`: 4 or 8 pixels
         per work-item (default: the device's, Runtime.double_lanes)."""
         if not supports(runtime, geometry):
-            raise ValueError("DeviceGBuffer: textured geometry, or a device without double precision or "
-                             "64-bit atomics (rasterize_mesh and build_gbuffer make that G-buffer)")
+            raise ValueError("DeviceGBuffer: a device without double precision or 64-bit atomics, or textures it "
+                             "cannot hold (rasterize_mesh and build_gbuffer make that G-buffer)")
         self.rt = runtime
         self.emissive = geometry.has_emission
-        #: The G-buffer's channels (no textures, hence no occlusion; no tangents).
+        self.occlusion = geometry.has_occlusion
+        #: The geometry's textures on the device (None: untextured).
+        self.textures = DeviceTextures(runtime, geometry) if geometry.face_texture is not None else None
+        #: The G-buffer's channels (no tangents).
         self.channels = channel_names(geometry)
         text = (kernels_dir() / SOURCE).read_text(encoding="utf-8")
         #: Pixels per work-item (LANES in the kernel); the planes' padding (PIXEL_PAD) is a multiple.
         self.lanes = lanes or runtime.double_lanes
-        options = EXACT_OPTIONS + (f"-DHAS_EMISSIVE={int(self.emissive)}", f"-DLANES={self.lanes}")
+        options = EXACT_OPTIONS + (f"-DHAS_EMISSIVE={int(self.emissive)}", f"-DLANES={self.lanes}",
+                                   f"-DHAS_TEXTURES={int(self.textures is not None)}",
+                                   f"-DHAS_OCCLUSION={int(self.occlusion)}")
         built = runtime.kernel(f"#line 1 \"{SOURCE}\"\n{text}\n", "visibility", options, label="visibility")
         cl = runtime.cl
         program = built.get_info(cl.kernel_info.PROGRAM)
         self.kernel, self.cover = cl.Kernel(program, "visibility"), cl.Kernel(program, "cover")
+        self.texture = cl.Kernel(program, "texture") if self.textures is not None else None
         self._key_pixels, self._key_buffer = 0, None
+        self._scratch_pixels, self._scratch = 0, ()
         self.n_faces = len(geometry.faces)
         stack = lambda names, dtype: runtime.to_device(np.stack([faces[k] for k in names]).astype(dtype))  # noqa: E731
         self.tables = [
@@ -107,15 +207,33 @@ class DeviceGBuffer:
                                 np.float64(1.0 + view.depth_eps), *inputs, keys)
             cl.enqueue_nd_range_kernel(rt.queue, self.cover, (rt.global_size(ntiles),), (rt.local_size,))
         mf = cl.mem_flags
-        outputs = {name: cl.Buffer(rt.context, mf.WRITE_ONLY | mf.USE_HOST_PTR, hostbuf=a.reshape(-1))
+        # The texture kernel reads back what the visibility kernel wrote (normal, depth, cover).
+        flags = mf.READ_WRITE if self.textures is not None else mf.WRITE_ONLY
+        outputs = {name: cl.Buffer(rt.context, flags | mf.USE_HOST_PTR, hostbuf=a.reshape(-1))
                    for name, a in (*planes.items(), ("cover", cover))}
-        order = (["emissive"] if self.emissive else []) + ["depth", "normal", "base", "roughness", "metallic",
-                                                           "material", "cover"]
+        tail = [outputs[name] for name in ("depth", "normal", "base", "roughness", "metallic", "material", "cover")]
+        textured = []
+        if self.textures is not None:
+            if view.mvp is None:
+                raise ValueError("DeviceGBuffer.build: a textured geometry's view needs its mvp (setup_view's)")
+            tex_face, tex_bary = self._scratch_of(plane)
+            textured = [self.textures.buffers[0], tex_face, tex_bary]
         inputs += [rt.to_device(a) for a in (setup, tri_face, vdepth)]
         self.kernel.set_args(np.uint32(plane), np.uint32(w), np.uint32(ntri), np.uint32(view.w_is_depth),
-                             np.uint32(view.tri_bits), keys, *inputs[-3:], *self.tables, *self.emissive_table,
-                             *(outputs[name] for name in order))
+                             np.uint32(view.tri_bits), keys, *inputs[-3:], *self.tables,
+                             *((*self.emissive_table, outputs["emissive"]) if self.emissive else ()), *textured,
+                             *((outputs["occlusion"],) if self.occlusion else ()), *tail)
         cl.enqueue_nd_range_kernel(rt.queue, self.kernel, (rt.global_size(plane // self.lanes),), (rt.local_size,))
+        if self.textures is not None and t is not None:
+            mvp = rt.to_device(np.ascontiguousarray(view.mvp[[0, 1, 3]], np.float64))
+            inputs.append(mvp)
+            self.texture.set_args(np.uint32(n), np.uint32(plane), np.uint32(w), np.uint32(h), np.uint32(self.n_faces),
+                                  *textured[1:], mvp, self.tables[0], *self.textures.mesh, *self.textures.buffers,
+                                  *((outputs["emissive"],) if self.emissive else ()),
+                                  *((outputs["occlusion"],) if self.occlusion else ()),
+                                  *(outputs[name] for name in ("depth", "normal", "base", "roughness", "metallic",
+                                                               "cover")))
+            cl.enqueue_nd_range_kernel(rt.queue, self.texture, (rt.global_size(n),), (rt.local_size,))
         for buffer, array in zip(outputs.values(), (*planes.values(), cover)):
             # Mapped and unmapped: the host arrays then hold the result (no copy on a CPU device).
             mapped, _ = cl.enqueue_map_buffer(rt.queue, buffer, cl.map_flags.READ, 0, array.size, array.dtype,
@@ -126,6 +244,15 @@ class DeviceGBuffer:
         gbuffer = GBuffer.from_planes(w, h, planes, materials, (covered == 1).reshape(h, w),
                                       int(np.count_nonzero(covered == 2)), unit_normals=True)
         return gbuffer, covered
+
+    def _scratch_of(self, plane: int) -> tuple:
+        """The device's per-pixel textured face (int) and barycentrics (3 float planes) of `plane` pixels."""
+        if self._scratch_pixels != plane:
+            cl = self.rt.cl
+            self._scratch = tuple(cl.Buffer(self.rt.context, cl.mem_flags.READ_WRITE, size=plane * k * 4)
+                                  for k in (1, 3))
+            self._scratch_pixels = plane
+        return self._scratch
 
     def _keys(self, plane: int):
         """The device's key buffer of `plane` pixels, all empty (the visibility kernel leaves it so)."""
@@ -141,12 +268,36 @@ class DeviceGBuffer:
 VERIFY_SIZE = (96, 54)
 
 
+def plane_differences(expected: GBuffer, got: GBuffer, textured: bool) -> str | None:
+    """What differs between two G-buffers' planes, or None: bit for bit (as bit patterns: NaN,
+    -0), except that where `textured` the TEXTURED_CHANNELS of up to TEXTURE_DIFFER_SHARE of the
+    pixels may differ by up to TEXTURE_TOLERANCE."""
+    if sorted(got.channels) != sorted(expected.channels):
+        return f"channels {sorted(got.channels)}, the host's {sorted(expected.channels)}"
+    pixels = expected.pixels
+    for name in expected.channels:
+        a, b = expected.plane(name)[:, :pixels], got.plane(name)[:, :pixels]
+        bits = f"u{a.itemsize}"         # a pixel per column
+        differ = (a.view(bits) != b.view(bits)).any(axis=0)
+        count = int(differ.sum())
+        if not count:
+            continue
+        if textured and name in TEXTURED_CHANNELS and count <= TEXTURE_DIFFER_SHARE * pixels:
+            with np.errstate(invalid="ignore"):
+                worst = float(np.abs(a[:, differ].astype(np.float64) - b[:, differ]).max())
+            if worst <= TEXTURE_TOLERANCE:      # NaN compares false: refused
+                continue
+        return f"{count} of {pixels} pixels differ from the host's in {name}"
+    return None
+
+
 def verify(device: DeviceGBuffer, scene: Scene, geometry: Geometry, mesh: RasterMesh, camera: Camera,
            faces: dict[str, np.ndarray]) -> str | None:
     """Whether `device` makes the host's G-buffer on this device: one small frame of `camera`'s
-    view (VERIFY_SIZE) both ways, compared bit for bit. None when they agree, else what differs
-    (the live viewer then keeps the host path: a device that rounds otherwise, or a compiler
-    that breaks the program, must not change the picture)."""
+    view (VERIFY_SIZE) both ways, compared bit for bit (a textured geometry's textured channels
+    within TEXTURE_TOLERANCE, plane_differences). None when they agree, else what differs (the
+    live viewer then keeps the host path: a device that rounds otherwise, or a compiler that
+    breaks the program, must not change the picture)."""
     small = camera.with_size(*VERIFY_SIZE)
     view, proj = small.view_matrix(), small.projection_matrix()
     setup = setup_view(mesh, view, proj, small.width, small.height)
@@ -155,14 +306,9 @@ def verify(device: DeviceGBuffer, scene: Scene, geometry: Geometry, mesh: Raster
     fragments = rasterize_mesh(mesh, view, proj, small.width, small.height)
     expected = build_gbuffer(scene, geometry, fragments, small, faces=faces)
     got, cover = device.build(setup, material_table(scene))
-    if sorted(got.channels) != sorted(expected.channels):
-        return f"channels {sorted(got.channels)}, the host's {sorted(expected.channels)}"
-    for name in expected.channels:
-        a, b = expected.plane(name), got.plane(name)
-        bits = f"u{a.itemsize}"         # compared as bit patterns (NaN, -0), a pixel per column
-        differ = int((a.view(bits) != b.view(bits)).any(axis=0).sum())
-        if differ:
-            return f"{differ} of {small.width * small.height} pixels differ from the host's in {name}"
+    why = plane_differences(expected, got, device.textures is not None)
+    if why is not None:
+        return why
     if not np.array_equal(np.flatnonzero(cover), fragments.pixels):
         return "the covered pixels differ from the host's"
     return None

@@ -21,6 +21,7 @@ from clshade.budget import MAX_COORDINATE, MAX_LIGHTS
 from clshade.errors import ClshadeError, located
 from clshade.models.registry import Registry
 from clshade.resources import scenes_dir
+from clshade.render import environment as env
 from clshade.render.transforms import look_at, perspective, unit
 
 TONEMAPS = ("none", "reinhard", "aces")
@@ -218,6 +219,8 @@ class Scene:
     samples: int = 1                 # N×N samples per pixel, box-filtered (supersampling)
     specular_aa: bool = False        # roughness widened from the normal's screen-space variance
     lobes: tuple[Path, ...] = ()     # the user's lobe folders it names (render.lobes): Registry.with_lobes
+    environment: env.EnvironmentSpec | None = None   # light from the whole sky ([environment])
+    environment_background: bool = False             # uncovered pixels show the sky (background = "environment")
 
     @property
     def shadow_lights(self) -> tuple[int, ...]:
@@ -233,6 +236,8 @@ class Scene:
         out = [self.path] if self.path else []
         out += [o.mesh for o in self.objects if o.mesh is not None]
         out += [p for m in self.materials.values() for p in m.textures.values()]
+        if self.environment is not None and self.environment.map is not None:
+            out.append(self.environment.map)
         return out
 
 
@@ -520,7 +525,10 @@ def scene_from_data(data: dict[str, Any], file: Path | str = "<scene>", registry
     top.raw("camera", None)
 
     rnd = _Reader(file, top.raw("render", {}), "render")
-    background = rnd.vector("background", (0.0, 0.0, 0.0), 0.0, 1e6)
+    environment_background = rnd.raw("background") == "environment"
+    if isinstance(rnd.raw("background"), str) and not environment_background:
+        raise rnd.error("background", 'must be a list of 3 numbers or "environment"')
+    background = (0.0, 0.0, 0.0) if environment_background else rnd.vector("background", (0.0, 0.0, 0.0), 0.0, 1e6)
     ambient = rnd.vector("ambient", (0.0, 0.0, 0.0), 0.0, 1e6, allow_scalar=True)
     exposure = rnd.number("exposure", 0.0, *EXPOSURE_RANGE)
     tonemap = rnd.string("tonemap", "aces", TONEMAPS)
@@ -571,13 +579,40 @@ def scene_from_data(data: dict[str, Any], file: Path | str = "<scene>", registry
     if not isinstance(objs_raw, list):
         raise located("must be an array of tables ([[objects]])", file, "objects")
     objects = tuple(_object(file, t, f"objects[{i}]", materials) for i, t in enumerate(objs_raw))
+    environment = _environment(file, top.raw("environment")) if "environment" in top.table else None
+    if environment_background and environment is None:
+        raise located("needs an [environment] table to show", file, "render.background", "environment",
+                      has_value=True)
     top.finish()
     if len(materials) > MAX_MATERIALS:
         raise located(f"at most {MAX_MATERIALS} materials are supported, got {len(materials)}", file, "materials")
     return Scene(path=file if file.exists() else None, camera=camera, lights=lights, materials=materials,
                  objects=objects, background=background, ambient=ambient, exposure=exposure,
                  tonemap=tonemap, model=model, shadow_map_size=shadow_map_size, shadow_pcf=shadow_pcf,
-                 samples=samples, specular_aa=specular_aa, lobes=lobes)
+                 samples=samples, specular_aa=specular_aa, lobes=lobes, environment=environment,
+                 environment_background=environment_background)
+
+
+def _environment(file: Path, table: Any) -> env.EnvironmentSpec:
+    """The [environment] table (scenes/README.md): a map file or a uniform colour, its scale and
+    rotation, and the rungs; a map is read and checked here (env.read_map: cached)."""
+    r = _Reader(file, table, "environment")
+    path = r.input_file("map", "environment map")
+    uniform = r.vector("uniform", None, 0.0, 1e30, allow_scalar=True)
+    if (path is None) == (uniform is None):
+        raise located("needs exactly one of 'map' (a file) or 'uniform' (a colour)", file, "environment")
+    specular = r.string("specular", env.DEFAULT_SPECULAR, env.SPECULAR_RUNGS)
+    spec = env.EnvironmentSpec(
+        map=path, uniform=uniform,
+        intensity=r.number("intensity", 1.0, 0.0, 1e30),
+        rotation=r.number("rotation", 0.0, -360.0, 360.0),
+        diffuse=r.string("diffuse", env.DEFAULT_DIFFUSE, env.DIFFUSE_RUNGS),
+        specular=specular,
+        samples=r.integer("samples", env.DEFAULT_SAMPLES, 1, env.MAX_SAMPLES))
+    r.finish()
+    if path is not None:
+        env.read_map(path, file, "environment.map")
+    return spec
 
 
 def _missing(file: Path, key: str) -> None:

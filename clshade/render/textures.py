@@ -140,25 +140,28 @@ def load_texture_file(path: Path, srgb: bool, scene_file: Path | str | None, key
     return Texture.from_pixels(rgb, path.name)
 
 
-def _read_pixels(path: Path, refuse) -> tuple[np.ndarray, bool]:
+def _read_pixels(path: Path, refuse, what: str = "texture", check=None) -> tuple[np.ndarray, bool]:
     """(float32 (h, w, c) pixels of the first sub-image, whether the file stores floats); the
-    header's size is checked against the budget before any pixel is decoded."""
+    header's size is checked against the budget (and by `check(width, height, channels)`, which
+    raises) before any pixel is decoded. `what` names the image in the messages."""
     import OpenImageIO as oiio
     image = oiio.ImageInput.open(str(path))
     if image is None:
-        raise refuse(f"cannot read texture ({one_line(oiio.geterror()) or 'unknown format'})")
+        raise refuse(f"cannot read {what} ({one_line(oiio.geterror()) or 'unknown format'})")
     try:
         spec = image.spec()
         width, height, channels = spec.width, spec.height, spec.nchannels
         if width <= 0 or height <= 0 or channels <= 0:
-            raise refuse(f"cannot read texture (no pixels: {width}x{height}, {channels} channels)")
+            raise refuse(f"cannot read {what} (no pixels: {width}x{height}, {channels} channels)")
         try:
             budget.texture_pixels(width, height, channels)
         except ClshadeError as exc:
             raise refuse(str(exc)) from None
+        if check is not None:
+            check(width, height, channels)
         pixels = image.read_image(0, 0, 0, channels, oiio.FLOAT)
         if pixels is None:
-            raise refuse(f"cannot read texture ({one_line(image.geterror()) or 'no pixels'})")
+            raise refuse(f"cannot read {what} ({one_line(image.geterror()) or 'no pixels'})")
         is_float = spec.format.basetype in (oiio.FLOAT, oiio.HALF, oiio.DOUBLE)
     finally:
         image.close()

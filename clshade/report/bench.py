@@ -156,6 +156,26 @@ def bench_text(doc: dict) -> str:
     return "\n".join(lines)
 
 
+def whole_frame_text(wf: dict) -> str:
+    """`clshade bench --whole-frames`: per model the whole frames' FPS and lows, then the stage split
+    (median ms per stage; the 0.1 % low only from LOW01_MIN_FRAMES frames)."""
+    scene = Path(wf["scene"]).name if wf.get("scene") else "scene"
+    path = wf["gbuffer"]
+    rows = [[r["name"], r["frames"], cell(r["whole_frame_ms_median"], ".1f"), cell(r["avg_fps"], ".1f"),
+             cell(r["low1_fps"], ".1f"),
+             cell(low01_fps(r), ".1f"), *(cell(r["stage_ms_median"][s], ".1f") for s in wf["stages"])]
+            for r in wf["models"]]
+    stage_names = {"rasterize": "triangle setup ms" if path["path"] == "device" else "rasterize ms",
+                   "g-buffer": "visibility + g-buffer ms" if path["path"] == "device" else "g-buffer ms"}
+    header = ["model", "frames", "median ms", "avg FPS", "1 % low", "0.1 % low",
+              *(stage_names.get(s, f"{s} ms") for s in wf["stages"])]
+    return "\n".join([f"Whole frames: {scene} {wf['width']}x{wf['height']}, {wf['triangles']} triangles, camera "
+                      f"orbiting {wf['step_degrees']:g}° a frame, host stages on {wf['host_threads']} threads, "
+                      f"g-buffer: {path['path']} ({path['reason']})"
+                      + ("; the next frame's triangle setup overlapping this frame (frame = image to image)"
+                         if wf.get("overlap") else ""), markdown(header, rows)])
+
+
 def bench_plots(doc: dict, path: Path) -> None:
     """The FPS bar chart at `path` and, with ladders, the ladder plot beside it."""
     title = f"{Path(doc['scene']).stem if doc.get('scene') else 'scene'} {doc['width']}x{doc['height']}, " \

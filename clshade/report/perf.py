@@ -169,6 +169,10 @@ def perf_whole_frame_markdown(wfs: list[dict]) -> list[str]:
          + (", the runtimes interleaved frame by frame" if len(wfs) > 1 else "")
          + f", host stages on {wf.get('host_threads', '?')} threads", "",
          markdown(["stage", *(h for w in wfs for h in (f"{short_device(w['device'])} median ms", "share"))], rows)]
+    if all("gbuffer" in w for w in wfs):          # results measured since the frame pipeline chose the path
+        L += ["", "Raster and G-buffer: " + "; ".join(f"{short_device(w['device'])}: {w['gbuffer']['path']} "
+                                                    f"({w['gbuffer']['reason']})" for w in wfs)
+              + " (rasterize = the host's triangle setup where the device makes the visibility buffer and G-buffer)."]
     loads = (wfs[0].get("load_average") or []) if all("block_frame_s" in w for w in wfs) else []
     if loads and all(x is not None for x in loads):
         L += ["", "1-minute load average of the machine after each block: "

@@ -50,6 +50,19 @@ def stability_text(rep: Report) -> str:
                   markdown(["model", "check", "max relative step", "where"],
                            [[c["model"], c["check"], f"{c['max_relative_step']:.3g}", c["where"]]
                             for c in rep.continuity])]
+    if rep.environment:
+        from clshade.verify.environment_stability import summary
+        env = summary(rep.environment)
+        lines += ["", f"environment (precise build, raw radiance): NaN {env['nan']}, Inf {env['inf']}, negative "
+                  f"{env['negative']} (must be 0); shipped build NaN/Inf {env['clamped_nonfinite']}; fireflies "
+                  f"{env['fireflies']} of {env['firefly_pixels']} pixels ({env['firefly_definition']}); pixels above "
+                  f"the sky's peak {env['above_peak']}:",
+                  markdown(["model", "sky", "rung", "N", "pixels", "NaN", "Inf", "negative", "shipped NaN/Inf",
+                            "max radiance", "fireflies", "above peak"],
+                           [[e.model, e.sky, e.rung, "—" if e.samples is None else e.samples, e.pixels, e.nan, e.inf,
+                             e.negative, e.clamped_nonfinite, f"{e.max_radiance:.3g}",
+                             "—" if e.fireflies is None else f"{e.fireflies}/{e.firefly_pixels}", e.above_peak]
+                            for e in rep.environment])]
     terms = rep.terms()
     if terms:
         lines += ["", "raw terms in the counting build (kernels/count.h), before any clamp; every model and build:",

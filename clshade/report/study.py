@@ -98,6 +98,13 @@ def report_markdown(doc: dict) -> str:
         "",
         "![accuracy vs time](report/accuracy_vs_time.png)",
         "",
+        "## Under environment light: what each approximation costs and buys",
+        "",
+        # filled by publish from benchmarks/results/environment.json (registry: its REPORT region)
+        "<!-- publish:environment-answer -->",
+        "(not measured yet: python -m benchmarks.measure.environment)",
+        "<!-- /publish:environment-answer -->",
+        "",
         "## Physical plausibility (measured on the device)",
         "",
         plausibility_table(verdicts_of(doc["plausibility"])),

@@ -23,31 +23,35 @@ def choice_name(row: dict) -> str:
 
 
 def device_tuning_markdown(entry: dict) -> str:
-    """One device's cache entry: the decision, the key, and every candidate's calibration times."""
+    """One device's cache entry: the general choice, then per model family its decision and every
+    candidate's calibration times; the key."""
     head = f"**{entry['key']['runtime']}** ({entry.get('device', entry['key']['device'])})"
     if entry["status"] != "measured":
         return f"{head}: not measured: {entry.get('reason', '')} (today's rule is used)"
-    cal = entry["calibration"]
-    models = cal["models"]
-    rows = []
-    for r in entry["candidates"]:
-        stage = " (combined, against the first pick)" if r.get("stage") == 2 else ""
-        ratio = r.get("vs_first_pick") if r.get("stage") == 2 else r.get("vs_default")
-        rows.append([choice_name(r) + stage, cell(r.get("simd")), cell(r.get("local_size")),
-                     yes_no[r.get("inline_math")], yes_no[r.get("streaming_stores")], yes_no[r.get("prefetch")],
-                     *(_ms(r, m) for m in models), _ratio(ratio),
-                     cell(r.get("band"), ".1%"), cell(r.get("rounds")), r["status"] + (f": {r['reason']}" if
-                                                                                      r.get("reason") else "")])
-    noise = entry["noise"]
-    return "\n".join([
-        f"{head}: **{entry['label']}** — {entry['decision']}.", "",
-        f"Calibration: {cal['scene']} {cal['width']}×{cal['height']}, {', '.join(models)}; interleaved rounds "
-        f"{' + '.join(map(str, entry['rounds']))} in {entry['seconds']:.1f} s (budget {entry['budget_s']:.0f} s"
-        f"{', spent' if entry['budget_spent'] else ''}); noise band: {noise['z']:g} standard errors of the paired "
-        f"ratio, at least {noise['floor']:.0%}, from {noise['min_rounds']} rounds on. "
-        f"Key `{entry['key_hash']}`: {key_line(entry['key'])}.", "",
-        markdown(["choice", "lanes", "work-group", "inline math", "streaming stores", "prefetch",
-                  *(f"{m} ms" for m in models), "× today's rule", "band", "rounds", "status"], rows)])
+    cal, noise = entry["calibration"], entry["noise"]
+    L = [f"{head}: per model family "
+         + ", ".join(f"{f} **{body['label']}**" for f, body in entry["families"].items())
+         + f"; general choice (other families, kernels of no model) **{entry['label']}** — {entry['decision']}.", "",
+         f"Calibration: {cal['scene']} {cal['width']}×{cal['height']}; {entry['seconds']:.1f} s of a "
+         f"{entry['budget_s']:.0f} s budget{', spent' if entry['budget_spent'] else ''} ({entry['budget_split']}); "
+         f"noise band: {noise['z']:g} standard errors of the paired ratio, at least {noise['floor']:.0%}, from "
+         f"{noise['min_rounds']} rounds on. Key `{entry['key_hash']}`: {key_line(entry['key'])}."]
+    for family, body in entry["families"].items():
+        models = body["models"]
+        rows = []
+        for r in body["candidates"]:
+            stage = " (combined, against the first pick)" if r.get("stage") == 2 else ""
+            ratio = r.get("vs_first_pick") if r.get("stage") == 2 else r.get("vs_default")
+            rows.append([choice_name(r) + stage, cell(r.get("simd")), cell(r.get("local_size")),
+                         yes_no[r.get("inline_math")], yes_no[r.get("streaming_stores")], yes_no[r.get("prefetch")],
+                         *(_ms(r, m) for m in models), _ratio(ratio), cell(r.get("band"), ".1%"),
+                         cell(r.get("rounds")), r["status"] + (f": {r['reason']}" if r.get("reason") else "")])
+        L += ["", f"*{family}* ({', '.join(models)}): **{body['label']}** — {body['decision']}; rounds "
+              f"{' + '.join(map(str, body['rounds']))} in {body['seconds']:.1f} s of its "
+              f"{body['budget_s']:.1f} s{', spent' if body['budget_spent'] else ''}.", "",
+              markdown(["choice", "lanes", "work-group", "inline math", "streaming stores", "prefetch",
+                        *(f"{m} ms" for m in models), "× today's rule", "band", "rounds", "status"], rows)]
+    return "\n".join(L)
 
 
 def key_line(key: dict) -> str:
@@ -65,7 +69,7 @@ def ranking_markdown(entry: dict) -> str:
     cal = entry["calibration"]
     models = cal["models"]
     position = {h: i + 1 for i, h in enumerate(entry["order"])}
-    rows = [[cell(position.get(r["key_hash"])), r["spec"], r["runtime"], choice_name(r),
+    rows = [[cell(position.get(r["key_hash"])), r["spec"], r["runtime"], r["label"],
              *(_ms(r, m) for m in models), _ratio(r.get("vs_default")), cell(r.get("band"), ".1%"),
              r["status"] + (f": {r['reason']}" if r.get("reason") else "")] for r in entry["devices"]]
     return "\n".join([f"Default device: **{entry['decision']}**; measured in {entry['seconds']:.1f} s "
@@ -86,7 +90,8 @@ def tuning_markdown(doc: dict) -> str:
          f"each), medians; measured {doc['created']} on {mach['cpu']} ({mach['cores']} cores), commit "
          f"`{(prov['commit'] or 'unknown')[:10]}`{' (uncommitted changes)' if prov['dirty'] else ''}, with "
          f"`{doc['command']}`. The tuner's own race (the calibration frame) ran first on each runtime and its "
-         f"pick is the `tuned` column; the target: the tuned default within {target:.0%} of the fastest choice "
+         f"pick per model family (the general choice for a model of no measured family) is the `tuned` mark "
+         f"and column; the target: the tuned default within {target:.0%} of the fastest choice "
          f"for every model.", ""]
     if doc.get("ranking"):
         L += [ranking_markdown(doc["ranking"]), ""]
@@ -99,16 +104,17 @@ def tuning_markdown(doc: dict) -> str:
         header = ["choice", "lanes", "work-group", *(h for m in models for h in (f"{m} ms", "× copy"))]
         rows = []
         for c in rt["choices"]:
-            rows.append([choice_name(c) + (" (**tuned**)" if c["is_tuned"] else ""), cell(c.get("simd")),
+            mark = f" (**tuned: {', '.join(c['tuned_for'])}**)" if c["tuned_for"] else ""
+            rows.append([choice_name(c) + mark, cell(c.get("simd")),
                          cell(c.get("local_size")),
                          *(v for m in models for v in (cell(c["models"][m]["median_ms"], ".2f"),
                                                       cell(c["models"][m]["copy_ratio"], ".2f")))])
         L += [markdown(header, rows), ""]
-        summary = [[m, f"{s['rule_ms']:.2f}", f"{s['tuned_ms']:.2f}", f"{s['best_ms']:.2f} ({s['best']})",
+        summary = [[m, s["family"], s["tuned"], f"{s['rule_ms']:.2f}", f"{s['tuned_ms']:.2f}", f"{s['best_ms']:.2f} ({s['best']})",
                     f"{s['rule_vs_best']:.3f}", f"{s['tuned_vs_best']:.3f}",
                     "met" if s["tuned_within_target"] else "**missed**", f"{s['tuned_copy_ratio']:.2f}"]
                    for m, s in rt["summary"].items()]
-        L += [markdown(["model", "today's rule ms", "tuned ms", "fastest ms (choice)", "rule ÷ fastest",
+        L += [markdown(["model", "family", "tuned choice", "today's rule ms", "tuned ms", "fastest ms (choice)", "rule ÷ fastest",
                         "tuned ÷ fastest", f"tuned within {target:.0%}", "tuned × copy"], summary), ""]
         L += ["The tuner's race on the calibration frame:", "", device_tuning_markdown(rt["tuning"]), ""]
     return "\n".join(L)

@@ -57,6 +57,8 @@ from clshade.provenance import stamp
 from clshade.resources import constant
 from clshade.verify import reference as R
 from clshade.verify.bias import floor_bias
+from clshade.verify.environment_stability import ENV_MODELS, run_environment
+from clshade.verify.environment_stability import summary as environment_summary
 from clshade.verify.torture import (COSINE_GRID, IOR_GRID, LIGHT_INTENSITIES, NORMAL_SCALES, ROUGHNESS_GRID,
                                     SHININESS_GRID, DENORMAL, Grid, _dirs, _f32, build_samples, geometry_grid,
                                     reference_f, shade_normals)
@@ -366,6 +368,7 @@ class Report:
     device: str
     seconds: float
     created: str = ""              # local time of the run, ISO 8601
+    environment: list = field(default_factory=list)   # environment_stability.EnvironmentResult per model × sky × rung
 
     @property
     def builds(self) -> list[str]:
@@ -394,6 +397,11 @@ class Report:
     def negative(self) -> int:
         return sum(r.negative for r in self.results) + sum(s.negative for s in self.shading)
 
+    @property
+    def environment_bad(self) -> dict[str, int]:
+        """The environment cases' raw NaN, Inf and negative pixels and the shipped build's NaN/Inf."""
+        return {k: sum(getattr(e, k) for e in self.environment) for k in ("nan", "inf", "negative", "clamped_nonfinite")}
+
     def terms(self) -> dict[str, dict[str, int]]:
         """The counting build's raw-term counters summed over every model, build and pass."""
         total: dict[str, dict[str, int]] = {}
@@ -408,6 +416,12 @@ class Report:
             out.append(f"{self.nonfinite} NaN/Inf outputs (BRDF evaluations, raw shaded radiance, shipped build)")
         if self.negative:
             out.append(f"{self.negative} negative outputs")
+        for e in self.environment:
+            bad = {k: getattr(e, k) for k in ("nan", "inf", "negative", "clamped_nonfinite") if getattr(e, k)}
+            if bad:
+                n = f" N={e.samples}" if e.samples is not None else ""
+                out.append(f"{e.model} under {e.sky}, {e.rung}{n}: raw radiance "
+                           + ", ".join(f"{k} {v}" for k, v in bad.items()))
         for r in self.results + self.shading:
             where = f"{r.model} ({'fast' if r.fast_math else 'precise'}, {'shaded' if isinstance(r, ShadeResult) else 'BRDF'})"
             for term, bad in counts.failures(r.terms).items():
@@ -451,18 +465,23 @@ class Report:
                                          "IOR 3 with f90 0; gold conductor",
                         deviation="|f32 − f64| / max(|f64|, %g), reference alpha_floor = %g" % (DEVIATION_FLOOR, MIN_ALPHA)),
                     models=[asdict(r) for r in self.results], shading=shading,
-                    clamps=self.clamps, continuity=self.continuity), self.device)
+                    clamps=self.clamps, continuity=self.continuity,
+                    environment=[asdict(e) for e in self.environment],
+                    environment_summary=environment_summary(self.environment) if self.environment else None),
+                 self.device)
 
 
 def run(models: list[Model] | None = None, device: str | None = None, runtime: Runtime | None = None,
         fast_math: tuple[bool, ...] = (False, True), shading: bool = True, extras: bool = True,
-        brdf: bool = True, progress=None, registry: Registry | None = None) -> Report:
+        brdf: bool = True, progress=None, registry: Registry | None = None, environment: bool = False) -> Report:
     """Run the whole grid (both builds; `models` default: grid_models(registry)), the shading pass,
-    the clamp biases and the continuity checks (`brdf`, `shading`, `extras` switch the parts off);
-    `progress(done, total)` after each model × build (and after the extras)."""
+    the clamp biases, the continuity checks and the environment cases (precise build; `models`, or
+    environment_stability.ENV_MODELS by default) (`brdf`, `shading`, `extras`, `environment` switch the
+    parts off); `progress(done, total)` after each model × build (and after the extras)."""
     start = time.perf_counter()
     rt = runtime or get_runtime(device)
     grid = geometry_grid()
+    given = models is not None
     models = [R.check_model(m) for m in models] if models is not None else grid_models(registry)
     results, shades, cache = [], [], {}
     total = len(models) * len(fast_math) + (1 if extras else 0)
@@ -478,7 +497,12 @@ def run(models: list[Model] | None = None, device: str | None = None, runtime: R
                 progress(done, total)
     clamps = clamp_bias(rt) if extras else []
     cont = continuity(rt) if extras else []
+    sky = []
+    if environment:
+        chosen = models if given else [(registry or Registry()).resolve(m) for m in ENV_MODELS]
+        for m in {m.id: m for m in chosen}.values():
+            sky += run_environment(m, rt)
     if progress is not None and extras:
         progress(total, total)
     return Report(results, shades, clamps, cont, rt.info.description, time.perf_counter() - start,
-                  time.strftime("%Y-%m-%dT%H:%M:%S%z"))
+                  time.strftime("%Y-%m-%dT%H:%M:%S%z"), sky)

@@ -25,7 +25,8 @@ from clshade.errors import ClshadeError
 from clshade.models.lobe import SURFACE_PARAMS, Param
 from clshade.models.model import Model
 from clshade.models.registry import Registry
-from clshade.render.scene import EXPOSURE_RANGE, MAX_SAMPLES, TONEMAPS, Material, Scene
+from clshade.render import environment as env
+from clshade.render.scene import EXPOSURE_RANGE, MAX_RESOLUTION, MAX_SAMPLES, TONEMAPS, Material, Scene
 
 #: Longest message the server reads (a control state is well under 4 KiB).
 MAX_MESSAGE_BYTES = 64 * 1024
@@ -43,6 +44,17 @@ MAX_AZIMUTH = 1e6
 #: A light's key in `lights`: its index in ASCII digits (str.isdigit would take '²', which int() refuses);
 #: four digits are plenty under budget.MAX_LIGHTS.
 LIGHT_INDEX = re.compile(r"[0-9]{1,4}")
+#: The largest canvas the server renders by default (a bigger window is rendered at this size, its
+#: aspect kept, and scaled up by the browser): 1080p is the size the frame-rate target is set for.
+MAX_CANVAS = (1920, 1080)
+#: The sky picker's two skies that are no file: no environment at all, and a uniform white sky
+#: (the furnace: a white Lambert surface is exactly 1 under it).
+SKY_NONE, SKY_WHITE = "none", "white"
+#: Sky rotation, degrees (the scene parser's range) and intensity (a scale on the map; up to 10⁶,
+#: well inside float32 for maps of HDR range).
+SKY_ROTATION_RANGE = (-360.0, 360.0)
+SKY_INTENSITY_RANGE = (0.0, 1e6)
+SKY_KEYS = ("sky", "diffuse", "specular", "samples", "rotation", "intensity")
 
 
 class ControlError(ClshadeError):
@@ -65,6 +77,9 @@ class Controls:
     # (material, ((param, value), …)); a colour's value is (R, G, B)
     materials: tuple[tuple[str, tuple[tuple[str, float | tuple[float, float, float]], ...]], ...] = ()
     lights: tuple[tuple[int, tuple[float, float, float] | None, float | None], ...] = ()  # (index, direction, scale)
+    environment: "SkyControls | None" = None     # None: the scene's [environment] as written
+    width: int | None = None                      # the canvas in device pixels, capped (fit_canvas); None:
+    height: int | None = None                     # the session's size
     # (spec, Model) of model A and B as parse_controls resolved them; empty for Controls made by hand
     resolved: tuple[tuple[str, Model], ...] = field(default=(), compare=False, repr=False)
 
@@ -73,6 +88,33 @@ class Controls:
         known = dict(self.resolved)
         a, b = (known[spec] if spec in known else registry.resolve(spec) for spec in (self.model_a, self.model_b))
         return a, b
+
+
+@dataclass(frozen=True)
+class SkyControls:
+    """The environment picker and the rung controls. `sky`: None keeps the scene's map or uniform
+    colour; SKY_NONE drops the [environment] table; SKY_WHITE is a uniform white sky; any other value
+    is a map file of Limits.skies, relative to the scene's folder."""
+    sky: str | None
+    diffuse: str
+    specular: str
+    samples: int
+    rotation: float
+    intensity: float
+
+
+def canvas_cap(text: str, name: str) -> tuple[int, int]:
+    """A cap written WxH (each within [1, MAX_RESOLUTION]); refused in one line naming `name`."""
+    match = re.fullmatch(r"([0-9]{1,5})x([0-9]{1,5})", text.strip())
+    if not match or not all(1 <= int(g) <= MAX_RESOLUTION for g in match.groups()):
+        raise ClshadeError(f"{name} = {text[:40]!r}: expected WxH, each within [1, {MAX_RESOLUTION}] (e.g. 1920x1080)")
+    return int(match[1]), int(match[2])
+
+
+def fit_canvas(width: int, height: int, cap: tuple[int, int]) -> tuple[int, int]:
+    """width × height scaled down, its aspect kept, to fit within cap (each side at least 1)."""
+    scale = min(1.0, cap[0] / width, cap[1] / height)
+    return max(1, min(cap[0], round(width * scale))), max(1, min(cap[1], round(height * scale)))
 
 
 def material_params(registry: Registry) -> dict[str, Param]:
@@ -100,12 +142,15 @@ class Limits:
     width: int
     height: int
     registry: Registry
+    skies: tuple[str, ...] = (SKY_NONE, SKY_WHITE)     # what the sky picker offers
+    max_canvas: tuple[int, int] = MAX_CANVAS
 
     @classmethod
-    def of(cls, scene: Scene, distance: float, width: int, height: int, registry: Registry) -> "Limits":
+    def of(cls, scene: Scene, distance: float, width: int, height: int, registry: Registry,
+           skies: tuple[str, ...] = (SKY_NONE, SKY_WHITE), max_canvas: tuple[int, int] = MAX_CANVAS) -> "Limits":
         named = tuple(m for m in scene.materials if "#" not in m)     # inline object materials have no [materials] table
         return cls(named, tuple(l.kind for l in scene.lights), material_params(registry),
-                   (distance * ZOOM_RANGE[0], distance * ZOOM_RANGE[1]), width, height, registry)
+                   (distance * ZOOM_RANGE[0], distance * ZOOM_RANGE[1]), width, height, registry, skies, max_canvas)
 
 
 def parse_message(text: str | bytes) -> dict[str, Any]:
@@ -228,12 +273,58 @@ def _lights(value: Any, limits: Limits) -> tuple:
     return tuple(sorted(out))
 
 
+def _choice(key: str, value: Any, choices: tuple[str, ...]) -> str:
+    if not isinstance(value, str) or value not in choices:
+        raise _fail(key, value, f"must be one of {', '.join(choices)}")
+    return value
+
+
+def _integer(key: str, value: Any, low: int, high: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+        raise _fail(key, value, f"must be an integer within [{low}, {high}]")
+    return value
+
+
+def _sky(value: Any, limits: Limits) -> SkyControls:
+    """The environment controls: every key of SKY_KEYS; the rungs those clshade.render.environment
+    implements (DIFFUSE_RUNGS, SPECULAR_RUNGS)."""
+    table = _table("environment", value)
+    unknown = [k for k in table if k not in SKY_KEYS]
+    if unknown:
+        raise _fail(f"environment.{unknown[0][:40]}", table[unknown[0]], f"unknown key; known: {', '.join(SKY_KEYS)}")
+    missing = [k for k in SKY_KEYS if k not in table]
+    if missing:
+        raise ControlError(f"environment: missing {', '.join(missing)}")
+    sky = table["sky"]
+    if sky is not None and (not isinstance(sky, str) or sky not in limits.skies):
+        raise _fail("environment.sky", sky, f"no such sky; the picker has {', '.join(limits.skies)}")
+    return SkyControls(
+        sky=sky,
+        diffuse=_choice("environment.diffuse", table["diffuse"], env.DIFFUSE_RUNGS),
+        specular=_choice("environment.specular", table["specular"], env.SPECULAR_RUNGS),
+        samples=_integer("environment.samples", table["samples"], 1, env.MAX_SAMPLES),
+        rotation=_number("environment.rotation", table["rotation"], *SKY_ROTATION_RANGE),
+        intensity=_number("environment.intensity", table["intensity"], *SKY_INTENSITY_RANGE))
+
+
+def _canvas(state: dict[str, Any], limits: Limits) -> tuple[int | None, int | None]:
+    """The canvas size the page asks for (both or neither of width and height), fitted within the cap."""
+    if ("width" in state) != ("height" in state):
+        raise ControlError("controls: width and height come together (the canvas size) or not at all")
+    if "width" not in state:
+        return None, None
+    width = _integer("width", state["width"], 1, MAX_RESOLUTION)
+    height = _integer("height", state["height"], 1, MAX_RESOLUTION)
+    return fit_canvas(width, height, limits.max_canvas)
+
+
 CONTROL_KEYS = ("azimuth", "elevation", "distance", "model_a", "model_b", "split", "diff", "exposure",
-                "tonemap", "samples", "specular_aa", "materials", "lights")
+                "tonemap", "samples", "specular_aa", "materials", "lights", "environment", "width", "height")
 
 
 def parse_controls(value: Any, limits: Limits) -> Controls:
-    """Check a control state from the page (every key required except materials and lights)."""
+    """Check a control state from the page (every key required except materials, lights, environment
+    and the canvas size, width and height)."""
     state = _table("controls", value)
     unknown = [k for k in state if k not in CONTROL_KEYS]
     if unknown:
@@ -247,8 +338,10 @@ def parse_controls(value: Any, limits: Limits) -> Controls:
     samples = state["samples"]
     if isinstance(samples, bool) or not isinstance(samples, int) or not 1 <= samples <= MAX_SAMPLES:
         raise _fail("samples", samples, f"must be an integer within [1, {MAX_SAMPLES}]")
-    if max(limits.width, limits.height) * samples > 16384:
-        raise _fail("samples", samples, f"{limits.width}x{limits.height} × {samples} exceeds the raster limit 16384")
+    width, height = _canvas(state, limits)
+    w, h = (width or limits.width), (height or limits.height)
+    if max(w, h) * samples > MAX_RESOLUTION:
+        raise _fail("samples", samples, f"{w}x{h} × {samples} exceeds the raster limit {MAX_RESOLUTION}")
     azimuth = _number("azimuth", state["azimuth"], -MAX_AZIMUTH, MAX_AZIMUTH)
     elevation = _number("elevation", state["elevation"], -MAX_ELEVATION, MAX_ELEVATION)
     distance = _number("distance", state["distance"], *limits.distance)
@@ -268,5 +361,8 @@ def parse_controls(value: Any, limits: Limits) -> Controls:
         specular_aa=_boolean("specular_aa", state["specular_aa"]),
         materials=_materials(state.get("materials", {}), limits),
         lights=_lights(state.get("lights", {}), limits),
+        environment=None if state.get("environment") is None else _sky(state["environment"], limits),
+        width=width,
+        height=height,
         resolved=((model_a, a), (model_b, b)),
     )

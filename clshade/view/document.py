@@ -15,6 +15,7 @@ from typing import Any
 from clshade.errors import ClshadeError
 from clshade.models.registry import LOBE_SUFFIXES
 from clshade.render.scene import TEXTURE_KEYS
+from clshade.view.controls import SKY_NONE, SKY_WHITE
 
 _BARE_KEY = re.compile(r"^[A-Za-z0-9_-]+$")
 
@@ -85,7 +86,8 @@ def dumps(doc: dict[str, Any]) -> str:
 def applied(base: dict[str, Any], controls, position, width: int, height: int) -> dict[str, Any]:
     """`base` (the scene file's tables) with `controls` (clshade.view.controls.Controls) and
     the orbit camera `position` written in; `base` itself is not changed. Only the tables
-    written here are copied; the rest (objects, meshes) is shared with `base`, which the
+    written here are copied ([environment] replaced, never changed in place); the rest (objects,
+    meshes) is shared with `base`, which the
     scene parser only reads (tests/view/test_view.py checks that `base` stays as it was)."""
     doc = dict(base)
     doc["camera"] = dict(doc.get("camera", {}))
@@ -107,6 +109,8 @@ def applied(base: dict[str, Any], controls, position, width: int, height: int) -
     for name, params in controls.materials:
         doc["materials"][name].update({k: [float(c) for c in v] if isinstance(v, tuple) else float(v)
                                        for k, v in params})
+    if controls.environment is not None:
+        _sky_applied(doc, controls.environment)
     for index, direction, scale in controls.lights:
         light = doc["lights"][index]
         if direction is not None:
@@ -117,6 +121,27 @@ def applied(base: dict[str, Any], controls, position, width: int, height: int) -
             color = [color] * 3 if isinstance(color, (int, float)) else color
             light[key] = [float(c) * float(scale) for c in color]
     return doc
+
+
+def _sky_applied(doc: dict[str, Any], sky) -> None:
+    """Write the environment controls (clshade.view.controls.SkyControls) into `doc`'s [environment]
+    (and its render.background, which cannot show a sky that is gone)."""
+    if sky.sky == SKY_NONE or (sky.sky is None and "environment" not in doc):
+        doc.pop("environment", None)
+        if doc["render"].get("background") == "environment":
+            doc["render"]["background"] = [0.0, 0.0, 0.0]
+        return
+    table = dict(doc.get("environment", {}))
+    if sky.sky is not None:
+        table.pop("map", None)
+        table.pop("uniform", None)
+        if sky.sky == SKY_WHITE:
+            table["uniform"] = [1.0, 1.0, 1.0]
+        else:
+            table["map"] = sky.sky
+    table.update(diffuse=sky.diffuse, specular=sky.specular, samples=int(sky.samples),
+                 rotation=float(sky.rotation), intensity=float(sky.intensity))
+    doc["environment"] = table
 
 
 def relocated(doc: dict[str, Any], scene_dir: Path, out_dir: Path) -> dict[str, Any]:
@@ -132,6 +157,8 @@ def relocated(doc: dict[str, Any], scene_dir: Path, out_dir: Path) -> dict[str, 
             table[key] = os.path.relpath(Path(scene_dir).resolve() / value, Path(out_dir).resolve())
 
     render = doc.get("render")
+    if isinstance(doc.get("environment"), dict):
+        move(doc["environment"], "map")
     if isinstance(render, dict):
         move(render, "lobes")
         if Path(str(render.get("model", ""))).suffix in LOBE_SUFFIXES:

@@ -1,18 +1,21 @@
 """The viewer's server (aiohttp): the page, its static files and one WebSocket per page.
 
 Protocol. The page sends JSON text messages: `{"type": "state", "seq": n, "controls":
-{...}}` with its whole control state at every change, `{"type": "save", "name": ...,
-"controls": {...}}`, `{"type": "oracle", "controls": {...}}` and `{"type": "bye"}`. The
-server answers `hello` (registry, scene values, starting controls) once, `error`
-(a one-line message; nothing is rendered), `saved`, `oracle`, and frames as one binary
-message each: a little-endian uint32 n, n bytes of JSON header (seq, size, views,
-timings, statistics), then the views' RGBA8 pixels one after the other.
+{...}}` with its whole control state at every change (its canvas size among them), `{"type": "save",
+"name": ..., "controls": {...}}`, `{"type": "oracle", "controls": {...}}`, `{"type": "sky_error",
+"controls": {...}}` and `{"type": "bye"}`. The server answers `hello` (registry, scene values,
+skies, rungs, starting controls) once, `error` (a one-line message; nothing is rendered), `saved`,
+`oracle`, `sky_progress` and `sky_error`, and frames as one binary message each: a little-endian
+uint32 n, n bytes of JSON header (seq, size, views, timings, statistics per model and rung, the
+sky's rungs and variant), then the views' RGBA8 pixels one after the other.
 
 Latest state wins: a state that arrives while a frame renders replaces any state still
 waiting, so the next frame is always of the newest controls and frames never queue. Frames
 render in two stages on two threads (rasterize; then G-buffer, shading, packing): the newest
 state is rasterized while the previous one is shaded.
-Save and oracle requests are never dropped; they run between frames.
+Save and oracle requests are never dropped; they run between frames. A sky error (the float64
+truth under the environment, seconds to minutes) is taken from a frame between frames and integrated
+on a thread of its own while frames go on, its progress sent after each step; one at a time per page.
 
 Safety. Bound to 127.0.0.1 on a free port unless --host says otherwise; on any other
 address every request needs the random token of the printed URL. Requests whose Host
@@ -65,7 +68,8 @@ def pack_frame(frame: ViewFrame, seq: int, extra: dict[str, Any]) -> bytes:
     names = list(frame.views)
     header = dict(type="frame", seq=seq, width=frame.width, height=frame.height, views=names, models=frame.models,
                   stats=frame.stats, stages={k: v * 1e3 for k, v in frame.stages.items()},
-                  diff_scale=frame.diff_scale, reshade_only=frame.reshade_only, **extra)
+                  diff_scale=frame.diff_scale, reshade_only=frame.reshade_only, costs=frame.costs,
+                  environment=frame.environment, ladder=frame.ladder, **extra)
     text = json.dumps(header).encode()
     return b"".join([struct.pack("<I", len(text)), text, *(frame.views[n].tobytes() for n in names)])
 
@@ -79,6 +83,8 @@ class Page:
         self.jobs: list[tuple[str, int, Any, Any]] = []
         self.wake = asyncio.Event()
         self.skipped = 0
+        self.sky_task: asyncio.Task | None = None     # the sky error being integrated
+        self.sky_busy = False                         # a sky error asked for and not yet answered
 
     async def send_json(self, data: dict) -> None:
         """Send `data` as JSON, which has no NaN or Infinity: a message holding one is logged and
@@ -113,14 +119,18 @@ class Page:
                 if self.pending is not None:
                     self.skipped += 1               # superseded before it was rendered
                 self.pending = (seq or 0, controls, time.perf_counter())
-            elif kind in ("save", "oracle"):
+            elif kind in ("save", "oracle", "sky_error"):
                 controls = parse_controls(message.get("controls"), limits)
+                if kind == "sky_error":
+                    if self.sky_busy:
+                        raise ControlError("sky_error: a sky error is being measured; wait for its result")
+                    self.sky_busy = True
                 self.jobs.append((kind, seq or 0, controls, message.get("name")))
             elif kind == "bye":
                 await self.ws.close()
                 return
             else:
-                raise ControlError(f"type = {json.dumps(kind)[:40]}: expected state, save, oracle or bye")
+                raise ControlError(f"type = {json.dumps(kind)[:40]}: expected state, save, oracle, sky_error or bye")
             self.wake.set()
         except ClshadeError as exc:
             await self.error(seq, str(exc))
@@ -167,12 +177,18 @@ class Page:
                         continue                    # woken again when both stages are done
                     while self.jobs:
                         kind, seq, controls, name = self.jobs.pop(0)
-                        call = (lambda c=controls, n=name: session.save(c, n)) if kind == "save" \
-                            else (lambda c=controls: session.oracle(c))
+                        call = {"save": lambda c=controls, n=name: session.save(c, n),
+                                "oracle": lambda c=controls: session.oracle(c),
+                                "sky_error": lambda c=controls: session.sky_error_job(c)}[kind]
                         result = await self.server.call(call, self, seq)
                         if sending is not None:
                             await sending
-                        if result is not None:
+                        if kind == "sky_error":
+                            if result is None:      # refused (no sky): the page has its error
+                                self.sky_busy = False
+                            else:
+                                self.sky_task = asyncio.create_task(self._sky_error(seq, result))
+                        elif result is not None:
                             await self.send_json(dict(result, seq=seq))
                 if raster is None and self.pending is not None:
                     seq, controls, received = self.pending
@@ -189,9 +205,30 @@ class Page:
                     render = (self._start(lambda p=p, s=seq: self._finished(p, s), seq, self.server.executor),
                               seq, received, time.perf_counter(), prepare_ms)
         finally:
-            for stage in (raster, render, (sending,)):
+            for stage in (raster, render, (sending,), (self.sky_task,)):
                 if stage is not None and stage[0] is not None:
                     stage[0].cancel()
+
+    async def _sky_error(self, seq: int, job) -> None:
+        """Integrate a sky error's truth step by step on the oracle thread (frames go on), sending its
+        progress after each step and its result at the end."""
+        try:
+            await self._sky_steps(seq, job)
+        finally:
+            self.sky_busy = False
+
+    async def _sky_steps(self, seq: int, job) -> None:
+        steps = job.steps()
+        while True:
+            done = await self.server.call(lambda: next(steps, "finished"), self, seq, self.server.oracle_executor)
+            if done is None:            # the step failed: the page has its error
+                return
+            if done == "finished":
+                break
+            await self.send_json(dict(type="sky_progress", seq=seq, label=job.label, done=done[0], total=done[1]))
+        result = await self.server.call(job.result, self, seq, self.server.oracle_executor)
+        if result is not None:
+            await self.send_json(dict(result, seq=seq))
 
     def _start(self, fn, seq: int, executor) -> asyncio.Task:
         """Run `fn` on `executor`; the loop is woken when it is done."""
@@ -223,6 +260,7 @@ class ViewServer:
         self.token = None if is_loopback(host) else secrets.token_urlsafe(16)
         self.executor = ThreadPoolExecutor(1, thread_name_prefix="clshade-view")          # the render thread
         self.raster_executor = ThreadPoolExecutor(1, thread_name_prefix="clshade-raster")  # prepares the next state
+        self.oracle_executor = ThreadPoolExecutor(1, thread_name_prefix="clshade-oracle")  # sky errors' truths
         self.pages: set[Page] = set()
         self.stopped: asyncio.Event | None = None
         self.url = ""
@@ -336,6 +374,7 @@ class ViewServer:
                 await page.ws.close()
             await runner.cleanup()
             self.raster_executor.shutdown(wait=True, cancel_futures=True)
+            self.oracle_executor.shutdown(wait=True, cancel_futures=True)
             self.executor.shutdown(wait=True, cancel_futures=True)
 
 

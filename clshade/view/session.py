@@ -35,26 +35,26 @@ from clshade.bench.run import compared_pixels, frame_stats, grazing_pixels, rela
 from clshade.compare import difference, false_colour
 from clshade.device.display import Display
 from clshade.device.runtime import get_runtime
-from clshade.device import visibility as device_visibility
 from clshade.device.shade import Shader, scene_features
 from clshade.device.timing import timed_dispatch
-from clshade.device.visibility import DeviceGBuffer
+from clshade.device.variants import environment_defines
 from clshade.diagnostics import note
 from clshade.errors import ClshadeError
 from clshade.models.lobe import SURFACE_PARAMS
 from clshade.models.model import PRESETS, presets
 from clshade.models.registry import Registry, lobe_path
-from clshade.pipeline import Timings
-from clshade.render.gbuffer import GBuffer, build_gbuffer, face_planes, material_table
+from clshade.pipeline import DEVICE_GBUFFER_STAGE, GBufferStage, Timings
+from clshade.render.gbuffer import GBuffer, face_planes, material_table
 from clshade.render.arrays import PlanePool, keep_freed_memory
 from clshade.render.image import check_output_path, to_display, write_encoded
 from clshade.render.meshes import build_geometry
-from clshade.render.raster import Fragments, RasterMesh, ViewSetup, rasterize_mesh, setup_view
+from clshade.render.raster import Fragments, RasterMesh, ViewSetup
 from clshade.render.samples import supersampled
 from clshade.render.scene import MAX_RESOLUTION, Scene, camera_from_data, load_scene, parse_scene, scene_from_data
 from clshade.render.shadows import build_shadow_maps
-from clshade.verify import reference
-from clshade.view.controls import Controls, Limits
+from clshade.render import environment as env
+from clshade.verify import environment_oracle, reference
+from clshade.view.controls import MAX_CANVAS, SKY_NONE, SKY_WHITE, Controls, Limits
 from clshade.view.document import applied, dumps, relocated
 
 #: Frames of each model kept for its statistics (avg FPS, 1 % low): about two seconds of dragging.
@@ -64,12 +64,15 @@ HISTORY = 120
 SAVE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
 #: Colours of the difference view's scale bar on the page.
 RAMP_STEPS = 160
-#: The stage of an orbit frame's visibility buffer and G-buffer on the device (clshade.device.visibility);
-#: its `rasterize` stage is then the host's triangle setup only.
-DEVICE_GBUFFER_STAGE = "visibility + g-buffer (device)"
 #: Per-pixel G-buffer channels a material fills from its own values (G-buffer rebuilt or patched):
 #: (channel, the Material field it takes, its components).
 CHANNEL_FIELDS = (("base", "base_color", 3), ("roughness", "roughness", 1), ("metallic", "metallic", 1))
+#: Where the sky picker looks for maps: the scene's folder and these subfolders of it.
+SKY_FOLDERS = (".", "environments")
+#: Map files the picker lists (what clshade.render.environment.read_map reads as HDR).
+SKY_SUFFIXES = (".exr", ".hdr")
+#: Pixels the sky-error button's truth integrates per step (the page shows its progress between steps).
+SKY_ERROR_STEP = 16
 
 
 @dataclass(frozen=True)
@@ -108,10 +111,90 @@ class ViewFrame:
     height: int
     views: dict[str, np.ndarray]
     stages: Timings
-    stats: dict[str, dict[str, float]]          # model id → frame_stats of its recent frames
+    stats: dict[str, dict[str, float]]          # cost label (cost_label) → frame_stats of its recent frames
     models: dict[str, str]                      # view → model id
     diff_scale: float | None = None
     reshade_only: bool = False
+    costs: dict[str, str] = field(default_factory=dict)         # view → its cost label (a key of stats)
+    environment: dict | None = None             # the sky and rungs shaded (rung_info), None without a sky
+    ladder: dict[str, float] = field(default_factory=dict)      # cost label → mean device ms, every rung seen
+
+
+def rung_label(spec: env.EnvironmentSpec | None) -> str:
+    """The rungs of a sky as the cost table names them (diffuse|specular, ×N when a rung samples); ''
+    without a sky."""
+    if spec is None:
+        return ""
+    return f"{spec.diffuse}|{spec.specular}" + (f" ×{spec.samples}" if spec.sampled else "")
+
+
+def cost_label(model_id: str, spec: env.EnvironmentSpec | None) -> str:
+    """The key a model's frame times are kept under: one per model and rung combination."""
+    rungs = rung_label(spec)
+    return f"{model_id} [{rungs}]" if rungs else model_id
+
+
+def rung_info(scene: Scene, features, model) -> dict | None:
+    """What the page shows of the sky a frame was shaded with: the map, its rungs and the defines
+    of model A's kernel variant under it (clshade.device.variants.environment_defines: what is compiled)."""
+    spec = scene.environment
+    if spec is None:
+        return None
+    defines = environment_defines(model, features.environment)
+    return dict(sky=spec.map.name if spec.map is not None else "uniform " + ", ".join(f"{c:g}" for c in spec.uniform),
+                diffuse=spec.diffuse, specular=spec.specular, samples=spec.samples, rotation=spec.rotation,
+                intensity=spec.intensity, rungs=rung_label(spec),
+                variant=" ".join(f"{k}={v}" for k, v in defines.items()))
+
+
+def sky_files(folder: Path) -> tuple[str, ...]:
+    """The maps the sky picker offers: files of SKY_SUFFIXES in SKY_FOLDERS of the scene's folder,
+    as paths relative to it (what [environment] map takes)."""
+    out = []
+    for sub in SKY_FOLDERS:
+        where = (folder / sub).resolve()
+        if where.is_dir():
+            out += [p.relative_to(folder.resolve()).as_posix() for p in sorted(where.iterdir())
+                    if p.suffix.lower() in SKY_SUFFIXES and p.is_file()]
+    return tuple(out)
+
+
+@dataclass
+class SkyErrorJob:
+    """The sky-error button's work, taken from one frame on the render thread (copies, so that the
+    frames that follow cannot change it) and integrated off it, step by step
+    (clshade.verify.environment_oracle.truth, cut into steps of SKY_ERROR_STEP pixels)."""
+    label: str
+    model: object
+    pixels: reference.Pixels
+    environment: env.Environment
+    occlusion: np.ndarray       # (K,) the AO channel at the pixels (1 without one)
+    rest: np.ndarray            # (K, 3) the frame oracle's lights, ambient and emission at the pixels
+    image: np.ndarray           # the frame as shaded, float
+    subdivisions: int = environment_oracle.DEFAULT_SUBDIVISIONS
+    sky: list = field(default_factory=list)
+
+    @property
+    def total(self) -> int:
+        return len(self.pixels.index)
+
+    def steps(self):
+        """Integrate SKY_ERROR_STEP pixels per step; yields (pixels done, total)."""
+        px = self.pixels
+        fields = [f.name for f in dataclasses.fields(px)]
+        for start in range(0, self.total, SKY_ERROR_STEP):
+            part = slice(start, start + SKY_ERROR_STEP)
+            chunk = reference.Pixels(**{k: None if getattr(px, k) is None else getattr(px, k)[part] for k in fields})
+            self.sky.append(environment_oracle.sky_integral(self.model, chunk, self.environment, self.subdivisions))
+            yield min(start + SKY_ERROR_STEP, self.total), self.total
+
+    def result(self) -> dict:
+        """The error of the frame against the truth (environment_oracle.errors), once every step ran."""
+        sky = np.concatenate(self.sky) if self.sky else np.zeros((0, 3))
+        truth = environment_oracle.Truth(self.pixels.index, np.sum(self.pixels.n * self.pixels.v, axis=1),
+                                         self.rest + sky * self.occlusion[:, None], self.subdivisions)
+        return dict(type="sky_error", label=self.label,
+                    **environment_oracle.errors(self.image, truth))
 
 
 @dataclass
@@ -156,6 +239,12 @@ def _lights_key(scene: Scene) -> tuple:
     return tuple((l.kind, tuple(l.color), None if l.direction is None else tuple(l.direction),
                   None if l.position is None else tuple(l.position), l.inner_angle, l.outer_angle, l.shadows)
                  for l in scene.lights)
+
+
+def _sky_data_key(spec: env.EnvironmentSpec | None) -> tuple | None:
+    """What the Shader uploads of a sky (clshade.render.environment.prepare_spec's key: the map, its
+    colour, intensity and rotation); not the rungs (a variant each) nor the sample count (an argument)."""
+    return None if spec is None else (spec.map, spec.uniform, spec.intensity, spec.rotation)
 
 
 def _channel_values(scene: Scene) -> np.ndarray:
@@ -206,8 +295,12 @@ class ViewSession:
 
     def __init__(self, scene_path: str | Path, out_dir: str | Path, width: int | None = None,
                  height: int | None = None, device: str | None = None, device_gbuffer: bool = True,
-                 registry: Registry | None = None) -> None:
+                 registry: Registry | None = None, max_canvas: tuple[int, int] = MAX_CANVAS,
+                 sky_error_pixels: int = environment_oracle.DEFAULT_PIXELS) -> None:
         """`registry`: the command's lobes (default: the built-ins); the scene's lobe folders are added.
+        `width`, `height`: the frame size until the page asks for its canvas's (the page keeps it when
+        they are given); `max_canvas`: the largest canvas rendered; `sky_error_pixels`: the pixels the
+        sky-error button integrates (environment_oracle.oracle_pixels).
         The page may name lobe files and folders only inside the scene's folder, the lobe folders
         given to the command or the scene (--lobes, $CLSHADE_LOBES, render.lobes) and the scene's own
         model file (Registry.confined), a relative one taken from the scene's folder."""
@@ -223,26 +316,32 @@ class ViewSession:
                 raise ClshadeError(f"{name} = {value}: must be within [1, {MAX_RESOLUTION}]")
         camera = self.base_scene.camera.with_size(width, height)
         self.width, self.height = camera.width, camera.height
+        self.fixed_size = width is not None or height is not None
+        self.sky_error_pixels = sky_error_pixels
+        spec = self.base_scene.environment
+        own = [] if spec is None or spec.map is None else [Path(os.path.relpath(spec.map, self.path.parent)).as_posix()]
+        self.skies = (SKY_NONE, SKY_WHITE, *dict.fromkeys(own + list(sky_files(self.path.parent))))
         self.out_dir = Path(out_dir).resolve()
         if not self.out_dir.is_dir():
             raise ClshadeError(f"{out_dir}: output folder does not exist")
         self.orbit = Orbit.of(camera)
-        self.limits = Limits.of(self.base_scene, self.orbit.distance, self.width, self.height, self.registry)
+        self.limits = Limits.of(self.base_scene, self.orbit.distance, self.width, self.height, self.registry,
+                                self.skies, max_canvas)
         self.runtime = get_runtime(device)
         self.display = Display(self.runtime)
         keep_freed_memory()             # frame after frame: no page faults on the stages' temporaries
         self.history: dict[str, deque] = {}
         self._geometry, self._raster, self._shadows = _Kept(), _Kept(), _Kept()
         self._gbuffer, self._shader, self._faces = _Kept(), _Kept(), _Kept()
-        self._device_gbuffer = _Kept()
-        # Orbit frames: the host rasterizer stops after the triangle setup and the device makes the
-        # visibility buffer and the G-buffer (clshade.device.visibility; build_gbuffer's planes, bit
-        # for bit).
+        # Orbit frames through the frame pipeline's G-buffer stage: the host rasterizer stops after the
+        # triangle setup and the device makes the visibility buffer and the G-buffer where verified
+        # (clshade.device.visibility; build_gbuffer's planes, bit for bit).
         self.device_gbuffer = device_gbuffer
         #: Why the device path was turned off (its first frame differed from the host's, or it
         #: failed to build), else None.
         self.device_gbuffer_off: str | None = None
         self._planes = PlanePool()      # the G-buffers' planes, their memory used again
+        self._pool_size: tuple[int, int] | None = None      # the (supersampled) frame size of its blocks
         self.last: dict[str, object] = {}
         self._parsed: tuple[dict, Scene] | None = None     # the last document parsed and its scene
         self._preparing = threading.Lock()
@@ -254,7 +353,20 @@ class ViewSession:
         other = "phong" if s.model != "phong" else "ggx_correlated"
         return dict(azimuth=0.0, elevation=self.orbit.elevation, distance=self.orbit.distance, model_a=self.model,
                     model_b=other, split=False, diff=False, exposure=s.exposure, tonemap=s.tonemap,
-                    samples=s.samples, specular_aa=s.specular_aa, materials={}, lights={})
+                    samples=s.samples, specular_aa=s.specular_aa, materials={}, lights={},
+                    environment=self.initial_sky())
+
+    def initial_sky(self) -> dict:
+        """The environment controls of the scene as written (sky None: the scene's own map or colour)."""
+        spec = self.base_scene.environment or env.EnvironmentSpec(uniform=(1.0, 1.0, 1.0))
+        return dict(sky=None if self.base_scene.environment is not None else SKY_NONE, diffuse=spec.diffuse,
+                    specular=spec.specular, samples=spec.samples, rotation=spec.rotation, intensity=spec.intensity)
+
+    def canvas_size(self, controls: Controls) -> tuple[int, int]:
+        """The frame size of a state: the page's canvas (capped when it was checked), else the session's."""
+        if controls.width is None or controls.height is None:
+            return self.width, self.height
+        return controls.width, controls.height
 
     def hello(self) -> dict:
         """The registry, the scene's editable values and the starting controls, for the page."""
@@ -273,13 +385,16 @@ class ViewSession:
             lights=[dict(kind=l.kind, direction=None if l.direction is None else [float(x) for x in l.direction])
                     for l in s.lights],
             distance=list(self.limits.distance), controls=self.initial_controls(),
+            fixed_size=self.fixed_size, max_canvas=list(self.limits.max_canvas),
+            skies=list(self.skies), scene_sky=None if s.environment is None else s.environment.describe(),
+            rungs=dict(diffuse=list(env.DIFFUSE_RUNGS), specular=list(env.SPECULAR_RUNGS), max_samples=env.MAX_SAMPLES),
             ramp=np.round(false_colour(np.linspace(0.0, 1.0, RAMP_STEPS)) * 255).astype(int).tolist(),
             orbit=dict(east=self.orbit.east.tolist(), north=self.orbit.north.tolist(), up=self.orbit.up.tolist()))
 
     def scene(self, controls: Controls) -> tuple[Scene, dict]:
         """The scene the controls describe, through the scene parser (its checks and messages)."""
         position = self.orbit.position(controls.azimuth, controls.elevation, controls.distance)
-        doc = applied(self.base_doc, controls, position, self.width, self.height)
+        doc = applied(self.base_doc, controls, position, *self.canvas_size(controls))
         # The tables as tomllib reads back dumps(doc) (tests/view/test_view.py: the round trip is exact).
         last = self._parsed
         if last is not None and _same_but_camera(last[0], doc):     # orbit, zoom: only the camera is parsed
@@ -327,56 +442,43 @@ class ViewSession:
         return shadows, gbuffer, shader
 
     def _rasterize(self, geometry, camera) -> Fragments | ViewSetup:
-        """The triangle setup where the device does the rest of the raster and the G-buffer
-        (clshade.device.visibility: no textures, doubles and 64-bit atomics, one face batch),
-        else the fragments."""
-        mesh, view, proj = self._mesh_of(geometry), camera.view_matrix(), camera.projection_matrix()
-        if self.device_gbuffer and device_visibility.supports(self.runtime, geometry):
-            setup = setup_view(mesh, view, proj, camera.width, camera.height)
-            if setup is not None:
-                return setup
-        return rasterize_mesh(mesh, view, proj, camera.width, camera.height)
+        """The frame pipeline's raster stage (clshade.pipeline.GBufferStage): the triangle setup
+        where the device makes the rest of the raster and the G-buffer (no textures, doubles and
+        64-bit atomics, one face batch, its check passed), else the fragments."""
+        return self._frame_stage(geometry).raster(camera)
 
-    def _proven_device(self, scene: Scene, geometry, camera, faces) -> DeviceGBuffer | None:
-        """The device's G-buffer kernels for this geometry and its face tables, once they have made
-        the host's G-buffer of a small frame of this view (device_visibility.verify); None, with
-        the device path turned off for the session and the reason noted, when they did not or
-        failed to build."""
-        if self.device_gbuffer_off is not None:
-            return None
-        try:
-            device = DeviceGBuffer(self.runtime, geometry, faces)
-            reason = device_visibility.verify(device, scene, geometry, self._mesh_of(geometry), camera, faces)
-        except (ClshadeError, self.runtime.cl.Error) as exc:
-            device, reason = None, f"{type(exc).__name__}: {exc}"
-        if reason is None:
-            return device
-        self.device_gbuffer, self.device_gbuffer_off = False, reason
-        note("viewer", f"the device's visibility buffer is off on {self.runtime.info.description}, the host "
-                       f"rasterizes: {reason}")
-        return None
+    def _frame_stage(self, geometry) -> GBufferStage:
+        """The frame pipeline's raster and G-buffer stages of `geometry` (its raster mesh, device
+        tables and the path's check made once per geometry)."""
+        kept = self._geometry.extra
+        if kept.get("stage_of") is not geometry:
+            kept["stage"] = GBufferStage(geometry, self.runtime, "auto" if self.device_gbuffer else "host")
+            kept["stage_of"] = geometry
+        return kept["stage"]
 
     def _mesh_of(self, geometry) -> RasterMesh:
         """The RasterMesh of `geometry` (its checks and face planes made once per geometry)."""
-        kept = self._geometry.extra
-        if kept.get("mesh_of") is not geometry:
-            kept["mesh"], kept["mesh_of"] = RasterMesh(geometry.vertices, geometry.faces, geometry.cull), geometry
-        return kept["mesh"]
+        return self._frame_stage(geometry).mesh
 
     def _shader_for(self, scene: Scene, gbuffer: GBuffer, camera, shadows, timings: Timings) -> Shader:
         """The kept Shader (its device tables and bound kernels) rebound to a new G-buffer
         (Shader.rebind: no kernel built or created); a new Shader when the lights, the shadow
-        maps, background, ambient or the sample count changed."""
+        maps, background, ambient, the sample count, the frame size or the sky's data changed (the
+        rungs are kernel variants, chosen at dispatch; the sky's sample count a kernel argument,
+        set again by a rebind)."""
         kept = self._shader
-        key = (_lights_key(scene), id(shadows), tuple(scene.background), tuple(scene.ambient), scene.samples)
+        key = (_lights_key(scene), id(shadows), tuple(scene.background), tuple(scene.ambient), scene.samples,
+               gbuffer.width, gbuffer.height, _sky_data_key(scene.environment))
         if kept.key != key or kept.value is None:
             with timings.stage("upload"):
                 kept.value = Shader(self.runtime, gbuffer, scene, camera, shadows)
             kept.key = key
-        elif kept.value.gb is not gbuffer or kept.extra.get("camera") != tuple(camera.position):
+        elif (kept.value.gb is not gbuffer or kept.extra.get("camera") != tuple(camera.position)
+              or kept.extra.get("sky") != scene.environment):
             with timings.stage("bind"):
                 kept.value.rebind(gbuffer, scene, camera)
         kept.extra["camera"] = tuple(camera.position)
+        kept.extra["sky"] = scene.environment
         return kept.value
 
     def _gbuffer_for(self, scene: Scene, geometry, geometry_key, fragments, camera, timings: Timings) -> GBuffer:
@@ -402,24 +504,14 @@ class ViewSession:
             mats = list(scene.materials.values())
             faces = self._stage(self._faces, (geometry_key, _face_key(mats)), lambda: face_planes(geometry, mats),
                                 timings, "face tables")
-            device = None
-            if isinstance(fragments, ViewSetup):   # coverage, winners and the G-buffer on the device
-                device = self._stage(self._device_gbuffer, (geometry_key, _face_key(mats)),
-                                     lambda: self._proven_device(scene, geometry, camera, faces), timings,
-                                     "g-buffer kernel")
-            if device is not None:
-                with timings.stage(DEVICE_GBUFFER_STAGE):
-                    gbuffer, cover = device.build(fragments, table, self._planes)
-            else:
-                if isinstance(fragments, ViewSetup):    # the device path was just turned off
-                    with timings.stage("rasterize"):
-                        host = rasterize_mesh(self._mesh_of(geometry), camera.view_matrix(),
-                                              camera.projection_matrix(), camera.width, camera.height)
-                    cover = np.zeros(camera.width * camera.height, np.uint8)
-                    cover[host.pixels] = 1
-                    fragments = host
-                with timings.stage("g-buffer"):
-                    gbuffer = build_gbuffer(scene, geometry, fragments, camera, faces=faces, pool=self._planes)
+            stage = self._frame_stage(geometry)
+            gbuffer, host, cover = stage.build(scene, camera, fragments, timings, faces, table, self._planes)
+            if isinstance(fragments, ViewSetup) and host is not None:     # the device path was just turned off
+                cover = np.zeros(camera.width * camera.height, np.uint8)
+                cover[host.pixels] = 1
+                self.device_gbuffer, self.device_gbuffer_off = False, stage.path.reason
+                note("viewer", f"the device's visibility buffer is off on {self.runtime.info.description}, the "
+                               f"host rasterizes: {stage.path.reason}")
         kept.value, kept.extra = gbuffer, dict(fragments=raster, table=table, values=values, groups=groups,
                                                cover=cover)
         return gbuffer
@@ -433,6 +525,7 @@ class ViewSession:
         """The rest of a frame after prepare(): G-buffer, shading, display transform, read back."""
         controls, scene, geometry, camera, timings = p.controls, p.scene, p.geometry, p.camera, p.timings
         model_a, model_b = controls.models(self.registry)
+        self._resized(camera.width, camera.height)
         shadows, gbuffer, shader = self.frame_state(p)
         # Material values read at run time: a slider moves data, never builds a program (Features).
         features = dataclasses.replace(scene_features(scene, geometry=geometry), runtime_material=True)
@@ -441,17 +534,19 @@ class ViewSession:
             shown["b"] = model_b
         views: dict[str, np.ndarray] = {}
         radiance = shader.resolver.out if shader.resolver is not None else shader.out
+        width, height = scene.camera.width, scene.camera.height
+        labels = {view: cost_label(model.id, scene.environment) for view, model in shown.items()}
         for view, model in shown.items():
             with timings.stage("variant"):          # the kernel for (model, features): built once, then looked up
                 dispatch = shader.prepare(model, features)
             with timings.stage("shade"):
                 device_ms, host_ms = timed_dispatch(shader, dispatch)
-            self.history.setdefault(model.id, deque(maxlen=HISTORY)).append((device_ms, host_ms))
+            self.history.setdefault(labels[view], deque(maxlen=HISTORY)).append((device_ms, host_ms))
             with timings.stage("display"):
-                event, out = self.display.enqueue(radiance, self.width * self.height, scene.tonemap, scene.exposure)
+                event, out = self.display.enqueue(radiance, width * height, scene.tonemap, scene.exposure)
                 event.wait()
             with timings.stage("read back"):
-                views[view] = self.display.read(out, self.height, self.width)
+                views[view] = self.display.read(out, height, width)
         scale = None
         if controls.diff:
             with timings.stage("difference"):
@@ -459,12 +554,22 @@ class ViewSession:
         self.last = dict(scene=scene, gbuffer=gbuffer, shader=shader, camera=camera, shadows=shadows,
                          features=features, models=shown)
         stats = {}
-        for model in shown.values():
-            times = np.array(self.history[model.id])
-            stats[model.id] = frame_stats(times[:, 0], times[:, 1]) | dict(frames=len(times))
-        return ViewFrame(self.width, self.height, views, timings, stats,
-                         {k: m.id for k, m in shown.items()}, scale,
-                         reshade_only=not any(s in timings for s in ("rasterize", "g-buffer", DEVICE_GBUFFER_STAGE)))
+        for label in labels.values():
+            times = np.array(self.history[label])
+            stats[label] = frame_stats(times[:, 0], times[:, 1]) | dict(frames=len(times))
+        return ViewFrame(width, height, views, timings, stats, {k: m.id for k, m in shown.items()}, scale,
+                         reshade_only=not any(s in timings for s in ("rasterize", "g-buffer", DEVICE_GBUFFER_STAGE)),
+                         costs=labels, environment=rung_info(scene, features, model_a), ladder=self.ladder())
+
+    def ladder(self) -> dict[str, float]:
+        """Mean device ms per frame of every model and rung combination shaded so far (its recent frames)."""
+        return {label: float(np.mean([t[0] for t in times])) for label, times in self.history.items() if times}
+
+    def _resized(self, width: int, height: int) -> None:
+        """A new frame size (the page's canvas followed its window): the plane pool's blocks of the
+        old size are let go (the pool keeps blocks of the sizes it hands out)."""
+        if self._pool_size != (width, height):
+            self._planes, self._pool_size = PlanePool(), (width, height)
 
     def oracle(self, controls: Controls) -> dict:
         """For the current view, per shown model: the error against the float64 frame oracle
@@ -489,6 +594,28 @@ class ViewSession:
                                        nan=int(np.isnan(raw).sum()), inf=int(np.isinf(raw).sum()),
                                        negative=int((raw < 0).sum()))
         return out
+
+    def sky_error_job(self, controls: Controls) -> SkyErrorJob:
+        """The sky-error button's job for model A of the current view, at one sample per pixel (the
+        truth is of the pixels' centres): the frame shaded and its oracle pixels copied here, on the
+        render thread; SkyErrorJob.steps integrates the truth off it."""
+        controls = dataclasses.replace(controls, samples=1)
+        self.render(controls)
+        last = self.last
+        scene, gbuffer, camera, shader = last["scene"], last["gbuffer"], last["camera"], last["shader"]
+        if scene.environment is None:
+            raise ClshadeError("sky error: the view has no environment (pick a sky)")
+        model = last["models"]["a"]
+        shader.render(model, last["features"])
+        image = np.array(shader.read(), np.float64)
+        px = environment_oracle.oracle_pixels(gbuffer, camera, self.sky_error_pixels)
+        occlusion = np.ones(len(px.index))
+        if "occlusion" in gbuffer.channels:
+            occlusion = np.clip(gbuffer.channels["occlusion"][px.index].astype(np.float64), 0.0, 1.0)
+        rest = reference.radiance(gbuffer, scene, model, camera=camera, shadows=last["shadows"])
+        rest = rest.reshape(-1, 3)[px.index]
+        return SkyErrorJob(cost_label(model.id, scene.environment), model, px,
+                           env.prepare_spec(scene.environment, scene.path), occlusion, rest, image)
 
     # ------------------------------------------------------------ save
 

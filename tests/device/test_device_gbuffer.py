@@ -210,11 +210,3 @@ def test_planes_from_the_pool_are_written_whole(robot, device_runtime):
     assert_same(scene, geometry, wide.view_matrix(), wide.projection_matrix(), wide, pool, device,
                 runtime=device_runtime)
 
-
-def test_textured_geometry_keeps_the_host_path():
-    scene = load_scene(scenes_dir() / "textured.toml")
-    geometry = build_geometry(scene)
-    runtime = get_runtime(None)
-    assert geometry.face_texture is not None and not supports(runtime, geometry)
-    with pytest.raises(ValueError, match="textured geometry"):
-        DeviceGBuffer(runtime, geometry, face_planes(geometry, list(scene.materials.values())))

@@ -162,7 +162,9 @@ def cache(tmp_path, monkeypatch):
         state["calls"].append(args)
         if state["result"] is None:
             return "the tuner exited with status 1"
-        tuned.write(state["kind"], state["key"], {"status": tuned.MEASURED, "choice": state["result"].as_dict()})
+        tuned.write(state["kind"], state["key"], {"status": tuned.MEASURED, "choice": state["result"].as_dict(),
+                                                  "families": {f: {"choice": state["result"].as_dict()}
+                                                               for f in tuned.families()}})
         return None
     monkeypatch.setattr(tuned, "run_tuner", run_tuner)
     yield state
@@ -352,14 +354,24 @@ def test_a_small_race_on_the_device(runtime):
     order = tune.candidates(rt)
     assert order[0] == FIXED and len(set(order)) == len(order)
     assert all(len(c.changes()) == 1 for c in order[1:])
-    body = tune.tune_device(rt, budget_s=4.0, frame=tune.calibration_frame((128, 72)))
-    assert body["status"] == tuned.MEASURED and body["candidates"][0]["choice"] == FIXED.as_dict()
-    assert [r["choice"] for r in body["candidates"][:len(order)]] == [c.as_dict() for c in order]
-    assert body["choice"] in [r["choice"] for r in body["candidates"]]
-    measured = [r for r in body["candidates"] if r.get("median_ms")]
-    assert measured and all(set(r["median_ms"]) == set(tune.CALIBRATION_MODELS) for r in measured)
-    assert {r["status"] for r in body["candidates"]} <= {"picked", "tied", "slower", "failed", "not measured (budget)"}
-    assert body["budget_s"] == 4.0 and body["rounds"][0] >= 1     # (no wall-time bound: the machine is shared)
+    body = tune.tune_device(rt, budget_s=6.0, frame=tune.calibration_frame((128, 72)))
+    assert body["status"] == tuned.MEASURED and tuple(body["families"]) == tuned.families()
+    for family, entry in body["families"].items():
+        assert entry["candidates"][0]["choice"] == FIXED.as_dict()
+        assert [r["choice"] for r in entry["candidates"][:len(order)]] == [c.as_dict() for c in order]
+        assert entry["choice"] in [r["choice"] for r in entry["candidates"]]
+        measured = [r for r in entry["candidates"] if r.get("median_ms")]
+        assert all(set(r["median_ms"]) == set(tune.CALIBRATION_MODELS[family]) for r in measured)
+        assert {r["status"] for r in entry["candidates"]} <= {"picked", "tied", "slower", "failed", "not judged",
+                                                              "not measured (budget)"}   # a third of 6 s: few rounds
+    # (A family's share can go to its builds on a loaded machine: at least one family timed rounds.)
+    assert any(e["rounds"][0] >= 1 for e in body["families"].values())
+    # Each family may spend an equal part of what is left: the first a third (stored rounded to 0.01 s).
+    shares = [e["budget_s"] for e in body["families"].values()]
+    assert body["budget_s"] == 6.0 and shares[0] <= 6.0 / 3 + 0.005 and max(shares) <= 6.0
+    assert BuildChoice.from_dict(body["choice"]) in [*order, *(BuildChoice.from_dict(r["choice"])
+                                                             for e in body["families"].values()
+                                                             for r in e["candidates"])]
 
 
 # ---------------------------------------------------------------- what users see
@@ -368,17 +380,25 @@ def test_a_small_race_on_the_device(runtime):
 def _entries(runtime) -> tuple[dict, dict]:
     """A device entry with a race of three candidates and a ranking entry, as tune.py writes them."""
     key = rtmod.device_key(runtime.info, runtime.device)
-    rows = [dict(choice=c.as_dict(), label=c.label(), changes=list(c.changes()), simd=8, local_size=64,
-                 inline_math=c.math == "inline", streaming_stores=True, prefetch=True,
-                 median_ms={m: ms for m in tune.CALIBRATION_MODELS}, rounds=9, status=status,
-                 **({} if c == FIXED else {"vs_default": ms / 4.0, "band": 0.03}))
-            for c, ms, status in ((A, 4.0, "slower"), (B, 3.0, "picked"), (C, 4.1, "slower"))]
-    rows.append(dict(choice=BuildChoice(local=256).as_dict(), status="not measured (budget)"))
+    families = {}
+    for family, models in tune.CALIBRATION_MODELS.items():
+        rows = [dict(choice=c.as_dict(), label=c.label(), changes=list(c.changes()), simd=8, local_size=64,
+                     inline_math=c.math == "inline", streaming_stores=True, prefetch=True,
+                     median_ms={m: ms for m in models}, rounds=9, status=status,
+                     **({} if c == FIXED else {"vs_default": ms / 4.0, "band": 0.03}))
+                for c, ms, status in ((A, 4.0, "slower"), (B, 3.0, "picked"), (C, 4.1, "slower"))]
+        rows.append(dict(choice=BuildChoice(local=256).as_dict(), status="not measured (budget)"))
+        families[family] = dict(choice=B.as_dict(), label=B.label(), decision="math inline: 25.0% faster than "
+                                "today's rule", models=list(models), budget_s=3.3, seconds=3.1, budget_spent=False,
+                                rounds=[9], candidates=rows)
     device = tuned.write(tuned.DEVICE, key, dict(
-        status=tuned.MEASURED, choice=B.as_dict(), label=B.label(), decision="math inline: 25.0% faster than today's rule",
-        device=runtime.info.description, seconds=9.5, budget_s=10.0, budget_spent=False, rounds=[9],
-        calibration=dict(scene="sphere_grid.toml", width=1280, height=720, models=list(tune.CALIBRATION_MODELS)),
-        noise=dict(z=3.0, floor=0.02, min_rounds=5), candidates=rows))
+        status=tuned.MEASURED, choice=B.as_dict(), label=B.label(),
+        decision="math inline: 25.0% faster than today's rule over the families", families=families,
+        device=runtime.info.description, seconds=9.5, budget_s=10.0, budget_spent=False,
+        budget_split="each family in turn an equal share of what is left (builds included)",
+        calibration=dict(scene="sphere_grid.toml", width=1280, height=720,
+                         models={f: list(m) for f, m in tune.CALIBRATION_MODELS.items()}),
+        noise=dict(z=3.0, floor=0.02, min_rounds=5)))
     return key, device
 
 
@@ -408,10 +428,11 @@ def test_devices_shows_the_measured_choice_and_devices_tune_the_races(runtime, c
 def test_the_results_document_renders_default_against_the_fastest(runtime, cache):
     from clshade.report.tuning import tuning_markdown
     key, device = _entries(runtime)
-    choices = [dict(choice=c.as_dict(), label=c.label(), is_rule=c == FIXED, is_tuned=c == B, simd=8, local_size=64,
+    choices = [dict(choice=c.as_dict(), label=c.label(), is_rule=c == FIXED, tuned_for=["diffuse"] if c == B else [],
+                    simd=8, local_size=64,
                     models={"lambert": dict(median_ms=ms, copy_ms=2.0, copy_ratio=ms / 2.0)})
                for c, ms in ((A, 3.0), (B, 2.4), (C, 2.2))]
-    summary = {"lambert": dict(rule_ms=3.0, tuned_ms=2.4, best_ms=2.2, best=C.label(), rule_vs_best=3.0 / 2.2,
+    summary = {"lambert": dict(family="diffuse", tuned=B.label(), rule_ms=3.0, tuned_ms=2.4, best_ms=2.2, best=C.label(), rule_vs_best=3.0 / 2.2,
                                tuned_vs_best=2.4 / 2.2, tuned_within_target=False, tuned_copy_ratio=1.2)}
     doc = dict(provenance={"commit": "0" * 40, "dirty": False}, machine={"cpu": "cpu", "cores": 2},
                scene="sphere_grid.toml", width=1920, height=1080, rounds=30, created="now", command="cmd",
@@ -419,7 +440,7 @@ def test_the_results_document_renders_default_against_the_fastest(runtime, cache
                runtimes=[dict(runtime="PoCL 3.1", device="dev", choices=choices, summary=summary, tuning=device),
                          dict(runtime="PoCL 3.0", device="dev2", error="the tuner failed: boom")])
     text = tuning_markdown(doc)
-    assert "| math inline (**tuned**) " in text and "| today's rule " in text
+    assert "| math inline (**tuned: diffuse**) " in text and "| today's rule " in text
     row = next(line for line in text.splitlines() if line.startswith("| lambert "))
     assert "2.20 (plain stores)" in row and "1.364" in row and "1.091" in row and "**missed**" in row
     assert "Not measured: the tuner failed: boom" in text and tuned.key_hash(key) in text

@@ -718,17 +718,17 @@ def test_a_device_that_fails_its_check_leaves_the_host_path(tmp_path, monkeypatc
     """Where the device's first small frame differs from the host's (or its program fails to build),
     the session turns the device path off, says why in the notes, and shows the host's frames from
     that first frame on."""
-    from clshade import diagnostics
-    from clshade.view import session as session_module
+    from clshade import diagnostics, pipeline
 
+    monkeypatch.setattr(pipeline, "_VERIFIED", {})     # the process keeps earlier tests' verdicts
     if failure == "differs":
-        monkeypatch.setattr(session_module.device_visibility, "verify",
+        monkeypatch.setattr(pipeline.device_visibility, "verify",
                             lambda *args: "3 of 5184 pixels differ from the host's in normal")
         why = "differ from the host's in normal"
     else:
         def broken(*args, **kwargs):    # as pip's PoCL 3.0 did with double8 (no kernels in the cached program)
             raise ClshadeError("visibility.cl: the program lists no kernel 'visibility'")
-        monkeypatch.setattr(session_module, "DeviceGBuffer", broken)
+        monkeypatch.setattr(pipeline.device_visibility, "DeviceGBuffer", broken)
         why = "the program lists no kernel 'visibility'"
     monkeypatch.setattr(diagnostics, "NOTES", [])
     s = ViewSession(ROBOT, tmp_path, W, H)

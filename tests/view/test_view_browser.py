@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from clshade.cli import main
+from clshade.device.variants import ENV_RUNG_DEFINES
 from clshade.render.image import read_image
 from clshade.resources import scenes_dir
 from clshade.view import headless
@@ -216,3 +217,138 @@ def test_cost_readouts_follow_the_newest_frame(browser, served):
     assert fps == pytest.approx(stats["avg_fps"], abs=0.6) and low == pytest.approx(stats["low1_fps"], abs=0.6)
     assert shown["stages"].startswith("frame: ") and "shade" in shown["stages"]
     assert "rasterize" not in shown["stages"]        # the newest frame re-shaded only: not an older frame's stages
+
+
+# ---------------------------------------------------------------- environment and canvas size
+
+def wait_for(driver, condition: str, timeout_ms: int = WAIT_S * 1000):
+    """Poll a JavaScript expression in the page until it is truthy; its value."""
+    return until(driver, f"const t0 = performance.now(); const poll = () => {{ const v = ({condition});"
+                         f" if (v || performance.now() - t0 > {timeout_ms}) done(v); else setTimeout(poll, 20); }};"
+                         " poll();")
+
+
+def choose(driver, select_id: str, value) -> dict:
+    """Pick `value` in a <select> (or number input) of the page as a person does; the frame of it."""
+    js(driver, f"const s = document.getElementById('{select_id}'); s.value = arguments[0];"
+               "s.dispatchEvent(new Event('change'));", value)
+    next_frame(driver)
+    return js(driver, "return window.clshadeView.lastFrame;")
+
+
+@pytest.fixture(scope="module")
+def sky_served(tmp_path_factory):
+    out = tmp_path_factory.mktemp("view-sky")
+    # 96×96 and 24 truth pixels: the sampled rung and the float64 truth stay quick on a loaded machine.
+    session = ViewSession(scenes_dir() / "environment.toml", out, 96, 96, sky_error_pixels=24)
+    with ServerThread(session) as url:
+        yield url
+
+
+def test_environment_picker_rungs_and_error(browser, sky_served):
+    """The sky picker changes the image; every rung control reaches the kernel variant the server
+    reports (its cost row and its ENV line); the error button shows its progress and a number."""
+    from selenium.webdriver.common.by import By
+    browser.get(sky_served)
+    wait_for(browser, "window.clshadeView && window.clshadeView.lastFrame")
+    hello = js(browser, "return window.clshadeView.hello;")
+    assert "environments/courtyard_128x64.exr" in hello["skies"] and {"none", "white"} <= set(hello["skies"])
+    header = choose(browser, "env_samples", 4)
+    assert header["environment"]["samples"] == 4 and header["costs"]["a"].endswith("×4]")
+    scene_sky = canvas(browser)
+
+    header = choose(browser, "sky", "white")
+    assert header["environment"]["sky"] == "uniform 1, 1, 1"
+    white = canvas(browser)
+    assert (np.abs(white.astype(int) - scene_sky).max(axis=-1) > 8).mean() > 0.2
+    header = choose(browser, "sky", "none")
+    assert header["environment"] is None and js(browser, "return document.getElementById('rungs').textContent;") \
+        == "no environment"
+    assert (canvas(browser) != white).any(axis=-1).mean() > 0.2
+    header = choose(browser, "sky", "environments/courtyard_128x64.exr")
+    assert header["environment"]["sky"] == "courtyard_128x64.exr"
+    np.testing.assert_array_equal(canvas(browser), scene_sky)      # the scene's own map, picked by name
+
+    for key, rungs in (("diffuse", hello["rungs"]["diffuse"]), ("specular", hello["rungs"]["specular"])):
+        for rung in rungs:
+            header = choose(browser, f"env_{key}", rung)
+            sky = header["environment"]
+            define = f"ENV_{key.upper()}={ENV_RUNG_DEFINES[rung]}"
+            assert sky[key] == rung and f"{define} " in sky["variant"] + " ", sky
+            assert header["costs"]["a"] == f"{header['models']['a']} [{sky['rungs']}]"
+            assert header["stats"][header["costs"]["a"]]["mean_ms"] > 0
+            assert define in js(browser, "return document.getElementById('rungs').textContent;")
+    ladder = js(browser, "return window.clshadeView.lastFrame.ladder;")
+    assert len(ladder) >= len(hello["rungs"]["diffuse"]) + len(hello["rungs"]["specular"]) - 1
+    for key, value, field in (("env_rotation", 90, "rotation"), ("env_intensity", 2, "intensity")):
+        js(browser, f"const s = document.getElementById('{key}'); s.value = {value};"
+                    "s.dispatchEvent(new Event('input'));")
+        next_frame(browser)
+        assert js(browser, "return window.clshadeView.lastFrame;")["environment"][field] == value
+
+    browser.find_element(By.ID, "sky_error").click()
+    text = wait_for(browser, "/rel RMSE/.test(document.getElementById('sky_error_out').textContent) && "
+                             "document.getElementById('sky_error_out').textContent")
+    assert text and text.startswith(js(browser, "return window.clshadeView.lastFrame.costs.a;")), text
+    rmse = float(text.split("rel RMSE ")[1].split(",")[0])
+    assert 0 < rmse < 10       # 4 samples per pixel: a rough estimate, but a finite, measured one
+    assert js(browser, "return window.clshadeView.progress.length;") >= 2       # 24 pixels, 16 a step
+    cells = js(browser, "return [...document.querySelectorAll('#ladder tbody tr')].map((r) => r.cells[2].textContent);")
+    assert any(c and float(c) == pytest.approx(rmse, rel=0.01) for c in cells), cells
+
+
+@pytest.fixture
+def window_browser(tmp_path_factory):
+    driver = headless.chromium(tmp_path_factory.mktemp("chromium-window"), 1000, 700, WAIT_S)
+    yield driver
+    driver.quit()
+
+
+def window(driver, width: int, height: int, ratio: float) -> None:
+    """Emulate a window of width × height CSS pixels at a device pixel ratio (the page sees a resize)."""
+    driver.execute_cdp_cmd("Emulation.setDeviceMetricsOverride",
+                           dict(width=width, height=height, deviceScaleFactor=ratio, mobile=False))
+
+
+def expected_size(driver, ratio: float, scale: float = 1.0) -> tuple[int, int]:
+    """The frame a canvas of the page's CSS size should get: × ratio × scale, fitted in 1920×1080."""
+    w, h = js(driver, "const c = document.getElementById('frame'); return [c.clientWidth, c.clientHeight];")
+    w, h = round(w * ratio * scale), round(h * ratio * scale)
+    k = min(1.0, 1920 / w, 1080 / h)
+    return min(1920, round(w * k)), min(1080, round(h * k))
+
+
+def test_canvas_follows_the_window(window_browser, tmp_path):
+    """Without --width/--height the canvas fills the window: rendered at its CSS size × the device
+    pixel ratio, capped at 1920×1080 (aspect kept), halved by the 50 % control; a resize mid-orbit
+    gives frames of the new size."""
+    driver = window_browser
+    with ServerThread(ViewSession(scenes_dir() / "robot.toml", tmp_path)) as url:
+        window(driver, 1000, 700, 1)
+        driver.get(url)
+        wait_for(driver, "window.clshadeView && window.clshadeView.lastFrame")
+        frame = js(driver, "return window.clshadeView.lastFrame;")
+        assert (frame["width"], frame["height"]) == expected_size(driver, 1) and frame["width"] > 200
+        assert canvas(driver).shape[:2] == (frame["height"], frame["width"])
+
+        for k in range(4):                                    # an orbit, resized half-way at twice the DPR
+            if k == 2:
+                window(driver, 900, 620, 2)
+                wait_for(driver, "window.devicePixelRatio === 2")
+            js(driver, f"window.clshadeView.set({{azimuth: {10 * (k + 1)}}});")
+        next_frame(driver)
+        frame = js(driver, "return window.clshadeView.lastFrame;")
+        assert (frame["width"], frame["height"]) == expected_size(driver, 2)
+        css = js(driver, "return document.getElementById('frame').clientWidth;")
+        assert frame["width"] == round(2 * css) and js(driver, "return window.clshadeView.controls.azimuth;") == 40
+
+        window(driver, 1900, 1000, 2)                          # 2× a big window: over the cap
+        wait_for(driver, "window.innerWidth === 1900")
+        next_frame(driver)
+        frame = js(driver, "return window.clshadeView.lastFrame;")
+        assert (frame["width"], frame["height"]) == expected_size(driver, 2)
+        assert frame["width"] <= 1920 and frame["height"] == 1080
+
+        header = choose(driver, "resolution", "0.5")
+        assert (header["width"], header["height"]) == expected_size(driver, 2, 0.5)
+        assert header["height"] < 1080

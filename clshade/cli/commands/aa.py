@@ -5,7 +5,7 @@ import argparse
 from pathlib import Path
 
 from clshade import budget
-from clshade.cli.common import check_size
+from clshade.cli.common import check_size, refuse_environment
 from clshade.errors import ClshadeError
 
 
@@ -26,6 +26,7 @@ def cmd_aa(args: argparse.Namespace) -> int:
     import json
     from clshade.bench.aa import run
     from clshade.compare import write_sheet
+    from clshade.pipeline import use_gbuffer
     from clshade.outputs import write_text_atomic
     from clshade.render.scene import load_scene
     from clshade.provenance import stamp
@@ -33,6 +34,7 @@ def cmd_aa(args: argparse.Namespace) -> int:
     from clshade.resources import scenes_dir
     scene = args.scene or str(scenes_dir() / "aa_spheres.toml")
     loaded = load_scene(scene, args.registry)
+    refuse_environment(loaded, "aa")
     _check_aa_outputs(Path(args.output), loaded.inputs())
     budget.check_count("--frames", args.frames, budget.MAX_FRAMES, low=1)
     budget.check_count("--temporal-frames", args.temporal_frames, budget.MAX_FRAMES)
@@ -40,10 +42,13 @@ def cmd_aa(args: argparse.Namespace) -> int:
         raise ClshadeError(f"--frames = {args.frames}, --truth-samples = {args.truth_samples}, --check-samples = "
                            f"{args.check_samples}, --temporal-frames = {args.temporal_frames}: need ≥ 1, ≥ 1, ≥ 0, ≥ 0")
     registry = args.registry.with_lobes(*loaded.lobes)
-    doc, sheet = run(scene, registry.resolve_many(args.models), width=check_size(args.width, "width"),
-                     height=check_size(args.height, "height"), frames=args.frames, truth_samples=args.truth_samples,
-                     check_samples=args.check_samples, temporal_frames=args.temporal_frames, device=args.device,
-                     registry=registry)
+    with use_gbuffer(args.gbuffer, args.device) as paths:
+        doc, sheet = run(scene, registry.resolve_many(args.models), width=check_size(args.width, "width"),
+                         height=check_size(args.height, "height"), frames=args.frames,
+                         truth_samples=args.truth_samples, check_samples=args.check_samples,
+                         temporal_frames=args.temporal_frames, device=args.device,
+                         registry=registry)
+    doc["gbuffer"] = [dict(path=p.path, reason=p.reason) for p in paths]
     opts = {"models": args.models, "width": args.width, "height": args.height, "frames": args.frames,
             "truth-samples": args.truth_samples, "check-samples": args.check_samples,
             "temporal-frames": args.temporal_frames}
@@ -57,4 +62,6 @@ def cmd_aa(args: argparse.Namespace) -> int:
     plot_aa(doc, prefix.with_name(prefix.name + "_ladder.png"))
     write_sheet(prefix.with_name(prefix.name + "_crops.png"), sheet)
     print(text)
+    for path in paths:
+        print(path.line())
     return 0

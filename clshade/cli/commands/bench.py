@@ -41,6 +41,7 @@ def _check_bench_options(args: argparse.Namespace) -> None:
     budget.check_count("--frames", args.frames, budget.MAX_FRAMES, low=1)
     budget.check_count("--warmup", args.warmup, budget.MAX_FRAMES)
     budget.check_count("--numpy-frames", args.numpy_frames, budget.MAX_FRAMES)
+    budget.check_count("--whole-frames", args.whole_frames, budget.MAX_FRAMES)
     if args.lights is not None:
         budget.check_count("--lights", args.lights, budget.MAX_LIGHTS)
     if args.peers is not None:
@@ -56,18 +57,29 @@ def cmd_bench(args: argparse.Namespace) -> int:
     import json
     from clshade.bench.run import run_bench
     from clshade.outputs import write_text_atomic
+    from clshade.pipeline import use_gbuffer
     from clshade.report.bench import bench_csv, bench_plots, bench_text
     _check_bench_options(args)
     scene = load_scene_with_overrides(args.scene, args)
+    if scene.environment is not None:
+        return _environment_bench(args, scene)
+    for flag, value in (("--environment-ladder", args.environment_ladder), ("--oracle-pixels", args.oracle_pixels)):
+        if value is not None:
+            raise ClshadeError(f"{flag}: {scene.path or 'the scene'} has no [environment] table (the ladder needs a sky)")
     _check_bench_outputs(args, scene.inputs())
     registry = args.registry.with_lobes(*scene.lobes)
     models = registry.resolve_many(args.models)
-    with progress_bar("bench", "round") as progress:
+    with progress_bar("bench", "round") as progress, use_gbuffer(args.gbuffer, args.device) as paths:
         doc = run_bench(scene, models, args.frames, args.warmup, width=args.width,
                         height=args.height, lights=args.lights, ladder=args.ladder, numpy_frames=args.numpy_frames,
                         device=args.device, progress=None if args.no_progress else progress)
+    doc["gbuffer"] = [dict(path=p.path, reason=p.reason) for p in paths]
     print(bench_text(doc))
     print(build_line(doc["device"]["build"]))
+    for path in paths:
+        print(path.line())
+    if args.whole_frames:
+        doc["whole_frames"] = _whole_frames(args, scene, models)
     if args.peers:
         from clshade.report.perf import perf_markdown
         doc["peers"] = _peers(args, models, registry)
@@ -82,13 +94,60 @@ def cmd_bench(args: argparse.Namespace) -> int:
     return 0
 
 
+def _whole_frames(args: argparse.Namespace, scene, models: list) -> dict:
+    """`--whole-frames N`: N orbit frames per model through the frame pipeline (clshade.bench.frame),
+    printed beside the dispatch tables."""
+    from clshade.bench.frame import orbit_bench
+    from clshade.device.runtime import get_runtime
+    from clshade.report.bench import whole_frame_text
+    doc = orbit_bench(scene, models, get_runtime(args.device), args.width, args.height, args.whole_frames,
+                      gbuffer=args.gbuffer, overlap=args.overlap)
+    print()
+    print(whole_frame_text(doc))
+    return doc
+
+def _environment_bench(args: argparse.Namespace, scene) -> int:
+    """`clshade bench` on a scene with a sky: the environment ladder (clshade.bench.environment) instead of
+    the point-light tables; --json writes its document, --plot its error-vs-time plot."""
+    import json
+    from clshade.bench.environment import SAMPLE_LADDER, parse_samples, run_environment_bench
+    from clshade.outputs import write_text_atomic
+    from clshade.report.environment import environment_markdown, environment_plot
+    from clshade.verify.environment_oracle import DEFAULT_PIXELS
+    unsupported = [flag for flag, on in (("--ladder", args.ladder), ("--csv", args.csv), ("--peers", args.peers),
+                                         ("--lights", args.lights is not None),
+                                         ("--whole-frames", bool(args.whole_frames))) if on]
+    if unsupported:
+        raise ClshadeError(f"{unsupported[0]}: not measured with an [environment] ({scene.path or 'the scene'}): "
+                           "the environment ladder has --json and --plot")
+    samples = parse_samples(args.environment_ladder) if args.environment_ladder is not None else SAMPLE_LADDER
+    pixels = DEFAULT_PIXELS if args.oracle_pixels is None else budget.check_count(
+        "--oracle-pixels", args.oracle_pixels, budget.MAX_FRAMES, low=1)
+    _check_bench_outputs(args, scene.inputs())
+    models = args.registry.with_lobes(*scene.lobes).resolve_many(args.models)
+    with progress_bar("bench", "round") as progress:
+        doc = run_environment_bench(scene, models, args.frames, args.warmup, width=args.width, height=args.height,
+                                    samples=samples, oracle_pixels=pixels, device=args.device,
+                                    progress=None if args.no_progress else progress)
+    print(environment_markdown(doc))
+    print(build_line(doc["device"]["build"]))
+    if args.json:
+        write_text_atomic(args.json, json.dumps(doc, indent=2, ensure_ascii=False))
+    if args.plot:
+        environment_plot([doc], Path(args.plot))
+    return 0
+
+
 def build_line(build: dict) -> str:
     """The build choices the benchmark ran with (the JSON's device.build), in one line."""
     yes = {True: "on", False: "off"}
     forced = f"; forced by {', '.join(build['forced_by'])}" if build["forced_by"] else ""
     return (f"build choices: {build['label']} ({build['source']}{forced}): {build['simd']} lanes, work-group "
             f"{build['local_size']}, inline math {yes[build['inline_math']]}, streaming stores "
-            f"{yes[build['streaming_stores']]}, prefetch {yes[build['prefetch']]}")
+            f"{yes[build['streaming_stores']]}, prefetch {yes[build['prefetch']]}"
+            + ("; per model family (its kernels build with): "
+               + ", ".join(f"{f} {label}" for f, label in build["families"].items())
+               + "; the above for other families" if build.get("families") else ""))
 
 
 def _peers(args: argparse.Namespace, models: list, registry) -> dict:

@@ -37,7 +37,8 @@ def cmd_stability(args: argparse.Namespace) -> int:
             raise ClshadeError(f"--model = {args.model!r}: no model given; `clshade models` lists them")
         models = [v for m in args.registry.resolve_many(args.model) for v in stability.variants_of(m)]
     with progress_bar("stability", "step") as progress:
-        rep = stability.run(models, device=args.device, progress=progress, registry=args.registry)
+        rep = stability.run(models, device=args.device, progress=progress, registry=args.registry,
+                            environment=not args.no_environment)
     if args.json:
         print(json.dumps(rep.as_dict(), indent=2, ensure_ascii=False, default=str))
     else:

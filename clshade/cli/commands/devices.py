@@ -26,7 +26,7 @@ def _ordinal(n: int) -> str:
 def cmd_devices(args: argparse.Namespace) -> int:
     from clshade.device import tuned
     from clshade.device.runtime import (choose_device, device_health, device_key, list_devices, measured_ranking,
-                                        preference, tuned_choice)
+                                        preference, tuned_choice, tuned_family_choices)
     from clshade.errors import ClshadeError
     if getattr(args, "tune", False):
         _tune()
@@ -50,6 +50,9 @@ def cmd_devices(args: argparse.Namespace) -> int:
                            + (" (" + ", ".join(f"{m} {ms:.2f} ms" for m, ms in times.items()) + ")" if times else ""))
             choice, source = tuned_choice(info, device)
             status += f"; build: {choice.label()} ({source})"
+            families = tuned_family_choices(info, device)
+            if families:
+                status += "; per model family (the above for other families): " + ", ".join(f"{f} {c.label()}" for f, c in families.items())
         print(f"{mark} {info.spec}  {info.kind:10s} {info.device}  |  {info.platform} | {info.platform_version}")
         print(f"        {info.runtime}: {status}")
     print(f"(* = default: {default_rule(default, ranking is not None)}; choose with --device P:D or CLSHADE_DEVICE)")

@@ -30,7 +30,7 @@ def _model_spec(value: str | None, default: str) -> str:
 
 def _light_warning(scene, emission: bool) -> str | None:
     """A warning for a scene without lights (None when it has some)."""
-    if scene.lights:
+    if scene.lights or scene.environment is not None:
         return None
     name = scene.path.name if scene.path else "the scene"
     if any(a > 0 for a in scene.ambient) or emission:
@@ -68,7 +68,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     with progress_bar("render", "band") as progress:
         result = render_streamed(scene, model, keep, width=cam.width, height=cam.height, device=args.device,
                                  half_gbuffer=args.half, fast_math=args.fast_math, general=args.general,
-                                 timings=timings, progress=progress)
+                                 timings=timings, progress=progress, gbuffer=args.gbuffer)
     warning = _light_warning(scene, result.geometry.has_emission)
     if warning:
         print(f"clshade: warning: {warning}", file=sys.stderr)
@@ -87,6 +87,20 @@ def cmd_render(args: argparse.Namespace) -> int:
     return 0
 
 
+def _explain_environment(model, shader, features) -> None:
+    """--explain's lines on the sky: what it is, its precomputed data, and the sampled rung's strategies."""
+    from clshade.device.variants import environment_rungs, environment_strategies
+    spec, sky = shader.scene.environment, shader.environment
+    w, h = sky.size
+    print(f"environment: {spec.describe()}; {w}x{h} texels, mean radiance "
+          + ", ".join(f"{c:.4g}" for c in sky.mean) + " (kernels/environment.h)")
+    diffuse, specular = environment_rungs(model, features)
+    strategies = environment_strategies(model, features)
+    print(f"environment rungs: diffuse {diffuse}, specular {specular}"
+          + (f"; sampled: {spec.samples} samples per pixel at run time from {' + '.join(strategies)} "
+             "(Hammersley, per-pixel Cranley–Patterson rotation, balance-heuristic MIS)" if strategies else ""))
+
+
 def _explain(model, result) -> None:
     """--explain: the kernel variant of a render (every band uses the same one)."""
     shader = result.shader
@@ -99,6 +113,7 @@ def _explain(model, result) -> None:
           f"({shader.gb.bytes_per_pixel(variant.channels, result.features.half_gbuffer)} B/pixel read, 16 B written)")
     print("G-buffer normals: " + ("unit or zero, not normalised again (UNIT_NORMALS)" if variant.unit_normals
                                   else "normalised in the kernel"))
+    print(result.gbuffer_path.line())
     if result.bands > 1:
         print(f"bands: {result.bands} (rows rasterised, written to the G-buffer and shaded band by band)")
     if result.shadows is not None:
@@ -108,11 +123,15 @@ def _explain(model, result) -> None:
               f"shade kernel")
     for tset in result.geometry.texture_sets:
         print(f"texture set {tset.describe()}")
+    if result.features.environment is not None:
+        _explain_environment(model, shader, result.features.environment)
     n = shader.samples
     print(f"samples: {n}x{n} per pixel on an ordered grid, resolved on the device (kernels/resolve.cl)" if n > 1
           else "samples: 1 per pixel (centre)")
     print(f"build options: {' '.join(variant.options()) or '(none)'}")
-    simd = shader.rt.simd
+    built = shader.rt.for_model(model)           # the build choice of the model's family
+    print(f"build choice: {built.choice.label()} ({built.choice_source})")
+    simd = built.simd
     print("defines: " + " ".join(f"{k}={v}" for k, v in {"SIMD": str(simd), **variant.defines()}.items()))
     print(f"device: {shader.rt.info.description}; {simd} pixel{'s' if simd > 1 else ''} per work-item "
           f"(kernels/simd.h; CLSHADE_SIMD to override)")

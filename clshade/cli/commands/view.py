@@ -14,8 +14,10 @@ def cmd_view(args: argparse.Namespace) -> int:
     from clshade.view.session import ViewSession
     if not 0 <= args.port <= 65535:
         raise ClshadeError(f"--port = {args.port}: must be within [0, 65535]")
+    from clshade.view.controls import canvas_cap
     session = ViewSession(args.scene, args.output_dir, check_size(args.width, "width"),
-                          check_size(args.height, "height"), device=args.device, registry=args.registry)
+                          check_size(args.height, "height"), device=args.device, registry=args.registry,
+                          max_canvas=canvas_cap(args.max_canvas, "--max-canvas"))
     server = ViewServer(session, args.host, args.port, linger=None if args.keep_running else 3.0)
 
     def ready(url: str) -> None:

@@ -111,14 +111,15 @@ def setup_view(
     use rasterize_mesh)."""
     frame = _Frame.of(mesh, view, proj, width, height, 1)
     tri_bits, z_scale = key_layout(FACE_BATCH)
+    mvp = np.asarray(proj, np.float64) @ np.asarray(view, np.float64)
     if frame is None:
-        return ViewSetup(int(width), int(height), None, True, tri_bits, z_scale)
+        return ViewSetup(int(width), int(height), None, True, tri_bits, z_scale, mvp=mvp)
     if frame.n_batches > 1:
         return None
     clip_t, vdepth, vfinite, _, eye = frame.args
     with np.errstate(all="ignore"):  # non-finite input is dropped, never warned about
         t = _setup_batch(clip_t, vdepth, vfinite, mesh, eye, 0, len(mesh), frame.width, frame.height)
-    return ViewSetup(frame.width, frame.height, t, frame.w_is_depth, tri_bits, z_scale)
+    return ViewSetup(frame.width, frame.height, t, frame.w_is_depth, tri_bits, z_scale, mvp=mvp)
 
 
 @dataclass

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 from clshade.render.raster.tiles import NDC_DEPTH_EPS, TILE
 from clshade.render.raster.triangles import Tris
 
@@ -23,6 +25,8 @@ class ViewSetup:
         tri_bits, z_scale: the packed keys' layout (resolve.key_layout): a fragment's key is
             ``(int64((clip(z_ndc, -1, 1) + 1) · z_scale) << tri_bits) | triangle``, kept when
             ``-1 - depth_eps <= z_ndc <= 1 + depth_eps``; the least key of a pixel wins.
+        mvp: projection @ view (float64 4x4), as gbuffer.uv_derivatives forms it: the device's
+            texture footprints (None where the setup was made without it).
     """
     width: int
     height: int
@@ -32,3 +36,4 @@ class ViewSetup:
     z_scale: float
     depth_eps: float = NDC_DEPTH_EPS
     tile: int = TILE
+    mvp: np.ndarray | None = None

@@ -13,6 +13,8 @@ const waiters = [];                // [seq, resolve]: frameFor()
 const records = [];                // per displayed frame: {seq, latency, server, stages}
 const canvas = $("frame"), ctx = canvas.getContext("2d");
 let views = {};
+const progress = [];               // the sky error's progress messages, for tests
+const skyErrors = {};              // cost label → the sky error's relative RMSE, once measured
 
 function send(message) {
   if (ws.readyState === WebSocket.OPEN) ws.send(JSON.stringify(message));
@@ -67,6 +69,8 @@ function onFrame(buffer) {
   costShown(header);
   $("legend").hidden = !(controls.diff && views.diff);
   if (header.diff_scale !== null) $("scale").textContent = header.diff_scale.toFixed(3);
+  const e = header.environment;
+  $("rungs").textContent = e ? `${e.sky}: ${e.rungs} · variant ${e.variant}` : "no environment";
   for (let i = waiters.length - 1; i >= 0; i--) {
     if (header.seq >= waiters[i][0]) { waiters[i][1]({seq: header.seq, latency}); waiters.splice(i, 1); }
   }
@@ -89,11 +93,12 @@ function showCost(header) {
   const body = $("cost").tBodies[0];
   body.innerHTML = "";
   for (const [view, model] of Object.entries(header.models)) {
-    const s = header.stats[model];
+    const s = header.stats[header.costs[view]];
     const row = body.insertRow();
-    [`${view.toUpperCase()} ${model}`, s.mean_ms.toFixed(2), s.avg_fps.toFixed(0), s.low1_fps.toFixed(0)]
+    [`${view.toUpperCase()} ${header.costs[view]}`, s.mean_ms.toFixed(2), s.avg_fps.toFixed(0), s.low1_fps.toFixed(0)]
       .forEach((t) => { row.insertCell().textContent = t; });
   }
+  showLadder(header.ladder);
   $("stages").textContent = "frame: " + Object.entries(header.stages)
     .map(([k, v]) => `${k} ${v.toFixed(1)}`).join(" · ") + " ms";
   const sorted = [...latencies].sort((a, b) => a - b);
@@ -101,6 +106,50 @@ function showCost(header) {
   $("latency").textContent = `input → displayed: median ${median.toFixed(1)} ms over ${sorted.length} frames; ` +
     `${header.skipped} stale states skipped`;
 }
+
+function showLadder(ladder) {       // every model and rung shaded so far: its cost and, once measured, its error
+  const body = $("ladder").tBodies[0];
+  body.innerHTML = "";
+  for (const label of Object.keys(ladder).sort()) {
+    const row = body.insertRow();
+    [label, ladder[label].toFixed(2), skyErrors[label] != null ? skyErrors[label].toExponential(2) : ""]
+      .forEach((t) => { row.insertCell().textContent = t; });
+  }
+}
+
+function showSkyError(m) {
+  const e = (x) => x === null ? "—" : x.toExponential(2);       // no error where the truth is all zero
+  skyErrors[m.label] = m.rel_rmse;
+  const grazing = m.by_nv.find((bin) => bin.pixels > 0);
+  $("sky_error_out").textContent = `${m.label}: rel RMSE ${e(m.rel_rmse)}, max ${e(m.max_rel)} over ${m.pixels} pixels` +
+    (grazing ? `; n·v ≤ ${grazing.nv[1]}: ${e(grazing.rel_rmse)}` : "");
+  if (lastFrame) showLadder(lastFrame.ladder);
+}
+
+// ------------------------------------------------------------------ canvas size
+
+// The canvas fills the space beside the panel; it is rendered at its CSS size × the device pixel ratio ×
+// the resolution control (the server caps it, its aspect kept), or at the command's size ("fixed").
+const STAGE_MARGIN_PX = 30, LEGEND_PX = 40;
+function canvasSize() {
+  const mode = $("resolution").value, ratio = window.devicePixelRatio || 1;
+  if (mode === "fixed") return {css: [hello.width / ratio, hello.height / ratio], pixels: [hello.width, hello.height]};
+  const cssW = Math.max(1, Math.floor(window.innerWidth - $("panel").offsetWidth - STAGE_MARGIN_PX));
+  const cssH = Math.max(1, Math.floor(window.innerHeight - $("stage").getBoundingClientRect().top - LEGEND_PX));
+  const scale = +mode * ratio;
+  return {css: [cssW, cssH], pixels: [Math.max(1, Math.round(cssW * scale)), Math.max(1, Math.round(cssH * scale))]};
+}
+
+function layout() {                // the canvas's size followed: a new state when its pixels changed
+  if (!controls) return;
+  const size = canvasSize();
+  canvas.style.width = `${size.css[0]}px`; canvas.style.height = `${size.css[1]}px`;
+  if (controls.width !== size.pixels[0] || controls.height !== size.pixels[1]) {
+    [controls.width, controls.height] = size.pixels;
+    update();
+  }
+}
+window.addEventListener("resize", layout);
 
 // ------------------------------------------------------------------ messages
 
@@ -111,6 +160,10 @@ ws.onmessage = (event) => {
   else if (m.type === "error") { showError(m.message); $("error").dataset.seq = m.seq ?? seq; }
   else if (m.type === "saved") $("saved").textContent = `wrote ${m.files.join(", ")} in ${m.folder}\n` + m.commands.join("\n");
   else if (m.type === "oracle") showOracle(m);
+  else if (m.type === "sky_progress" && progress.push(m)) {
+    $("sky_error_out").textContent = `measuring ${m.label}: ${m.done}/${m.total} pixels…`;
+  }
+  else if (m.type === "sky_error") showSkyError(m);
   else if (m.type === "sent") {
     const r = records.findLast((x) => x.seq === m.seq);
     if (r) Object.assign(r, {server_ms: m.server_ms, pack_ms: m.pack_ms, render_ms: m.render_ms});
@@ -263,7 +316,7 @@ function start(m) {
   $("scene").textContent = `${m.scene} · ${m.width}×${m.height}`;
   const ramp = $("ramp").getContext("2d");
   m.ramp.forEach((rgb, i) => { ramp.fillStyle = `rgb(${rgb.join(",")})`; ramp.fillRect(i, 0, 1, 10); });
-  canvas.width = m.width; canvas.height = m.height;
+  canvas.width = m.width; canvas.height = m.height;      // until the first frame of the canvas's own size
   const list = $("models");
   for (const p of m.presets) list.append(new Option(p.name, p.id));
   for (const l of m.lobes) list.append(new Option(`${l.name} (${l.kind} lobe)`, l.id));
@@ -286,6 +339,9 @@ function start(m) {
   $("tonemap").addEventListener("change", () => { controls.tonemap = $("tonemap").value; update(); });
   $("samples").value = String(controls.samples);
   $("samples").addEventListener("change", () => { controls.samples = +$("samples").value; update(); });
+  startSky(m);
+  $("resolution").value = m.fixed_size ? "fixed" : "1";
+  $("resolution").addEventListener("change", layout);
   $("material").addEventListener("change", buildSliders);
   $("light").addEventListener("change", () => {
     $("intensity").value = controls.lights[$("light").value]?.scale ?? 1; drawSphere();
@@ -304,7 +360,40 @@ function start(m) {
   });
   buildSliders();
   drawSphere();
+  const size = canvasSize();
+  [controls.width, controls.height] = size.pixels;
+  canvas.style.width = `${size.css[0]}px`; canvas.style.height = `${size.css[1]}px`;
   update();
+}
+
+function startSky(m) {             // the environment picker and the rung controls, from the server's lists
+  const sky = controls.environment;
+  if (m.scene_sky) $("sky").append(new Option("the scene's own", ""));
+  for (const name of m.skies) $("sky").append(new Option(name, name));
+  for (const rung of m.rungs.diffuse) $("env_diffuse").append(new Option(rung, rung));
+  for (const rung of m.rungs.specular) $("env_specular").append(new Option(rung, rung));
+  $("env_samples").max = m.rungs.max_samples;
+  $("sky").value = sky.sky ?? "";
+  $("env_diffuse").value = sky.diffuse; $("env_specular").value = sky.specular; $("env_samples").value = sky.samples;
+  $("env_rotation").value = sky.rotation; $("env_rotation_out").textContent = sky.rotation;
+  $("env_intensity").value = sky.intensity; $("env_intensity_out").textContent = sky.intensity;
+  const set = (key, value) => { controls.environment[key] = value; update(); };
+  $("sky").addEventListener("change", () => set("sky", $("sky").value === "" ? null : $("sky").value));
+  $("env_diffuse").addEventListener("change", () => set("diffuse", $("env_diffuse").value));
+  $("env_specular").addEventListener("change", () => set("specular", $("env_specular").value));
+  $("env_samples").addEventListener("change", () => {
+    const n = Math.round(+$("env_samples").value);
+    if (n >= 1 && n <= m.rungs.max_samples) set("samples", n);
+  });
+  $("env_rotation").addEventListener("input", () => {
+    $("env_rotation_out").textContent = $("env_rotation").value; set("rotation", +$("env_rotation").value);
+  });
+  $("env_intensity").addEventListener("input", () => {
+    $("env_intensity_out").textContent = $("env_intensity").value; set("intensity", +$("env_intensity").value);
+  });
+  $("sky_error").addEventListener("click", () => {
+    $("sky_error_out").textContent = "measuring…"; send({type: "sky_error", seq: ++seq, controls});
+  });
 }
 
 // Orbit (drag), zoom (wheel), split divider (drag near the line).
@@ -338,7 +427,8 @@ canvas.addEventListener("wheel", (e) => {
 
 // For tests and the benchmark (benchmarks/measure/view_bench.py): drive the page, read what it shows.
 window.clshadeView = {
-  get controls() { return controls; }, get lastFrame() { return lastFrame; }, records, latencies,
+  get controls() { return controls; }, get lastFrame() { return lastFrame; }, get hello() { return hello; },
+  records, latencies, progress,
   set(patch) { Object.assign(controls, patch); return update(); },
   send(message) { send(message); },
   sendRaw(text) { ws.send(text); },

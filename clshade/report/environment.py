@@ -1,0 +1,137 @@
+"""The environment ladder (clshade.bench.environment's document) as Markdown tables, a short answer to the
+study's question under environment light, and an error-vs-time plot."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from clshade.report.tables import cell, markdown
+
+HEADER = ("model", "rung (diffuse/specular)", "N", "rel RMSE", "max rel err", "ms/frame", "FPS avg", "1 % low",
+          "0.1 % low")
+
+
+def _pct(x: float | None) -> str:
+    return cell(None if x is None else 100.0 * x, ".2f") + ("" if x is None else " %")
+
+
+def ladder_table(doc: dict) -> str:
+    """One row per model × rung × N: the error against the truth beside the frame time."""
+    rows = [[r["model"], f"{r['diffuse']}/{r['specular']}", cell(r["samples"]), _pct(r["rel_rmse"]),
+             _pct(r["max_rel"]), cell(r["mean_ms"], ".3f"), cell(r["avg_fps"], ".0f"), cell(r["low1_fps"], ".0f"),
+             cell(r["low01_fps"], ".0f")] for r in doc["rows"]]
+    return markdown(HEADER, rows)
+
+
+def nv_table(doc: dict) -> str:
+    """The relative RMSE of every row split by n·v (grazing views first)."""
+    bins = [f"n·v ∈ ({lo:g}, {hi:g}]" for lo, hi in zip(doc["nv_bins"][:-1], doc["nv_bins"][1:])]
+    rows = [[r["model"], f"{r['diffuse']}/{r['specular']}", cell(r["samples"])]
+            + [_pct(b["rel_rmse"]) + (f" ({b['pixels']} px)" if b["pixels"] else "") for b in r["by_nv"]]
+            for r in doc["rows"]]
+    return markdown(("model", "rung", "N", *bins), rows)
+
+
+def precompute_table(doc: dict) -> str:
+    """The sky's precompute: time and the bytes of every array it keeps."""
+    pre = doc["precompute"]
+    parts = ", ".join(f"{k} {v / 1e6:.3f}" for k, v in pre["bytes"].items())
+    return markdown(("map", "size", "precompute ms", "host MB", "device MB", "arrays (MB)"),
+                    [[Path(doc["environment"]["map"]).name if doc["environment"]["map"] else "uniform", "×".join(map(str, pre["size"])), cell(pre["ms"], ".2f"),
+                      cell(pre["total_bytes"] / 1e6, ".3f"), cell(pre["device_bytes"] / 1e6, ".3f"), parts]])
+
+
+def answer(doc: dict) -> list[str]:
+    """The study's question under this sky, from the rows: each model's time over Lambert's at the same rung
+    and N (median and range over the rungs both ran), and what its rungs buy: the cheapest rung's error and
+    the most accurate rung's, with its time over the cheapest."""
+    by_model: dict[str, list[dict]] = {}
+    for r in doc["rows"]:
+        by_model.setdefault(r["model"], []).append(r)
+    lambert = {(r["diffuse"], r["specular"], r["samples"]): r["mean_ms"] for r in by_model.get("lambert", [])}
+    lines = []
+    for model, rs in by_model.items():
+        base = min(rs, key=lambda r: r["mean_ms"])
+        best = min((r for r in rs if r["rel_rmse"] is not None), key=lambda r: r["rel_rmse"], default=None)
+        text = f"- **{model}**: cheapest rung {base['rung']} ({base['mean_ms']:.3f} ms, {_pct(base['rel_rmse'])} RMSE)"
+        if best is not None:
+            text += (f"; most accurate {best['rung']} ({_pct(best['rel_rmse'])} RMSE) for "
+                     f"{best['mean_ms'] / base['mean_ms']:.1f}× the cheapest rung's time")
+        ratios = sorted(r["mean_ms"] / lambert[k] for r in rs
+                        if (k := (r["diffuse"], r["specular"], r["samples"])) in lambert)
+        if model != "lambert" and ratios:
+            text += (f"; {ratios[len(ratios) // 2]:.2f}× Lambert's time at the same rung (median of "
+                     f"{len(ratios)}, {ratios[0]:.2f}–{ratios[-1]:.2f}×)")
+        lines.append(text + ".")
+    return lines
+
+
+def environment_markdown(doc: dict, level: int = 1) -> str:
+    """The whole document as Markdown (headings from `level`): what was measured, the answer, the ladder,
+    the n·v split, the precompute."""
+    env = doc["environment"]
+    sky = env["map"] or f"uniform {env['uniform']}"
+    h, hh = "#" * level, "#" * (level + 1)
+    head = [f"{h} Environment ladder: {Path(doc['scene']).name if doc.get('scene') else 'scene'} under {Path(sky).name}",
+            "",
+            f"{doc['width']}×{doc['height']}, {doc['frames']} timed frames per case after {doc['warmup']} warm-up, "
+            f"interleaved; {doc['device']['name']} ({doc['device']['platform']}). Error against the float64 "
+            f"truth on {doc['oracle_pixels']} pixels ({doc['error_definition']}). Created {doc['created']}.",
+            "", f"{hh} What each approximation buys", "", *answer(doc), "", f"{hh} The ladder", "", ladder_table(doc),
+            "", f"{hh} Error by n·v", "", nv_table(doc), "", f"{hh} Precompute", "", precompute_table(doc), ""]
+    return "\n".join(head)
+
+
+def environment_results_markdown(doc: dict) -> str:
+    """benchmarks/results/environment.json (one ladder document per sky under `runs`, skipped skies with
+    their reason) as Markdown."""
+    out = ["# Environment ladder: every sky", "", f"`{doc.get('command', '')}`", ""]
+    for skip in doc.get("skipped", []):
+        out.append(f"- skipped {skip['map']}: {skip['reason']}")
+    if doc.get("skipped"):
+        out.append("")
+    for run in doc["runs"]:
+        out.append(environment_markdown(run, level=2))
+        out.append("")
+    return "\n".join(out)
+
+
+def environment_plot(docs: list[dict], path: Path) -> None:
+    """Error (relative RMSE) against ms per frame, log–log: a line per model × sky × rung pair through its N
+    ladder, a marker per fixed rung."""
+    from clshade.report.plots import finish, pyplot
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(8, 5.5))
+    for doc in docs:
+        sky = Path(doc["environment"]["map"] or "uniform").stem
+        series: dict[tuple, list[dict]] = {}
+        for r in doc["rows"]:
+            if r["rel_rmse"] is None:
+                continue
+            series.setdefault((r["model"], r["diffuse"], r["specular"]), []).append(r)
+        for (model, d, s), rs in series.items():
+            rs = sorted(rs, key=lambda r: r["samples"] or 0)
+            x, y = [r["mean_ms"] for r in rs], [max(r["rel_rmse"], 1e-6) for r in rs]
+            label = f"{model} {d}/{s} ({sky})"
+            if len(rs) > 1:
+                ax.plot(x, y, marker="o", ms=3, lw=1, label=label)
+            else:
+                ax.scatter(x, y, marker="s", s=18, label=label)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("device ms per frame")
+    ax.set_ylabel("relative RMSE against the float64 truth")
+    ax.grid(True, which="both", lw=0.3)
+    finish(plt, fig, ax, path, "Environment ladder: error against time (lines: N = 1 … 1024)", 5)
+
+
+def environment_answer_markdown(doc: dict) -> str:
+    """benchmarks/REPORT.md's environment section (benchmarks/results/environment.json): per sky, what each
+    model's rungs buy and its time over Lambert's, with the link to the ladder tables and the plot."""
+    out = [f"From benchmarks/results/environment.json (`{doc.get('command', '')}`): the tables, the error split by "
+           "n·v and the precompute are in [results/environment.md](results/environment.md); error against time: "
+           "[results/environment.png](results/environment.png)."]
+    for run in doc["runs"]:
+        env = run["environment"]
+        sky = Path(env["map"]).name if env["map"] else f"uniform {env['uniform']}"
+        out += ["", f"**{sky}** ({run['width']}×{run['height']}, {run['device']['name']}):", "", *answer(run)]
+    return "\n".join(out)

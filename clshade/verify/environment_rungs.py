@@ -1,0 +1,46 @@
+"""The rungs of the environment ladder as the benchmark (clshade.bench.environment) and the stability check
+(clshade.verify.environment_stability) enumerate them: every diffuse × specular rung of
+clshade.render.environment (a rung added there is enumerated with no change here), a sampling one once per N."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from clshade.errors import ClshadeError
+from clshade.render import environment as E
+
+#: The sample ladder of the sampled rungs by default: N from 1 to the top the issue asks for (×4 a step:
+#: the Monte Carlo error halves per step, so each step is visible on a log plot).
+SAMPLE_LADDER = (1, 4, 16, 64, 256, 1024)
+
+
+@dataclass(frozen=True)
+class Rung:
+    """One configuration of the ladder: a diffuse and a specular rung, and N when one of them samples."""
+    diffuse: str
+    specular: str
+    samples: int | None = None
+
+    @property
+    def label(self) -> str:
+        n = f" N={self.samples}" if self.samples is not None else ""
+        return f"{self.diffuse}/{self.specular}{n}"
+
+
+def ladder_rungs(samples: tuple[int, ...] = SAMPLE_LADDER) -> list[Rung]:
+    """Every diffuse × specular rung of clshade.render.environment, a sampling one once per N of `samples`."""
+    samples = tuple(dict.fromkeys(samples))
+    for n in samples:
+        if E.check_rungs(E.DEFAULT_DIFFUSE, "none", n):
+            raise ClshadeError(f"sample ladder: N = {n}: {E.check_rungs(E.DEFAULT_DIFFUSE, 'none', n)}")
+    if not samples:
+        raise ClshadeError("sample ladder: no N given")
+    out = []
+    for d in E.DIFFUSE_RUNGS:
+        for s in E.SPECULAR_RUNGS:
+            if "sampled" in (d, s):
+                out += [Rung(d, s, n) for n in samples]
+            else:
+                out.append(Rung(d, s))
+    return out
+
+
