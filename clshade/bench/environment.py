@@ -35,7 +35,7 @@ from clshade.render import environment as E
 from clshade.render.scene import Scene, load_scene
 from clshade.verify import environment_oracle as O
 from clshade.verify import reference
-from clshade.verify.environment_rungs import SAMPLE_LADDER, Rung, ladder_rungs  # noqa: F401 (re-exported)
+from clshade.verify.environment_rungs import SAMPLE_LADDER, Rung, ladder_rungs, model_rungs  # noqa: F401 (re-exported)
 
 SCHEMA = "clshade-environment-bench/1"
 #: Precompute repetitions: the cold prepare() is timed this many times and the median kept (the first
@@ -113,8 +113,7 @@ def build_cases(bench: Bench, models: list[Model], rungs: list[Rung]) -> list[En
     scenes: dict[int | None, Scene] = {}
     cases = []
     for m in models:
-        # A model without a specular lobe shades every specular rung alike: only specular "none" is run.
-        for r in (rungs if m.specular != "none" else [r for r in rungs if r.specular == "none"]):
+        for r in model_rungs(m, rungs):
             sc = scenes.setdefault(r.samples, _with_samples(scene, r.samples))
             features = dataclasses.replace(bench.features, environment=EnvironmentFeatures(
                 r.diffuse, r.specular, sky.map_sampling, sky.background))

@@ -6,7 +6,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from clshade.errors import ClshadeError
+from clshade.models.model import Model
 from clshade.render import environment as E
+
+#: The specular rungs that prefilter the sky for a built-in lobe family (clshade.device.variants.split_family):
+#: a user's lobe has none, so the ladder leaves them out for it (the sampled rung serves every lobe).
+PREFILTERED = ("split_sum", "split_sum_ms")
 
 #: The sample ladder of the sampled rungs by default: N from 1 to the top the issue asks for (×4 a step:
 #: the Monte Carlo error halves per step, so each step is visible on a log plot).
@@ -44,3 +49,15 @@ def ladder_rungs(samples: tuple[int, ...] = SAMPLE_LADDER) -> list[Rung]:
     return out
 
 
+
+
+def model_rungs(model: Model, rungs: list[Rung]) -> list[Rung]:
+    """The rungs of `rungs` that shade `model` differently: a model without a specular lobe runs only specular
+    "none" (every specular rung shades it alike), and one whose lobe has no prefilter family (a user's lobe:
+    clshade/render/environment.py's LOBE_SAMPLING) skips the PREFILTERED rungs."""
+    if model.specular == "none":
+        return [r for r in rungs if r.specular == "none"]
+    lobe = model.specular_lobe
+    if lobe is None or lobe.is_users or lobe.id not in E.LOBE_SAMPLING:
+        return [r for r in rungs if r.specular not in PREFILTERED]
+    return list(rungs)

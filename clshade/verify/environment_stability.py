@@ -30,7 +30,7 @@ import numpy as np
 from clshade.device.runtime import Runtime
 from clshade.models.model import Model
 from clshade.render import environment as E
-from clshade.verify.environment_rungs import ladder_rungs
+from clshade.verify.environment_rungs import ladder_rungs, model_rungs
 
 #: Sample counts of the sampled rungs here: one sample (the noisiest image) and the default.
 ENV_SAMPLES = (1, E.DEFAULT_SAMPLES)
@@ -163,9 +163,7 @@ def run_environment(model: Model, rt: Runtime, skies: list[tuple[str, Path]] | N
             base = scene_features(scene)
             peak = float((E.sky_radiance(spec).astype(np.float64) @ np.array(E.LUMINANCE)).max())
             shaders: dict[int | None, Shader] = {}
-            for r in ladder_rungs(ENV_SAMPLES):
-                if model.specular == "none" and r.specular != "none":
-                    continue
+            for r in model_rungs(model, ladder_rungs(ENV_SAMPLES)):
                 sc = scene if r.samples is None else dataclasses.replace(
                     scene, environment=dataclasses.replace(spec, samples=r.samples))
                 shader = shaders.setdefault(r.samples, Shader(rt, gb, sc, camera))

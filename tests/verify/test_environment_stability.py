@@ -85,3 +85,25 @@ def test_a_nan_from_the_kernel_fails_the_check(monkeypatch):
     from clshade.report.stability import stability_text
     text = stability_text(rep)
     assert "environment (precise build, raw radiance): NaN " in text and "FAIL lambert+phong under synthetic sun" in text and "FAILED" in text
+
+
+def test_a_users_lobe_runs_every_rung_but_the_prefiltered_ones():
+    """split_sum prefilters for built-in lobe families only: the ladder (bench and stability) leaves it out for a
+    user's lobe instead of stopping at the kernel's refusal; Lambert runs the specular "none" rungs alone."""
+    from pathlib import Path
+    from clshade.verify.environment_rungs import PREFILTERED, ladder_rungs, model_rungs
+    rungs = ladder_rungs((1, 4))
+    lobes = Path(__file__).resolve().parents[2] / "scenes" / "lobes"
+    user = Registry().with_lobes(lobes / "ward.brdf").resolve("lambert+ward")
+    got = model_rungs(user, rungs)
+    assert got and not any(r.specular in PREFILTERED for r in got)
+    assert {r.specular for r in got} == set(E.SPECULAR_RUNGS) - set(PREFILTERED)
+    assert model_rungs(GGX, rungs) == rungs
+    assert {r.specular for r in model_rungs(Registry().resolve("lambert"), rungs)} == {"none"}
+
+
+def test_check_stability_of_a_users_lobe_under_the_sky(capsys):
+    from pathlib import Path
+    from clshade.cli import main
+    lobe = Path(__file__).resolve().parents[2] / "scenes" / "lobes" / "ward.brdf"
+    assert main(["check", "stability", "--model", str(lobe)]) == 0, capsys.readouterr().err
