@@ -32,8 +32,8 @@ SCENE = ROOT / "scenes" / "environment.toml"
 HDRI = ROOT.parent / "shared" / "assets" / "hdri"
 MODELS = ("lambert", "blinn_phong", "ggx_correlated", "cook_torrance")
 #: The sampled rung's N: enough points for a line through them to say whether the cost is linear in N.
-SAMPLES = (1, 4, 16, 64)
-ROUNDS = 15
+SAMPLES = (1, 2, 4, 8)
+ROUNDS = 9
 WARMUP = 2
 #: The one directional light of the baseline: white, from above and in front (the robot lit, not grazing).
 LIGHT_DIRECTION = (-0.3, -1.0, -0.45)

@@ -11,7 +11,7 @@ Each point: --frames orbit frames (after one untimed frame: the path's check and
 model (GGX height-correlated) on the default device; the median whole frame, its 1 % low, the G-buffer path
 and the stage medians.
 
-    python -m benchmarks.measure.frame_scale [--frames 8] [--width 1920 --height 1080]
+    python -m benchmarks.measure.frame_scale [--frames 6] [--width 1920 --height 1080]
 """
 from __future__ import annotations
 
@@ -124,7 +124,7 @@ def plot(doc: dict, out: Path) -> None:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--frames", type=int, default=8)
+    ap.add_argument("--frames", type=int, default=6)
     ap.add_argument("--width", type=int, default=1920)
     ap.add_argument("--height", type=int, default=1080)
     ap.add_argument("--device", default=None)
