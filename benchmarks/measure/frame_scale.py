@@ -43,9 +43,9 @@ def mesh_scene(folder: Path, mesh: Path) -> Path:
     """A scene of one mesh centred at the origin, scaled to unit radius, one directional light."""
     import trimesh
     m = trimesh.load(mesh, force="mesh")
-    centre = (m.bounds[0] + m.bounds[1]) / 2.0
+    centre = [float(x) for x in (m.bounds[0] + m.bounds[1]) / 2.0]
     radius = float(np.max(np.linalg.norm(m.vertices - centre, axis=1))) or 1.0
-    s = 1.0 / radius
+    s = float(1.0 / radius)
     text = f"""[camera]
 position = [0.0, 0.4, {FRAMING}]
 target = [0.0, 0.0, 0.0]
