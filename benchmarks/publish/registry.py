@@ -16,7 +16,9 @@ from clshade.report.accuracy import accuracy_markdown
 from clshade.report.brdf_explorer import brdf_explorer_markdown
 from clshade.report.bench import bench_1080p_markdown, readme_table, targets_table
 from clshade.report.effects import effects_markdown
-from clshade.report.environment import environment_answer_markdown, environment_results_markdown
+from clshade.report.environment import (environment_answer_markdown, environment_cost_markdown,
+                                        environment_results_markdown)
+from clshade.report.frame_scale import frame_scale_markdown
 from clshade.report.glsl_oracle import glsl_oracle_markdown
 from clshade.report.host import host_ab_markdown, memory_markdown, startup_markdown
 from clshade.report.mitsuba import mitsuba_envmap_markdown
@@ -99,6 +101,16 @@ RESULTS: tuple[Result, ...] = (
            (Rendering(OUT + "environment.md", environment_results_markdown),
             _region("benchmarks/REPORT.md", "environment-answer", environment_answer_markdown)),
            "with its plot: the environment ladder (model × rung × N), error against the truth beside time"),
+    Result(OUT + "environment_cost.json", "python -m benchmarks.measure.environment_cost",
+           ("kernels", "clshade/render/environment.py", "clshade/render/prefilter.py", "clshade/device/shade.py",
+            "clshade/device/variants.py", "benchmarks/measure/environment_cost.py"),
+           (Rendering(OUT + "environment_cost.md", environment_cost_markdown),),
+           "each sky rung's time at 1920×1080 against one directional light; the precompute per map"),
+    Result(OUT + "frame_scale.json", "python -m benchmarks.measure.frame_scale",
+           ("kernels", "clshade/pipeline.py", "clshade/bench/frame.py", "clshade/device/visibility.py",
+            "clshade/render", "benchmarks/measure/frame_scale.py"),
+           (Rendering(OUT + "frame_scale.md", frame_scale_markdown),),
+           "with its plot: whole frames against resolution (540p … 4K) and triangles (up to 1.3 M)"),
     Result(OUT + "aa.json", "clshade aa -o benchmarks/results/aa", ("kernels", "clshade/bench/aa.py"),
            (Rendering(OUT + "aa.md", aa_markdown),), "with its plots and crops: the anti-aliasing ladder"),
     Result(OUT + "raster.json", "python -m benchmarks.measure.raster_bench",

@@ -135,3 +135,46 @@ def environment_answer_markdown(doc: dict) -> str:
         sky = Path(env["map"]).name if env["map"] else f"uniform {env['uniform']}"
         out += ["", f"**{sky}** ({run['width']}×{run['height']}, {run['device']['name']}):", "", *answer(run)]
     return "\n".join(out)
+
+
+def environment_cost_markdown(doc: dict) -> str:
+    """benchmarks/results/environment_cost.md: each rung's device time at full size against one directional
+    light, the sampled rung's line in N, and the precompute per map (benchmarks/measure/environment_cost.py)."""
+    from clshade.report.tables import markdown
+    sh = doc["shading"]
+    out = ["# What light from the sky costs", "",
+           f"Rendered by `python -m benchmarks.publish` from benchmarks/results/environment_cost.json; how it is "
+           f"measured: the docstring of benchmarks/measure/environment_cost.py. {doc['scene']} at "
+           f"{sh['width']}×{sh['height']} ({sh['covered_pixels']} covered pixels) on {sh['device']['name']} "
+           f"({sh['device']['platform']}), median device ms of {sh['rounds']} interleaved rounds.", ""]
+    rows = []
+    for m in sh["models"]:
+        for r in m["rows"]:
+            rows.append([m["model"], r["rung"], f"{r['median_ms']:.3f}", f"{r['over_directional']:.2f}×",
+                         f"{r['spread_ms'][0]:.3f}–{r['spread_ms'][1]:.3f}"])
+    out += [markdown(["model", "lighting", "median ms", "× one directional light", "min–max ms"], rows), ""]
+    fits = [[m["model"], f"{m['sampled_fit']['ms_per_sample']:.4f}", f"{m['sampled_fit']['intercept_ms']:.3f}",
+             f"{m['sampled_fit']['max_rel_departure']:.1%}"] for m in sh["models"] if "sampled_fit" in m]
+    out += ["The sampled rung's cost against N (a least-squares line through its N):", "",
+            markdown(["model", "ms per sample", "ms at N = 0", "largest departure from the line"], fits), ""]
+    split = [r for m in sh["models"] for r in m["rows"] if r["rung"].endswith("/split_sum")]
+    if split:
+        worst = max(r["over_directional"] for r in split)
+        out += [f"Target (split sum ≤ 1.5× one directional light): worst model **{worst:.2f}×** — "
+                f"{'met' if worst <= 1.5 else 'missed'}.", ""]
+    pre = [[p["map"], f"{p['size'][0]}×{p['size'][1]}", f"{p['prepare_ms']:.0f}",
+            ", ".join(f"{k} {c['cold_ms']:.0f}" for k, c in p["chains"].items()),
+            ", ".join(f"{k} {t['cold_ms']:.0f}" for k, t in p["dfg"].items()),
+            f"**{p['ggx_split_sum_ms']:.0f}**", f"{p['all_families_ms']:.0f}",
+            f"{max(c['warm_ms'] for c in p['chains'].values()):.2f}",
+            f"{sum(c['bytes'] for c in p['chains'].values()) / 1e6:.1f}"] for p in doc["precompute"]]
+    out += ["The precompute on the host, cold (caches cleared), ms:", "",
+            markdown(["map", "size", "SH9 + CDFs", "mip chain per family", "DFG table per lobe",
+                      "GGX split sum in all (target < 1000)", "every family and lobe", "cached call (max)",
+                      "chains MB"], pre), ""]
+    if doc.get("skipped"):
+        out += [f"Skipped: {doc['skipped']}.", ""]
+    commit = (doc["provenance"].get("commit") or "unknown")[:10]
+    out += [f"*Commit {commit}; machine {doc['machine'].get('cpu', '')}, {doc['machine'].get('cores')} cores; "
+            f"measured {doc['created']} by `{doc['command']}`; load average {doc['load_average']}.*", ""]
+    return "\n".join(out)
