@@ -55,7 +55,7 @@ FAILED = "failed"
 SCHEMA = "clshade-tune/1"
 #: Part of every key: raised when what is measured changes (the candidates, the calibration frame, the
 #: rule that picks), so that entries measured the old way are measured again.
-TUNER_VERSION = 2
+TUNER_VERSION = 3
 #: Entries kept (one small JSON file each; a machine has a few devices, each new driver or kernel adds one).
 TUNE_CACHE_ENTRIES = 64
 #: The child process is stopped past this: the budgets (tune.TUNE_BUDGET_S per device, the same for the
