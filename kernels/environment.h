@@ -131,6 +131,16 @@ INLINE vec3 env_reflect(vec3 v, vec3 h) { return v3sub(v3scale(h, 2.0f * v3dot(v
 typedef struct { vec3 L; real pdf; } EnvTexel;
 
 /* Each lane's texel (a gather). */
+#ifdef CLSHADE_HARDWARE_GATHER
+INLINE EnvTexel env_fetch(__global const float4* map, mask index) {
+    __global const float* m = (__global const float*)map;
+    mask i = 4 * index;
+    EnvTexel e;
+    e.L = v3(gather(m, i), gather(m, i + 1), gather(m, i + 2));
+    e.pdf = gather(m, i + 3);
+    return e;
+}
+#else
 INLINE EnvTexel env_fetch(__global const float4* map, mask index) {
     mask_lanes k = {index};
     real_lanes r, g, b, p;
@@ -143,11 +153,67 @@ INLINE EnvTexel env_fetch(__global const float4* map, mask index) {
     e.pdf = p.v;
     return e;
 }
+#endif
 
 /* The sky's radiance and the map strategy's pdf in world direction d (unit). */
 INLINE EnvTexel env_lookup(vec3 d, __constant float4* P, __global const float4* map) {
     float4 p0 = P[0];
     return env_fetch(map, env_texel_index(env_to_map(d, p0), p0));
+}
+
+/* A bilinear footprint between texel centres of a W×H level whose first texel is `base` (u wraps, v
+ * clamps): the four texels' indices and the weights along u and v. */
+typedef struct { mask i00, i01, i10, i11; real fx, fy; } EnvQuad;
+
+INLINE EnvQuad env_quad(mask base, mask w, mask h, real wf, real hf, real u, real v) {
+    real x = u * wf - 0.5f, y = v * hf - 0.5f;
+    real x0 = floor(x), y0 = floor(y);
+    mask c0 = convert_mask_sat(x0), r0 = convert_mask_sat(y0);
+    mask c1 = c0 + 1;
+    c0 = c0 < 0 ? c0 + w : c0;
+    c1 = c1 >= w ? c1 - w : c1;
+    mask r1 = min(max(r0 + 1, 0), h - 1);
+    r0 = min(max(r0, 0), h - 1);
+    EnvQuad q;
+    q.i00 = base + r0 * w + c0;
+    q.i01 = base + r0 * w + c1;
+    q.i10 = base + r1 * w + c0;
+    q.i11 = base + r1 * w + c1;
+    q.fx = x - x0;
+    q.fy = y - y0;
+    return q;
+}
+
+/* The bilinear value of a footprint. With hardware gathers, channel by channel in lanes; else each lane's
+ * four texels are read and blended as float4, one write back into lanes per channel instead of one per
+ * texel and channel. */
+typedef struct { mask_lanes i00, i01, i10, i11; real_lanes fx, fy; } EnvQuadLanes;
+
+INLINE EnvQuadLanes env_quad_lanes(EnvQuad q) {
+    EnvQuadLanes l = {{q.i00}, {q.i01}, {q.i10}, {q.i11}, {q.fx}, {q.fy}};
+    return l;
+}
+
+INLINE float4 env_bilinear_lane(__global const float4* texels, EnvQuadLanes q, int j) {
+    float4 top = mix(texels[q.i00.s[j]], texels[q.i01.s[j]], q.fx.s[j]);
+    float4 bottom = mix(texels[q.i10.s[j]], texels[q.i11.s[j]], q.fx.s[j]);
+    return mix(top, bottom, q.fy.s[j]);
+}
+
+INLINE vec3 env_bilinear(__global const float4* texels, EnvQuad q) {
+#ifdef CLSHADE_HARDWARE_GATHER
+    vec3 top = v3mix(env_fetch(texels, q.i00).L, env_fetch(texels, q.i01).L, q.fx);
+    vec3 bottom = v3mix(env_fetch(texels, q.i10).L, env_fetch(texels, q.i11).L, q.fx);
+    return v3mix(top, bottom, q.fy);
+#else
+    EnvQuadLanes l = env_quad_lanes(q);
+    real_lanes r, g, b;
+    for (int j = 0; j < SIMD; ++j) {
+        float4 c = env_bilinear_lane(texels, l, j);
+        r.s[j] = c.x; g.s[j] = c.y; b.s[j] = c.z;
+    }
+    return v3(r.v, g.v, b.v);
+#endif
 }
 
 #if ENV_BACKGROUND
@@ -162,21 +228,10 @@ INLINE vec3 env_background(uint first, uint width, float inv_width2, float inv_h
     real sy = 1.0f - (convert_real(row) + 0.5f) * inv_height2;
     vec3 ray = v3add(v3c(cam_fwd.xyz), v3add(v3scale(v3c(cam_right.xyz), sx), v3scale(v3c(cam_up.xyz), sy)));
     float4 p0 = P[0];
-    int w = (int)p0.z, h = (int)p0.w;
     real u, v;
     env_uv(env_to_map(v3scale(ray, rsqrt(v3dot(ray, ray))), p0), &u, &v);
-    real x = u * p0.z - 0.5f, y = v * p0.w - 0.5f;
-    real x0 = floor(x), y0 = floor(y);
-    real fx = x - x0, fy = y - y0;
-    mask c0 = convert_mask_sat(x0), r0 = convert_mask_sat(y0);
-    mask c1 = c0 + 1;
-    c0 = c0 < 0 ? c0 + w : c0;
-    c1 = c1 >= w ? c1 - w : c1;
-    mask r1 = min(max(r0 + 1, 0), h - 1);
-    r0 = min(max(r0, 0), h - 1);
-    vec3 top = v3mix(env_fetch(map, r0 * w + c0).L, env_fetch(map, r0 * w + c1).L, fx);
-    vec3 bottom = v3mix(env_fetch(map, r1 * w + c0).L, env_fetch(map, r1 * w + c1).L, fx);
-    return v3mix(top, bottom, fy);
+    return env_bilinear(map, env_quad((mask)(0), (mask)((int)p0.z), (mask)((int)p0.w), (real)(p0.z), (real)(p0.w),
+                                      u, v));
 }
 #endif
 
@@ -439,23 +494,29 @@ INLINE vec3 env_sampled(vec3 n, vec3 v, const Surface s, uindex pixel, uint samp
 
 INLINE real env_lerp(real a, real b, real t) { return a + (b - a) * t; }
 
-/* Level k (per lane) of the mip chain at map coordinates (u, v): bilinear between texel centres,
- * u wrapping, v clamped (as env_background). */
-INLINE vec3 env_level(__global const float* levels, __global const float4* mips, mask k, real u, real v) {
+/* The mip chain at map coordinates (u, v), linear between levels k and k + 1 (per lane) by `frac`, each
+ * level bilinear (env_quad). The eight texels of a lane are read and blended as float4 in one pass. */
+INLINE EnvQuad env_level_quad(__global const float* levels, mask k, real u, real v) {
     real wf = gather(levels, 4 * k + 1), hf = gather(levels, 4 * k + 2);
-    mask base = convert_mask_sat(gather(levels, 4 * k)), w = convert_mask_sat(wf), h = convert_mask_sat(hf);
-    real x = u * wf - 0.5f, y = v * hf - 0.5f;
-    real x0 = floor(x), y0 = floor(y);
-    real fx = x - x0, fy = y - y0;
-    mask c0 = convert_mask_sat(x0), r0 = convert_mask_sat(y0);
-    mask c1 = c0 + 1;
-    c0 = c0 < 0 ? c0 + w : c0;
-    c1 = c1 >= w ? c1 - w : c1;
-    mask r1 = min(max(r0 + 1, 0), h - 1);
-    r0 = min(max(r0, 0), h - 1);
-    vec3 top = v3mix(env_fetch(mips, base + r0 * w + c0).L, env_fetch(mips, base + r0 * w + c1).L, fx);
-    vec3 bottom = v3mix(env_fetch(mips, base + r1 * w + c0).L, env_fetch(mips, base + r1 * w + c1).L, fx);
-    return v3mix(top, bottom, fy);
+    return env_quad(convert_mask_sat(gather(levels, 4 * k)), convert_mask_sat(wf), convert_mask_sat(hf), wf, hf,
+                    u, v);
+}
+
+INLINE vec3 env_prefiltered(__global const float* levels, __global const float4* mips, mask k, real frac, real u,
+                            real v) {
+#ifdef CLSHADE_HARDWARE_GATHER
+    return v3mix(env_bilinear(mips, env_level_quad(levels, k, u, v)),
+                 env_bilinear(mips, env_level_quad(levels, k + 1, u, v)), frac);
+#else
+    EnvQuadLanes a = env_quad_lanes(env_level_quad(levels, k, u, v));
+    EnvQuadLanes b = env_quad_lanes(env_level_quad(levels, k + 1, u, v));
+    real_lanes t = {frac}, r, g, bl;
+    for (int j = 0; j < SIMD; ++j) {
+        float4 c = mix(env_bilinear_lane(mips, a, j), env_bilinear_lane(mips, b, j), t.s[j]);
+        r.s[j] = c.x; g.s[j] = c.y; bl.s[j] = c.z;
+    }
+    return v3(r.v, g.v, bl.v);
+#endif
 }
 
 /* The lookup coordinate t in [0, 1] of the lobe (clshade/render/prefilter.py): the roughness, or
@@ -480,7 +541,7 @@ INLINE vec3 env_split_sum(vec3 n, vec3 v, const Surface s, __constant float4* P,
     real lod = t * (real)(ENV_LEVELS - 1);
     real l0 = fmin(floor(lod), (real)(ENV_LEVELS - 2));
     mask k0 = convert_mask_sat(l0);
-    vec3 pre = v3mix(env_level(levels, mips, k0, u, w), env_level(levels, mips, k0 + 1, u, w), lod - l0);
+    vec3 pre = env_prefiltered(levels, mips, k0, lod - l0, u, w);
     real x = nv * (real)(ENV_DFG_SIZE - 1), y = t * (real)(ENV_DFG_SIZE - 1);
     real x0 = fmin(floor(x), (real)(ENV_DFG_SIZE - 2)), y0 = fmin(floor(y), (real)(ENV_DFG_SIZE - 2));
     real fx = x - x0, fy = y - y0;

@@ -300,8 +300,22 @@ typedef union { real v; float s[SIMD]; } real_lanes;
 typedef union { uindex v; uint s[SIMD]; } uindex_lanes;
 typedef union { mask v; int s[SIMD]; } mask_lanes;
 
-/* p[idx] per lane: a gather, one scalar load per lane (AVX2 has vgatherdps,
- * but PoCL's LLVM does not emit it from this). */
+/* p[idx] per lane: a gather. Where the kernel compiles for AVX2 (PoCL on x86), vgatherdps, one
+ * instruction per 8 lanes (PoCL's LLVM does not emit it from a loop of loads); else one scalar load per
+ * lane (Intel's CPU compiler defines no __AVX2__; CLSHADE_SCALAR_GATHER forces it). */
+#if defined(__x86_64__) && defined(__AVX2__) && SIMD >= 4 && !defined(CLSHADE_SCALAR_GATHER)
+#define CLSHADE_HARDWARE_GATHER 1
+#define CLSHADE_GATHER8(p, i) __builtin_ia32_gatherd_ps256((float8)(0.0f), (p), (i), as_float8((int8)(-1)), 4)
+INLINE real gather(__global const float* p, mask idx) {
+#if SIMD == 4
+    return __builtin_ia32_gatherd_ps((float4)(0.0f), p, idx, as_float4((int4)(-1)), 4);
+#elif SIMD == 8
+    return CLSHADE_GATHER8(p, idx);
+#else
+    return (float16)(CLSHADE_GATHER8(p, idx.lo), CLSHADE_GATHER8(p, idx.hi));
+#endif
+}
+#else
 INLINE real gather(__global const float* p, mask idx) {
     mask_lanes k = {idx};
     real_lanes r;
@@ -309,6 +323,7 @@ INLINE real gather(__global const float* p, mask idx) {
         r.s[j] = p[k.s[j]];
     return r.v;
 }
+#endif
 
 /* The double build: OpenCL's fmax(double, float) is ambiguous (the double and the
  * doublen-with-scalar overloads), and the kernels mix real operands with float

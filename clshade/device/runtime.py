@@ -265,6 +265,11 @@ CACHED_STORES = "-DCLSHADE_CACHED_STORES"
 # PREFETCH_AHEAD). CLSHADE_NO_PREFETCH=1 leaves the hint out.
 ENV_NO_PREFETCH = "CLSHADE_NO_PREFETCH"
 NO_PREFETCH = "-DCLSHADE_NO_PREFETCH"
+# kernels/simd.h gathers with AVX2's vgatherdps where the kernel compiles for AVX2 (PoCL on x86), one
+# instruction per 8 lanes. CLSHADE_SCALAR_GATHER=1 loads lane by lane instead (for a CPU whose gathers
+# are slow, as under Intel's Gather Data Sampling mitigation).
+ENV_SCALAR_GATHER = "CLSHADE_SCALAR_GATHER"
+SCALAR_GATHER = "-DCLSHADE_SCALAR_GATHER"
 # The work-group size of every dispatch (the kernels use no local memory and guard the tail of a
 # padded global size, so any size runs them). CLSHADE_LOCAL_SIZE=N forces one.
 LOCAL_SIZE = 64
@@ -416,7 +421,8 @@ class Runtime:
         self._programs: dict[str, object] = {}
         self._kernels: dict[tuple[str, str], object] = {}
         self._facts: dict[tuple[str, ...], dict[str, bool]] = {}
-        self._base_options = tuple(options) + (("-DCLSHADE_HOST_AVX512F",) if host_has_avx512f() else ())
+        self._base_options = (tuple(options) + (("-DCLSHADE_HOST_AVX512F",) if host_has_avx512f() else ())
+                              + ((SCALAR_GATHER,) if _flag(ENV_SCALAR_GATHER) else ()))
         self._honour_env = True
         self.family: str | None = None      # the model family this runtime builds for (None: the general choice)
         self.family_choices: dict[str, BuildChoice] = {}
