@@ -39,6 +39,7 @@ import shlex
 import statistics
 import sys
 import tempfile
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -137,24 +138,31 @@ def _fit_window(driver, size: tuple[int, int]) -> None:
         raise RuntimeError(f"the canvas did not reach {size[0]}x{size[1]}: its frames are {frame[0]}x{frame[1]}")
 
 
-def measure_canvas(frames: int, repeats: int) -> dict:
-    """Orbit frames per second with the canvas following a window at CANVAS (closed-loop blocks)."""
+@contextmanager
+def _page(session, tmp: str):
+    """Chromium on the session's viewer, its first frame shown; quit on the way out."""
     from clshade.view import headless
     from clshade.view.server import ServerThread
+    with ServerThread(session) as url:
+        driver = headless.chromium(Path(tmp) / "profile", 1700, 900, 600)
+        try:
+            driver.get(url)
+            driver.execute_async_script("const done = arguments[0]; const wait = () => window.clshadeView "
+                                        "&& window.clshadeView.lastFrame ? done() : setTimeout(wait, 20); wait();")
+            yield driver
+        finally:
+            driver.quit()
+
+
+def measure_canvas(frames: int, repeats: int) -> dict:
+    """Orbit frames per second with the canvas following a window at CANVAS (closed-loop blocks)."""
     from clshade.view.session import ViewSession
     with tempfile.TemporaryDirectory(prefix="view-bench-1080-") as tmp:
         session = ViewSession(SCENE, tmp)                  # no size given: the page's canvas decides
-        with ServerThread(session) as url:
-            driver = headless.chromium(Path(tmp) / "profile", 1700, 900, 600)
-            try:
-                driver.get(url)
-                driver.execute_async_script("const done = arguments[0]; const wait = () => window.clshadeView "
-                                            "&& window.clshadeView.lastFrame ? done() : setTimeout(wait, 20); wait();")
-                _fit_window(driver, CANVAS)
-                _run(driver, CLOSED_LOOP, "orbit", 10)       # warm-up at the big size
-                runs = [_run(driver, CLOSED_LOOP, "orbit", frames) for _ in range(repeats)]
-            finally:
-                driver.quit()
+        with _page(session, tmp) as driver:
+            _fit_window(driver, CANVAS)
+            _run(driver, CLOSED_LOOP, "orbit", 10)           # warm-up at the big size
+            runs = [_run(driver, CLOSED_LOOP, "orbit", frames) for _ in range(repeats)]
     records = [r for b in runs for r in b["records"]]
     rates = [len(b["records"]) / b["seconds"] for b in runs]
     return dict(width=CANVAS[0], height=CANVAS[1], rate_per_s_median=float(np.median(rates)), rate_per_s_blocks=rates,
@@ -163,7 +171,6 @@ def measure_canvas(frames: int, repeats: int) -> dict:
 
 def measure(frames: int, repeats: int, drag_seconds: float, canvas_only: bool = False) -> dict:
     from clshade.view import headless
-    from clshade.view.server import ServerThread
     from clshade.view.session import ViewSession
     if canvas_only:
         canvas = measure_canvas(frames, repeats)
@@ -172,21 +179,14 @@ def measure(frames: int, repeats: int, drag_seconds: float, canvas_only: bool = 
                     met={"canvas_1080_orbit_fps": canvas["rate_per_s_median"] >= TARGETS["canvas_1080_orbit_fps"]})
     with tempfile.TemporaryDirectory(prefix="view-bench-") as tmp:
         session = ViewSession(SCENE, tmp, WIDTH, HEIGHT)
-        with ServerThread(session) as url:
-            driver = headless.chromium(Path(tmp) / "profile", 1700, 900, 600)
-            try:
-                driver.get(url)
-                driver.execute_async_script("const done = arguments[0]; const wait = () => window.clshadeView "
-                                            "&& window.clshadeView.lastFrame ? done() : setTimeout(wait, 20); wait();")
-                for kind in ("reshade", "orbit"):                     # warm-up: kernels built, caches filled
-                    _run(driver, CLOSED_LOOP, kind, 10)
-                blocks: dict[str, list[dict]] = {"reshade": [], "orbit": [], "drag": []}
-                for _ in range(repeats):
-                    for kind in ("reshade", "orbit"):
-                        blocks[kind].append(_run(driver, CLOSED_LOOP, kind, frames))
-                    blocks["drag"].append(_run(driver, OPEN_LOOP, drag_seconds, DRAG_HZ))
-            finally:
-                driver.quit()
+        with _page(session, tmp) as driver:
+            for kind in ("reshade", "orbit"):                         # warm-up: kernels built, caches filled
+                _run(driver, CLOSED_LOOP, kind, 10)
+            blocks: dict[str, list[dict]] = {"reshade": [], "orbit": [], "drag": []}
+            for _ in range(repeats):
+                for kind in ("reshade", "orbit"):
+                    blocks[kind].append(_run(driver, CLOSED_LOOP, kind, frames))
+                blocks["drag"].append(_run(driver, OPEN_LOOP, drag_seconds, DRAG_HZ))
         device = session.runtime.info.description
     out: dict = dict(device=device, scene="scenes/robot.toml", width=WIDTH, height=HEIGHT,
                      frames_per_block=frames, repeats=repeats, drag_hz=DRAG_HZ, drag_seconds=drag_seconds,
