@@ -95,33 +95,61 @@ def environment_results_markdown(doc: dict) -> str:
     return "\n".join(out)
 
 
+#: One marker per rung pair (diffuse/specular) in environment_plot, in a fixed order so that a pair looks
+#: the same in every panel and every run.
+RUNG_MARKERS = "os^vDPX*<>hpd8H"
+
+
 def environment_plot(docs: list[dict], path: Path) -> None:
-    """Error (relative RMSE) against ms per frame, log–log: a line per model × sky × rung pair through its N
-    ladder, a marker per fixed rung."""
-    from clshade.report.plots import finish, pyplot
+    """Error (relative RMSE) against ms per frame, log–log, a panel per sky: a colour per model, a marker per
+    rung pair; a line through the N ladder of each sampled pair, a lone marker for each fixed one."""
+    import math
+
+    from clshade.report.plots import pyplot, write_figure
     plt = pyplot()
-    fig, ax = plt.subplots(figsize=(8, 5.5))
+    models, pairs = [], []
     for doc in docs:
-        sky = Path(doc["environment"]["map"] or "uniform").stem
-        series: dict[tuple, list[dict]] = {}
         for r in doc["rows"]:
             if r["rel_rmse"] is None:
                 continue
-            series.setdefault((r["model"], r["diffuse"], r["specular"]), []).append(r)
+            if r["model"] not in models:
+                models.append(r["model"])
+            if (r["diffuse"], r["specular"]) not in pairs:
+                pairs.append((r["diffuse"], r["specular"]))
+    colours = {m: f"C{k % 10}" for k, m in enumerate(models)}
+    markers = {p: RUNG_MARKERS[k % len(RUNG_MARKERS)] for k, p in enumerate(pairs)}
+    cols = min(3, max(1, len(docs)))
+    rows = math.ceil(max(1, len(docs)) / cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols + 2.4, 3.6 * rows), squeeze=False, sharex=True,
+                             sharey=True)
+    for ax, doc in zip(axes.flat, docs):
+        series: dict[tuple, list[dict]] = {}
+        for r in doc["rows"]:
+            if r["rel_rmse"] is not None:
+                series.setdefault((r["model"], r["diffuse"], r["specular"]), []).append(r)
         for (model, d, s), rs in series.items():
             rs = sorted(rs, key=lambda r: r["samples"] or 0)
             x, y = [r["mean_ms"] for r in rs], [max(r["rel_rmse"], 1e-6) for r in rs]
-            label = f"{model} {d}/{s} ({sky})"
-            if len(rs) > 1:
-                ax.plot(x, y, marker="o", ms=3, lw=1, label=label)
-            else:
-                ax.scatter(x, y, marker="s", s=18, label=label)
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("device ms per frame")
-    ax.set_ylabel("relative RMSE against the float64 truth")
-    ax.grid(True, which="both", lw=0.3)
-    finish(plt, fig, ax, path, "Environment ladder: error against time (lines: N = 1 … 1024)", 5)
+            ax.plot(x, y, color=colours[model], marker=markers[(d, s)], ms=4, lw=0.8 if len(rs) > 1 else 0,
+                    mfc="none" if len(rs) > 1 else colours[model])
+        ax.set_title(Path(doc["environment"]["map"] or "uniform").stem, fontsize=9)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.grid(True, which="both", lw=0.3)
+    for ax in axes.flat[len(docs):]:
+        ax.set_visible(False)
+    for ax in axes[-1]:
+        ax.set_xlabel("device ms per frame")
+    for ax in axes[:, 0]:
+        ax.set_ylabel("relative RMSE vs the float64 truth")
+    handles = [plt.Line2D([], [], color=colours[m], lw=2, label=m) for m in models]
+    handles += [plt.Line2D([], [], color="0.3", marker=markers[p], lw=0, label=f"{p[0]}/{p[1]}") for p in pairs]
+    fig.legend(handles=handles, loc="center right", fontsize=7, frameon=False,
+               title="model (colour), diffuse/specular rung (marker)", title_fontsize=7)
+    fig.suptitle("Environment ladder: error against time (sampled rungs: a line through N = 1 … 1024, hollow)",
+                 fontsize=10)
+    fig.tight_layout(rect=(0, 0, 1 - 2.4 / (4.2 * cols + 2.4), 0.97))
+    write_figure(plt, fig, path)
 
 
 def environment_answer_markdown(doc: dict) -> str:
