@@ -215,8 +215,10 @@ def test_a_damaged_cache_file_is_measured_again(cache):
     key = tuned.device_key(Info, "OpenCL 3.0 PoCL", "3.1")
     path = tuned.entry_path(tuned.DEVICE, key)
     path.parent.mkdir(parents=True, exist_ok=True)
-    for damaged in (b"{not json", b"\xff\xfe", json.dumps({"schema": tuned.SCHEMA, "kind": "device",
-                                                            "key": {"other": 1}, "status": "measured"}).encode()):
+    # An entry of another key, whole (every family's choice): only the key tells it from this device's.
+    foreign = {"schema": tuned.SCHEMA, "kind": "device", "key": {"other": 1}, "status": "measured",
+               "choice": FIXED.as_dict(), "families": {f: {"choice": FIXED.as_dict()} for f in tuned.families()}}
+    for damaged in (b"{not json", b"\xff\xfe", json.dumps(foreign).encode()):
         path.write_bytes(damaged)
         tuned.forget()
         entry, _ = _lookup(cache, key)
