@@ -24,11 +24,11 @@ ROOT = Path(__file__).resolve().parents[2]
 # leaves this list. The list lives here, outside every result's producers, so that taking a result off it
 # does not make that result stale again (tests/ produces mutants.json).
 KNOWN_STALE: dict[str, str] = {
-    "benchmarks/results/mutants.json": "mutation catalogue (benchmarks/mutation, hours on 2 cores): each row names the "
-                    "commit it ran on — a --resume run on main's code before the image-based-lighting merge, stopped "
-                    "while helpers loaded the cores, earlier full runs, and the --only runs of each branch's new "
-                    "mutants; the newest mutants are listed as not run. benchmarks/results/mutants.md counts them; "
-                    "`python -m benchmarks.mutation.run --resume` goes on from there",
+    "benchmarks/results/mutants.json": "mutation catalogue (benchmarks/mutation; the whole catalogue takes hours on 2 "
+                    "cores): a --resume run on the current code, cheapest mutants first, stopped at the end of a "
+                    "session; each row names the commit it ran on, the rows not reached keep an earlier commit's "
+                    "result or 'not run'. benchmarks/results/mutants.md counts them; `python -m "
+                    "benchmarks.mutation.run --resume --jobs 2` goes on from there while its code is unchanged",
 }
 
 
