@@ -107,11 +107,35 @@ INLINE vec3 env_to_world(vec3 d, float4 p0) {
     return v3(p0.x * d.x + p0.y * d.z, d.y, p0.x * d.z - p0.y * d.x);
 }
 
-/* (u, v) of a unit direction of the map's frame. */
+/* atan(a) for a in [0, 1]: a·P(a²), P of degree 7 fitted by least squares on Chebyshev nodes; its float32
+ * error is < 1.4e-7 rad, within float32 spacing of π/4 (libm's atan2 and acos cost four times as much). */
+INLINE real env_atan01(real a) {
+    real s = a * a;
+    real p = fma(s, -0.004073120653629303f, 0.021945958957076073f);
+    p = fma(s, p, -0.056062281131744385f);
+    p = fma(s, p, 0.09656194597482681f);
+    p = fma(s, p, -0.13915780186653137f);
+    p = fma(s, p, 0.19948504865169525f);
+    p = fma(s, p, -0.3333010673522949f);
+    p = fma(s, p, 0.999999463558197f);
+    return a * p;
+}
+
+/* atan2(y, x) in [−π, π] by octant reduction onto env_atan01; (0, 0) gives 0. */
+INLINE real env_atan2(real y, real x) {
+    real ax = fabs(x), ay = fabs(y);
+    real r = env_atan01(fmin(ax, ay) / fmax(fmax(ax, ay), FLT_MIN));
+    r = ay > ax ? 0.5f * CLSHADE_PI - r : r;
+    r = x < 0.0f ? CLSHADE_PI - r : r;
+    return copysign(r, y);
+}
+
+/* (u, v) of a unit direction of the map's frame; v's polar angle as atan2 of (sin θ, cos θ), exact at
+ * the poles where acos loses precision. */
 INLINE void env_uv(vec3 d, real* u, real* v) {
-    real a = atan2(d.x, -d.z) * (0.5f * CLSHADE_INV_PI);
+    real a = env_atan2(d.x, -d.z) * (0.5f * CLSHADE_INV_PI);
     *u = a < 0.0f ? a + 1.0f : a;
-    *v = acos(clamp(d.y, -1.0f, 1.0f)) * CLSHADE_INV_PI;
+    *v = env_atan2(sqrt(d.x * d.x + d.z * d.z), d.y) * CLSHADE_INV_PI;
 }
 
 /* The index of the texel holding a unit direction of the map's frame (nearest: the map is piecewise
