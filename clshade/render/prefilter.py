@@ -127,14 +127,16 @@ def _level_width(width: int, k: int) -> int:
 def _convolve(source: np.ndarray, fam: str, t: float) -> np.ndarray:
     """(H, W, 3) the normalised prefilter of a (H, W, 3) map at every texel centre: the weight
     depends on the rows and the column difference only, so the sum over columns is a circular
-    convolution, taken by FFT along each row."""
+    convolution, taken by FFT along each row. The weight is even in the column difference Δφ: it is
+    evaluated for Δφ in [0, π] only (W is even: _level_width) and mirrored, half the work."""
     h, w, _ = source.shape
     theta = np.pi * (np.arange(h) + 0.5) / h
     omega = texel_solid_angles(w, h)
-    dphi = 2.0 * np.pi * np.arange(w) / w
+    dphi = 2.0 * np.pi * np.arange(w // 2 + 1) / w
     c = (np.cos(theta)[:, None, None] * np.cos(theta)[None, :, None]
          + np.sin(theta)[:, None, None] * np.sin(theta)[None, :, None] * np.cos(dphi)[None, None, :])
-    k = _weight(fam, c, t) * omega[None, :, None]              # (out row, source row, Δφ)
+    half = _weight(fam, c, t) * omega[None, :, None]           # (out row, source row, Δφ in [0, π])
+    k = np.concatenate([half, half[:, :, w // 2 - 1:0:-1]], axis=2)
     norm = k.sum(axis=(1, 2))
     kf = np.fft.rfft(k, axis=2)                                # real and even in Δφ: a convolution
     sf = np.fft.rfft(source, axis=1)                           # (source row, frequency, channel)
