@@ -108,7 +108,7 @@ INLINE vec3 env_to_world(vec3 d, float4 p0) {
 }
 
 /* atan(a) for a in [0, 1]: a·P(a²), P of degree 7 fitted by least squares on Chebyshev nodes; its float32
- * error is < 1.4e-7 rad, within float32 spacing of π/4 (libm's atan2 and acos cost four times as much). */
+ * error is < 1.4e-7 rad, within float32 spacing of π/4 (libm's atan2 and acos cost about three times as much). */
 INLINE real env_atan01(real a) {
     real s = a * a;
     real p = fma(s, -0.004073120653629303f, 0.021945958957076073f);
@@ -518,14 +518,16 @@ INLINE vec3 env_sampled(vec3 n, vec3 v, const Surface s, uindex pixel, uint samp
 
 INLINE real env_lerp(real a, real b, real t) { return a + (b - a) * t; }
 
-/* The mip chain at map coordinates (u, v), linear between levels k and k + 1 (per lane) by `frac`, each
- * level bilinear (env_quad). The eight texels of a lane are read and blended as float4 in one pass. */
+/* Level k's bilinear footprint at map coordinates (u, v), k per lane (its row of env_levels). */
 INLINE EnvQuad env_level_quad(__global const float* levels, mask k, real u, real v) {
     real wf = gather(levels, 4 * k + 1), hf = gather(levels, 4 * k + 2);
     return env_quad(convert_mask_sat(gather(levels, 4 * k)), convert_mask_sat(wf), convert_mask_sat(hf), wf, hf,
                     u, v);
 }
 
+/* The mip chain at map coordinates (u, v), linear between levels k and k + 1 (per lane) by `frac`, each
+ * level bilinear (env_quad). Without hardware gathers the eight texels of a lane are read and blended as
+ * float4 in one pass. */
 INLINE vec3 env_prefiltered(__global const float* levels, __global const float4* mips, mask k, real frac, real u,
                             real v) {
 #ifdef CLSHADE_HARDWARE_GATHER

@@ -76,12 +76,9 @@ BUILD_SHARE = 0.6
 #: candidates × two models still takes well under 0.2 s.
 CALIBRATION_SCENE = "sphere_grid.toml"
 CALIBRATION_SIZE = (1280, 720)
-#: Per family (tuned.families()), the models its race shades, one per kind of work the family's lobes
-#: spend their time in, so that a choice faster for one of them is not missed: every diffuse lobe
-#: (Lambert, memory-bound: the prefetch and stores matter most; Oren–Nayar's square roots and divisions;
-#: Burley's pow); an empirical lobe (powers: exp2, log2); GGX (sqrt, divisions) and Cook–Torrance
-#: (Beckmann's exp), the specular ones over Lambert. A race on GGX alone kept the library's math on
-#: PoCL 3.1, where inline math is faster for Cook–Torrance (benchmarks/results/tuning.md).
+#: Per family (tuned.families()), the models its race shades: one per kind of work its lobes spend time in
+#: (memory, square roots and divisions, pow, exp), so that a choice faster for one of them is not missed;
+#: docs/bench-notes.md says why (a race on GGX alone missed inline math's gain for Cook–Torrance).
 CALIBRATION_MODELS = {"diffuse": ("lambert", "oren_nayar", "burley"), "empirical": ("lambert+blinn_phong",),
                       "microfacet": ("lambert+ggx_correlated", "lambert+cook_torrance")}
 #: Work-group sizes raced beside runtime.LOCAL_SIZE (64): a quarter and four times it. PoCL runs a

@@ -6,6 +6,8 @@ import math
 import random
 import statistics
 
+import pytest
+
 from clshade.bench.tuning import held_out_ratio
 
 
@@ -37,6 +39,5 @@ def test_a_truly_faster_choice_is_found_by_the_held_out_ratio():
 
 
 def test_the_rounds_must_be_split():
-    import pytest
     with pytest.raises(ValueError, match="two rounds"):
         held_out_ratio({"a": [1.0], "b": [1.0, 2.0]}, "a")
