@@ -84,17 +84,26 @@ def level_t(levels: int = LEVELS) -> np.ndarray:
 
 
 def _weight(fam: str, c: np.ndarray, t: float) -> np.ndarray:
-    """The prefilter weight of a direction at cosine c from r (module docstring), unnormalised."""
-    c = np.clip(c, -1.0, 1.0)
+    """The prefilter weight of a direction at cosine c from r (module docstring), unnormalised. `c` is
+    overwritten (a level's c is tens of MB: the GGX weight is formed in place, in the same order of
+    operations, so that a cold call pays for two arrays' pages instead of six)."""
+    c = np.clip(c, -1.0, 1.0, out=c)
     lit = np.maximum(c, 0.0)
-    nh2 = 0.5 * (1.0 + c)                  # (r·h)²
-    if fam in ("ggx", "beckmann"):
+    if fam == "ggx":
         a2 = max(t * t, MIN_ALPHA) ** 2
-        if fam == "ggx":
-            d = a2 / (nh2 * (a2 - 1.0) + 1.0) ** 2
-        else:
-            with np.errstate(divide="ignore", invalid="ignore", under="ignore"):
-                d = np.where(nh2 > 0.0, np.exp(-(1.0 - nh2) / np.maximum(nh2 * a2, 1e-300)) / np.maximum(nh2, 1e-300) ** 2, 0.0)
+        d = np.add(1.0, c, out=c)
+        d *= 0.5                           # (r·h)²
+        d *= a2 - 1.0
+        d += 1.0
+        np.square(d, out=d)
+        np.divide(a2, d, out=d)
+        d *= lit
+        return d
+    nh2 = 0.5 * (1.0 + c)                  # (r·h)²
+    if fam == "beckmann":
+        a2 = max(t * t, MIN_ALPHA) ** 2
+        with np.errstate(divide="ignore", invalid="ignore", under="ignore"):
+            d = np.where(nh2 > 0.0, np.exp(-(1.0 - nh2) / np.maximum(nh2 * a2, 1e-300)) / np.maximum(nh2, 1e-300) ** 2, 0.0)
         return d * lit
     e = float(exponent(t))
     with np.errstate(under="ignore"):
@@ -135,7 +144,8 @@ def _convolve(source: np.ndarray, fam: str, t: float) -> np.ndarray:
     dphi = 2.0 * np.pi * np.arange(w // 2 + 1) / w
     c = (np.cos(theta)[:, None, None] * np.cos(theta)[None, :, None]
          + np.sin(theta)[:, None, None] * np.sin(theta)[None, :, None] * np.cos(dphi)[None, None, :])
-    half = _weight(fam, c, t) * omega[None, :, None]           # (out row, source row, Δφ in [0, π])
+    half = _weight(fam, c, t)                                  # (out row, source row, Δφ in [0, π])
+    half *= omega[None, :, None]
     k = np.concatenate([half, half[:, :, w // 2 - 1:0:-1]], axis=2)
     norm = k.sum(axis=(1, 2))
     kf = np.fft.rfft(k, axis=2)                                # real and even in Δφ: a convolution
