@@ -103,7 +103,8 @@
  * on a surface. Bias: none beyond 1e-4 scene units. */
 #define MIN_LIGHT_DIST2 1.0e-8f
 
-/* Largest radiance written: finite by contract even for 1e30 lights. */
+/* Largest magnitude of radiance written: finite by contract even for 1e30 lights (and, below, for
+ * a user's lobe whose value runs to −∞). */
 #define MAX_RADIANCE 3.0e38f
 
 /* The one copy of the light formulas, shared by the specialised and the general
@@ -364,7 +365,7 @@ __kernel void shade(
 #endif
         L = RAW3(s, TERM_RADIANCE, L, UNBOUNDED);   /* count.h: before the clamp */
 #ifndef RAW_RADIANCE
-        L = v3min(L, MAX_RADIANCE);   /* fmin: also turns a NaN into MAX_RADIANCE */
+        L = v3max(v3min(L, MAX_RADIANCE), -MAX_RADIANCE);   /* fmin first: a NaN becomes MAX_RADIANCE */
 #endif
         color = v3select(covered, L, color);
         alpha = covered ? (real)(1.0f) : alpha;

@@ -22,8 +22,9 @@ def test_grid_finite_non_negative_and_accurate(device_runtime) -> None:
 
 def test_raw_radiance_shows_what_the_clamp_hides(runtime) -> None:
     """A NaN in the shading sum (here a NaN ambient channel, which scene files cannot
-    produce) is turned into MAX_RADIANCE by the shipped build's fmin; the raw build that
-    `check stability` counts on writes it as NaN."""
+    produce) is turned into MAX_RADIANCE by the shipped build's fmin, and −∞ (a user's lobe
+    can run there) into −MAX_RADIANCE; the raw build that `check stability` counts on writes
+    them as computed."""
     import dataclasses
 
     import numpy as np
@@ -40,7 +41,7 @@ def test_raw_radiance_shows_what_the_clamp_hides(runtime) -> None:
     camera = Camera(position=np.array([0.0, 0.0, 1.0]), target=np.zeros(3), up=np.array([0.0, 1.0, 0.0]),
                     fov=10.0, width=w, height=h)
     scene = Scene(path=None, camera=camera, lights=(), materials={"m": Material("m")}, objects=(),
-                  ambient=(1.0, float("nan"), 1.0))
+                  ambient=(1.0, float("nan"), float("-inf")))
     gb = GBuffer(w, h, channels, material_table(scene), np.ones((h, w), bool))
     shader = Shader(runtime, gb, scene, camera)
     features = scene_features(scene)
@@ -48,7 +49,8 @@ def test_raw_radiance_shows_what_the_clamp_hides(runtime) -> None:
     shipped = shader.render(model, features)[..., :3]
     raw = shader.render(model, dataclasses.replace(features, raw_radiance=True))[..., :3]
     assert np.isfinite(shipped).all() and (shipped[..., 1] == np.float32(stability.MAX_RADIANCE)).all()
-    assert np.isnan(raw[..., 1]).all() and np.isfinite(raw[..., [0, 2]]).all()
+    assert (shipped[..., 2] == -np.float32(stability.MAX_RADIANCE)).all() and (shipped[..., 0] > 0).all()
+    assert np.isnan(raw[..., 1]).all() and (raw[..., 2] == -np.inf).all() and np.isfinite(raw[..., 0]).all()
 
 
 def test_json_reports_raw_counts_saturation_and_distinct_inputs() -> None:
