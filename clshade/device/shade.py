@@ -267,14 +267,22 @@ class Shader:
 
     def rebind(self, gbuffer: GBuffer, scene: Scene, camera: Camera | None = None) -> None:
         """Shade another G-buffer of the same size with the same lights, shadow maps,
-        background and ambient (the live viewer's next frame): the planes that changed are
-        shared again, the material table uploaded again when it changed, and every prepared
-        dispatch gets its arguments set again when prepare() next returns it. No kernel is built
-        or created; a variant the new G-buffer calls for (another baked table) is built by
-        prepare() as usual."""
+        background, ambient and sky data (the live viewer's next frame): the planes that changed
+        are shared again, the material table uploaded again when it changed, the sky's params
+        written again when only its rotation changed, and every prepared dispatch gets its
+        arguments set again when prepare() next returns it. No kernel is built or created; a
+        variant the new G-buffer calls for (another baked table) is built by prepare() as usual."""
         if (gbuffer.width, gbuffer.height) != (self.gb.width, self.gb.height):
             raise ValueError(f"rebind: a {gbuffer.width}x{gbuffer.height} G-buffer on a "
                              f"{self.gb.width}x{self.gb.height} Shader")
+        if self.environment is not None and scene.environment not in (None, self.scene.environment):
+            turned = prepare_spec(scene.environment, scene.path)
+            if turned.radiance is not self.environment.radiance and \
+                    not np.array_equal(turned.radiance, self.environment.radiance):
+                raise ValueError("rebind: another sky's data (map, colour or intensity): a new Shader uploads it")
+            if turned.rotation != self.environment.rotation:
+                self.environment = turned
+                self.rt.cl.enqueue_copy(self.rt.queue, self.env_params, turned.params())
         old, self.gb, self.scene, self.camera = self.gb, gbuffer, scene, camera or scene.camera
         self._buffers = {key: buffer for key, buffer in self._buffers.items()
                          if gbuffer.shares_plane(old, key[0])}

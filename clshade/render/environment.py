@@ -345,12 +345,14 @@ def prepare(radiance: np.ndarray, rotation: float = 0.0) -> Environment:
 
 def prepare_spec(spec: EnvironmentSpec, scene_file: Path | str | None = None) -> Environment:
     """The Environment of a scene's [environment] (cached by the map's identity and the keys that
-    change the data: map, uniform, intensity, rotation)."""
+    change the data: map, uniform, intensity). The rotation is the kernels' (env_to_map), so a
+    turned sky shares the prepared data: the live viewer's rotation slider prepares nothing."""
     stamp = _stamp(spec.map) if spec.map is not None else None
-    return _prepare_cached(spec.map, spec.uniform, spec.intensity, spec.rotation, stamp, str(scene_file))
+    env = _prepare_cached(spec.map, spec.uniform, spec.intensity, stamp, str(scene_file))
+    return env if env.rotation == spec.rotation else replace(env, rotation=spec.rotation)
 
 
 @lru_cache(maxsize=4)
-def _prepare_cached(map_path, uniform, intensity, rotation, stamp, scene_file) -> Environment:
-    spec = EnvironmentSpec(map=map_path, uniform=uniform, intensity=intensity, rotation=rotation)
-    return prepare(sky_radiance(spec, scene_file), rotation)
+def _prepare_cached(map_path, uniform, intensity, stamp, scene_file) -> Environment:
+    spec = EnvironmentSpec(map=map_path, uniform=uniform, intensity=intensity)
+    return prepare(sky_radiance(spec, scene_file))

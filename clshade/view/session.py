@@ -243,8 +243,9 @@ def _lights_key(scene: Scene) -> tuple:
 
 def _sky_data_key(spec: env.EnvironmentSpec | None) -> tuple | None:
     """What the Shader uploads of a sky (clshade.render.environment.prepare_spec's key: the map, its
-    colour, intensity and rotation); not the rungs (a variant each) nor the sample count (an argument)."""
-    return None if spec is None else (spec.map, spec.uniform, spec.intensity, spec.rotation)
+    colour and intensity); not its rotation (Shader.rebind writes the params again), the rungs (a
+    variant each) nor the sample count (an argument)."""
+    return None if spec is None else (spec.map, spec.uniform, spec.intensity)
 
 
 def _channel_values(scene: Scene) -> np.ndarray:

@@ -244,6 +244,53 @@ def test_turning_the_sky_equals_turning_camera_and_scene_back(tmp_path):
     assert np.sqrt(((a - b) ** 2).sum() / (b ** 2).sum()) < 0.1      # 64 samples: 5 % apart measured
 
 
+
+def test_turning_the_sky_prepares_nothing_again(tmp_path, monkeypatch):
+    """The rotation is the kernels' (env_to_map): a sky turned by the viewer's slider reuses the prepared
+    map, SH9 and CDFs, and only its rotation (the params' first row) changes."""
+    from clshade.render import environment as E
+    write_map(tmp_path / "sky.exr", sky_of(lopsided_sky, 64, 32))
+    E._prepare_cached.cache_clear()
+    real, calls = E.prepare, []
+
+    def counted(radiance, *args):
+        calls.append(1)
+        return real(radiance, *args)
+    monkeypatch.setattr(E, "prepare", counted)
+    envs = [E.prepare_spec(E.EnvironmentSpec(map=tmp_path / "sky.exr", rotation=theta), tmp_path / "s.toml")
+            for theta in (0.0, 70.0, -20.0, 70.0)]
+    assert len(calls) == 1
+    assert [e.rotation for e in envs] == [0.0, 70.0, -20.0, 70.0]
+    assert all(e.sh9 is envs[0].sh9 and e.pdf is envs[0].pdf for e in envs)
+    p0 = [e.params()[0] for e in envs]
+    assert np.allclose(p0[1][:2], [np.cos(np.radians(70.0)), np.sin(np.radians(70.0))])
+    assert np.array_equal(p0[1], p0[3]) and not np.array_equal(p0[0], p0[1])
+
+
+
+def test_a_rebound_shader_turns_the_sky(tmp_path, runtime):
+    """Shader.rebind to a scene whose sky only turned (the viewer's slider: no new Shader) shades what a
+    new Shader of that scene shades, background and SH9 light alike; another map is refused."""
+    from clshade.device.shade import Shader
+    write_map(tmp_path / "sky.exr", sky_of(lopsided_sky, 64, 32))
+    write_map(tmp_path / "other.exr", sky_of(lopsided_sky, 32, 16))
+    scenes = {}
+    for name, keys in (("still", dict(map="sky.exr")), ("turned", dict(map="sky.exr", rotation=70.0)),
+                       ("other", dict(map="other.exr"))):
+        sky = dict(diffuse="sh9", specular="none", **keys)
+        scenes[name] = load_scene(write_scene(tmp_path, _turned(sky, 0.0), f"{name}.toml"))
+    frame = prepare_frame(scenes["still"], runtime=runtime)
+    features = scene_features(scenes["still"])
+    kept = Shader(runtime, frame.gbuffer, scenes["still"])
+    before = kept.render(LAMBERT, features)
+    kept.rebind(frame.gbuffer, scenes["turned"])
+    after = kept.render(LAMBERT, features)
+    fresh = Shader(runtime, frame.gbuffer, scenes["turned"]).render(LAMBERT, features)
+    assert np.array_equal(after, fresh) and not np.allclose(after, before)
+    with pytest.raises(ValueError, match="another sky"):
+        kept.rebind(frame.gbuffer, scenes["other"])
+
+
 # ---------------------------------------------------------------- the sampled rung
 
 

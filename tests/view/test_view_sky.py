@@ -148,8 +148,11 @@ def test_a_rung_change_builds_a_variant_and_uploads_nothing(sky):
     more = sky.render(checked(sky, dict(diffuse="sampled", samples=16)))    # an argument: bound again, not uploaded
     assert sky._shader.value is shader and "upload" not in more.stages and more.environment["samples"] == 16
     assert (more.views["a"] != frame.views["a"]).any()                      # the kernel took the new count
-    turned = sky.render(checked(sky, dict(diffuse="sampled", samples=16, rotation=90.0)))   # new sky data: uploaded
-    assert "upload" in turned.stages and (turned.views["a"] != more.views["a"]).any()
+    turned = sky.render(checked(sky, dict(diffuse="sampled", samples=16, rotation=90.0)))   # turned: params rewritten
+    assert sky._shader.value is shader and "upload" not in turned.stages
+    assert (turned.views["a"] != more.views["a"]).any()
+    brighter = sky.render(checked(sky, dict(diffuse="sampled", samples=16, rotation=90.0, intensity=2.0)))
+    assert "upload" in brighter.stages                                      # new sky data: uploaded
 
 
 def test_picking_a_sky_changes_the_image(sky):
