@@ -103,18 +103,14 @@ __kernel void cover(
     const uint ntiles, const uint ntri, const uint width, const uint tri_bits, const double z_scale,
     const double z_lo, const double z_hi,
     __global const uint* tile_end,          /* (ntri,) tiles of triangles 0..t, inclusive */
+    __global const uint* tile_tri,          /* (ntiles,) the triangle of each tile (the host's np.repeat) */
     __global const int* box,                /* (4, ntri): col0, row0, col1, row1 (inclusive) */
     __global const double* edge,            /* (15, ntri): A0 A1 A2, B0 B1 B2, C0 C1 C2, thr0 thr1 thr2, z_a z_b z_c */
     __global long* keys)                    /* (plane,) packed keys, EMPTY_KEY where none */
 {
     const uint i = get_global_id(0);
     if (i >= ntiles) return;
-    uint lo = 0, hi = ntri - 1;             /* the triangle: the first with tile_end > i */
-    while (lo < hi) {
-        const uint mid = (lo + hi) / 2;
-        if (tile_end[mid] > i) hi = mid; else lo = mid + 1;
-    }
-    const int t = (int)lo;
+    const int t = (int)tile_tri[i];         /* the first triangle with tile_end > i */
     const uint k = i - (t ? tile_end[t - 1] : 0u);
     const int col0 = box[t], row0 = box[ntri + t], col1 = box[2 * ntri + t], row1 = box[3 * ntri + t];
     const uint ntx = (uint)((col1 - col0) / TILE) + 1u;

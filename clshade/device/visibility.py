@@ -198,9 +198,10 @@ class DeviceGBuffer:
             tri_face, vdepth = t.face.astype(np.int32), t.vdepth
             tiles = (((t.col1 - t.col0) // view.tile) + 1) * (((t.row1 - t.row0) // view.tile) + 1)
             tile_end = np.cumsum(tiles).astype(np.uint32)
+            tile_tri = np.repeat(np.arange(ntri, dtype=np.uint32), tiles)   # cover's triangle of each tile
             box = np.stack([t.col0, t.row0, t.col1, t.row1]).astype(np.int32)
             edge = np.concatenate([t.edge_a, t.edge_b, t.edge_c, t.edge_thr, t.z_a[None], t.z_b[None], t.z_c[None]])
-            inputs += [rt.to_device(a) for a in (tile_end, box, edge)]
+            inputs += [rt.to_device(a) for a in (tile_end, tile_tri, box, edge)]
             ntiles = int(tile_end[-1])
             self.cover.set_args(np.uint32(ntiles), np.uint32(ntri), np.uint32(w), np.uint32(view.tri_bits),
                                 np.float64(view.z_scale), np.float64(-1.0 - view.depth_eps),
