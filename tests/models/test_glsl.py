@@ -99,6 +99,8 @@ vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)
         c += 1.0;
     else if (x > 0.5)
         c -= 1.0;
+    c += (on ^^ x > 0.4) ? 100.0 : 0.0;
+    c += (x > 0.4 ^^ x > 0.6) ? 1000.0 : 0.0;
     if (!on)
         return vec3(a, b, c + dot(X, L) * 0.0);
     return vec3(a, b, c);
@@ -108,7 +110,7 @@ vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)
 
 @pytest.mark.parametrize("on", [0, 1])
 def test_bool_parameters_fix_branches(tmp_path, runtime, on):
-    """A bool parameter is compiled in: ?:, if/else, !, && and || on it take the branch its value
+    """A bool parameter is compiled in: ?:, if/else, !, &&, || and ^^ on it take the branch its value
     chooses, lane by lane as before; the branch left out is not in the kernel and what only it reads
     (X here) is not read."""
     from clshade.models.glsl.emitter import translate
@@ -116,9 +118,11 @@ def test_bool_parameters_fix_branches(tmp_path, runtime, on):
     model = BUILT_IN.with_params({"on": str(on)}).resolve(path)
     l = directions(256)
     x = np.abs(l[:, 0].astype(np.float64))
-    want = (np.stack([x, np.ones_like(x), np.full_like(x, 11.0)], axis=1) if on else
-            np.stack([2 * x, np.where(x > 0.3, 5.0, 1.0), np.where(x > 0.5, 19.0, 20.0)], axis=1))
-    assert (x > 0.5).any() and (x < 0.3).any()
+    band = np.where((x > 0.4) != (x > 0.6), 1000.0, 0.0)
+    want = (np.stack([x, np.ones_like(x), 11.0 + np.where(x > 0.4, 0.0, 100.0) + band], axis=1) if on else
+            np.stack([2 * x, np.where(x > 0.3, 5.0, 1.0),
+                      np.where(x > 0.5, 19.0, 20.0) + np.where(x > 0.4, 100.0, 0.0) + band], axis=1))
+    assert (x > 0.5).any() and (x < 0.3).any() and ((x > 0.4) & (x < 0.6)).any() and (x > 0.6).any()
     np.testing.assert_allclose(eval_at(model, l), want, rtol=1e-6)
     reads = translate(FIXED_BOOLS, "fixed.brdf", {"on": ("bool", "G_TRUE" if on else "G_FALSE")}).reads
     assert reads == ({"L"} if on else {"L", "X"})
