@@ -123,21 +123,24 @@ def _downsample(radiance: np.ndarray, factor: int) -> np.ndarray:
     return sums / area[:, None, None]
 
 
-def _level_width(width: int, k: int) -> int:
-    """The width of level k ≥ 1: FIRST_WIDTH halved per level, at least LOWEST_WIDTH, at most the
-    map's, and dividing the map's width (the box filter takes whole blocks)."""
-    target = min(width, max(FIRST_WIDTH >> (k - 1), LOWEST_WIDTH))
-    factor = max(1, width // target)
-    while width % factor or (width // 2) % factor:
+def _level_factor(source: np.ndarray, k: int) -> int:
+    """The box filter's factor from the previous level's source to level k ≥ 1: the largest one that
+    keeps the level at least its target width (FIRST_WIDTH halved per level, at least LOWEST_WIDTH)
+    and takes whole blocks of the source's rows and columns (so each level's width stays twice its
+    height, hence even)."""
+    h, w = source.shape[:2]
+    target = min(w, max(FIRST_WIDTH >> (k - 1), LOWEST_WIDTH))
+    factor = max(1, w // target)
+    while w % factor or h % factor:
         factor -= 1
-    return width // factor
+    return factor
 
 
 def _convolve(source: np.ndarray, fam: str, t: float) -> np.ndarray:
     """(H, W, 3) the normalised prefilter of a (H, W, 3) map at every texel centre: the weight
     depends on the rows and the column difference only, so the sum over columns is a circular
     convolution, taken by FFT along each row. The weight is even in the column difference Δφ: it is
-    evaluated for Δφ in [0, π] only (W is even: _level_width) and mirrored, half the work."""
+    evaluated for Δφ in [0, π] only and mirrored, half the work."""
     h, w, _ = source.shape
     theta = np.pi * (np.arange(h) + 0.5) / h
     omega = texel_solid_angles(w, h)
@@ -146,7 +149,7 @@ def _convolve(source: np.ndarray, fam: str, t: float) -> np.ndarray:
          + np.sin(theta)[:, None, None] * np.sin(theta)[None, :, None] * np.cos(dphi)[None, None, :])
     half = _weight(fam, c, t)                                  # (out row, source row, Δφ in [0, π])
     half *= omega[None, :, None]
-    k = np.concatenate([half, half[:, :, w // 2 - 1:0:-1]], axis=2)
+    k = np.concatenate([half, half[:, :, (w - 1) // 2:0:-1]], axis=2)   # any parity of W
     norm = k.sum(axis=(1, 2))
     kf = np.fft.rfft(k, axis=2)                                # real and even in Δφ: a convolution
     sf = np.fft.rfft(source, axis=1)                           # (source row, frequency, channel)
@@ -206,9 +209,9 @@ def _mip_chain(digest: str, shape: tuple, fam: str, levels: int, first_width: in
     out = [radiance]
     source = radiance.astype(np.float64)       # each level's box filter starts from the previous one's
     for k, t in enumerate(level_t(levels)[1:], start=1):
-        lw = _level_width(radiance.shape[1], k)
-        if lw < source.shape[1]:
-            source = _downsample(source, source.shape[1] // lw)
+        factor = _level_factor(source, k)
+        if factor > 1:
+            source = _downsample(source, factor)
         out.append(_convolve(source, fam, float(t)).astype(np.float32))
     return MipChain(fam, tuple(out))
 

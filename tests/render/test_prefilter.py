@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from clshade.render import prefilter as P
-from clshade.render.environment import map_directions
+from clshade.render.environment import map_directions, texel_solid_angles
 from clshade.verify.reference import albedo, compose
 
 from sky_maps import sky_of
@@ -30,6 +30,36 @@ def test_level_zero_is_the_map_and_a_constant_sky_stays_constant(fam):
     flat = P.mip_chain(np.full((16, 32, 3), 0.7, np.float32), fam)
     for level in flat.levels:
         assert np.abs(level - 0.7).max() < 1e-6
+
+
+@pytest.mark.parametrize("width", [180, 360])
+def test_any_two_to_one_map_gets_a_chain_of_whole_blocks(width):
+    """Each level is a whole-block box filter of the previous one (widths that divide, twice the height):
+    a 180×90 map once asked level 4 to take 2×2 blocks of 45 rows."""
+    sky = sky_of(hot_sky, width, width // 2).astype(np.float32)
+    chain = P.mip_chain(sky, "ggx")
+    for before, level in zip(chain.levels, chain.levels[1:]):
+        assert level.shape[1] == 2 * level.shape[0]
+        assert before.shape[1] % level.shape[1] == 0
+    assert np.isfinite(np.concatenate([lv.reshape(-1) for lv in chain.levels])).all()
+
+
+@pytest.mark.parametrize("fam", P.FAMILIES)
+@pytest.mark.parametrize("width", [8, 9])
+def test_the_row_convolution_is_the_direct_sum(fam, width):
+    """_convolve (a weight on Δφ in [0, π] mirrored, then an FFT along rows) against the sum over every
+    texel pair, for an even and an odd width."""
+    h = 5
+    rng = np.random.default_rng(7)
+    source = rng.uniform(0.1, 2.0, (h, width, 3))
+    theta = np.pi * (np.arange(h) + 0.5) / h
+    phi = 2 * np.pi * np.arange(width) / width
+    d = np.stack(np.broadcast_arrays(np.sin(theta)[:, None] * np.sin(phi), np.cos(theta)[:, None],
+                                     -np.sin(theta)[:, None] * np.cos(phi)), axis=-1).reshape(-1, 3)
+    omega = np.repeat(texel_solid_angles(width, h), width)
+    w = P._weight(fam, d @ d.T, 0.6) * omega[None, :]
+    direct = (w @ source.reshape(-1, 3)) / w.sum(axis=1)[:, None]
+    assert np.allclose(P._convolve(source, fam, 0.6).reshape(-1, 3), direct, rtol=1e-9, atol=1e-12)
 
 
 def direct_prefilter(fam: str, t: float, r: np.ndarray, cells: int = 512) -> np.ndarray:
