@@ -22,11 +22,14 @@ __kernel void resolve(const uint width, const uint npix, __global const float4* 
     uint y = i / width, x = i - y * width;
     uint row = SAMPLES * width;                  /* samples per sample-image row */
     __global const float4* p = samples + (size_t)(SAMPLES * y) * row + SAMPLES * x;
+    /* Each sample is weighted before the sum: N² samples at the shading's ±MAX_RADIANCE clamp
+     * would overflow a sum of the samples themselves to ±Inf. */
+    const float weight = 1.0f / (float)(SAMPLES * SAMPLES);
     float4 sum = (float4)(0.0f);
     for (int b = 0; b < SAMPLES; ++b)
         for (int a = 0; a < SAMPLES; ++a)
-            sum += p[b * row + a];
-    out[i] = sum * (1.0f / (float)(SAMPLES * SAMPLES));
+            sum += p[b * row + a] * weight;
+    out[i] = sum;
 }
 
 /* The MSAA-style resolve (clshade/render/samples.py, coverage_gbuffer): the pixel

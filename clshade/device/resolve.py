@@ -48,6 +48,7 @@ class Resolver:
 
     def __init__(self, runtime: Runtime, width: int, height: int, samples: int, source_buffer) -> None:
         self.rt, self.width, self.height, self.samples = runtime, width, height, samples
+        self.source = source_buffer        # held: a kernel's arguments do not keep their buffers alive
         self.out = runtime.empty(width * height * 16)
         built = runtime.kernel(resolve_source(samples), "resolve", label=f"resolve {samples}x{samples}")
         cl = runtime.cl

@@ -110,6 +110,29 @@ def test_device_resolve_is_the_box_mean_of_the_samples(spheres, device_runtime):
     assert ((alpha > 0) & (alpha < 1)).any()
 
 
+@pytest.mark.parametrize("n", [2, 3])
+def test_device_resolve_keeps_saturated_samples_finite(runtime, n):
+    """Samples at the shading's ±MAX_RADIANCE clamp (a user lobe at its hard inputs) resolve to the finite
+    mean, not to a sum overflowed to ±Inf; an ordinary block beside them to its mean."""
+    from clshade.device.resolve import Resolver
+    from clshade.verify.stability import MAX_RADIANCE
+
+    top = np.float32(MAX_RADIANCE)
+    samples = np.zeros((n, 3 * n, 4), np.float32)
+    samples[:, :n] = (top, -top, top, 1.0)
+    samples[:, n:2 * n] = np.arange(n * n * 4, dtype=np.float32).reshape(n, n, 4)
+    samples[:, 2 * n:, 0] = -top
+    samples[0, 2 * n, 0] = top
+    source = runtime.to_device(samples.ravel())          # held: the kernel's arguments do not keep it
+    resolver = Resolver(runtime, 3, 1, n, source)
+    resolver.enqueue(runtime.cl.enqueue_marker(runtime.queue)).wait()
+    image = resolver.read()[0]
+    assert np.isfinite(image).all()
+    np.testing.assert_allclose(image[0], (top, -top, top, 1.0), rtol=1e-6)
+    np.testing.assert_allclose(image[1], samples[:, n:2 * n].reshape(-1, 4).mean(axis=0), rtol=1e-6)
+    assert -top < image[2, 0] < 0
+
+
 @pytest.mark.parametrize("shift", [(0.0, 0.0), (0.3, -0.45)])
 def test_supersampling_equals_the_mean_of_jittered_frames(spheres, runtime, shift):
     """The N·W × N·H raster samples the same points as N² frames with the camera
