@@ -180,7 +180,7 @@ def uv_sky(width: int = 64, height: int = 32) -> np.ndarray:
                                               ([1.0, 0.0, 0.0], 30.0)])
 def test_the_background_looks_up_the_map_as_the_issue_states(tmp_path, target, rotation):
     """u = atan2(d.x, −d.z)/2π, v = acos(d.y)/π at R_y(−θ)·d: the background of an empty scene, bilinear
-    between texel centres, returns (u, v) itself wherever no seam or pole row is in the filter."""
+    between texel centres, returns (u, v) itself, to 1e-6, wherever no seam or pole row is in the filter."""
     write_map(tmp_path / "sky.exr", uv_sky())
     behind = (-np.array(target, float) / np.linalg.norm(target) * 5.0).tolist()   # out of view
     text = scene(camera(position=[0.0, 0.0, 0.0], target=target, fov=60.0, width=32, height=24),
@@ -199,7 +199,7 @@ def test_the_background_looks_up_the_map_as_the_issue_states(tmp_path, target, r
     inner = (u > 1.5 / 64) & (u < 1 - 1.5 / 64) & (v > 1.5 / 32) & (v < 1 - 1.5 / 32)
     assert inner.sum() > 500
     got = image[..., :2].reshape(-1, 2)[inner]
-    assert np.abs(got - np.stack([u, v], axis=1)[inner]).max() < 1e-4
+    assert np.abs(got - np.stack([u, v], axis=1)[inner]).max() < 1e-6   # float32 rays, atan2 (< 3.1e-7 rad) and bilinear weights
 
 
 def _turned(text_keys: dict, degrees: float) -> str:
