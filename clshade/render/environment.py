@@ -211,8 +211,12 @@ def sh9_irradiance(coefficients: np.ndarray, n: np.ndarray) -> np.ndarray:
 # ---------------------------------------------------------------- reading a map
 
 
-def _stamp(path: Path) -> tuple[int, int]:
-    st = os.stat(path)
+def _stamp(path: Path) -> tuple[int, int] | None:
+    """A map file's modification time and size (None where it cannot be read: read_map says why)."""
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
     return st.st_mtime_ns, st.st_size
 
 
@@ -343,12 +347,16 @@ def prepare(radiance: np.ndarray, rotation: float = 0.0) -> Environment:
     return Environment(radiance, rotation, mean, sh9_project(radiance), pdf, marginal, conditional, constant)
 
 
+def data_key(spec: EnvironmentSpec) -> tuple:
+    """What a sky's prepared data depends on: the map (and its file's modification time and size), the
+    uniform colour and the intensity. Not the rotation: the kernels apply it (env_to_map)."""
+    return spec.map, spec.uniform, spec.intensity, _stamp(spec.map) if spec.map is not None else None
+
+
 def prepare_spec(spec: EnvironmentSpec, scene_file: Path | str | None = None) -> Environment:
-    """The Environment of a scene's [environment] (cached by the map's identity and the keys that
-    change the data: map, uniform, intensity). The rotation is the kernels' (env_to_map), so a
-    turned sky shares the prepared data: the live viewer's rotation slider prepares nothing."""
-    stamp = _stamp(spec.map) if spec.map is not None else None
-    env = _prepare_cached(spec.map, spec.uniform, spec.intensity, stamp, str(scene_file))
+    """The Environment of a scene's [environment] (cached by data_key), turned by its rotation: a
+    turned sky shares the prepared data, so the live viewer's rotation slider prepares nothing."""
+    env = _prepare_cached(*data_key(spec), str(scene_file))
     return env if env.rotation == spec.rotation else replace(env, rotation=spec.rotation)
 
 

@@ -242,10 +242,10 @@ def _lights_key(scene: Scene) -> tuple:
 
 
 def _sky_data_key(spec: env.EnvironmentSpec | None) -> tuple | None:
-    """What the Shader uploads of a sky (clshade.render.environment.prepare_spec's key: the map, its
-    colour and intensity); not its rotation (Shader.rebind writes the params again), the rungs (a
-    variant each) nor the sample count (an argument)."""
-    return None if spec is None else (spec.map, spec.uniform, spec.intensity)
+    """What the Shader uploads of a sky (clshade.render.environment.data_key: the map and its file's
+    stamp, its colour and intensity); not its rotation (Shader.rebind writes the params again), the
+    rungs (a variant each) nor the sample count (an argument)."""
+    return None if spec is None else env.data_key(spec)
 
 
 def _channel_values(scene: Scene) -> np.ndarray:

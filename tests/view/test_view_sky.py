@@ -20,6 +20,8 @@ from clshade.errors import ClshadeError
 from clshade.view.controls import MAX_CANVAS, ControlError, canvas_cap, fit_canvas, parse_controls
 from clshade.view.session import SKY_ERROR_STEP, ViewSession, cost_label
 
+from sky_maps import write_map
+
 SKY_SCENE = scenes_dir() / "environment.toml"
 ROBOT = scenes_dir() / "robot.toml"
 W, H = 48, 48
@@ -153,6 +155,25 @@ def test_a_rung_change_builds_a_variant_and_uploads_nothing(sky):
     assert (turned.views["a"] != more.views["a"]).any()
     brighter = sky.render(checked(sky, dict(diffuse="sampled", samples=16, rotation=90.0, intensity=2.0)))
     assert "upload" in brighter.stages                                      # new sky data: uploaded
+
+
+def test_a_map_rewritten_on_disk_is_shown_turned_or_not(tmp_path):
+    """The viewer's sky follows its file: rewritten three times brighter while the viewer runs, the next
+    frames, turned or not, equal the old map's at intensity 3 (to a display level), not the old data
+    rebound."""
+    folder = tmp_path / "scene"
+    shutil.copytree(SKY_SCENE.parent / "environments", folder / "environments")
+    shutil.copy(SKY_SCENE, folder / "sky.toml")
+    session = ViewSession(folder / "sky.toml", tmp_path, W, H)
+    session.render(checked(session))
+    rotations = (90.0, 0.0)                       # the slider moved after the rewrite, then back
+    want = {r: session.render(checked(session, dict(rotation=r, intensity=3.0))).views["a"] for r in rotations}
+    session.render(checked(session))
+    path = folder / "environments" / "courtyard_128x64.exr"
+    write_map(path, 3.0 * env.read_map(path))
+    for r in rotations:
+        got = session.render(checked(session, dict(rotation=r))).views["a"]
+        assert np.abs(got.astype(np.int16) - want[r]).max() <= 1, r
 
 
 def test_picking_a_sky_changes_the_image(sky):
