@@ -111,10 +111,10 @@ def test_cli_models_and_devices(capsys):
     assert "*" in capsys.readouterr().out
 
 
-@pytest.mark.parametrize("half, width, height", [(False, 83, 37), (True, 83, 37), (False, 7, 9)])
+@pytest.mark.parametrize("half, width, height", [(False, 83, 37), (True, 83, 37), (False, 7, 9), (False, 3, 7)])
 def test_odd_sized_frame_matches_the_oracle_pixel_by_pixel(runtime, half, width, height):
-    """83×37 (rows wrap inside the SIMD work-items, the last work-item is padded) and 7×9 (narrower than a
-    work-item: its lanes span up to three rows), every pixel covered, lit unevenly by a point light and a
+    """83×37 (rows wrap inside the SIMD work-items, the last work-item is padded), 7×9 (narrower than a
+    work-item: its lanes span two rows at SIMD 8, three at 16) and 3×7 (four rows at SIMD 8), every pixel covered, lit unevenly by a point light and a
     spot: each pixel equals the float64 frame oracle at that pixel (with the half-float G-buffer: the
     oracle of the half-rounded G-buffer)."""
     from clshade.bench.numpy_baseline import half_gbuffer
