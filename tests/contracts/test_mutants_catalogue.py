@@ -304,3 +304,33 @@ def test_the_plugin_tells_a_failed_build_from_a_wrong_build_message(checkout, tm
                     str(tmp_path / "test_builds.py")], cwd=tmp_path, env=env, capture_output=True, timeout=120)
     got = {f["test"].split("::")[1]: f["build_failed"] for f in json.loads(report.read_text())}
     assert got == {"test_wanted_a_program": True, "test_checks_the_message": False, "test_other": False}
+
+
+def test_the_plugin_stops_at_the_first_behavioural_kill_only(checkout, tmp_path):
+    """With the stop on, a mutant's run ends at its first behavioural failure of a test that passes on the
+    unmutated tree; a baseline failure, a snapshot-marked failure and a build failure do not stop it; off, every
+    test runs."""
+    from benchmarks.mutation.plugin import BUILD_FAILED
+    (tmp_path / "test_order.py").write_text(
+        "import pytest\n"
+        "def test_a_baseline_failure():\n    assert 0\n"
+        "@pytest.mark.snapshot\ndef test_b_snapshot():\n    assert 0\n"
+        f"def test_c_build():\n    raise RuntimeError('{BUILD_FAILED} for lambert')\n"
+        "def test_d_passes():\n    pass\n"
+        "def test_e_behaviour():\n    assert 0\n"
+        "def test_f_after():\n    assert 0\n")
+    (tmp_path / "pytest.ini").write_text("[pytest]\nmarkers =\n    snapshot: x\n")
+    def failing(stop: bool) -> tuple[list[str], int]:
+        report = tmp_path / "report.json"
+        env = {k: v for k, v in os.environ.items() if not k.startswith("CLSHADE_MUTANT")}   # a mutant run's own
+        env.update(CLSHADE_MUTANT_REPORT=str(report), PYTHONPATH=str(checkout))
+        if stop:
+            env.update(CLSHADE_MUTANT_STOP="1",
+                       CLSHADE_MUTANT_BASELINE=json.dumps(["test_order.py::test_a_baseline_failure"]))
+        proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-p",
+                               "benchmarks.mutation.plugin", "test_order.py"], cwd=tmp_path, env=env,
+                              capture_output=True, timeout=120)
+        return [f["test"].split("::")[1] for f in json.loads(report.read_text())], proc.returncode
+    assert failing(stop=True) == (["test_a_baseline_failure", "test_b_snapshot", "test_c_build", "test_e_behaviour"], 1)
+    assert failing(stop=False) == (["test_a_baseline_failure", "test_b_snapshot", "test_c_build", "test_e_behaviour",
+                                    "test_f_after"], 1)
