@@ -3,7 +3,9 @@
 Each mutant of the catalogue (benchmarks/mutation/catalogue.toml: file, anchor, original text, replacement,
 description; benchmarks/mutation/catalogue.py resolves it) is one small semantic bug. For every mutant the script
 copies the repository (its committed HEAD) to a temporary folder, applies the one edit, and runs the test suite there
-(no fail-fast: every failing test is listed), with PYTHONPATH pointing at the copy: the copy's Python code and the
+(until the first behavioural failure of a test that passes on the unmutated tree: the kill class is then known,
+and on this machine the rest of a suite is hours per catalogue; `--every-failure` runs every selected file and lists
+every failing test), with PYTHONPATH pointing at the copy: the copy's Python code and the
 copy's kernels are the ones used (the run checks that clshade.resources.kernels_dir() lies inside the copy; PoCL
 caches binaries by source, so a mutated kernel is compiled afresh).
 
@@ -22,6 +24,7 @@ counts behavioural kills only. The unmutated snapshot runs first (the baseline):
 nothing, and is listed apart in each mutant's row.
 
     python -m benchmarks.mutation.run [--jobs 2] [--only NAME,...] [--json benchmarks/results/mutants.json]
+    python -m benchmarks.mutation.run --every-failure               # no stop at the first behavioural kill
     python -m benchmarks.mutation.run --resume --impact-from MAP    # go on with a run stopped part way, same commit
     python -m benchmarks.mutation.run --check                       # resolve every mutant; list moved and gone ones
     python -m benchmarks.mutation.run --fix-moved                   # the same, and write the moved ones' files
@@ -43,6 +46,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from benchmarks.mutation import impact
+from benchmarks.mutation.plugin import KINDS, kill_kind
 from benchmarks.mutation.catalogue import (CATALOGUE_FILE, CatalogueError, Mutant, Site, apply, load, resolve_all,
                                            rewrite_files)
 from benchmarks.mutation.snapshot import ROOT, code_commit, snapshot, suite_env
@@ -91,7 +95,7 @@ def test_order(root: Path, file: str) -> list[str]:
     return [str(f.relative_to(root)) for f in first + [f for f in files if f not in first]]
 
 
-KILL_CLASSES = ("behavioural", "compile error", "collection error", "snapshot", "text", "needs extra")
+KILL_CLASSES = KINDS
 
 
 def classify(failures: list[dict], returncode: int | None) -> str:
@@ -101,16 +105,7 @@ def classify(failures: list[dict], returncode: int | None) -> str:
         return "timeout"
     if not failures:
         return "survived" if returncode in (0, 5) else "collection error"
-    def one(f: dict) -> str:
-        if f["when"] == "collect":
-            return "collection error"
-        if f["build_failed"]:
-            return "compile error"
-        for marker, cls in (("snapshot", "snapshot"), ("text", "text"), ("extra", "needs extra")):
-            if marker in f["markers"]:
-                return cls
-        return "behavioural"
-    found = {one(f) for f in failures}
+    found = {kill_kind(f) for f in failures}
     return next(c for c in KILL_CLASSES if c in found)
 
 
@@ -127,11 +122,12 @@ BASELINE = Site(Mutant("(baseline)", "", "", "", "", "the snapshot itself, unmut
 
 
 def run_one(site: Site, python: str, base: Path, baseline: frozenset[str] = frozenset(),
-            files: list[str] | None = None) -> dict:
+            files: list[str] | None = None, every_failure: bool = True) -> dict:
     """Copy the snapshot `base`, apply the mutant (resolved there: `site`), run the suite there — the test files
-    `files` that the mutant can change (benchmarks/mutation/impact.py), or the whole suite where `files` is None;
-    every failing test is recorded, and the kill classified on the tests that pass on the unmutated tree
-    (`baseline`: the tests failing there, listed apart)."""
+    `files` that the mutant can change (benchmarks/mutation/impact.py), or the whole suite where `files` is None —
+    up to its first behavioural failure of a test passing on the unmutated tree, or to its end with
+    `every_failure`; the failing tests are recorded, and the kill classified on the tests that pass on the
+    unmutated tree (`baseline`: the tests failing there, listed apart)."""
     mutant = site.mutant
     start = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix=f"mutant-{mutant.name}-") as tmp:
@@ -141,6 +137,8 @@ def run_one(site: Site, python: str, base: Path, baseline: frozenset[str] = froz
             apply(copy, site)
         report = Path(tmp) / "failures.json"
         env = dict(suite_env(copy), CLSHADE_MUTANT=mutant.name, CLSHADE_MUTANT_REPORT=str(report))
+        if not every_failure:
+            env.update(CLSHADE_MUTANT_STOP="1", CLSHADE_MUTANT_BASELINE=json.dumps(sorted(baseline)))
         where = subprocess.run([python, "-c", "import clshade.resources as r; print(r.kernels_dir())"],
                                cwd=copy, env=env, capture_output=True, text=True)
         kernels = where.stdout.strip()
@@ -167,7 +165,7 @@ def run_one(site: Site, python: str, base: Path, baseline: frozenset[str] = froz
                 failing_tests=[dict(test=f["test"], kind=classify([f], 1)) for f in new],
                 failing_on_baseline_too=sorted({f["test"] for f in failures} - {f["test"] for f in new}),
                 seconds=round(time.perf_counter() - start, 1), summary=tail[-1] if tail else "",
-                test_files_run=len(order), test_files_total=len(every))
+                test_files_run=len(order), test_files_total=len(every), every_failure=every_failure)
 
 
 def gone_row(site: Site) -> dict:
@@ -242,6 +240,8 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--jobs", type=int, default=2, help="mutants run at the same time (≤ 2 on the shared machine)")
     parser.add_argument("--only", default="", help="comma-separated mutant names")
+    parser.add_argument("--every-failure", action="store_true", help="run every selected test file of each mutant "
+                        "and list every failing test (by default a mutant's suite stops at its first behavioural kill)")
     parser.add_argument("--json", default=str(OUT))
     parser.add_argument("--check", action="store_true", help="only resolve every mutant in the working tree: list "
                         "the moved ones and those whose anchor is gone (exit status 1 if any is gone)")
@@ -310,7 +310,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"selected test files: {sum(len(files(s)) for s in runnable)} runs for {len(runnable)} mutants "
               f"(of {len(selection) * len(runnable)} in whole suites)", flush=True)
     mutants = [s.mutant for s in chosen]
-    for res in _run_within(runnable, lambda s: run_one(s, sys.executable, base, baseline, files(s)),
+    for res in _run_within(runnable, lambda s: run_one(s, sys.executable, base, baseline, files(s), args.every_failure),
                            jobs=max(1, min(args.jobs, 2)), deadline=start + args.budget_s if args.budget_s else None):
         res["commit"] = commit
         results.append(res)

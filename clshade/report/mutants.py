@@ -26,14 +26,14 @@ def mutants_markdown(doc: dict) -> str:
            f"{', ' + str(doc['not_run']) + ' not run' if doc.get('not_run') else ''}"
            f"{'; ' + str(unclassified) + ' killed in an older run that recorded neither every failing test nor the kill class (unclassified: not counted above)' if unclassified else ''}. "
            "Each mutant is one small semantic bug (catalogue in benchmarks/mutation/) applied to a copy of the "
-           "repository; " + _selection_text(rows) + " and every failing test is listed. A kill is behavioural when "
+           "repository; " + _selection_text(rows) + _stop_text(rows) + ". A kill is behavioural when "
            "some failing test checks behaviour; tests marked `snapshot` (output vs a committed file the same code "
            "wrote), `text` (a string searched in source, docs or binaries) or `extra` (needs an optional package) "
            "do not count, nor does a mutated kernel that fails to compile."
            + (f" Optional packages present in the run: {', '.join(k for k, v in extras.items() if v) or 'none'}"
               f"{'; absent: ' + ', '.join(k for k, v in extras.items() if not v) if not all(extras.values()) else ''}."
               if extras else ""), "",
-           markdown(["mutant", "file", "bug", "kill", "failing tests", "test files run", "commit"],
+           markdown(["mutant", "file", "bug", "kill", "failing tests", "test files selected", "commit"],
                     [_row(m, doc) for m in rows])]
     return "\n".join(out) + "\n"
 
@@ -52,6 +52,16 @@ def _row(m: dict, doc: dict) -> list[str]:
     commit = (m.get("commit") or doc.get("commit") or "")[:10]
     run = f"{m['test_files_run']} of {m['test_files_total']}" if "test_files_run" in m else "all"
     return [m["name"], m["file"], m["description"], kill, shown, run, commit]
+
+
+def _stop_text(rows: list[dict]) -> str:
+    """Which failing tests a row lists: every one, or those up to the first behavioural kill."""
+    stopped = sum(m.get("every_failure") is False for m in rows)
+    if not stopped:
+        return ", and every failing test is listed"
+    every = "" if stopped == len(rows) else f" ({len(rows) - stopped} rows of a run without the stop list every one)"
+    return (", up to the first behavioural failure of a test passing on the unmutated tree (the kill class is then "
+            f"known), and the tests failing up to there are listed{every}")
 
 
 def _timeouts(rows: list[dict]) -> str:

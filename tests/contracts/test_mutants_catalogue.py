@@ -288,6 +288,13 @@ def test_results_name_the_last_commit_of_the_catalogue_s_code(checkout, tmp_path
     assert code_commit(tmp_path) == tests_commit
 
 
+def plugin_env(checkout, report) -> dict[str, str]:
+    """The environment of a pytest run with the runner's plugin, writing to `report`: without the variables of a
+    mutant run this test may itself be part of (its stop at the first kill would cut the run short)."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith("CLSHADE_MUTANT")}
+    return dict(env, CLSHADE_MUTANT_REPORT=str(report), PYTHONPATH=str(checkout))
+
+
 def test_the_plugin_tells_a_failed_build_from_a_wrong_build_message(checkout, tmp_path):
     """A test that wanted a program and got a build failure is a compile-error kill; a test that
     checks a build error's message (its assertion quotes it) and finds it wrong is a behavioural one."""
@@ -299,8 +306,37 @@ def test_the_plugin_tells_a_failed_build_from_a_wrong_build_message(checkout, tm
         "def test_checks_the_message():\n    assert 'lambert.cl:3' in MESSAGE, MESSAGE\n"
         "def test_other():\n    assert 1 == 2\n")
     report = tmp_path / "report.json"
-    env = {**os.environ, "CLSHADE_MUTANT_REPORT": str(report), "PYTHONPATH": str(checkout)}
+    env = plugin_env(checkout, report)
     subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-p", "benchmarks.mutation.plugin",
                     str(tmp_path / "test_builds.py")], cwd=tmp_path, env=env, capture_output=True, timeout=120)
     got = {f["test"].split("::")[1]: f["build_failed"] for f in json.loads(report.read_text())}
     assert got == {"test_wanted_a_program": True, "test_checks_the_message": False, "test_other": False}
+
+
+def test_the_plugin_stops_at_the_first_behavioural_kill_only(checkout, tmp_path):
+    """With the stop on, a mutant's run ends at its first behavioural failure of a test that passes on the
+    unmutated tree; a baseline failure, a snapshot-marked failure and a build failure do not stop it; off, every
+    test runs."""
+    from benchmarks.mutation.plugin import BUILD_FAILED
+    (tmp_path / "test_order.py").write_text(
+        "import pytest\n"
+        "def test_a_baseline_failure():\n    assert 0\n"
+        "@pytest.mark.snapshot\ndef test_b_snapshot():\n    assert 0\n"
+        f"def test_c_build():\n    raise RuntimeError('{BUILD_FAILED} for lambert')\n"
+        "def test_d_passes():\n    pass\n"
+        "def test_e_behaviour():\n    assert 0\n"
+        "def test_f_after():\n    assert 0\n")
+    (tmp_path / "pytest.ini").write_text("[pytest]\nmarkers =\n    snapshot: x\n")
+    def failing(stop: bool) -> tuple[list[str], int]:
+        report = tmp_path / "report.json"
+        env = plugin_env(checkout, report)
+        if stop:
+            env.update(CLSHADE_MUTANT_STOP="1",
+                       CLSHADE_MUTANT_BASELINE=json.dumps(["test_order.py::test_a_baseline_failure"]))
+        proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-p",
+                               "benchmarks.mutation.plugin", "test_order.py"], cwd=tmp_path, env=env,
+                              capture_output=True, timeout=120)
+        return [f["test"].split("::")[1] for f in json.loads(report.read_text())], proc.returncode
+    assert failing(stop=True) == (["test_a_baseline_failure", "test_b_snapshot", "test_c_build", "test_e_behaviour"], 1)
+    assert failing(stop=False) == (["test_a_baseline_failure", "test_b_snapshot", "test_c_build", "test_e_behaviour",
+                                    "test_f_after"], 1)
