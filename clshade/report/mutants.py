@@ -56,10 +56,11 @@ def _row(m: dict, doc: dict) -> list[str]:
 
 def _stop_text(rows: list[dict]) -> str:
     """Which failing tests a row lists: every one, or those up to the first behavioural kill."""
-    stopped = sum(m.get("every_failure") is False for m in rows)
+    ran = [m for m in rows if m["status"] in ("killed", "survived", "timeout")]
+    stopped = sum(m.get("every_failure") is False for m in ran)
     if not stopped:
         return ", and every failing test is listed"
-    every = "" if stopped == len(rows) else f" ({len(rows) - stopped} rows of a run without the stop list every one)"
+    every = "" if stopped == len(ran) else f" ({len(ran) - stopped} rows of a run without the stop list every one)"
     return (", up to the first behavioural failure of a test passing on the unmutated tree (the kill class is then "
             f"known), and the tests failing up to there are listed{every}")
 
