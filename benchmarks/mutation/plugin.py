@@ -25,8 +25,8 @@ def _crash(report) -> str:
     return crash.message if crash is not None else _text(report)
 
 
-#: What a failure's test checked, in the order of the runner's kill classes (benchmarks/mutation/run.py).
-KINDS = ("behavioural", "compile error", "collection error", "snapshot", "text", "needs extra")
+#: What a failure's test checked (kill_kind), in the order the runner ranks a mutant's kill by (run.classify).
+KILL_CLASSES = ("behavioural", "compile error", "collection error", "snapshot", "text", "needs extra")
 _STOP: dict = {}                          # the session and the baseline's tests, when the run stops at a kill
 
 

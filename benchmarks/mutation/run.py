@@ -46,7 +46,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from benchmarks.mutation import impact
-from benchmarks.mutation.plugin import KINDS, kill_kind
+from benchmarks.mutation.plugin import KILL_CLASSES, kill_kind
 from benchmarks.mutation.catalogue import (CATALOGUE_FILE, CatalogueError, Mutant, Site, apply, load, resolve_all,
                                            rewrite_files)
 from benchmarks.mutation.snapshot import ROOT, code_commit, snapshot, suite_env
@@ -93,9 +93,6 @@ def test_order(root: Path, file: str) -> list[str]:
         module = file.removeprefix("kernels/")                 # glsl.h, models/phong.cl
     first = [f for f in files if module in f.read_text(encoding="utf-8")]
     return [str(f.relative_to(root)) for f in first + [f for f in files if f not in first]]
-
-
-KILL_CLASSES = KINDS
 
 
 def classify(failures: list[dict], returncode: int | None) -> str:
@@ -162,7 +159,7 @@ def run_one(site: Site, python: str, base: Path, baseline: frozenset[str] = froz
     kill = classify(new, 0 if failures and not new else rc)
     return dict(name=mutant.name, file=site.file, description=mutant.description,
                 status="killed" if kill not in ("survived", "timeout") else kill, kill_class=kill, returncode=rc,
-                failing_tests=[dict(test=f["test"], kind=classify([f], 1)) for f in new],
+                failing_tests=[dict(test=f["test"], kind=kill_kind(f)) for f in new],
                 failing_on_baseline_too=sorted({f["test"] for f in failures} - {f["test"] for f in new}),
                 seconds=round(time.perf_counter() - start, 1), summary=tail[-1] if tail else "",
                 test_files_run=len(order), test_files_total=len(every), every_failure=every_failure)
