@@ -5,6 +5,7 @@ general kernel with that effect neutral (no shadows = factor 1, no ambient = 0).
 A scene without shadows compiles no shadow code and binds no shadow argument."""
 from __future__ import annotations
 
+import platform
 from dataclasses import replace
 
 import numpy as np
@@ -160,19 +161,31 @@ def test_simd_width_is_validated(runtime, monkeypatch):
         runtime.simd
 
 
+@pytest.mark.parametrize("lanes", ["device", "16"])
 @pytest.mark.parametrize("model,half", [("ggx_correlated", False), ("phong", False), ("cook_torrance@conductor", False),
                                         ("ggx_correlated", True)])
-def test_inline_math_matches_library_math(runtime, model, half):
+def test_inline_math_matches_library_math(runtime, model, half, lanes, monkeypatch):
     """kernels/simd.h's inline fmax/fmin/sqrt/rsqrt/clamp/fabs/floor/loads/stores/conversions
     give the image the OpenCL library's builtins give, shadows (floor, saturating
     conversion) and three light kinds included; with `half` the half-float G-buffer
-    loads (vcvtph2ps)."""
+    loads (vcvtph2ps). `lanes = "16"` checks the 16-lane paths (two 8-lane AVX halves) on
+    every x86 CPU device: the runtime picks them only on AVX-512 hosts (`native_simd`), for
+    speed, but they are plain AVX code that any AVX target builds."""
     from clshade.device.runtime import INLINE_MATH, LIBRARY_MATH, Runtime
+    if lanes == "16":
+        if "cpu" not in runtime.info.kind or platform.machine() not in ("x86_64", "AMD64"):
+            pytest.skip(f"{runtime.info.description}: simd.h's 16-lane inline paths are x86 CPU code")
+        if runtime.native_simd < 16:
+            monkeypatch.setattr(Runtime, "native_simd", property(lambda self: 16))
+        monkeypatch.setenv("CLSHADE_SIMD", "16")
     frame = prepare_frame(parse_scene(SCENE))
     features = replace(scene_features(frame.scene, geometry=frame.geometry), half_gbuffer=half)
     m = BUILT_IN.resolve(model)
-    images = [Shader(Runtime(runtime.info.spec, options=(opt,)), frame.gbuffer, frame.scene, frame.camera,
-                     frame.shadows).render(m, features) for opt in (INLINE_MATH, LIBRARY_MATH)]
+    runtimes = [Runtime(runtime.info.spec, options=(opt,)) for opt in (INLINE_MATH, LIBRARY_MATH)]
+    if lanes == "16":
+        assert [r.simd for r in runtimes] == [16, 16]
+    images = [Shader(r, frame.gbuffer, frame.scene, frame.camera, frame.shadows).render(m, features)
+              for r in runtimes]
     _close(images[0], images[1])
 
 
