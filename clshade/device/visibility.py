@@ -31,6 +31,11 @@ from clshade.render.raster.resolve import EMPTY_KEY
 from clshade.resources import kernels_dir
 
 SOURCE = "visibility.cl"
+#: Most (triangle, tile) pairs kernel `cover` takes in one dispatch: its per-tile triangle list is
+#: 4 bytes a pair, so long slivers (a triangle's bounding box spans many tiles) would otherwise
+#: grow it with the triangle count times the frame's tiles; more pairs are dispatched in batches of
+#: whole triangles (keys resolve by atomic minimum, so the batches' order does not matter).
+COVER_BATCH_TILES = 1 << 24
 #: The kernels' float division and square root must round as NumPy's do (IEEE, correctly rounded).
 EXACT_OPTIONS = ("-cl-fp32-correctly-rounded-divide-sqrt",)
 #: What the kernels need of the device: doubles (the winners' step) and atom_min on 64-bit keys.
@@ -55,6 +60,18 @@ TEXTURE_TOLERANCE = 1e-5
 TEXTURE_DIFFER_SHARE = 1e-3
 #: The channels textures write (the others stay bit for bit the host's).
 TEXTURED_CHANNELS = ("normal", "base", "roughness", "metallic", "emissive", "occlusion")
+
+
+def cover_batches(tile_end: np.ndarray, limit: int) -> list[tuple[int, int]]:
+    """Triangle ranges [first, last) whose tiles (`tile_end`: the inclusive running count per
+    triangle) are at most `limit` each, or one triangle where that triangle alone has more."""
+    batches, first, n = [], 0, len(tile_end)
+    while first < n:
+        base = int(tile_end[first - 1]) if first else 0
+        last = max(int(np.searchsorted(tile_end, base + limit, side="right")), first + 1)
+        batches.append((first, min(last, n)))
+        first = min(last, n)
+    return batches
 
 
 def texture_channels(runtime: Runtime, geometry: Geometry) -> bool:
@@ -197,16 +214,24 @@ class DeviceGBuffer:
             setup = np.concatenate([t.persp_a, t.persp_b, t.persp_c, t.area2[None]])
             tri_face, vdepth = t.face.astype(np.int32), t.vdepth
             tiles = (((t.col1 - t.col0) // view.tile) + 1) * (((t.row1 - t.row0) // view.tile) + 1)
-            tile_end = np.cumsum(tiles).astype(np.uint32)
-            tile_tri = np.repeat(np.arange(ntri, dtype=np.uint32), tiles)   # cover's triangle of each tile
-            box = np.stack([t.col0, t.row0, t.col1, t.row1]).astype(np.int32)
-            edge = np.concatenate([t.edge_a, t.edge_b, t.edge_c, t.edge_thr, t.z_a[None], t.z_b[None], t.z_c[None]])
-            inputs += [rt.to_device(a) for a in (tile_end, tile_tri, box, edge)]
-            ntiles = int(tile_end[-1])
-            self.cover.set_args(np.uint32(ntiles), np.uint32(ntri), np.uint32(w), np.uint32(view.tri_bits),
-                                np.float64(view.z_scale), np.float64(-1.0 - view.depth_eps),
-                                np.float64(1.0 + view.depth_eps), *inputs, keys)
-            cl.enqueue_nd_range_kernel(rt.queue, self.cover, (rt.global_size(ntiles),), (rt.local_size,))
+            tile_end = np.cumsum(tiles, dtype=np.int64)
+            box = rt.to_device(np.stack([t.col0, t.row0, t.col1, t.row1]).astype(np.int32))
+            edge = rt.to_device(np.concatenate([t.edge_a, t.edge_b, t.edge_c, t.edge_thr,
+                                                t.z_a[None], t.z_b[None], t.z_c[None]]))
+            inputs += [box, edge]
+            for first, last in cover_batches(tile_end, COVER_BATCH_TILES):
+                # Tiles counted from the batch's first triangle: cover reads tile_end[t - 1] only
+                # for t in the batch, where the entry before `first` is 0 (the others are unused).
+                base = int(tile_end[first - 1]) if first else 0
+                batch_end = (np.clip(tile_end - base, 0, np.iinfo(np.uint32).max) if base else tile_end).astype(np.uint32)
+                tile_tri = np.repeat(np.arange(first, last, dtype=np.uint32), tiles[first:last])
+                ntiles = int(tile_end[last - 1]) - base
+                batch = [rt.to_device(a) for a in (batch_end, tile_tri)]
+                inputs += batch
+                self.cover.set_args(np.uint32(ntiles), np.uint32(ntri), np.uint32(w), np.uint32(view.tri_bits),
+                                    np.float64(view.z_scale), np.float64(-1.0 - view.depth_eps),
+                                    np.float64(1.0 + view.depth_eps), *batch, box, edge, keys)
+                cl.enqueue_nd_range_kernel(rt.queue, self.cover, (rt.global_size(ntiles),), (rt.local_size,))
         mf = cl.mem_flags
         # The texture kernel reads back what the visibility kernel wrote (normal, depth, cover).
         flags = mf.READ_WRITE if self.textures is not None else mf.WRITE_ONLY

@@ -150,6 +150,34 @@ def test_device_gbuffer_is_build_gbuffers(robot, device_runtime, azimuth, elevat
     assert expected.coverage.any()
 
 
+@pytest.mark.parametrize("limit", [1, 37, 4096])
+def test_cover_in_batches_is_the_single_dispatch(robot, device_runtime, monkeypatch, limit):
+    """Kernel `cover` dispatched over triangle batches of at most `limit` (triangle, tile) pairs
+    (one triangle a batch at 1, batches cutting through the list elsewhere) still makes the host's
+    G-buffer bit for bit: each batch's tiles are counted from its first triangle."""
+    import clshade.device.visibility as visibility
+    monkeypatch.setattr(visibility, "COVER_BATCH_TILES", limit)
+    scene, geometry = robot
+    camera = orbit_camera(scene, 33.0, scale=0.6)
+    expected, _ = assert_same(scene, geometry, camera.view_matrix(), camera.projection_matrix(), camera,
+                              runtime=device_runtime)
+    assert expected.coverage.any()
+
+
+def test_cover_batches_split_whole_triangles_within_the_limit():
+    from clshade.device.visibility import cover_batches
+    tiles = np.array([3, 1, 5, 2, 2, 9, 1])
+    end = np.cumsum(tiles)
+    for limit in (1, 2, 3, 4, 6, 9, 10, 100):
+        batches = cover_batches(end, limit)
+        assert [a for a, _ in batches] == [0] + [b for _, b in batches[:-1]] and batches[-1][1] == len(tiles)
+        for a, b in batches:
+            assert tiles[a:b].sum() <= limit or b - a == 1
+            # Greedy: the next triangle would not have fitted.
+            assert b == len(tiles) or tiles[a:b + 1].sum() > limit
+    assert cover_batches(end[:0], 4) == []
+
+
 def test_device_gbuffer_orthographic(robot, device_runtime):
     """A projection whose clip w is not the view depth (the depth is interpolated from the corners'),
     with near and far planes that cut through the scene (fragments beyond them are dropped)."""
