@@ -305,9 +305,16 @@ def window_browser(tmp_path_factory):
 
 
 def window(driver, width: int, height: int, ratio: float) -> None:
-    """Emulate a window of width × height CSS pixels at a device pixel ratio (the page sees a resize)."""
+    """Emulate a window of width × height CSS pixels at a device pixel ratio, and wait until the
+    page has laid itself out for it: the browser fires "resize" at a later animation frame, so a
+    state sent before that (an orbit step, `next_frame`'s newest seq) would still have the old
+    size; the page's handler is run here once the window has its new size (it sends a state
+    only where the canvas's pixels change, so a second run by the browser changes nothing)."""
     driver.execute_cdp_cmd("Emulation.setDeviceMetricsOverride",
                            dict(width=width, height=height, deviceScaleFactor=ratio, mobile=False))
+    wait_for(driver, f"window.innerWidth === {width} && window.innerHeight === {height} "
+                     f"&& window.devicePixelRatio === {ratio}")
+    js(driver, "window.dispatchEvent(new Event('resize'));")
 
 
 def expected_size(driver, ratio: float, scale: float = 1.0) -> tuple[int, int]:
@@ -334,7 +341,6 @@ def test_canvas_follows_the_window(window_browser, tmp_path):
         for k in range(4):                                    # an orbit, resized half-way at twice the DPR
             if k == 2:
                 window(driver, 900, 620, 2)
-                wait_for(driver, "window.devicePixelRatio === 2")
             js(driver, f"window.clshadeView.set({{azimuth: {10 * (k + 1)}}});")
         next_frame(driver)
         frame = js(driver, "return window.clshadeView.lastFrame;")
@@ -343,7 +349,6 @@ def test_canvas_follows_the_window(window_browser, tmp_path):
         assert frame["width"] == round(2 * css) and js(driver, "return window.clshadeView.controls.azimuth;") == 40
 
         window(driver, 1900, 1000, 2)                          # 2× a big window: over the cap
-        wait_for(driver, "window.innerWidth === 1900")
         next_frame(driver)
         frame = js(driver, "return window.clshadeView.lastFrame;")
         assert (frame["width"], frame["height"]) == expected_size(driver, 2)
