@@ -64,8 +64,8 @@ def test_the_row_convolution_is_the_direct_sum(fam, width):
 
 def direct_prefilter(fam: str, t: float, r: np.ndarray, cells: int = 512) -> np.ndarray:
     """∫ w(l) L(l) dω / ∫ w dω at unit directions r (K, 3), by the midpoint rule on a cells × cells/2 grid
-    of the sphere, with w from its definition: n = v = r, h = (l + r)/|l + r|, GGX D(h)·(r·l),
-    Phong (r·l)ᵉ·(r·l)."""
+    of the sphere, with w from its definition: n = v = r, h = (l + r)/|l + r|, GGX and Beckmann
+    D(h)·(r·l) (α = t²), Blinn–Phong (r·h)ᵉ·(r·l), Phong (r·l)ᵉ·(r·l) (e = 2/t⁴ − 2)."""
     theta = np.pi * (np.arange(cells // 2) + 0.5) / (cells // 2)
     phi = 2 * np.pi * (np.arange(cells) + 0.5) / cells
     d = np.stack(np.broadcast_arrays(np.sin(theta)[:, None] * np.sin(phi), np.cos(theta)[:, None],
@@ -73,19 +73,26 @@ def direct_prefilter(fam: str, t: float, r: np.ndarray, cells: int = 512) -> np.
     dw = (np.sin(theta)[:, None] * np.ones(cells)).reshape(-1) * (np.pi / (cells // 2)) * (2 * np.pi / cells)
     L = hot_sky(d)
     c = r @ d.T
+    h = d[None] + r[:, None]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        nh = np.nan_to_num(np.einsum("kmi,ki->km", h, r) / np.linalg.norm(h, axis=2))   # l = −r: h undefined, c < 0
+    a2, e = t ** 4, 2 / t ** 4 - 2
     if fam == "ggx":
-        a2 = t ** 4
-        h = d[None] + r[:, None]
-        nh = np.einsum("kmi,ki->km", h, r) / np.linalg.norm(h, axis=2)
         w = a2 / (math.pi * (nh * nh * (a2 - 1) + 1) ** 2) * np.maximum(c, 0)
+    elif fam == "beckmann":
+        with np.errstate(divide="ignore", under="ignore"):
+            w = np.where(nh > 0, np.exp(-(1 - nh * nh) / np.maximum(nh * nh * a2, 1e-300))
+                         / (math.pi * a2 * np.maximum(nh, 1e-300) ** 4), 0.0) * np.maximum(c, 0)
+    elif fam == "blinn_phong":
+        w = np.maximum(nh, 0) ** e * np.maximum(c, 0)
     else:
-        e = 2 / t ** 4 - 2
         w = np.maximum(c, 0) ** (e + 1)
     w = w * dw
     return (w @ L) / w.sum(axis=1)[:, None]
 
 
-@pytest.mark.parametrize("fam, level", [("ggx", 2), ("ggx", 4), ("phong", 3)])
+@pytest.mark.parametrize("fam, level", [("ggx", 2), ("ggx", 4), ("beckmann", 2), ("beckmann", 4), ("blinn_phong", 3),
+                                        ("phong", 3)])
 def test_a_level_is_the_lobes_weighted_mean_of_the_sky(fam, level):
     """Level k at its texel centres against the float64 integral of the sky under the lobe at t_k, near the
     bright source and away from it: within 3 % (the level is convolved at its own, coarser size, from a
