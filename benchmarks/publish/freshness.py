@@ -23,13 +23,7 @@ ROOT = Path(__file__).resolve().parents[2]
 # reruns them); tests/contracts/test_freshness.py marks them xfail, strict: a regenerated one fails there until it
 # leaves this list. The list lives here, outside every result's producers, so that taking a result off it
 # does not make that result stale again (tests/ produces mutants.json).
-KNOWN_STALE: dict[str, str] = {
-    "benchmarks/results/mutants.json": "mutation catalogue (benchmarks/mutation): a --resume run on the current "
-                    "code, each mutant's suite stopped at its first behavioural kill, cheapest mutants first, "
-                    "stopped at the end of a session; each row names the commit it ran on, the rows not reached keep "
-                    "an earlier commit's result. benchmarks/results/mutants.md counts them; `python -m "
-                    "benchmarks.mutation.run --resume --jobs 2` goes on from there while its code is unchanged",
-}
+KNOWN_STALE: dict[str, str] = {}
 
 
 def git(root: Path, *args: str) -> str | None:
