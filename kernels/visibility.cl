@@ -318,73 +318,121 @@ __kernel void visibility(
  *   einsum are added (p0 + p2) + p1, as its SIMD loop does; the others in order.
  * Not bit for bit: A^-1 (LAPACK's LU on the host, the adjugate here) and log2 round otherwise
  * in the last bits of the level λ (clshade/device/visibility.py: TEXTURE_TOLERANCE).
+ *
+ * Speed: as `visibility`, a work-item does LANES adjacent pixels, one per lane (a pixel at a
+ * time, its double arithmetic and branches run scalar, several times slower: the textured row
+ * of benchmarks/results/frame_scale.md); each lane
+ * gathers its own face, texture set, level and texels, and a texture slot is sampled where any
+ * lane uses it (the others' results are discarded by select). A work-item without a textured
+ * pixel returns at once; the lanes that are not textured keep what `visibility` wrote.
  */
 #define MIN_TANGENT_LEN2 1e-20              /* textures.py's */
 #define SET_FLOATS 10                       /* base factor 3, roughness, metallic, emissive 3, normal scale, occlusion strength */
 #define SET_SLOTS 5                         /* base colour, metallic-roughness, normal, emissive, occlusion */
+/* np.mod of an integral double by the remainder of its int: exact below 2^31 in magnitude, and
+ * far cheaper than fmod (which PoCL computes in software, and which a repeated UV, uv_scale > 1,
+ * needs at most texels); fmod beyond it and for a NaN. */
+#define WRAP_INT 2147483648.0
 
-/* np.mod(a, n) of an integral double: the sign of n (fmod only outside [0, n), the rare case). */
-inline int wrap(double a, int n) {
-    if (a >= 0.0 && a < (double)n) return (int)a;
-    double m = fmod(a, (double)n);
-    if (m != 0.0 && m < 0.0) m = m + (double)n;
-    return (int)m;
+/* np.mod(a, n) of an integral double, lane by lane: the sign of n. */
+inline ivec wrap(dvec a, ivec n) {
+    const ivec inside = convert_ivec((a >= 0.0) & (a < convert_dvec(n)));
+    const ivec small = convert_ivec(fabs(a) < WRAP_INT);
+    ivec r = convert_ivec(select((dvec)(0.0), a, convert_lvec(small)));
+    if (all(inside)) return r;
+    ivec m = r % n;
+    m = select(m, m + n, m < 0);
+    r = select(m, r, inside);
+    if (!all(small)) {                      /* the rare case: the scalar fmod of those lanes */
+        for (int k = 0; k < LANES; k++) {
+            if (((const int*)&small)[k]) continue;
+            const double ak = ((const double*)&a)[k], nk = (double)((const int*)&n)[k];
+            double q = fmod(ak, nk);
+            if (q != 0.0 && q < 0.0) q = q + nk;
+            ((int*)&r)[k] = (int)q;
+        }
+    }
+    return r;
 }
 
-/* textures.py:_bilinear on one level (w x h texels of 3 floats from `texels`). */
-inline float3 bilinear(__global const float* texels, int w, int h, double u, double v) {
-    const double x = u * (double)w - 0.5;
-    double y = 1.0 - v;
-    y = y * (double)h - 0.5;
-    const double x0 = floor(x), y0 = floor(y);
-    const float fx = (float)(x - x0), fy = (float)(y - y0);
-    const int i0 = wrap(y0, h), j0 = wrap(x0, w);
-    const int i1 = i0 + 1 < h ? i0 + 1 : 0, j1 = j0 + 1 < w ? j0 + 1 : 0;     /* (i0 + 1) % h: repeat */
-    const float3 a = vload3(i0 * w + j0, texels), b = vload3(i0 * w + j1, texels);
-    const float3 c = vload3(i1 * w + j0, texels), d = vload3(i1 * w + j1, texels);
-    const float gx = 1.0f - fx, gy = 1.0f - fy;
-    const float3 top = a * gx + b * fx;
-    const float3 bottom = c * gx + d * fx;
-    return top * gy + bottom * fy;
+/* An RGB value per lane. */
+typedef struct { fvec x, y, z; } fvec3;
+
+/* textures.py:_bilinear on one level per lane (w x h texels of 3 floats at `offset` of `texels`). */
+inline fvec3 bilinear(__global const float* texels, ivec offset, ivec w, ivec h, dvec u, dvec v) {
+    const dvec x = u * convert_dvec(w) - 0.5;
+    dvec y = 1.0 - v;
+    y = y * convert_dvec(h) - 0.5;
+    const dvec x0 = floor(x), y0 = floor(y);
+    const fvec fx = convert_fvec(x - x0), fy = convert_fvec(y - y0);
+    const ivec i0 = wrap(y0, h), j0 = wrap(x0, w);
+    const ivec i1 = select((ivec)(0), i0 + 1, i0 + 1 < h), j1 = select((ivec)(0), j0 + 1, j0 + 1 < w);
+    const lvec o = convert_lvec(offset), r0 = convert_lvec(i0 * w), r1 = convert_lvec(i1 * w);
+    const lvec ia = o + 3 * (r0 + convert_lvec(j0)), ib = o + 3 * (r0 + convert_lvec(j1));
+    const lvec ic = o + 3 * (r1 + convert_lvec(j0)), id = o + 3 * (r1 + convert_lvec(j1));
+    const fvec gx = 1.0f - fx, gy = 1.0f - fy;
+    fvec3 out;
+#define BILINEAR_CHANNEL(C, k) {                                                   \
+        const fvec top = GF(texels + (k), ia) * gx + GF(texels + (k), ib) * fx;    \
+        const fvec bottom = GF(texels + (k), ic) * gx + GF(texels + (k), id) * fx; \
+        out.C = top * gy + bottom * fy; }
+    BILINEAR_CHANNEL(x, 0)
+    BILINEAR_CHANNEL(y, 1)
+    BILINEAR_CHANNEL(z, 2)
+#undef BILINEAR_CHANNEL
+    return out;
 }
 
-/* Texture.lod then Texture.sample: `info` (first level, levels, width, height), `level` (offset, w, h) rows. */
-inline float3 sample(__global const int* info, __global const int* level, __global const float* texels,
-                     double u, double v, double dx0, double dx1, double dy0, double dy1) {
-    const int first = info[0], levels = info[1];
-    const double w = (double)info[2], h = (double)info[3];
-    const double ax = dx0 * w, ay = dx1 * h, bx = dy0 * w, by = dy1 * h;
-    const double rx = sqrt(ax * ax + ay * ay), ry = sqrt(bx * bx + by * by);
-    const double rho = (isnan(rx) || isnan(ry)) ? NAN : fmax(rx, ry);
-    const double top = (double)(levels - 1);
-    double lam = log2(rho);
-    lam = isnan(lam) ? 0.0 : isinf(lam) ? (lam > 0.0 ? top : 0.0) : lam;
+/* Texture.lod then Texture.sample per lane, of texture `tex` (a row of `info`: first level,
+ * levels, width, height; `level` rows: offset, w, h). */
+inline fvec3 sample(__global const int* info, __global const int* level, __global const float* texels, ivec tex,
+                    dvec u, dvec v, dvec dx0, dvec dx1, dvec dy0, dvec dy1) {
+    const ivec row = 4 * tex;
+    const ivec first = GI(info, row), levels = GI(info + 1, row);
+    const dvec w = convert_dvec(GI(info + 2, row)), h = convert_dvec(GI(info + 3, row));
+    const dvec ax = dx0 * w, ay = dx1 * h, bx = dy0 * w, by = dy1 * h;
+    const dvec rx = sqrt(ax * ax + ay * ay), ry = sqrt(bx * bx + by * by);
+    const dvec rho = select(fmax(rx, ry), (dvec)(NAN), isnan(rx) | isnan(ry));
+    const dvec top = convert_dvec(levels - 1);
+    dvec lam = log2(rho);
+    lam = select(lam, select((dvec)(0.0), top, lam > 0.0), isinf(lam));
+    lam = select(lam, (dvec)(0.0), isnan(lam));
     lam = fmin(fmax(lam, 0.0), top);
-    const int l0 = (int)floor(lam);
-    const float frac = (float)(lam - (double)l0);
-    const int l1 = min(l0 + 1, levels - 1);
-    __global const int* a = level + 3 * (first + l0);
-    float3 out = (1.0f - frac) * bilinear(texels + a[0], a[1], a[2], u, v);
-    out = 0.0f + out;
-    if (l1 != l0) {
-        __global const int* b = level + 3 * (first + l1);
-        out = out + frac * bilinear(texels + b[0], b[1], b[2], u, v);
+    const dvec fl = floor(lam);
+    const ivec l0 = convert_ivec(fl);
+    const fvec frac = convert_fvec(lam - fl);
+    const ivec l1 = min(l0 + 1, levels - 1);
+    const ivec a = 3 * (first + l0);
+    const fvec keep = 1.0f - frac;
+    fvec3 out = bilinear(texels, GI(level, a), GI(level + 1, a), GI(level + 2, a), u, v);
+    out.x = 0.0f + keep * out.x;
+    out.y = 0.0f + keep * out.y;
+    out.z = 0.0f + keep * out.z;
+    const ivec two = l1 != l0;
+    if (any(two)) {
+        const ivec b = 3 * (first + l1);
+        const fvec3 more = bilinear(texels, GI(level, b), GI(level + 1, b), GI(level + 2, b), u, v);
+        out.x = select(out.x, out.x + frac * more.x, two);
+        out.y = select(out.y, out.y + frac * more.y, two);
+        out.z = select(out.z, out.z + frac * more.z, two);
     }
     return out;
 }
 
-/* uv_derivatives' uv_at: the UV at NDC point (sx, sy) of the face whose clip-space inverse is `inv`. */
-inline double2 uv_at(const double inv[3][3], double sx, double sy, const double2 uv[3]) {
-    double b[3];
+/* uv_derivatives' uv_at per lane: the UV at NDC point (sx, sy) of the face whose clip-space
+ * inverse is `inv` (row-major 3 x 3). */
+inline void uv_at(const dvec inv[9], dvec sx, dvec sy, const dvec u[3], const dvec v[3], dvec* ou, dvec* ov) {
+    dvec b[3];
     for (int j = 0; j < 3; j++) {
-        const double p0 = inv[j][0] * sx, p1 = inv[j][1] * sy, p2 = inv[j][2];
+        const dvec p0 = inv[3 * j] * sx, p1 = inv[3 * j + 1] * sy, p2 = inv[3 * j + 2];
         b[j] = (p0 + p2) + p1;
     }
-    const double total = (b[0] + b[1]) + b[2];
+    const dvec total = (b[0] + b[1]) + b[2];
+    const lvec some = fabs(total) > 0.0;
     for (int j = 0; j < 3; j++)
-        b[j] = fabs(total) > 0.0 ? b[j] / total : 1.0 / 3.0;
-    double2 out = b[0] * uv[0] + b[1] * uv[1];
-    return out + b[2] * uv[2];
+        b[j] = select((dvec)(1.0 / 3.0), b[j] / total, some);
+    *ou = (b[0] * u[0] + b[1] * u[1]) + b[2] * u[2];
+    *ov = (b[0] * v[0] + b[1] * v[1]) + b[2] * v[2];
 }
 
 __kernel void texture(
@@ -411,121 +459,157 @@ __kernel void texture(
     __global float* depth, __global float* normal, __global float* base,
     __global float* roughness, __global float* metallic, __global uchar* cover)
 {
-    const uint p = get_global_id(0);
-    if (p >= npix) return;
-    const int f = tex_face[p];
-    if (f < 0) return;
-    const int set = face_texture[f];
-    __global const float* value = set_value + SET_FLOATS * set;
-    __global const int* slot = set_slot + SET_SLOTS * set;
-    const double uv_scale = set_uv_scale[set];
-    const double bc[3] = {(double)tex_bary[p], (double)tex_bary[plane + p], (double)tex_bary[2 * plane + p]};
-    const int c[3] = {corners[f], corners[nface + f], corners[2 * nface + f]};
-    double2 uvc[3];
-    double4 tc[3];
+    const uint i = get_global_id(0);
+    const uint p0 = i * LANES;              /* plane is a multiple of LANES (PIXEL_PAD) */
+    if (p0 >= plane) return;
+    const ivec pix = (ivec)((int)p0) + LANE_IOTA;
+    const ivec face = VLOAD(i, tex_face);
+    const ivec tex = (face >= 0) & (pix < (int)npix);
+    if (!any(tex)) return;
+    /* Lanes that are not textured compute on a textured lane's face, then keep their values. */
+    int any_face = 0;
+    for (int k = 0; k < LANES; k++)
+        if (((const int*)&tex)[k]) { any_face = ((const int*)&face)[k]; break; }
+    const ivec f = select((ivec)(any_face), face, tex);
+    const ivec set = GI(face_texture, f);
+    const ivec sv = SET_FLOATS * set, ss = SET_SLOTS * set;
+    const dvec uv_scale = GD(set_uv_scale, set);
+    const dvec bc0 = convert_dvec(VLOAD(i, tex_bary)), bc1 = convert_dvec(VLOAD(i, tex_bary + plane));
+    const dvec bc2 = convert_dvec(VLOAD(i, tex_bary + 2 * plane));
+    const ivec c[3] = {GI(corners, f), GI(corners + nface, f), GI(corners + 2 * nface, f)};
+    dvec uc[3], vc[3];
     for (int k = 0; k < 3; k++) {
-        uvc[k] = convert_double2(vload2(c[k], vertex_uv));
-        tc[k] = convert_double4(vload4(c[k], vertex_tangent));
+        uc[k] = convert_dvec(GF(vertex_uv, 2 * c[k]));
+        vc[k] = convert_dvec(GF(vertex_uv + 1, 2 * c[k]));
     }
-    double2 uv = bc[0] * uvc[0] + bc[1] * uvc[1];
-    uv = uv + bc[2] * uvc[2];
-    double4 tangent = bc[0] * tc[0] + bc[1] * tc[1];
-    tangent = tangent + bc[2] * tc[2];
+    dvec u = (bc0 * uc[0] + bc1 * uc[1]) + bc2 * uc[2];
+    dvec v = (bc0 * vc[0] + bc1 * vc[1]) + bc2 * vc[2];
 
     /* The UV screen derivatives (uv_derivatives). */
-    double A[3][3];
+    dvec A[9];
     for (int r = 0; r < 3; r++)
         for (int k = 0; k < 3; k++) {
             __global const double* m = mvp + 4 * r;
-            const double3 q = vload3(c[k], vertex);
-            double clip = m[0] * q.x + m[1] * q.y;
-            clip = clip + m[2] * q.z;
-            A[r][k] = clip + m[3];
+            const ivec q = 3 * c[k];
+            dvec clip = m[0] * GD(vertex, q) + m[1] * GD(vertex + 1, q);
+            clip = clip + m[2] * GD(vertex + 2, q);
+            A[3 * r + k] = clip + m[3];
         }
-    const double c00 = A[1][1] * A[2][2] - A[1][2] * A[2][1];
-    const double c01 = A[1][2] * A[2][0] - A[1][0] * A[2][2];
-    const double c02 = A[1][0] * A[2][1] - A[1][1] * A[2][0];
-    const double det = A[0][0] * c00 + A[0][1] * c01 + A[0][2] * c02;
-    double2 dx = (double2)(0.0), dy = (double2)(0.0);
-    if (det != 0.0) {
-        const double r = 1.0 / det;
-        const double inv[3][3] = {
-            {c00 * r, (A[0][2] * A[2][1] - A[0][1] * A[2][2]) * r, (A[0][1] * A[1][2] - A[0][2] * A[1][1]) * r},
-            {c01 * r, (A[0][0] * A[2][2] - A[0][2] * A[2][0]) * r, (A[0][2] * A[1][0] - A[0][0] * A[1][2]) * r},
-            {c02 * r, (A[0][1] * A[2][0] - A[0][0] * A[2][1]) * r, (A[0][0] * A[1][1] - A[0][1] * A[1][0]) * r}};
-        const uint py = p / width, px = p - py * width;
-        double x = ((double)px + 0.5) / (double)width;
+    const dvec c00 = A[4] * A[8] - A[5] * A[7];
+    const dvec c01 = A[5] * A[6] - A[3] * A[8];
+    const dvec c02 = A[3] * A[7] - A[4] * A[6];
+    const dvec det = (A[0] * c00 + A[1] * c01) + A[2] * c02;
+    dvec dxu = (dvec)(0.0), dxv = (dvec)(0.0), dyu = (dvec)(0.0), dyv = (dvec)(0.0);
+    const lvec invertible = det != 0.0;
+    if (any(invertible)) {
+        const dvec r = 1.0 / det;
+        const dvec inv[9] = {
+            c00 * r, (A[2] * A[7] - A[1] * A[8]) * r, (A[1] * A[5] - A[2] * A[4]) * r,
+            c01 * r, (A[0] * A[8] - A[2] * A[6]) * r, (A[2] * A[3] - A[0] * A[5]) * r,
+            c02 * r, (A[1] * A[6] - A[0] * A[7]) * r, (A[0] * A[4] - A[1] * A[3]) * r};
+        const ivec py = pix / (int)width, px = pix - py * (int)width;
+        dvec x = (convert_dvec(px) + 0.5) / (double)width;
         x = x * 2.0 - 1.0;
-        double y = ((double)py + 0.5) / (double)height;
+        dvec y = (convert_dvec(py) + 0.5) / (double)height;
         y = 1.0 - y * 2.0;
-        const double2 centre = uv_at(inv, x, y, uvc);
-        dx = uv_at(inv, x + 2.0 / (double)width, y, uvc) - centre;
-        dy = uv_at(inv, x, y - 2.0 / (double)height, uvc) - centre;
-        if (!(isfinite(dx.x) && isfinite(dx.y) && isfinite(dy.x) && isfinite(dy.y)))
-            dx = dy = (double2)(0.0);
+        dvec cu, cv, ru, rv, du, dv;
+        uv_at(inv, x, y, uc, vc, &cu, &cv);
+        uv_at(inv, x + 2.0 / (double)width, y, uc, vc, &ru, &rv);
+        uv_at(inv, x, y - 2.0 / (double)height, uc, vc, &du, &dv);
+        dxu = ru - cu; dxv = rv - cv;
+        dyu = du - cu; dyv = dv - cv;
+        const lvec finite = invertible & isfinite(dxu) & isfinite(dxv) & isfinite(dyu) & isfinite(dyv);
+        dxu = select((dvec)(0.0), dxu, finite); dxv = select((dvec)(0.0), dxv, finite);
+        dyu = select((dvec)(0.0), dyu, finite); dyv = select((dvec)(0.0), dyv, finite);
     }
-    uv = uv * uv_scale;
-    dx = dx * uv_scale;
-    dy = dy * uv_scale;
-#define SAMPLE(s) sample(texture_info + 4 * (s), level_info, texels, uv.x, uv.y, dx.x, dx.y, dy.x, dy.y)
+    u = u * uv_scale; v = v * uv_scale;
+    dxu = dxu * uv_scale; dxv = dxv * uv_scale;
+    dyu = dyu * uv_scale; dyv = dyv * uv_scale;
+    /* Slot k of each lane's set, and the lanes that sample it. */
+#define SLOT(k) GI(set_slot + (k), ss)
+#define USES(s) (tex & ((s) >= 0))
+#define SAMPLE(s) sample(texture_info, level_info, texels, max((s), 0), u, v, dxu, dxv, dyu, dyv)
 
-    float3 b = vload3(0, value);
-    float rough = value[3], metal = value[4];
-    if (slot[0] >= 0) b = b * SAMPLE(slot[0]);
-    if (slot[1] >= 0) {
-        const float3 mr = SAMPLE(slot[1]);
-        rough = rough * mr.y;
-        metal = metal * mr.z;
+    fvec bx = GF(set_value, sv), by = GF(set_value + 1, sv), bz = GF(set_value + 2, sv);
+    fvec rough = GF(set_value + 3, sv), metal = GF(set_value + 4, sv);
+    const ivec s0 = SLOT(0), s1 = SLOT(1);
+    if (any(USES(s0))) {
+        const fvec3 t = SAMPLE(s0);
+        const ivec use = USES(s0);
+        bx = select(bx, bx * t.x, use); by = select(by, by * t.y, use); bz = select(bz, bz * t.z, use);
     }
-    roughness[p] = rough;
-    metallic[p] = metal;
+    if (any(USES(s1))) {
+        const fvec3 mr = SAMPLE(s1);
+        const ivec use = USES(s1);
+        rough = select(rough, rough * mr.y, use);
+        metal = select(metal, metal * mr.z, use);
+    }
+    VSTORE(select(VLOAD(i, roughness), rough, tex), i, roughness);
+    VSTORE(select(VLOAD(i, metallic), metal, tex), i, metallic);
 #if HAS_OCCLUSION
-    float occ = 1.0f;
-    if (slot[4] >= 0) {
-        occ = SAMPLE(slot[4]).x - 1.0f;
-        occ = 1.0f + value[9] * occ;
+    fvec occ = (fvec)(1.0f);
+    const ivec s4 = SLOT(4);
+    if (any(USES(s4))) {
+        const fvec ao = SAMPLE(s4).x - 1.0f;
+        occ = select(occ, 1.0f + GF(set_value + 9, sv) * ao, USES(s4));
     }
-    occlusion[p] = occ;
+    VSTORE(select(VLOAD(i, occlusion), occ, tex), i, occlusion);
 #endif
-    if (cover[p] != 1) return;              /* replaced by `visibility`: stays so */
-    const double3 n = (double3)(normal[p], normal[plane + p], normal[2 * plane + p]);
-    double3 nm = n;
-    if (slot[2] >= 0) {
-        float3 m = SAMPLE(slot[2]) * 2.0f - 1.0f;
-        m.xy = m.xy * value[8];
-        const double3 t = tangent.xyz;
-        const double3 tn = t * n;
-        double3 T = t - n * ((tn.x + tn.z) + tn.y);
-        const double3 tt = T * T;
-        const double tlen2 = (tt.x + tt.z) + tt.y;
-        const bool good = tlen2 > MIN_TANGENT_LEN2;
-        T = T / sqrt(good ? tlen2 : 1.0);
-        const double sign = tangent.w < 0.0 ? -1.0 : 1.0;
-        const double3 B = sign * (double3)(n.y * T.z - n.z * T.y, n.z * T.x - n.x * T.z, n.x * T.y - n.y * T.x);
-        double3 mapped = (double)m.x * T + (double)m.y * B;
-        mapped = mapped + (double)m.z * n;
-        const double3 mm = mapped * mapped;
-        const double length = sqrt((mm.x + mm.y) + mm.z);
-        if (good && length > 0.0) nm = mapped / length;
+    /* Lanes `visibility` replaced (cover 2) stay so. */
+    const ivec live = tex & (convert_ivec(VLOAD(i, cover)) == 1);
+    if (!any(live)) return;
+    const dvec nx = convert_dvec(VLOAD(i, normal)), ny = convert_dvec(VLOAD(i, normal + plane));
+    const dvec nz = convert_dvec(VLOAD(i, normal + 2 * plane));
+    dvec mx = nx, my = ny, mz = nz;
+    const ivec s2 = SLOT(2);
+    if (any(USES(s2) & live)) {
+        const fvec3 t = SAMPLE(s2);
+        const fvec scale = GF(set_value + 8, sv);
+        const fvec ux = (t.x * 2.0f - 1.0f) * scale, uy = (t.y * 2.0f - 1.0f) * scale, uz = t.z * 2.0f - 1.0f;
+        dvec tg[4];
+        for (int k = 0; k < 4; k++) {
+            const dvec t0 = convert_dvec(GF(vertex_tangent + k, 4 * c[0]));
+            const dvec t1 = convert_dvec(GF(vertex_tangent + k, 4 * c[1]));
+            const dvec t2 = convert_dvec(GF(vertex_tangent + k, 4 * c[2]));
+            tg[k] = (bc0 * t0 + bc1 * t1) + bc2 * t2;
+        }
+        const dvec tn = (tg[0] * nx + tg[2] * nz) + tg[1] * ny;
+        dvec Tx = tg[0] - nx * tn, Ty = tg[1] - ny * tn, Tz = tg[2] - nz * tn;
+        const dvec tlen2 = (Tx * Tx + Tz * Tz) + Ty * Ty;
+        const lvec good = tlen2 > MIN_TANGENT_LEN2;
+        const dvec tlen = sqrt(select((dvec)(1.0), tlen2, good));
+        Tx = Tx / tlen; Ty = Ty / tlen; Tz = Tz / tlen;
+        const dvec sign = select((dvec)(1.0), (dvec)(-1.0), tg[3] < 0.0);
+        const dvec Bx = sign * (ny * Tz - nz * Ty), By = sign * (nz * Tx - nx * Tz), Bz = sign * (nx * Ty - ny * Tx);
+        const dvec wx = convert_dvec(ux), wy = convert_dvec(uy), wz = convert_dvec(uz);
+        dvec ox = wx * Tx + wy * Bx, oy = wx * Ty + wy * By, oz = wx * Tz + wy * Bz;
+        ox = ox + wz * nx; oy = oy + wz * ny; oz = oz + wz * nz;
+        const dvec length = sqrt((ox * ox + oy * oy) + oz * oz);
+        const lvec mapped = convert_lvec(USES(s2)) & good & (length > 0.0);
+        mx = select(mx, ox / length, mapped);
+        my = select(my, oy / length, mapped);
+        mz = select(mz, oz / length, mapped);
     }
-    const float3 nf = convert_float3(nm);
+    const fvec fx = convert_fvec(mx), fy = convert_fvec(my), fz = convert_fvec(mz);
+    const ivec ok = isfinite(VLOAD(i, depth)) & isfinite(fx) & isfinite(fy) & isfinite(fz)
+                    & isfinite(bx) & isfinite(by) & isfinite(bz);
+    const fvec zero = (fvec)(0.0f);
+#define WRITE(plane_ptr, value) VSTORE(select(VLOAD(i, plane_ptr), select(zero, (value), ok), live), i, plane_ptr)
+    WRITE(normal, fx); WRITE(normal + plane, fy); WRITE(normal + 2 * plane, fz);
+    WRITE(base, bx); WRITE(base + plane, by); WRITE(base + 2 * plane, bz);
 #if HAS_EMISSIVE
-    float3 e = vload3(0, value + 5);
-    if (slot[3] >= 0) e = e * SAMPLE(slot[3]);
-#endif
-    const bool ok = isfinite(depth[p]) && isfinite(nf.x) && isfinite(nf.y) && isfinite(nf.z)
-                    && isfinite(b.x) && isfinite(b.y) && isfinite(b.z);
-    const float3 zero = (float3)(0.0f);
-    const float3 nw = ok ? nf : zero, bw = ok ? b : zero;
-    normal[p] = nw.x; normal[plane + p] = nw.y; normal[2 * plane + p] = nw.z;
-    base[p] = bw.x; base[plane + p] = bw.y; base[2 * plane + p] = bw.z;
-#if HAS_EMISSIVE
-    const float3 ew = ok ? e : zero;
-    emissive[p] = ew.x; emissive[plane + p] = ew.y; emissive[2 * plane + p] = ew.z;
-#endif
-    if (!ok) {
-        depth[p] = 0.0f;
-        cover[p] = 2;
+    fvec ex = GF(set_value + 5, sv), ey = GF(set_value + 6, sv), ez = GF(set_value + 7, sv);
+    const ivec s3 = SLOT(3);
+    if (any(USES(s3) & live)) {
+        const fvec3 e = SAMPLE(s3);
+        const ivec use = USES(s3);
+        ex = select(ex, ex * e.x, use); ey = select(ey, ey * e.y, use); ez = select(ez, ez * e.z, use);
     }
+    WRITE(emissive, ex); WRITE(emissive + plane, ey); WRITE(emissive + 2 * plane, ez);
+#endif
+#undef WRITE
+    const ivec bad = live & ~ok;
+    VSTORE(select(VLOAD(i, depth), (fvec)(0.0f), bad), i, depth);
+    VSTORE(convert_cvec(select(convert_ivec(VLOAD(i, cover)), (ivec)(2), bad)), i, cover);
 }
 #endif

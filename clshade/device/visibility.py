@@ -259,7 +259,8 @@ class DeviceGBuffer:
                                   *((outputs["occlusion"],) if self.occlusion else ()),
                                   *(outputs[name] for name in ("depth", "normal", "base", "roughness", "metallic",
                                                                "cover")))
-            cl.enqueue_nd_range_kernel(rt.queue, self.texture, (rt.global_size(n),), (rt.local_size,))
+            cl.enqueue_nd_range_kernel(rt.queue, self.texture, (rt.global_size(plane // self.lanes),),
+                                       (rt.local_size,))
         for buffer, array in zip(outputs.values(), (*planes.values(), cover)):
             # Mapped and unmapped: the host arrays then hold the result (no copy on a CPU device).
             mapped, _ = cl.enqueue_map_buffer(rt.queue, buffer, cl.map_flags.READ, 0, array.size, array.dtype,
