@@ -104,12 +104,14 @@ def test_textured_scene(textured, device_runtime, azimuth, elevation, scale):
 
 
 def test_textured_frames_one_after_another(textured, device_runtime):
-    """One DeviceGBuffer (its textures uploaded once), frame after frame at two sizes."""
+    """One DeviceGBuffer (its textures uploaded once), frame after frame at three sizes; at 97 x 61
+    a work-item's pixels straddle rows and the last one the frame's end (kernel `texture` does
+    LANES pixels at a time)."""
     scene, geometry = textured
     device = DeviceGBuffer(usable(device_runtime, geometry), geometry,
                            face_planes(geometry, list(scene.materials.values())))
     uploaded = device.textures.buffers
-    for azimuth, size in ((20.0, (W, H)), (80.0, (96, 54)), (160.0, (W, H))):
+    for azimuth, size in ((20.0, (W, H)), (80.0, (96, 54)), (300.0, (97, 61)), (160.0, (W, H))):
         assert_same(scene, geometry, orbit(scene, azimuth).with_size(*size), device)
     assert device.textures.buffers is uploaded
     distinct = {id(t): t for s in geometry.texture_sets for _, t in s.images if t is not None}
