@@ -102,7 +102,8 @@ inline dvec clamp_low(dvec e) { return select(select((dvec)(0.0), e, e > 0.0), e
 __kernel void cover(
     const uint ntiles, const uint ntri, const uint width, const uint tri_bits, const double z_scale,
     const double z_lo, const double z_hi,
-    __global const uint* tile_end,          /* (ntri,) tiles of triangles 0..t, inclusive */
+    const uint first,                       /* the batch's first triangle */
+    __global const uint* tile_end,          /* (batch,) tiles of triangles first..first + j, inclusive */
     __global const uint* tile_tri,          /* (ntiles,) the triangle of each tile (the host's np.repeat) */
     __global const int* box,                /* (4, ntri): col0, row0, col1, row1 (inclusive) */
     __global const double* edge,            /* (15, ntri): A0 A1 A2, B0 B1 B2, C0 C1 C2, thr0 thr1 thr2, z_a z_b z_c */
@@ -111,7 +112,7 @@ __kernel void cover(
     const uint i = get_global_id(0);
     if (i >= ntiles) return;
     const int t = (int)tile_tri[i];         /* the first triangle with tile_end > i */
-    const uint k = i - (t ? tile_end[t - 1] : 0u);
+    const uint k = i - ((uint)t > first ? tile_end[t - first - 1] : 0u);
     const int col0 = box[t], row0 = box[ntri + t], col1 = box[2 * ntri + t], row1 = box[3 * ntri + t];
     const uint ntx = (uint)((col1 - col0) / TILE) + 1u;
     const int x0 = col0 + (int)(k % ntx) * TILE, y0 = row0 + (int)(k / ntx) * TILE;

@@ -62,15 +62,16 @@ TEXTURE_DIFFER_SHARE = 1e-3
 TEXTURED_CHANNELS = ("normal", "base", "roughness", "metallic", "emissive", "occlusion")
 
 
-def cover_batches(tile_end: np.ndarray, limit: int) -> list[tuple[int, int]]:
+def cover_batches(tile_end: np.ndarray, limit: int) -> list[tuple[int, int, int]]:
     """Triangle ranges [first, last) whose tiles (`tile_end`: the inclusive running count per
-    triangle) are at most `limit` each, or one triangle where that triangle alone has more."""
+    triangle) are at most `limit` each, or one triangle where that triangle alone has more;
+    each with `base`, the tiles of the triangles before it."""
     batches, first, n = [], 0, len(tile_end)
     while first < n:
         base = int(tile_end[first - 1]) if first else 0
-        last = max(int(np.searchsorted(tile_end, base + limit, side="right")), first + 1)
-        batches.append((first, min(last, n)))
-        first = min(last, n)
+        last = min(max(int(np.searchsorted(tile_end, base + limit, side="right")), first + 1), n)
+        batches.append((first, last, base))
+        first = last
     return batches
 
 
@@ -219,19 +220,17 @@ class DeviceGBuffer:
             edge = rt.to_device(np.concatenate([t.edge_a, t.edge_b, t.edge_c, t.edge_thr,
                                                 t.z_a[None], t.z_b[None], t.z_c[None]]))
             inputs += [box, edge]
-            for first, last in cover_batches(tile_end, COVER_BATCH_TILES):
-                # Tiles counted from the batch's first triangle: cover reads tile_end[t - 1] only
-                # for t in the batch, where the entry before `first` is 0 (the others are unused).
-                base = int(tile_end[first - 1]) if first else 0
-                batch_end = (np.clip(tile_end - base, 0, np.iinfo(np.uint32).max) if base else tile_end).astype(np.uint32)
+            for first, last, base in cover_batches(tile_end, COVER_BATCH_TILES):
+                # The batch's own running counts, from its first triangle (at most the limit, or one
+                # triangle's tiles: uint32 as long as one triangle has fewer than 2^32 tiles).
+                batch_end = (tile_end[first:last] - base).astype(np.uint32)
                 tile_tri = np.repeat(np.arange(first, last, dtype=np.uint32), tiles[first:last])
-                ntiles = int(tile_end[last - 1]) - base
                 batch = [rt.to_device(a) for a in (batch_end, tile_tri)]
                 inputs += batch
-                self.cover.set_args(np.uint32(ntiles), np.uint32(ntri), np.uint32(w), np.uint32(view.tri_bits),
+                self.cover.set_args(np.uint32(len(tile_tri)), np.uint32(ntri), np.uint32(w), np.uint32(view.tri_bits),
                                     np.float64(view.z_scale), np.float64(-1.0 - view.depth_eps),
-                                    np.float64(1.0 + view.depth_eps), *batch, box, edge, keys)
-                cl.enqueue_nd_range_kernel(rt.queue, self.cover, (rt.global_size(ntiles),), (rt.local_size,))
+                                    np.float64(1.0 + view.depth_eps), np.uint32(first), *batch, box, edge, keys)
+                cl.enqueue_nd_range_kernel(rt.queue, self.cover, (rt.global_size(len(tile_tri)),), (rt.local_size,))
         mf = cl.mem_flags
         # The texture kernel reads back what the visibility kernel wrote (normal, depth, cover).
         flags = mf.READ_WRITE if self.textures is not None else mf.WRITE_ONLY

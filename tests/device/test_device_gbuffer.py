@@ -170,8 +170,9 @@ def test_cover_batches_split_whole_triangles_within_the_limit():
     end = np.cumsum(tiles)
     for limit in (1, 2, 3, 4, 6, 9, 10, 100):
         batches = cover_batches(end, limit)
-        assert [a for a, _ in batches] == [0] + [b for _, b in batches[:-1]] and batches[-1][1] == len(tiles)
-        for a, b in batches:
+        assert [a for a, _, _ in batches] == [0] + [b for _, b, _ in batches[:-1]] and batches[-1][1] == len(tiles)
+        for a, b, base in batches:
+            assert base == tiles[:a].sum()
             assert tiles[a:b].sum() <= limit or b - a == 1
             # Greedy: the next triangle would not have fitted.
             assert b == len(tiles) or tiles[a:b + 1].sum() > limit
