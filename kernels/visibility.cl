@@ -315,7 +315,8 @@ __kernel void visibility(
  *         T = t - n (t.n) normalised (kept where |T|^2 <= MIN_TANGENT_LEN2), B = ±(n x T),
  *         mapped = (m.x T + m.y B) + m.z n, normalised (kept where its length is 0).
  *   A pixel whose depth, normal or base colour is then not finite is replaced as in `visibility`
- *   (it keeps roughness, metallic and occlusion). Sums of three products that NumPy forms with
+ *   (it keeps roughness, metallic and occlusion); so is one whose UV is not (build_geometry
+ *   refuses such texture coordinates; the host has no rule for them). Sums of three products that NumPy forms with
  *   einsum are added (p0 + p2) + p1, as its SIMD loop does; the others in order.
  * Not bit for bit: A^-1 (LAPACK's LU on the host, the adjugate here) and log2 round otherwise
  * in the last bits of the level λ (clshade/device/visibility.py: TEXTURE_TOLERANCE).
@@ -325,7 +326,8 @@ __kernel void visibility(
  * of benchmarks/results/frame_scale.md); each lane
  * gathers its own face, texture set, level and texels, and a texture slot is sampled where any
  * lane uses it (the others' results are discarded by select). A work-item without a textured
- * pixel returns at once; the lanes that are not textured keep what `visibility` wrote.
+ * pixel returns at once; the lanes that are not textured compute on the first textured lane's
+ * face and keep what `visibility` wrote.
  */
 #define MIN_TANGENT_LEN2 1e-20              /* textures.py's */
 #define SET_FLOATS 10                       /* base factor 3, roughness, metallic, emissive 3, normal scale, occlusion strength */
@@ -349,8 +351,9 @@ inline ivec wrap(dvec a, ivec n) {
             if (((const int*)&small)[k]) continue;
             const double ak = ((const double*)&a)[k], nk = (double)((const int*)&n)[k];
             double q = fmod(ak, nk);
-            if (q != 0.0 && q < 0.0) q = q + nk;
-            ((int*)&r)[k] = (int)q;
+            if (q < 0.0) q = q + nk;
+            ((int*)&r)[k] = isnan(q) ? 0 : (int)q;  /* a NaN or infinite coordinate (build_geometry refuses
+                                                        them) reads texel 0, never outside the level */
         }
     }
     return r;
@@ -526,22 +529,25 @@ __kernel void texture(
     u = u * uv_scale; v = v * uv_scale;
     dxu = dxu * uv_scale; dxv = dxv * uv_scale;
     dyu = dyu * uv_scale; dyv = dyv * uv_scale;
-    /* Slot k of each lane's set, and the lanes that sample it. */
+    /* Slot k of each lane's set; the lanes that sample it (`use`); its texture there, read at the
+     * lanes' UV (UV 0 elsewhere: a lane's coordinates are sampled only where its set has the map). */
 #define SLOT(k) GI(set_slot + (k), ss)
 #define USES(s) (tex & ((s) >= 0))
-#define SAMPLE(s) sample(texture_info, level_info, texels, max((s), 0), u, v, dxu, dxv, dyu, dyv)
+#define SAMPLE(s, use) sample(texture_info, level_info, texels, max((s), 0), \
+                              select((dvec)(0.0), u, convert_lvec(use)), select((dvec)(0.0), v, convert_lvec(use)), \
+                              dxu, dxv, dyu, dyv)
 
     fvec bx = GF(set_value, sv), by = GF(set_value + 1, sv), bz = GF(set_value + 2, sv);
     fvec rough = GF(set_value + 3, sv), metal = GF(set_value + 4, sv);
-    const ivec s0 = SLOT(0), s1 = SLOT(1);
-    if (any(USES(s0))) {
-        const fvec3 t = SAMPLE(s0);
-        const ivec use = USES(s0);
+    const ivec use0 = USES(SLOT(0)), use1 = USES(SLOT(1));
+    if (any(use0)) {
+        const fvec3 t = SAMPLE(SLOT(0), use0);
+        const ivec use = use0;
         bx = select(bx, bx * t.x, use); by = select(by, by * t.y, use); bz = select(bz, bz * t.z, use);
     }
-    if (any(USES(s1))) {
-        const fvec3 mr = SAMPLE(s1);
-        const ivec use = USES(s1);
+    if (any(use1)) {
+        const fvec3 mr = SAMPLE(SLOT(1), use1);
+        const ivec use = use1;
         rough = select(rough, rough * mr.y, use);
         metal = select(metal, metal * mr.z, use);
     }
@@ -549,10 +555,10 @@ __kernel void texture(
     VSTORE(select(VLOAD(i, metallic), metal, tex), i, metallic);
 #if HAS_OCCLUSION
     fvec occ = (fvec)(1.0f);
-    const ivec s4 = SLOT(4);
-    if (any(USES(s4))) {
-        const fvec ao = SAMPLE(s4).x - 1.0f;
-        occ = select(occ, 1.0f + GF(set_value + 9, sv) * ao, USES(s4));
+    const ivec use4 = USES(SLOT(4));
+    if (any(use4)) {
+        const fvec ao = SAMPLE(SLOT(4), use4).x - 1.0f;
+        occ = select(occ, 1.0f + GF(set_value + 9, sv) * ao, use4);
     }
     VSTORE(select(VLOAD(i, occlusion), occ, tex), i, occlusion);
 #endif
@@ -562,9 +568,9 @@ __kernel void texture(
     const dvec nx = convert_dvec(VLOAD(i, normal)), ny = convert_dvec(VLOAD(i, normal + plane));
     const dvec nz = convert_dvec(VLOAD(i, normal + 2 * plane));
     dvec mx = nx, my = ny, mz = nz;
-    const ivec s2 = SLOT(2);
-    if (any(USES(s2) & live)) {
-        const fvec3 t = SAMPLE(s2);
+    const ivec use2 = USES(SLOT(2));
+    if (any(use2 & live)) {
+        const fvec3 t = SAMPLE(SLOT(2), use2);
         const fvec scale = GF(set_value + 8, sv);
         const fvec ux = (t.x * 2.0f - 1.0f) * scale, uy = (t.y * 2.0f - 1.0f) * scale, uz = t.z * 2.0f - 1.0f;
         dvec tg[4];
@@ -586,29 +592,32 @@ __kernel void texture(
         dvec ox = wx * Tx + wy * Bx, oy = wx * Ty + wy * By, oz = wx * Tz + wy * Bz;
         ox = ox + wz * nx; oy = oy + wz * ny; oz = oz + wz * nz;
         const dvec length = sqrt((ox * ox + oy * oy) + oz * oz);
-        const lvec mapped = convert_lvec(USES(s2)) & good & (length > 0.0);
+        const lvec mapped = convert_lvec(use2) & good & (length > 0.0);
         mx = select(mx, ox / length, mapped);
         my = select(my, oy / length, mapped);
         mz = select(mz, oz / length, mapped);
     }
     const fvec fx = convert_fvec(mx), fy = convert_fvec(my), fz = convert_fvec(mz);
     const ivec ok = isfinite(VLOAD(i, depth)) & isfinite(fx) & isfinite(fy) & isfinite(fz)
-                    & isfinite(bx) & isfinite(by) & isfinite(bz);
+                    & isfinite(bx) & isfinite(by) & isfinite(bz) & convert_ivec(isfinite(u) & isfinite(v));
     const fvec zero = (fvec)(0.0f);
 #define WRITE(plane_ptr, value) VSTORE(select(VLOAD(i, plane_ptr), select(zero, (value), ok), live), i, plane_ptr)
     WRITE(normal, fx); WRITE(normal + plane, fy); WRITE(normal + 2 * plane, fz);
     WRITE(base, bx); WRITE(base + plane, by); WRITE(base + 2 * plane, bz);
 #if HAS_EMISSIVE
     fvec ex = GF(set_value + 5, sv), ey = GF(set_value + 6, sv), ez = GF(set_value + 7, sv);
-    const ivec s3 = SLOT(3);
-    if (any(USES(s3) & live)) {
-        const fvec3 e = SAMPLE(s3);
-        const ivec use = USES(s3);
+    const ivec use3 = USES(SLOT(3));
+    if (any(use3 & live)) {
+        const fvec3 e = SAMPLE(SLOT(3), use3);
+        const ivec use = use3;
         ex = select(ex, ex * e.x, use); ey = select(ey, ey * e.y, use); ez = select(ez, ez * e.z, use);
     }
     WRITE(emissive, ex); WRITE(emissive + plane, ey); WRITE(emissive + 2 * plane, ez);
 #endif
 #undef WRITE
+#undef SLOT
+#undef USES
+#undef SAMPLE
     const ivec bad = live & ~ok;
     VSTORE(select(VLOAD(i, depth), (fvec)(0.0f), bad), i, depth);
     VSTORE(convert_cvec(select(convert_ivec(VLOAD(i, cover)), (ivec)(2), bad)), i, cover);

@@ -404,6 +404,18 @@ def _material_texture_set(material: Material, scene_file: Path | None, where: st
                       uv_scale=material.uv_scale, name=material.name, emissive_factor=tuple(material.emissive))
 
 
+def _check_texture_coordinates(uv: np.ndarray, scene_file: Path | None, key: str, value: str) -> None:
+    """Refuse texture coordinates that are not finite as float32 (Geometry.uvs): sampling a NaN or
+    infinite coordinate indexes no texel."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        bad = ~np.isfinite(np.asarray(uv, np.float64).astype(np.float32)).all(axis=1)
+    if bad.any():
+        first = int(np.argmax(bad))
+        u, v = (float(x) for x in np.asarray(uv, np.float64)[first])
+        raise located(f"{int(bad.sum())} texture coordinate(s) not finite as float32 (first: vertex {first}: "
+                      f"({u:g}, {v:g}))", scene_file, key, value, has_value=True)
+
+
 def build_geometry(scene: Scene) -> Geometry:
     """Transform every object into world space and concatenate. UVs, tangents and
     texture sets are carried only when a material has textures or an object uses
@@ -447,6 +459,9 @@ def build_geometry(scene: Scene) -> Geometry:
                 where = f"objects[{index}].material" if "#" in obj.material else f"materials.{obj.material}"
                 material_sets[obj.material] = _material_texture_set(material, scene.path, where)
             parts = [(v, f, n, uv, material_sets[obj.material]) for v, f, n, uv, _ in parts]
+        for *_, uv, tset in parts:
+            if tset is not None and tset.has_images and uv is not None:
+                _check_texture_coordinates(uv, scene.path, key, str(obj.mesh or obj.primitive))
         m = obj.matrix()
         for v, f, n, uv, tset in parts:
             v = np.asarray(v, float) @ m[:3, :3].T + m[:3, 3]

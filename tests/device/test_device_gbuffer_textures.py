@@ -103,13 +103,18 @@ def test_textured_scene(textured, device_runtime, azimuth, elevation, scale):
     assert expected.coverage.sum() > 0.2 * expected.pixels
 
 
-def test_textured_frames_one_after_another(textured, device_runtime):
+@pytest.mark.parametrize("lanes", [4, 8])
+def test_textured_frames_one_after_another(textured, device_runtime, lanes):
     """One DeviceGBuffer (its textures uploaded once), frame after frame at three sizes; at 97 x 61
     a work-item's pixels straddle rows and the last one the frame's end (kernel `texture` does
-    LANES pixels at a time)."""
+    LANES pixels at a time). Both lane widths: 8 runs as two 256-bit halves on a device without
+    AVX-512, except where such vectors break the program (Runtime.narrow_target)."""
     scene, geometry = textured
-    device = DeviceGBuffer(usable(device_runtime, geometry), geometry,
-                           face_planes(geometry, list(scene.materials.values())))
+    runtime = usable(device_runtime, geometry)
+    if lanes == 8 and runtime.narrow_target:
+        pytest.skip(f"{runtime.info.description}: 512-bit vectors break its programs (Runtime.narrow_target)")
+    device = DeviceGBuffer(runtime, geometry, face_planes(geometry, list(scene.materials.values())), lanes=lanes)
+    assert device.lanes == lanes
     uploaded = device.textures.buffers
     for azimuth, size in ((20.0, (W, H)), (80.0, (96, 54)), (300.0, (97, 61)), (160.0, (W, H))):
         assert_same(scene, geometry, orbit(scene, azimuth).with_size(*size), device)
@@ -130,6 +135,31 @@ def test_textured_bad_normals(textured, device_runtime):
     device = DeviceGBuffer(usable(device_runtime, bad), bad, face_planes(bad, list(scene.materials.values())))
     expected = assert_same(scene, bad, orbit(scene, 30.0), device)
     assert expected.nonfinite_pixels > 0
+
+
+def test_nonfinite_uvs_read_inside_the_texture(textured, device_runtime):
+    """Texture coordinates that are NaN or infinite (build_geometry refuses them in mesh files; a
+    Geometry made otherwise can hold them) read texel 0 on the device, never memory outside the
+    level: the frame completes, their pixels are non-finite inputs, replaced and counted as
+    `visibility` does, and every other covered pixel's channels are finite."""
+    scene, geometry = textured
+    uvs = geometry.uvs.copy()
+    rng = np.random.default_rng(5)
+    for value in (np.nan, np.inf, -np.inf):
+        uvs[rng.choice(len(uvs), len(uvs) // 10, replace=False), rng.integers(0, 2)] = value
+    bad = dataclasses.replace(geometry, uvs=uvs)
+    device = DeviceGBuffer(usable(device_runtime, bad), bad, face_planes(bad, list(scene.materials.values())))
+    cam = orbit(scene, 30.0)
+    mesh = RasterMesh(bad.vertices, bad.faces, bad.cull)
+    got, cover = device.build(setup_view(mesh, cam.view_matrix(), cam.projection_matrix(), W, H),
+                              material_table(scene))
+    covered = got.coverage.reshape(-1)
+    assert covered.sum() > 0.02 * got.pixels and got.nonfinite_pixels > 0.1 * got.pixels
+    assert got.nonfinite_pixels == int(np.count_nonzero(cover[:got.pixels] == 2))
+    for name in got.channels:
+        assert np.isfinite(got.plane(name)[:, covered]).all(), name
+    replaced = cover[:got.pixels] == 2
+    assert not got.plane("base")[:, replaced].any() and not got.plane("normal")[:, replaced].any()
 
 
 @pytest.mark.parametrize("name, position, target", [

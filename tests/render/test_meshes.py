@@ -437,3 +437,22 @@ def test_nonfinite_mesh_renders_finite(tmp_path, capsys):
     image = read_image(out)
     assert np.isfinite(image).all() and image[..., 3].any()
     assert "pixels had non-finite G-buffer inputs" in err, err
+
+
+@pytest.mark.parametrize("bad", ["nan", "inf", "1e39"])
+def test_nonfinite_texture_coordinates_are_refused(tmp_path, capsys, bad):
+    """A textured mesh whose texture coordinate is NaN, infinite, or infinite once stored as float32:
+    one line naming the scene, the object's mesh key and file, and the first bad vertex (sampling it
+    would index no texel). The same coordinates on an untextured material render."""
+    (tmp_path / "uv.obj").write_text(f"v -1 -1 0\nv 1 -1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt {bad} 1\nvn 0 0 1\n"
+                                     "f 1/1/1 2/2/1 3/3/1\n")
+    texture = str(SCENES / "textures" / "checker_base.png")
+    text = scene(camera(position=[0.0, 0.0, 3.0], target=[0.0, 0.0, 0.0], width=32, height=32), render(),
+                 light("directional", direction=[0.0, 0.0, -1.0]),
+                 material("tex", base_color=[1.0, 1.0, 1.0], base_color_texture=texture),
+                 obj(mesh="uv.obj", material="tex"))
+    render_refused(tmp_path, capsys, text, "objects[0].mesh", "uv.obj", "texture coordinate", "not finite")
+    plain = text.replace(f'base_color_texture = "{texture}"\n', "")
+    assert plain != text
+    image = cli_image(capsys, write_scene(tmp_path, plain), tmp_path / "plain.exr")
+    assert np.isfinite(image).all() and image[..., 3].any()
