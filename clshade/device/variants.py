@@ -74,7 +74,7 @@ class Features:
     ambient: bool = False
     shadows: bool = False          # shadow-map lookups (some light casts shadows)
     shadow_pcf: int = 1            # PCF kernel width (odd; 1 = one tap), compile-time
-    textures: bool = False         # textures sampled into the G-buffer (host side; no kernel code)
+    textures: bool = False         # textures sampled into the G-buffer (no shading kernel code)
     emissive: bool = False         # emitted radiance channel, added unlit (compile-time, general kernel too)
     occlusion: bool = False        # ambient occlusion channel on the ambient term (compile-time, general too)
     half_gbuffer: bool = False
@@ -103,7 +103,8 @@ class Features:
         out.append(f"lights: {self.num_dir} directional, {self.num_point} point, {self.num_spot} spot")
         out.append(f"ambient: {'on' if self.ambient else 'off'}")
         out.append(f"shadows: {f'on (shadow maps, PCF {self.shadow_pcf}x{self.shadow_pcf})' if self.shadows else 'off'}")
-        out.append(f"textures: {'on (sampled into the G-buffer on the host, trilinear mipmaps)' if self.textures else 'off'}")
+        sampled = "on (sampled into the G-buffer, trilinear mipmaps, on the g-buffer line's path)"
+        out.append(f"textures: {sampled if self.textures else 'off'}")
         out.append(f"emission: {'on (emissive channel added unlit)' if self.emissive else 'off'}")
         out.append(f"ambient occlusion: {'on (occlusion channel multiplies the ambient term)' if self.occlusion else 'off'}")
         out.append(f"G-buffer storage: {'half (normal, base colour)' if self.half_gbuffer else 'float32'}")
