@@ -114,6 +114,24 @@ def test_committed_perf_tables_are_rendered_from_their_json():
         assert f"{v['zeros_median_gbs']:.1f} vs {v['ones_median_gbs']:.1f} GB/s ({v['zeros_over_ones']:.2f}×)" in md
 
 
+def test_fill_line_quotes_each_fill_where_it_says():
+    """The fill line names the fill of zeros first, then the fill of 1.0, then their ratio: fed fills
+    that differ, each figure lands in its place."""
+    import copy
+    import json
+    from clshade.report.perf import perf_markdown
+    path = ROOT / "benchmarks" / "results" / "perf_1080p.json"
+    if not path.exists():
+        pytest.skip("no committed perf results (benchmarks/results/perf_1080p.json) in this checkout")
+    doc = copy.deepcopy(json.loads(path.read_text(encoding="utf-8")))
+    fills = doc["stream"]["fill"]
+    for k, v in enumerate(fills.values()):
+        v.update(zeros_median_gbs=11.0 + k, ones_median_gbs=33.0 + k, zeros_over_ones=(11.0 + k) / (33.0 + k))
+    line = next(x for x in perf_markdown(doc).splitlines() if x.startswith("**Lines of zeros.**"))
+    for k in range(len(fills)):
+        assert f"{11.0 + k:.1f} vs {33.0 + k:.1f} GB/s ({(11.0 + k) / (33.0 + k):.2f}×)" in line, line
+
+
 def test_each_item_is_timed_right_after_itself():
     """perf times the second of two back-to-back runs of an item, so the item before the timed run is
     the item itself, whatever the round's random order put before it."""
