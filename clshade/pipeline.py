@@ -152,10 +152,11 @@ class GBufferStage:
             return "a lobe reads the mesh tangents: the device path writes no tangent channel"
         rt = self.runtime
         if not device_visibility.supports(rt, self.geometry):
-            if self.geometry.face_texture is not None:
-                return "textured scene: the device path has no textures"
             missing = [e for e in device_visibility.EXTENSIONS if e not in rt.device.extensions.split()]
-            return f"{rt.info.runtime} lacks {', '.join(missing) or 'what clshade.device.visibility needs'}"
+            if missing:
+                return f"{rt.info.runtime} lacks {', '.join(missing)}"
+            return ("textures the device path cannot sample: kernel texture reads RGB pyramids that fit in one "
+                    "device buffer")
         return None
 
     def _host(self, reason: str) -> None:

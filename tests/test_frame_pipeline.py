@@ -89,15 +89,22 @@ def test_streamed_bands_are_the_same_both_ways(runtime):
     np.testing.assert_array_equal(_bits(out["device"]), _bits(out["host"]))
 
 
-def test_a_textured_scene_takes_the_host_path_and_says_why(runtime):
+def test_textures_the_device_cannot_sample_take_the_host_path_and_say_why(runtime):
+    """A one-channel texture (kernel `texture` samples RGB pyramids): the frame takes the host path, the
+    reason names the textures, and --gbuffer device is refused saying so."""
+    import dataclasses
+    from clshade.render.textures import Texture
     scene = load_scene(SCENES / "textured.toml")
     geometry = build_geometry(scene)
-    if device_visibility.supports(runtime, geometry):
-        pytest.skip("the device path serves textured scenes here")
-    frame = prepare_frame(scene, 64, 48, runtime=runtime)
-    assert frame.gbuffer_path.path == "host" and "textured" in frame.gbuffer_path.reason
-    with pytest.raises(ClshadeError, match=r"--gbuffer device: textured scene"):
-        prepare_frame(scene, 64, 48, runtime=runtime, gbuffer="device")
+    _device_or_skip(runtime, geometry)
+    grey = Texture.from_pixels(np.full((4, 4), 0.5, np.float32), "grey")
+    grey_geometry = dataclasses.replace(geometry, texture_sets=tuple(
+        dataclasses.replace(t, base_color=grey) for t in geometry.texture_sets))
+    frame = prepare_frame(scene, 64, 48, runtime=runtime, geometry=grey_geometry)
+    assert frame.gbuffer_path.path == "host"
+    assert "textures the device path cannot sample" in frame.gbuffer_path.reason, frame.gbuffer_path.reason
+    with pytest.raises(ClshadeError, match=r"--gbuffer device: textures the device path cannot sample"):
+        prepare_frame(scene, 64, 48, runtime=runtime, geometry=grey_geometry, gbuffer="device")
 
 
 def test_a_device_that_fails_its_check_falls_back_to_the_host(runtime, monkeypatch):
