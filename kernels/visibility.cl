@@ -387,11 +387,11 @@ inline fvec3 bilinear(__global const float* texels, ivec offset, ivec w, ivec h,
     return out;
 }
 
-/* Texture.lod then Texture.sample per lane, of texture `tex` (a row of `info`: first level,
- * levels, width, height; `level` rows: offset, w, h). */
-inline fvec3 sample(__global const int* info, __global const int* level, __global const float* texels, ivec tex,
+/* Texture.lod then Texture.sample per lane, of each lane's texture `index` (its row of `info`: first
+ * level, levels, width, height; `level` rows: offset, w, h). */
+inline fvec3 sample(__global const int* info, __global const int* level, __global const float* texels, ivec index,
                     dvec u, dvec v, dvec dx0, dvec dx1, dvec dy0, dvec dy1) {
-    const ivec row = 4 * tex;
+    const ivec row = 4 * index;
     const ivec first = GI(info, row), levels = GI(info + 1, row);
     const dvec w = convert_dvec(GI(info + 2, row)), h = convert_dvec(GI(info + 3, row));
     const dvec ax = dx0 * w, ay = dx1 * h, bx = dy0 * w, by = dy1 * h;
