@@ -246,6 +246,36 @@ ORACLE_MIN_COS = 1e-3
 ORACLE_WIDTH, ORACLE_HEIGHT = 96, 72
 
 
+def unblock_fifo(fifo: Path) -> None:
+    """Let a reader stuck opening `fifo` go on (it reads an empty file)."""
+    try:
+        os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
+    except OSError:         # no reader waiting: nothing to unblock
+        pass
+
+
+def call_beside_fifo(fifo: Path, call, seconds: float = 20.0) -> tuple[object, bool]:
+    """`call()` on a thread, let go on by opening `fifo`'s other end if it is still stuck after `seconds`
+    (a reader that opened the FIFO), so that a test fails instead of hanging: (what it returned or the
+    exception it raised, whether it was stuck)."""
+    import threading
+    out: list = []
+
+    def run() -> None:
+        try:
+            out.append(call())
+        except Exception as exc:     # noqa: BLE001 — handed to the test
+            out.append(exc)
+    worker = threading.Thread(target=run, daemon=True)
+    worker.start()
+    worker.join(timeout=seconds)
+    stuck = worker.is_alive()
+    while worker.is_alive():
+        unblock_fifo(fifo)
+        worker.join(timeout=1)
+    return out[0], stuck
+
+
 def oracle_errors(scene_path, model_spec: str, runtime=None) -> dict[str, float]:
     """Render `scene_path` with the kernel (on `runtime`, default the default device) and evaluate the float64
     frame oracle on the same G-buffer: the compared and covered pixel counts, the largest relative error on the

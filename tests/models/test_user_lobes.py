@@ -15,7 +15,7 @@ from clshade.models.model import NONE
 from clshade.models.registry import LOBES_ENV, Registry
 from clshade.pipeline import render
 
-from conftest import SCENES
+from conftest import SCENES, call_beside_fifo
 from lobe_helpers import directions, samples_like, write_brdf
 from scene_toml import two_spheres
 
@@ -373,21 +373,11 @@ def test_a_symbolic_link_loop_as_lobes_is_one_line(tmp_path, capsys, monkeypatch
     refused(capsys, ["models"], str(loop), "CLSHADE_LOBES")
 
 
-def _unblock(fifo) -> None:
-    """Let a reader stuck opening `fifo` go on (it reads an empty file)."""
-    import os
-    try:
-        os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
-    except OSError:         # no reader waiting: nothing to unblock
-        pass
-
-
 def test_special_files_are_refused_without_being_opened(tmp_path, checkout):
     """A FIFO, a device (a link to /dev/null: reading /dev/zero would never end) and a socket named like a
     lobe are refused wherever a lobe is read — in a folder, as --lobes, as a model — unopened."""
     import os
     import socket
-    import threading
     made = {}
     for kind in ("fifo", "device", "socket"):
         folder = tmp_path / kind
@@ -415,12 +405,8 @@ def test_special_files_are_refused_without_being_opened(tmp_path, checkout):
             attempt((kind, "--lobes"), lambda: BUILT_IN.with_lobes(path).lobes)
             attempt((kind, "-m"), lambda: BUILT_IN.resolve(str(path)))
 
-    worker = threading.Thread(target=attempts, daemon=True)
-    worker.start()
-    worker.join(timeout=20)
-    while worker.is_alive():        # stuck opening the FIFO: let it go on, then fail below
-        _unblock(made["fifo"])
-        worker.join(timeout=1)
+    _, stuck = call_beside_fifo(made["fifo"], attempts)     # stuck opening the FIFO: let go on, then fail
+    assert not stuck, "a lobe reader opened the FIFO"
     server.close()
     words = {"fifo": "a FIFO", "device": "a device", "socket": "a socket"}
     for (kind, where), answer in answers.items():
