@@ -23,12 +23,7 @@ ROOT = Path(__file__).resolve().parents[2]
 # reruns them); tests/contracts/test_freshness.py marks them xfail, strict: a regenerated one fails there until it
 # leaves this list. The list lives here, outside every result's producers, so that taking a result off it
 # does not make that result stale again (tests/ produces mutants.json).
-KNOWN_STALE: dict[str, str] = {
-    "benchmarks/results/mutants.json": "mutation catalogue (benchmarks/mutation): its last run was on fc40ab3's code "
-                    "(331 of 405 mutants, stopped at the end of a session); the tests changed since (three survivors' "
-                    "tests made to kill them, two more mutants, listed as not run); `python -m "
-                    "benchmarks.mutation.run --jobs 2` measures it again",
-}
+KNOWN_STALE: dict[str, str] = {}
 
 
 def git(root: Path, *args: str) -> str | None:
