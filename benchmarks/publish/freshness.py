@@ -46,10 +46,10 @@ KNOWN_STALE: dict[str, str] = {
     "benchmarks/results/user_lobes.json": _TEX_SPEED,
     "benchmarks/results/glsl_oracle.json": _TEX_SPEED,
     "benchmarks/results/brdf_explorer.json": _TEX_SPEED,
-    "benchmarks/results/mutants.json": "mutation catalogue (benchmarks/mutation): its last run was on fc40ab3's code "
-                    "(331 of 405 mutants, stopped at the end of a session); the tests changed since (three survivors' "
-                    "tests made to kill them, two more mutants, listed as not run); `python -m "
-                    "benchmarks.mutation.run --jobs 2` measures it again",
+    "benchmarks/results/mutants.json": "mutation catalogue (benchmarks/mutation): its full run was on d07aa10's "
+                    "code (407 mutants, 0 survivors); branch tex-speed changed kernels, clshade and tests since and "
+                    "added 9 mutants (listed as not run); `python -m benchmarks.mutation.run --jobs 2` "
+                    "measures it again",
 }
 
 
