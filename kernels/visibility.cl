@@ -539,25 +539,23 @@ __kernel void texture(
 
     fvec bx = GF(set_value, sv), by = GF(set_value + 1, sv), bz = GF(set_value + 2, sv);
     fvec rough = GF(set_value + 3, sv), metal = GF(set_value + 4, sv);
-    const ivec use0 = USES(SLOT(0)), use1 = USES(SLOT(1));
+    const ivec slot0 = SLOT(0), use0 = USES(slot0), slot1 = SLOT(1), use1 = USES(slot1);
     if (any(use0)) {
-        const fvec3 t = SAMPLE(SLOT(0), use0);
-        const ivec use = use0;
-        bx = select(bx, bx * t.x, use); by = select(by, by * t.y, use); bz = select(bz, bz * t.z, use);
+        const fvec3 t = SAMPLE(slot0, use0);
+        bx = select(bx, bx * t.x, use0); by = select(by, by * t.y, use0); bz = select(bz, bz * t.z, use0);
     }
     if (any(use1)) {
-        const fvec3 mr = SAMPLE(SLOT(1), use1);
-        const ivec use = use1;
-        rough = select(rough, rough * mr.y, use);
-        metal = select(metal, metal * mr.z, use);
+        const fvec3 mr = SAMPLE(slot1, use1);
+        rough = select(rough, rough * mr.y, use1);
+        metal = select(metal, metal * mr.z, use1);
     }
     VSTORE(select(VLOAD(i, roughness), rough, tex), i, roughness);
     VSTORE(select(VLOAD(i, metallic), metal, tex), i, metallic);
 #if HAS_OCCLUSION
     fvec occ = (fvec)(1.0f);
-    const ivec use4 = USES(SLOT(4));
+    const ivec slot4 = SLOT(4), use4 = USES(slot4);
     if (any(use4)) {
-        const fvec ao = SAMPLE(SLOT(4), use4).x - 1.0f;
+        const fvec ao = SAMPLE(slot4, use4).x - 1.0f;
         occ = select(occ, 1.0f + GF(set_value + 9, sv) * ao, use4);
     }
     VSTORE(select(VLOAD(i, occlusion), occ, tex), i, occlusion);
@@ -568,9 +566,9 @@ __kernel void texture(
     const dvec nx = convert_dvec(VLOAD(i, normal)), ny = convert_dvec(VLOAD(i, normal + plane));
     const dvec nz = convert_dvec(VLOAD(i, normal + 2 * plane));
     dvec mx = nx, my = ny, mz = nz;
-    const ivec use2 = USES(SLOT(2));
+    const ivec slot2 = SLOT(2), use2 = USES(slot2);
     if (any(use2 & live)) {
-        const fvec3 t = SAMPLE(SLOT(2), use2);
+        const fvec3 t = SAMPLE(slot2, use2);
         const fvec scale = GF(set_value + 8, sv);
         const fvec ux = (t.x * 2.0f - 1.0f) * scale, uy = (t.y * 2.0f - 1.0f) * scale, uz = t.z * 2.0f - 1.0f;
         dvec tg[4];
@@ -606,11 +604,10 @@ __kernel void texture(
     WRITE(base, bx); WRITE(base + plane, by); WRITE(base + 2 * plane, bz);
 #if HAS_EMISSIVE
     fvec ex = GF(set_value + 5, sv), ey = GF(set_value + 6, sv), ez = GF(set_value + 7, sv);
-    const ivec use3 = USES(SLOT(3));
+    const ivec slot3 = SLOT(3), use3 = USES(slot3);
     if (any(use3 & live)) {
-        const fvec3 e = SAMPLE(SLOT(3), use3);
-        const ivec use = use3;
-        ex = select(ex, ex * e.x, use); ey = select(ey, ey * e.y, use); ez = select(ez, ez * e.z, use);
+        const fvec3 e = SAMPLE(slot3, use3);
+        ex = select(ex, ex * e.x, use3); ey = select(ey, ey * e.y, use3); ez = select(ez, ez * e.z, use3);
     }
     WRITE(emissive, ex); WRITE(emissive + plane, ey); WRITE(emissive + 2 * plane, ez);
 #endif

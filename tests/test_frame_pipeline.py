@@ -176,7 +176,7 @@ def test_render_explain_names_the_path(tmp_path, runtime, capsys):
     # The pixels bit for bit (not the files: OpenImageIO stamps each EXR with the second it was written).
     from clshade.render.image import read_image
     auto, host = read_image(tmp_path / "auto.exr"), read_image(tmp_path / "host.exr")
-    np.testing.assert_array_equal(auto.view(np.uint32), host.view(np.uint32))
+    np.testing.assert_array_equal(_bits(auto), _bits(host))
 
 
 def test_debug_names_the_path_of_compare(tmp_path, capsys):

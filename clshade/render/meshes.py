@@ -407,11 +407,12 @@ def _material_texture_set(material: Material, scene_file: Path | None, where: st
 def _check_texture_coordinates(uv: np.ndarray, scene_file: Path | None, key: str, value: str) -> None:
     """Refuse texture coordinates that are not finite as float32 (Geometry.uvs): sampling a NaN or
     infinite coordinate indexes no texel."""
+    uv = np.asarray(uv, np.float64)
     with np.errstate(over="ignore", invalid="ignore"):
-        bad = ~np.isfinite(np.asarray(uv, np.float64).astype(np.float32)).all(axis=1)
+        bad = ~np.isfinite(uv.astype(np.float32)).all(axis=1)
     if bad.any():
         first = int(np.argmax(bad))
-        u, v = (float(x) for x in np.asarray(uv, np.float64)[first])
+        u, v = (float(x) for x in uv[first])
         raise located(f"{int(bad.sum())} texture coordinate(s) not finite as float32 (first: vertex {first}: "
                       f"({u:g}, {v:g}))", scene_file, key, value, has_value=True)
 

@@ -855,6 +855,7 @@ def test_a_message_naming_a_broken_or_fifo_folder_leaves_the_server_answering(tm
     import os
     import aiohttp
     from clshade.view.server import ServerThread
+    from conftest import unblock_fifo
     scene, _ = _scene_folder(tmp_path)
     (scene / "bad").mkdir()
     (scene / "bad" / "broken.cl").write_text("/*! clshade-model\n * id: broken\n */\n", encoding="utf-8")
@@ -884,10 +885,7 @@ def test_a_message_naming_a_broken_or_fifo_folder_leaves_the_server_answering(tm
         with running as url:
             got, hello, frame = asyncio.run(visit(url))
     finally:
-        try:        # a server stuck opening the FIFO goes on (and the test has failed above)
-            os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
-        except OSError:
-            pass
+        unblock_fifo(fifo)      # a server stuck opening the FIFO goes on (and the test has failed above)
     assert [(m["type"], m["seq"]) for m in got] == [("error", 1), ("error", 2)]
     assert "broken.cl:3: header lacks" in got[0]["message"] and "lobe file is a FIFO" in got[1]["message"]
     assert hello["type"] == "hello" and "broken" not in {l["id"] for l in hello["lobes"]}
