@@ -31,8 +31,8 @@
  *   env_map     W·H float4: texel radiance RGB and the map strategy's pdf per steradian
  *   env_cdf     the marginal CDF over rows (H + 1 floats), then each row's CDF over its columns (W + 1)
  * and for the split-sum rungs (MipChain.table, .texels, prefilter.dfg_table):
- *   env_levels  ENV_LEVELS × (first texel, W, H, 0) floats: the levels of env_mips
- *   env_mips    the levels' texels (float4: RGB, 0), level 0 the map itself
+ *   env_levels  ENV_LEVELS × (first texel, W, H, exponent bias) floats: the levels of env_mips
+ *   env_mips    the levels' texels as RGB9E5 words (one gather a texel), level 0 the map itself
  *   env_dfg     ENV_DFG_SIZE² (A, B) pairs, n·v the slow axis, t the fast one
  *
  * The sampled rung: N samples per pixel shared round-robin among its strategies (cosine, the lobe's
@@ -80,7 +80,7 @@
 
 /* The split-sum rungs' extra arguments of shade.cl (none for the other rungs). */
 #if ENV_SPLIT_SUM_RUNG
-#define ENV_SPLIT_PARAMS , __global const float* env_levels, __global const float4* env_mips, \
+#define ENV_SPLIT_PARAMS , __global const float* env_levels, __global const uint* env_mips, \
                            __global const float* env_dfg
 #define ENV_SPLIT_ARGS , env_levels, env_mips, env_dfg
 #else
@@ -529,24 +529,41 @@ INLINE EnvQuad env_level_quad(__global const float* levels, mask k, real u, real
                     u, v);
 }
 
-/* The mip chain at map coordinates (u, v), linear between levels k and k + 1 (per lane) by `frac`, each
- * level bilinear (env_quad). Without hardware gathers the eight texels of a lane are read and blended as
- * float4 in one pass. */
-INLINE vec3 env_prefiltered(__global const float* levels, __global const float4* mips, mask k, real frac, real u,
-                            real v) {
+/* Each lane's word of p (a gather: the bits as they are). */
+INLINE mask env_words(__global const uint* p, mask index) {
 #ifdef CLSHADE_HARDWARE_GATHER
-    return v3mix(env_bilinear(mips, env_level_quad(levels, k, u, v)),
-                 env_bilinear(mips, env_level_quad(levels, k + 1, u, v)), frac);
+    return as_mask(gather((__global const float*)p, index));
 #else
-    EnvQuadLanes a = env_quad_lanes(env_level_quad(levels, k, u, v));
-    EnvQuadLanes b = env_quad_lanes(env_level_quad(levels, k + 1, u, v));
-    real_lanes t = {frac}, r, g, bl;
-    for (int j = 0; j < SIMD; ++j) {
-        float4 c = mix(env_bilinear_lane(mips, a, j), env_bilinear_lane(mips, b, j), t.s[j]);
-        r.s[j] = c.x; g.s[j] = c.y; bl.s[j] = c.z;
-    }
-    return v3(r.v, g.v, bl.v);
+    mask_lanes k = {index}, w;
+    for (int j = 0; j < SIMD; ++j)
+        w.s[j] = (int)p[k.s[j]];
+    return w.v;
 #endif
+}
+
+/* The RGB of RGB9E5 words (clshade/render/prefilter.py, pack_rgb9e5): each 9-bit mantissa × 2 to the
+ * 5-bit shared exponent + bias − 127, the float32 whose exponent field is e + bias (env_levels' bias:
+ * 127 − 15 − 9 + the chain's scale exponent, so the field stays ≥ 103, a normal float). */
+INLINE vec3 env_rgb9e5(mask w, mask bias) {
+    real scale = as_real((((w >> 27) & 31) + bias) << 23);
+    return v3(convert_real(w & 0x1ff) * scale, convert_real((w >> 9) & 0x1ff) * scale,
+              convert_real((w >> 18) & 0x1ff) * scale);
+}
+
+/* The bilinear value of a footprint of the chain. */
+INLINE vec3 env_level_bilinear(__global const uint* mips, EnvQuad q, mask bias) {
+    vec3 top = v3mix(env_rgb9e5(env_words(mips, q.i00), bias), env_rgb9e5(env_words(mips, q.i01), bias), q.fx);
+    vec3 bottom = v3mix(env_rgb9e5(env_words(mips, q.i10), bias), env_rgb9e5(env_words(mips, q.i11), bias), q.fx);
+    return v3mix(top, bottom, q.fy);
+}
+
+/* The mip chain at map coordinates (u, v), linear between levels k and k + 1 (per lane) by `frac`, each
+ * level bilinear (env_quad). */
+INLINE vec3 env_prefiltered(__global const float* levels, __global const uint* mips, mask k, real frac, real u,
+                            real v) {
+    mask bias = (mask)((int)levels[3]);
+    return v3mix(env_level_bilinear(mips, env_level_quad(levels, k, u, v), bias),
+                 env_level_bilinear(mips, env_level_quad(levels, k + 1, u, v), bias), frac);
 }
 
 /* The lookup coordinate t in [0, 1] of the lobe (clshade/render/prefilter.py): the roughness, or
@@ -563,7 +580,7 @@ INLINE real env_split_t(const Surface s) {
  * of v (linear between the levels around t·(ENV_LEVELS − 1)) times the DFG table at (n·v, t),
  * bilinear between its nodes. */
 INLINE vec3 env_split_sum(vec3 n, vec3 v, const Surface s, __constant float4* P, __global const float* levels,
-                          __global const float4* mips, __global const float* dfg) {
+                          __global const uint* mips, __global const float* dfg) {
     real nv = saturate(fmax(v3dot(n, v), MIN_N_DOT_V));
     real t = env_split_t(s);
     real u, w;

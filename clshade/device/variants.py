@@ -113,7 +113,7 @@ class Features:
         env = self.environment
         out.append("environment: " + ("off" if env is None else
                    f"on (kernels/environment.h): diffuse {env.diffuse}, specular {env.specular}"
-                   + (f" (a {prefilter.LEVELS}-level prefiltered mip chain × a {prefilter.DFG_SIZE}² DFG table"
+                   + (f" (a {prefilter.LEVELS}-level prefiltered mip chain in RGB9E5 × a {prefilter.DFG_SIZE}² DFG table"
                       + (", energy compensation" if env.specular == "split_sum_ms" else "") + ")"
                       if env.specular in SPLIT_SUM_RUNGS else "")
                    + (", sky behind the scene" if env.background else "")

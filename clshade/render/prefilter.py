@@ -157,22 +157,74 @@ def _convolve(source: np.ndarray, fam: str, t: float) -> np.ndarray:
     return np.maximum(out / norm[:, None, None], 0.0)
 
 
+# ---------------------------------------------------------------- the chain on the device: RGB9E5
+
+#: The device holds the chain's texels as RGB9E5 (the shared-exponent format of OpenGL's
+#: EXT_texture_shared_exponent and Direct3D's R9G9B9E5_SHAREDEXP): three 9-bit mantissas and one 5-bit
+#: exponent in 32 bits, value = m·2^(e − RGB9E5_BIAS − RGB9E5_MANTISSA). One gather per texel instead of
+#: three: the split sum's trilinear lookup reads eight texels per pixel, and on a CPU its time is the
+#: gathers' (docs/bench-notes.md). Rounding to nearest, each channel is within 1/511.5 (≈ 2⁻⁹) of the texel's
+#: largest channel (≥ 2⁻¹⁶; below it, within 2⁻²⁴ absolute); Filament ships its prefiltered specular
+#: in R11G11B10F (within 2⁻⁷).
+RGB9E5_MANTISSA = 9
+RGB9E5_BIAS = 15
+RGB9E5_MAX_EXPONENT = 31
+#: The largest value RGB9E5 holds: (2⁹ − 1)/2⁹ · 2^(31 − 15) = 65408.
+RGB9E5_MAX = (1.0 - 2.0 ** -RGB9E5_MANTISSA) * 2.0 ** (RGB9E5_MAX_EXPONENT - RGB9E5_BIAS)
+
+
+def rgb9e5_scale_exponent(rgb: np.ndarray) -> int:
+    """The power of two s ≥ 0 such that rgb·2⁻ˢ fits RGB9E5 (a sun may be brighter than 65408)."""
+    top = float(np.max(rgb, initial=0.0))
+    return max(0, math.ceil(math.log2(top / RGB9E5_MAX))) if top > RGB9E5_MAX else 0
+
+
+def pack_rgb9e5(rgb: np.ndarray, scale_exponent: int = 0) -> np.ndarray:
+    """(N,) uint32 RGB9E5 words of (N, 3) non-negative finite values × 2^−scale_exponent, each channel
+    rounded to the nearest step of the texel's shared exponent (EXT_texture_shared_exponent, §2.16.1:
+    the exponent of the largest channel, one up where its mantissa rounds to 2⁹)."""
+    x = np.clip(np.asarray(rgb, np.float64) * 2.0 ** -scale_exponent, 0.0, RGB9E5_MAX)
+    top = x.max(axis=1)
+    _, p = np.frexp(top)                                     # top = f·2^p, f in [0.5, 1): ⌊log2 top⌋ = p − 1
+    e = np.maximum(p - 1, -RGB9E5_BIAS - 1) + 1 + RGB9E5_BIAS
+    e = np.where(top > 0.0, e, 0)
+    step = np.ldexp(1.0, e - RGB9E5_BIAS - RGB9E5_MANTISSA)
+    e = np.where(np.floor(top / step + 0.5) >= 2 ** RGB9E5_MANTISSA, e + 1, e)
+    step = np.ldexp(1.0, e - RGB9E5_BIAS - RGB9E5_MANTISSA)
+    m = np.floor(x / step[:, None] + 0.5).astype(np.uint32)
+    return m[:, 0] | (m[:, 1] << 9) | (m[:, 2] << 18) | (e.astype(np.uint32) << 27)
+
+
+def unpack_rgb9e5(words: np.ndarray, scale_exponent: int = 0) -> np.ndarray:
+    """(N, 3) float64 values of RGB9E5 words (the kernels' env_rgb9e5 in float64)."""
+    w = np.asarray(words, np.uint32)
+    step = np.ldexp(1.0, (w >> 27).astype(np.int64) - RGB9E5_BIAS - RGB9E5_MANTISSA + scale_exponent)
+    return np.stack([(w >> s) & 0x1FF for s in (0, 9, 18)], axis=1) * step[:, None]
+
+
 @dataclass(frozen=True)
 class MipChain:
     """The prefiltered levels of one map and family, float32, level 0 the map itself."""
     family: str
     levels: tuple[np.ndarray, ...]         # (H_k, W_k, 3) each
 
+    @property
+    def scale_exponent(self) -> int:
+        """The device texels' power-of-two scale (rgb9e5_scale_exponent of the whole chain)."""
+        return max(rgb9e5_scale_exponent(lv) for lv in self.levels)
+
     def texels(self) -> np.ndarray:
-        """Every level's texels as float4 rows (RGB, 0), level after level."""
-        flat = np.concatenate([lv.reshape(-1, 3) for lv in self.levels])
-        return np.concatenate([flat, np.zeros((len(flat), 1))], axis=1).astype(np.float32)
+        """Every level's texels as RGB9E5 words (pack_rgb9e5), level after level."""
+        return pack_rgb9e5(np.concatenate([lv.reshape(-1, 3) for lv in self.levels]), self.scale_exponent)
 
     def table(self) -> np.ndarray:
-        """(LEVELS, 4) float32 rows (first texel, W, H, 0) of each level (kernels/environment.h)."""
+        """(LEVELS, 4) float32 rows (first texel, W, H, exponent bias) of each level (kernels/environment.h):
+        the bias turns a texel's shared exponent into its float32 scale's exponent field,
+        127 − RGB9E5_BIAS − RGB9E5_MANTISSA + the scale exponent."""
+        bias = 127 - RGB9E5_BIAS - RGB9E5_MANTISSA + self.scale_exponent
         rows, offset = [], 0
         for lv in self.levels:
-            rows.append((offset, lv.shape[1], lv.shape[0], 0.0))
+            rows.append((offset, lv.shape[1], lv.shape[0], bias))
             offset += lv.shape[0] * lv.shape[1]
         return np.array(rows, np.float32)
 

@@ -392,6 +392,27 @@ def test_split_sum_of_an_f0_one_conductor_is_the_reference_albedo(conductor_fram
             assert np.abs(image[px.index[k]] - want).max() < SPLIT_ALBEDO_TOLERANCE, (r, mu, image[px.index[k]], want)
 
 
+def test_split_sum_of_a_coloured_sky_reads_each_channel_at_its_scale(tmp_path):
+    """The chain's texels are RGB9E5 words on the device (clshade/render/prefilter.py): under a uniform sky of
+    three unequal channels, one above RGB9E5's largest value (a scaled chain), the F0 = 1 conductor
+    reflects E(μ) × each channel, the sky as the format holds it (within 1/511.5 of the brightest)."""
+    from clshade.render import prefilter as P
+    sky = np.array([9.0e4, 2500.0, 17000.0])
+    s = load_scene(write_scene(tmp_path, conductor_spheres(dict(uniform=sky.tolist(), diffuse="constant",
+                                                                  specular="split_sum"))))
+    frame = prepare_frame(s)
+    from clshade.verify import reference as R
+    px = R.pixels(frame.gbuffer, frame.camera)
+    image = render(s, GGX, frame=frame).image[..., :3].reshape(-1, 3)
+    scale = P.rgb9e5_scale_exponent(sky[None])
+    held = P.unpack_rgb9e5(P.pack_rgb9e5(sky[None], scale), scale)[0]
+    assert scale == 1 and held[0] != sky[0] and np.all(np.abs(held - sky) <= sky.max() / 511.5)
+    for r in ROUGHNESS:
+        for k in _pick(px, r):
+            want = reference_albedo(float(px.n[k] @ px.v[k]), r) * held
+            assert np.all(np.abs(image[px.index[k]] - want) <= SPLIT_ALBEDO_TOLERANCE * held), (r, image[px.index[k]], want)
+
+
 def test_split_sum_ms_of_an_f0_one_conductor_is_one(conductor_frame):
     """Energy compensation: the same conductor reflects the whole white sky, 1 within 1e-3, where single
     scattering loses up to ~40 % at roughness 1."""
@@ -440,5 +461,5 @@ def test_split_sum_is_compiled_only_when_asked_and_explained(tmp_path, capsys):
                                          "--width", "24", "--height", "24", "--explain",
                                          "--environment-specular", "split_sum"])
     assert code == 0 and err == "", err
-    assert "specular split_sum (a 6-level prefiltered mip chain × a 32² DFG table)" in stdout
+    assert "specular split_sum (a 6-level prefiltered mip chain in RGB9E5 × a 32² DFG table)" in stdout
     assert "ENV_SPECULAR=ENV_SPLIT_SUM " in stdout and "ENV_SPLIT_FAMILY=ENV_LOBE_GGX" in stdout

@@ -32,6 +32,41 @@ def test_level_zero_is_the_map_and_a_constant_sky_stays_constant(fam):
         assert np.abs(level - 0.7).max() < 1e-6
 
 
+def test_rgb9e5_keeps_exact_values_and_rounds_within_its_step():
+    """pack_rgb9e5 against values the format holds exactly (0, 1, halvings, its largest value, a channel
+    order that a swap would show) and, over random colours spanning 33 octaves, within 1/511.5 of the
+    texel's largest channel (≥ 2⁻¹⁶) or 2⁻²⁴ absolute below it."""
+    exact = np.array([[0.0, 0.0, 0.0], [1.0, 1.0, 1.0], [0.5, 0.25, 0.125], [P.RGB9E5_MAX, 0.0, 0.0],
+                      [3.0, 5.0, 7.0], [2.0 ** -20, 0.0, 2.0 ** -21]])
+    assert np.array_equal(P.unpack_rgb9e5(P.pack_rgb9e5(exact)), exact)
+    rng = np.random.default_rng(3)
+    x = rng.random((20000, 3)) * 2.0 ** rng.uniform(-17.0, 16.0, (20000, 1))
+    err = np.abs(P.unpack_rgb9e5(P.pack_rgb9e5(x)) - x).max(axis=1)
+    top = x.max(axis=1)
+    big = top >= 2.0 ** -16
+    assert big.any() and (~big).any()
+    assert (err[big] <= top[big] / 511.5).all()
+    assert (err[~big] <= 2.0 ** -24).all()
+    assert (err[big] / top[big]).max() > 1.8e-3          # rounding at the step, not finer
+
+
+def test_a_chain_brighter_than_rgb9e5_is_scaled_by_a_power_of_two():
+    """A sun of 2·10⁵ (above RGB9E5's 65408): the device texels are the levels × 2⁻ˢ, s the smallest that
+    fits, the level table's bias carries s, and the texels read back within the format's step."""
+    sky = sky_of(hot_sky, 64, 32).astype(np.float32)
+    sky[3, 10] = [2.0e5, 1.0e5, 3.0]
+    chain = P.mip_chain(sky, "ggx")
+    assert chain.scale_exponent == 2                       # 2·10⁵/4 = 50000 ≤ 65408 < 2·10⁵/2
+    assert P.mip_chain(sky_of(hot_sky, 64, 32).astype(np.float32), "ggx").scale_exponent == 0
+    bias = chain.table()[:, 3]
+    assert np.array_equal(bias, np.full(P.LEVELS, 127 - 15 - 9 + 2, np.float32))
+    back = P.unpack_rgb9e5(chain.texels(), chain.scale_exponent)
+    flat = np.concatenate([lv.reshape(-1, 3) for lv in chain.levels]).astype(np.float64)
+    assert np.all(np.abs(back - flat).max(axis=1) <= flat.max(axis=1) / 511.5 + 2.0 ** -22)
+    first = chain.table()[:, 0].astype(int)
+    assert np.allclose(back[first[0] + 3 * 64 + 10], [2.0e5, 1.0e5, 0.0], rtol=2e-3, atol=2e5 / 511)
+
+
 @pytest.mark.parametrize("width", [180, 360])
 def test_any_two_to_one_map_gets_a_chain_of_whole_blocks(width):
     """Each level is a whole-block box filter of the previous one (widths that divide, twice the height):
