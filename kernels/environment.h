@@ -30,10 +30,11 @@
  *   env_params  float4 rows: (cos θ, sin θ, W, H), (mean radiance, 0), 9 × (SH coefficient × Â_l/π, 0)
  *   env_map     W·H float4: texel radiance RGB and the map strategy's pdf per steradian
  *   env_cdf     the marginal CDF over rows (H + 1 floats), then each row's CDF over its columns (W + 1)
- * and for the split-sum rungs (MipChain.table, .texels, prefilter.dfg_table):
+ * and for the split-sum rungs (MipChain.table, .texels, prefilter.dfg_words):
  *   env_levels  ENV_LEVELS × (first texel, W, H, exponent bias) floats: the levels of env_mips
  *   env_mips    the levels' texels as RGB9E5 words (one gather a texel), level 0 the map itself
- *   env_dfg     ENV_DFG_SIZE² (A, B) pairs, n·v the slow axis, t the fast one
+ *   env_dfg     ENV_DFG_SIZE² words, n·v the slow axis, t the fast one: A in the low half-float, B in
+ *               the high one (one gather a node)
  *
  * The sampled rung: N samples per pixel shared round-robin among its strategies (cosine, the lobe's
  * distribution, the map), each strategy on its own Hammersley set of n_s points with a per-pixel
@@ -81,7 +82,7 @@
 /* The split-sum rungs' extra arguments of shade.cl (none for the other rungs). */
 #if ENV_SPLIT_SUM_RUNG
 #define ENV_SPLIT_PARAMS , __global const float* env_levels, __global const uint* env_mips, \
-                           __global const float* env_dfg
+                           __global const uint* env_dfg
 #define ENV_SPLIT_ARGS , env_levels, env_mips, env_dfg
 #else
 #define ENV_SPLIT_PARAMS
@@ -522,11 +523,22 @@ INLINE vec3 env_sampled(vec3 n, vec3 v, const Surface s, uindex pixel, uint samp
 
 INLINE real env_lerp(real a, real b, real t) { return a + (b - a) * t; }
 
-/* Level k's bilinear footprint at map coordinates (u, v), k per lane (its row of env_levels). */
+/* Level k's bilinear footprint at map coordinates (u, v), k per lane (its row of env_levels): read once
+ * where every lane is on one level (the lanes of one material, the usual case), else gathered. */
 INLINE EnvQuad env_level_quad(__global const float* levels, mask k, real u, real v) {
-    real wf = gather(levels, 4 * k + 1), hf = gather(levels, 4 * k + 2);
-    return env_quad(convert_mask_sat(gather(levels, 4 * k)), convert_mask_sat(wf), convert_mask_sat(hf), wf, hf,
-                    u, v);
+    mask_lanes lanes = {k};
+    int first = lanes.s[0];
+    real base, wf, hf;
+    if (ALL(k == first)) {
+        base = (real)(levels[4 * first]);
+        wf = (real)(levels[4 * first + 1]);
+        hf = (real)(levels[4 * first + 2]);
+    } else {
+        base = gather(levels, 4 * k);
+        wf = gather(levels, 4 * k + 1);
+        hf = gather(levels, 4 * k + 2);
+    }
+    return env_quad(convert_mask_sat(base), convert_mask_sat(wf), convert_mask_sat(hf), wf, hf, u, v);
 }
 
 /* Each lane's word of p (a gather: the bits as they are). */
@@ -549,6 +561,13 @@ INLINE vec3 env_rgb9e5(mask w, mask bias) {
     return v3(convert_real(w & 0x1ff) * scale, convert_real((w >> 9) & 0x1ff) * scale,
               convert_real((w >> 18) & 0x1ff) * scale);
 }
+
+/* The low and the high half-float of words (non-negative, finite: the DFG table's, prefilter.dfg_words) as
+ * floats: a half's exponent and mantissa bits moved to a float's, times 2^(127 − 15) to rebias the exponent;
+ * exact for every normal half (a subnormal half reads as 0 where the device flushes denormals). */
+#define ENV_HALF_REBIAS 5.192296858534828e33f   /* 2¹¹² */
+INLINE real env_half_lo(mask w) { return as_real((w & 0x7fff) << 13) * ENV_HALF_REBIAS; }
+INLINE real env_half_hi(mask w) { return as_real((w >> 3) & 0x0fffe000) * ENV_HALF_REBIAS; }
 
 /* The bilinear value of a footprint of the chain. */
 INLINE vec3 env_level_bilinear(__global const uint* mips, EnvQuad q, mask bias) {
@@ -580,7 +599,7 @@ INLINE real env_split_t(const Surface s) {
  * of v (linear between the levels around t·(ENV_LEVELS − 1)) times the DFG table at (n·v, t),
  * bilinear between its nodes. */
 INLINE vec3 env_split_sum(vec3 n, vec3 v, const Surface s, __constant float4* P, __global const float* levels,
-                          __global const uint* mips, __global const float* dfg) {
+                          __global const uint* mips, __global const uint* dfg) {
     real nv = saturate(fmax(v3dot(n, v), MIN_N_DOT_V));
     real t = env_split_t(s);
     real u, w;
@@ -592,13 +611,14 @@ INLINE vec3 env_split_sum(vec3 n, vec3 v, const Surface s, __constant float4* P,
     real x = nv * (real)(ENV_DFG_SIZE - 1), y = t * (real)(ENV_DFG_SIZE - 1);
     real x0 = fmin(floor(x), (real)(ENV_DFG_SIZE - 2)), y0 = fmin(floor(y), (real)(ENV_DFG_SIZE - 2));
     real fx = x - x0, fy = y - y0;
-    mask i = 2 * (convert_mask_sat(x0) * ENV_DFG_SIZE + convert_mask_sat(y0));
-    const int row = 2 * ENV_DFG_SIZE;
-    real A = env_lerp(env_lerp(gather(dfg, i), gather(dfg, i + 2), fy),
-                      env_lerp(gather(dfg, i + row), gather(dfg, i + row + 2), fy), fx);
+    mask i = convert_mask_sat(x0) * ENV_DFG_SIZE + convert_mask_sat(y0);
+    mask w00 = env_words(dfg, i), w01 = env_words(dfg, i + 1);
+    mask w10 = env_words(dfg, i + ENV_DFG_SIZE), w11 = env_words(dfg, i + ENV_DFG_SIZE + 1);
+    real A = env_lerp(env_lerp(env_half_lo(w00), env_half_lo(w01), fy),
+                      env_lerp(env_half_lo(w10), env_half_lo(w11), fy), fx);
 #if ENV_SPLIT_FRESNEL
-    real B = env_lerp(env_lerp(gather(dfg, i + 1), gather(dfg, i + 3), fy),
-                      env_lerp(gather(dfg, i + row + 1), gather(dfg, i + row + 3), fy), fx);
+    real B = env_lerp(env_lerp(env_half_hi(w00), env_half_hi(w01), fy),
+                      env_lerp(env_half_hi(w10), env_half_hi(w11), fy), fx);
 #if FRESNEL == FRESNEL_SCHLICK
     vec3 f0 = s.f0;
     real f90 = s.f90;

@@ -47,8 +47,8 @@ KNOWN_STALE: dict[str, str] = {
     "benchmarks/results/glsl_oracle.json": _TEX_SPEED,
     "benchmarks/results/brdf_explorer.json": _TEX_SPEED,
     "benchmarks/results/mutants.json": "mutation catalogue (benchmarks/mutation): its full run was on d07aa10's "
-                    "code (407 mutants, 0 survivors); branches tex-speed and split-pack changed kernels, clshade and "
-                    "tests since and added 15 mutants (listed as not run); `python -m benchmarks.mutation.run --jobs 2` "
+                    "code (407 mutants, 0 survivors); branches tex-speed, split-pack and split-dfg changed kernels, "
+                    "clshade and tests since and added 20 mutants (listed as not run); `python -m benchmarks.mutation.run --jobs 2` "
                     "measures it again",
 }
 

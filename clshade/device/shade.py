@@ -262,7 +262,7 @@ class Shader:
             self._split_tables["chain", fam] = (self.rt.to_device(chain.table().reshape(-1)),
                                                 self.rt.to_device(chain.texels()))
         if ("dfg", lobe) not in self._split_tables:
-            self._split_tables["dfg", lobe] = self.rt.to_device(prefilter.dfg_table(lobe).reshape(-1))
+            self._split_tables["dfg", lobe] = self.rt.to_device(prefilter.dfg_words(lobe))
         return [*self._split_tables["chain", fam], self._split_tables["dfg", lobe]]
 
     def rebind(self, gbuffer: GBuffer, scene: Scene, camera: Camera | None = None) -> None:

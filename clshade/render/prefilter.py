@@ -295,6 +295,14 @@ def dfg_table(lobe: str, size: int = DFG_SIZE) -> np.ndarray:
     return _dfg_table(lobe, size)
 
 
+def dfg_words(lobe: str, size: int = DFG_SIZE) -> np.ndarray:
+    """(size², ) uint32: the device's DFG table, a node a word, A the low half-float and B the high one
+    (kernels/environment.h, env_half_lo/hi): one gather a node instead of two. Half-floats keep 11
+    significant bits (rounding within 2⁻¹¹ relative), far below the table's own rule error (DFG_RADIAL)."""
+    halves = np.ascontiguousarray(dfg_table(lobe, size), np.float16).view(np.uint16).astype(np.uint32)
+    return (halves[..., 0] | (halves[..., 1] << 16)).reshape(-1)
+
+
 @lru_cache(maxsize=16)
 def _dfg_table(lobe: str, size: int) -> np.ndarray:
     fam = family(lobe)

@@ -342,24 +342,26 @@ SPLIT_ALBEDO_TOLERANCE = 3e-3
 MS_TOLERANCE = 1e-3
 
 
-def conductor_spheres(sky: dict, background: str | None = None) -> str:
-    """Four white (F0 = 1) metal spheres of ROUGHNESS in a row under `sky`."""
-    mats = [material(f"m{i}", base_color=[1.0, 1.0, 1.0], roughness=r, metallic=1.0) for i, r in enumerate(ROUGHNESS)]
+def conductor_spheres(sky: dict, background: str | None = None, base_color=(1.0, 1.0, 1.0)) -> str:
+    """Four metal spheres of ROUGHNESS in a row under `sky`, F0 = base_color (white: 1)."""
+    mats = [material(f"m{i}", base_color=list(base_color), roughness=r, metallic=1.0) for i, r in enumerate(ROUGHNESS)]
     objs = [obj(primitive="sphere", radius=0.45, subdivisions=5, translate=[-1.5 + i, 0.0, 0.0], material=f"m{i}")
             for i in range(len(ROUGHNESS))]
     return scene(camera(position=[0.0, 0.0, 5.0], fov=34.0, width=96, height=32), render_table(background=background),
                  table("environment", **sky), *mats, *objs)
 
 
-def reference_albedo(mu: float, roughness: float) -> float:
-    """E(μ) of ggx_correlated with F = 1 by the float64 reference (clshade.verify.reference)."""
+def reference_albedo(mu: float, roughness: float, f0: float = 1.0) -> float:
+    """E(μ) of ggx_correlated with Schlick's Fresnel of `f0` (f90 = 1; F = 1 by default) by the float64
+    reference (clshade.verify.reference)."""
     from clshade.verify.reference import albedo, compose
 
     def f(n, l, v):
         h = l + v
         h = h / np.linalg.norm(h, axis=1, keepdims=True)
-        out = compose.ggx_correlated(l[:, 2], v[:, 2], h[:, 2], np.sum(v * h, axis=1), max(roughness ** 2, 1e-4))
-        return np.asarray(out).reshape(len(l), -1)[:, 0]
+        vh = np.sum(v * h, axis=1)
+        out = compose.ggx_correlated(l[:, 2], v[:, 2], h[:, 2], vh, max(roughness ** 2, 1e-4))
+        return np.asarray(out).reshape(len(l), -1)[:, 0] * (f0 + (1.0 - f0) * (1.0 - vh) ** 5)
     return float(albedo.directional_albedo(f, 16, v=(np.sqrt(max(1.0 - mu * mu, 0.0)), 0.0, mu)))
 
 
@@ -390,6 +392,38 @@ def test_split_sum_of_an_f0_one_conductor_is_the_reference_albedo(conductor_fram
             mu = float(px.n[k] @ px.v[k])
             want = reference_albedo(mu, r)
             assert np.abs(image[px.index[k]] - want).max() < SPLIT_ALBEDO_TOLERANCE, (r, mu, image[px.index[k]], want)
+
+
+def test_split_sum_of_a_tinted_conductor_is_schlicks_albedo_per_channel(tmp_path):
+    """Metal of base colour F0 = (0.2, 0.5, 0.9) under a uniform white sky: each channel is the reference's
+    albedo with Schlick's Fresnel of that F0, F0·A + B of the DFG table's scale A and bias B (an F0 = 1
+    conductor sees only A + B)."""
+    f0 = (0.2, 0.5, 0.9)
+    text = conductor_spheres(dict(uniform=1.0, diffuse="constant", specular="split_sum"), base_color=f0)
+    s = load_scene(write_scene(tmp_path, text))
+    frame = prepare_frame(s)
+    from clshade.verify import reference as R
+    px = R.pixels(frame.gbuffer, frame.camera)
+    image = render(s, GGX, frame=frame).image[..., :3].reshape(-1, 3)
+    for r in ROUGHNESS:
+        for k in _pick(px, r):
+            mu = float(px.n[k] @ px.v[k])
+            want = np.array([reference_albedo(mu, r, c) for c in f0])
+            assert np.abs(image[px.index[k]] - want).max() < SPLIT_ALBEDO_TOLERANCE, (r, mu, image[px.index[k]], want)
+
+
+def test_split_sum_is_the_same_one_lane_at_a_time(tmp_path, device_runtime):
+    """Spheres of four roughnesses (four chain levels) on a sky of distinct texels, at 8 lanes a work-item and
+    at 1: where a work-item's lanes fall on different levels (sphere edges: covered beside uncovered lanes) the
+    level table is gathered per lane, elsewhere read once; one lane is always read once. The same image."""
+    from clshade.device.runtime import BuildChoice, Runtime
+    rng = np.random.default_rng(9)
+    write_map(tmp_path / "sky.exr", (rng.random((32, 64, 3)) * 4.0).astype(np.float32))
+    s = load_scene(write_scene(tmp_path, conductor_spheres(dict(map="sky.exr", diffuse="sh9", specular="split_sum"))))
+    spec = device_runtime.info.spec
+    images = [render(s, GGX, runtime=Runtime(spec, choice=BuildChoice(lanes=lanes))).image for lanes in (8, 1)]
+    assert images[0][..., :3].std() > 0.1
+    assert np.abs(images[0] - images[1]).max() <= 1e-5 * np.abs(images[0]).max()
 
 
 def test_split_sum_of_a_coloured_sky_reads_each_channel_at_its_scale(tmp_path):

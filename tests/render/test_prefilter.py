@@ -67,6 +67,20 @@ def test_a_chain_brighter_than_rgb9e5_is_scaled_by_a_power_of_two():
     assert np.allclose(back[first[0] + 3 * 64 + 10], [2.0e5, 1.0e5, 0.0], rtol=2e-3, atol=2e5 / 511)
 
 
+@pytest.mark.parametrize("lobe", ["ggx_correlated", "blinn_phong_normalized"])
+def test_dfg_words_hold_the_scale_low_and_the_bias_high_as_halves(lobe):
+    """The device's DFG table: a node a word, A in the low half-float and B in the high one, each within a
+    half's rounding (2⁻¹¹ relative) of the float32 table."""
+    table = P.dfg_table(lobe)
+    words = P.dfg_words(lobe)
+    assert words.dtype == np.uint32 and words.shape == (P.DFG_SIZE ** 2,)
+    a = (words & 0xFFFF).astype(np.uint16).view(np.float16).astype(np.float64)
+    b = (words >> 16).astype(np.uint16).view(np.float16).astype(np.float64)
+    for got, want in ((a, table[..., 0].reshape(-1)), (b, table[..., 1].reshape(-1))):
+        assert np.all(np.abs(got - want) <= 2.0 ** -11 * want + 2.0 ** -25)
+    assert a.max() > 0.9 and (lobe == "blinn_phong_normalized" or b.max() > 0.5)
+
+
 @pytest.mark.parametrize("width", [180, 360])
 def test_any_two_to_one_map_gets_a_chain_of_whole_blocks(width):
     """Each level is a whole-block box filter of the previous one (widths that divide, twice the height):
