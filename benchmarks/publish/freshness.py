@@ -23,29 +23,7 @@ ROOT = Path(__file__).resolve().parents[2]
 # reruns them); tests/contracts/test_freshness.py marks them xfail, strict: a regenerated one fails there until it
 # leaves this list. The list lives here, outside every result's producers, so that taking a result off it
 # does not make that result stale again (tests/ produces mutants.json).
-_TEX_SPEED = ("kernels/visibility.cl, clshade/device/visibility.py and clshade/render/meshes.py changed on "
-              "branch tex-speed (the vectorised texture kernel, cover batches, refused non-finite UVs) after the "
-              "last regenerate on fc40ab3; `python -m benchmarks.publish.regenerate --skip mutants.json` on a "
-              "quiet machine measures it again")
 KNOWN_STALE: dict[str, str] = {
-    "benchmarks/results/bench_1080p.json": _TEX_SPEED,
-    "benchmarks/report/report.json": _TEX_SPEED,
-    "benchmarks/results/perf_1080p.json": _TEX_SPEED,
-    "benchmarks/results/runtimes.json": _TEX_SPEED,
-    "benchmarks/results/tuning.json": _TEX_SPEED,
-    "benchmarks/results/effects.json": _TEX_SPEED,
-    "benchmarks/results/environment.json": _TEX_SPEED,
-    "benchmarks/results/environment_cost.json": _TEX_SPEED,
-    "benchmarks/results/frame_scale.json": _TEX_SPEED,
-    "benchmarks/results/aa.json": _TEX_SPEED,
-    "benchmarks/results/view.json": _TEX_SPEED,
-    "benchmarks/results/view_pocl30.json": _TEX_SPEED,
-    "benchmarks/results/accuracy.json": _TEX_SPEED,
-    "benchmarks/results/floor_bias.json": _TEX_SPEED,
-    "benchmarks/results/stability.json": _TEX_SPEED,
-    "benchmarks/results/user_lobes.json": _TEX_SPEED,
-    "benchmarks/results/glsl_oracle.json": _TEX_SPEED,
-    "benchmarks/results/brdf_explorer.json": _TEX_SPEED,
     "benchmarks/results/mutants.json": "mutation catalogue (benchmarks/mutation): its full run was on d07aa10's "
                     "code (407 mutants, 0 survivors); branches tex-speed, split-pack and split-dfg changed kernels, "
                     "clshade and tests since and added 20 mutants (listed as not run); `python -m benchmarks.mutation.run --jobs 2` "
