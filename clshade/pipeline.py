@@ -30,6 +30,7 @@ from clshade.render.meshes import Geometry, build_geometry
 from clshade.models.model import Model
 from clshade.render.raster import Fragments, RasterMesh, ViewSetup, rasterize_mesh, setup_view
 from clshade.render.raster.batches import FACE_BATCH
+from clshade.render.raster.resolve import view_max_triangles
 from clshade.render.arrays import PlanePool
 from clshade.device import visibility as device_visibility
 from clshade.diagnostics import note
@@ -181,8 +182,8 @@ class GBufferStage:
             setup = setup_view(self.mesh, view, proj, camera.width, camera.height)
             if setup is not None:
                 return setup
-            self._host(f"{len(self.geometry.faces)} faces, more than one face batch of {FACE_BATCH}: "
-                       "the device path resolves one")
+            self._host(f"{len(self.geometry.faces)} faces: this view sets up more triangles than the device path's "
+                       f"keys number ({view_max_triangles(FACE_BATCH)})")
         else:
             self._host(self._refusal)
         return rasterize_mesh(self.mesh, view, proj, camera.width, camera.height)

@@ -328,7 +328,7 @@ def verify(device: DeviceGBuffer, scene: Scene, geometry: Geometry, mesh: Raster
     view, proj = small.view_matrix(), small.projection_matrix()
     setup = setup_view(mesh, view, proj, small.width, small.height)
     if setup is None:
-        return None                     # more than one face batch: the device path is not used
+        return None                     # more triangles than its keys number: the device path is not used
     fragments = rasterize_mesh(mesh, view, proj, small.width, small.height)
     expected = build_gbuffer(scene, geometry, fragments, small, faces=faces)
     got, cover = device.build(setup, material_table(scene))

@@ -444,8 +444,8 @@ class ViewSession:
 
     def _rasterize(self, geometry, camera) -> Fragments | ViewSetup:
         """The frame pipeline's raster stage (clshade.pipeline.GBufferStage): the triangle setup
-        where the device makes the rest of the raster and the G-buffer (no textures, doubles and
-        64-bit atomics, one face batch, its check passed), else the fragments."""
+        where the device makes the rest of the raster and the G-buffer (doubles and 64-bit atomics,
+        textures it can sample, triangles its keys number, its check passed), else the fragments."""
         return self._frame_stage(geometry).raster(camera)
 
     def _frame_stage(self, geometry) -> GBufferStage:

@@ -240,3 +240,58 @@ def test_planes_from_the_pool_are_written_whole(robot, device_runtime):
     assert_same(scene, geometry, wide.view_matrix(), wide.projection_matrix(), wide, pool, device,
                 runtime=device_runtime)
 
+
+
+def coplanar_layers(tmp_path):
+    """Three coplanar floors (red first, then a sphere of 80 faces, then green and blue at the same place, in
+    that face order) seen from above: their fragments tie in depth, and rasterize_mesh's merge decides."""
+    from conftest import write_scene
+    from scene_toml import camera, material, obj, scene
+    floor = dict(primitive="plane", size=2.0)
+    text = scene(camera(position=[0.3, 3.0, 1.2], target=[0.0, 0.0, 0.0], fov=50.0, width=64, height=48),
+                 material("red", base_color=[1.0, 0.0, 0.0]), material("green", base_color=[0.0, 1.0, 0.0]),
+                 material("blue", base_color=[0.0, 0.0, 1.0]), material("grey"),
+                 obj(material="red", **floor), obj(primitive="sphere", subdivisions=1, radius=0.5,
+                                                   translate=[0.2, 0.3, 0.0], material="grey"),
+                 obj(material="green", **floor), obj(material="blue", **floor))
+    loaded = load_scene(write_scene(tmp_path, text))
+    return loaded, build_geometry(loaded)
+
+
+@pytest.mark.parametrize("face_batch", [16, 32])
+def test_several_face_batches_resolve_as_the_hosts_merge(tmp_path, device_runtime, monkeypatch, face_batch):
+    """A mesh of several face batches in one device pass: its batches' triangles joined in order, keys of the
+    batches' depth quantisation with an index over all of them. At depth ties the host keeps the earlier
+    batch's fragment, and in a batch the lower index: the red floor (batch 0) over green and blue (the last
+    batch), everywhere the sphere leaves it visible; and the G-buffer is the host's bit for bit, with more
+    set-up triangles than one batch's keys number at 16 faces a batch."""
+    from clshade.render.raster import batches
+    from clshade.render.raster.resolve import key_layout
+    monkeypatch.setattr(batches, "FACE_BATCH", face_batch)
+    scene, geometry = coplanar_layers(tmp_path)
+    camera = scene.camera.with_size(W, H)
+    view, proj = camera.view_matrix(), camera.projection_matrix()
+    mesh = RasterMesh(geometry.vertices, geometry.faces, geometry.cull)
+    setup = setup_view(mesh, view, proj, W, H)
+    assert setup is not None and len(geometry.faces) > 2 * face_batch       # three batches or more
+    if face_batch == 16:
+        assert len(setup.tris.face) > 1 << key_layout(face_batch)[0]
+    expected, _ = assert_same(scene, geometry, view, proj, camera, runtime=device_runtime)
+    base = expected.plane("base").reshape(3, -1)[:, :W * H][:, expected.coverage.reshape(-1)]
+    assert (base[0] == 1.0).sum() > 1000 and not (base[1] == 1.0).any() and not (base[2] == 1.0).any()
+
+
+def test_a_view_with_more_triangles_than_the_keys_number_is_left_to_the_host(tmp_path, monkeypatch):
+    """setup_view refuses a view whose set-up triangles its keys cannot number (view_max_triangles: 64 at
+    16 faces a batch), and takes one that fits."""
+    from clshade.render.raster import batches
+    from clshade.render.raster.resolve import view_max_triangles
+    monkeypatch.setattr(batches, "FACE_BATCH", 16)
+    assert view_max_triangles(16) == 64
+    scene, geometry = coplanar_layers(tmp_path)
+    camera = scene.camera.with_size(W, H)
+    mesh = RasterMesh(geometry.vertices, geometry.faces, geometry.cull)
+    assert 64 >= len(setup_view(mesh, camera.view_matrix(), camera.projection_matrix(), W, H).tris.face) > 32
+    doubled = RasterMesh(geometry.vertices, np.concatenate([geometry.faces, geometry.faces[::-1]]),
+                         np.concatenate([geometry.cull, geometry.cull[::-1]]))
+    assert setup_view(doubled, camera.view_matrix(), camera.projection_matrix(), W, H) is None

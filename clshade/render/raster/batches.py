@@ -10,10 +10,10 @@ from numpy.typing import ArrayLike, NDArray
 from clshade.render.arrays import run_chunked
 from clshade.render.raster.fragments import Fragments, no_fragments
 from clshade.render.raster.mesh import RasterMesh, camera_centre
-from clshade.render.raster.resolve import Resolve, key_layout, resolved, winners
+from clshade.render.raster.resolve import Resolve, key_layout, resolved, view_tri_bits, winners
 from clshade.render.raster.visibility import ViewSetup
 from clshade.render.raster.tiles import cover
-from clshade.render.raster.triangles import Tris, setup_parallel
+from clshade.render.raster.triangles import Tris, join_batches, setup_parallel
 
 #: Maximum faces per batch: bounds the per-triangle working memory (a few
 #: hundred bytes per face) independently of the mesh size.  Small enough for
@@ -105,21 +105,27 @@ def setup_view(
     height: int,
 ) -> ViewSetup | None:
     """The triangle setup of :func:`rasterize_mesh` (steps 1–4), for a pass that does coverage,
-    depth resolve and the winners' barycentrics on its own (clshade.device.visibility: the live
-    viewer's visibility buffer and G-buffer on the device, rasterize_mesh's result bit for bit).
-    None when the mesh needs more than one face batch (the winners then merge across batches:
-    use rasterize_mesh)."""
+    depth resolve and the winners' barycentrics on its own (clshade.device.visibility: the
+    visibility buffer and G-buffer on the device, rasterize_mesh's result bit for bit). A mesh of
+    several face batches is set up batch by batch, as rasterize_mesh does, and joined in batch order
+    (join_batches): keys of the batches' depth quantisation with a triangle index over all of them
+    pick the winners rasterize_mesh's merge picks. None when those keys cannot hold the view's
+    triangles (view_tri_bits: use rasterize_mesh)."""
     frame = _Frame.of(mesh, view, proj, width, height, 1)
     tri_bits, z_scale = key_layout(FACE_BATCH)
     mvp = np.asarray(proj, np.float64) @ np.asarray(view, np.float64)
     if frame is None:
         return ViewSetup(int(width), int(height), None, True, tri_bits, z_scale, mvp=mvp)
-    if frame.n_batches > 1:
-        return None
     clip_t, vdepth, vfinite, _, eye = frame.args
     with np.errstate(all="ignore"):  # non-finite input is dropped, never warned about
-        t = _setup_batch(clip_t, vdepth, vfinite, mesh, eye, 0, len(mesh), frame.width, frame.height)
-    return ViewSetup(frame.width, frame.height, t, frame.w_is_depth, tri_bits, z_scale, mvp=mvp)
+        parts = [_setup_batch(clip_t, vdepth, vfinite, mesh, eye, int(f0), int(f1), frame.width, frame.height)
+                 for f0, f1 in zip(frame.bounds[:-1], frame.bounds[1:])]
+    done = [p for p in parts if p is not None]
+    t = None if not done else done[0] if frame.n_batches == 1 else join_batches(done, mesh.batch(0, len(mesh)))
+    bits = view_tri_bits(0 if t is None else len(t.face), FACE_BATCH)
+    if bits is None:
+        return None
+    return ViewSetup(frame.width, frame.height, t, frame.w_is_depth, bits, z_scale, mvp=mvp)
 
 
 @dataclass

@@ -33,6 +33,26 @@ def key_layout(batch_faces: int) -> tuple[int, float]:
     return tri_bits, float((1 << (KEY_BITS - tri_bits)) - 1) * 0.5
 
 
+#: The bits of one key over all face batches (a visibility pass resolves a view at once, setup_view): below
+#: 2⁶³, so that EMPTY_KEY stays above every key.
+VIEW_KEY_BITS = 63
+
+
+def view_max_triangles(batch_faces: int) -> int:
+    """The most set-up triangles of one view that keys of VIEW_KEY_BITS resolve at once with the depth
+    quantisation of key_layout(batch_faces) (so that depth ties break as across batches)."""
+    tri_bits, _ = key_layout(batch_faces)
+    return 1 << (VIEW_KEY_BITS - (KEY_BITS - tri_bits))
+
+
+def view_tri_bits(triangles: int, batch_faces: int) -> int | None:
+    """The triangle bits of those keys for `triangles` set-up triangles (at least key_layout's), or None
+    past view_max_triangles."""
+    if triangles > view_max_triangles(batch_faces):
+        return None
+    return max(key_layout(batch_faces)[0], (max(triangles, 1) - 1).bit_length())
+
+
 class Resolve:
     """Depth-resolve state shared by all face batches."""
 

@@ -310,3 +310,14 @@ def setup_parallel(
     joined = {f.name: np.take(np.concatenate([getattr(p, f.name) for p in done], axis=-1), order, axis=-1)
               for f in dataclasses.fields(Tris) if f.name not in ("vdepth", "batch", "n_unclipped")}
     return Tris(vdepth=vdepth, batch=batch, n_unclipped=sum(p.n_unclipped for p in done), **joined)
+
+
+def join_batches(parts: list[Tris], batch: FaceBatch) -> Tris:
+    """The setups of consecutive face batches as one, in batch order: a triangle's index in the join orders
+    rasterize_mesh's depth ties across batches (the nearer wins; at equal depth the earlier batch, then the
+    lower index in the batch) as one batch's index does within it. `batch`: the faces of all of them (a
+    triangle's face is then its index into the mesh). Its whole faces and clipped triangles alternate by batch:
+    n_unclipped is 0 (no leading run of whole faces is promised)."""
+    joined = {f.name: np.concatenate([getattr(p, f.name) for p in parts], axis=-1)
+              for f in dataclasses.fields(Tris) if f.name not in ("vdepth", "batch", "n_unclipped")}
+    return Tris(vdepth=parts[0].vdepth, batch=batch, n_unclipped=0, **joined)

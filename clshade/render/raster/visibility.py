@@ -20,7 +20,7 @@ class ViewSetup:
 
     Attributes:
         width, height: image size.
-        tris: the triangles of the view's one face batch (None: no triangle survived setup).
+        tris: the triangles of the view, its face batches joined in order (None: no triangle survived setup).
         w_is_depth: the projection's clip w is the view depth (any perspective matrix).
         tri_bits, z_scale: the packed keys' layout (resolve.key_layout): a fragment's key is
             ``(int64((clip(z_ndc, -1, 1) + 1) · z_scale) << tri_bits) | triangle``, kept when
