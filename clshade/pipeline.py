@@ -182,8 +182,10 @@ class GBufferStage:
             setup = setup_view(self.mesh, view, proj, camera.width, camera.height)
             if setup is not None:
                 return setup
-            self._host(f"{len(self.geometry.faces)} faces: this view sets up more triangles than the device path's "
-                       f"keys number ({view_max_triangles(FACE_BATCH)})")
+            # Kept for the geometry's later frames: they skip the setup, and a stream keeps one path.
+            self._refusal = (f"{len(self.geometry.faces)} faces: a view set up more triangles than the device path's "
+                             f"keys number ({view_max_triangles(FACE_BATCH)})")
+            self._host(self._refusal)
         else:
             self._host(self._refusal)
         return rasterize_mesh(self.mesh, view, proj, camera.width, camera.height)

@@ -165,7 +165,7 @@ def _convolve(source: np.ndarray, fam: str, t: float) -> np.ndarray:
 #: three: the split sum's trilinear lookup reads eight texels per pixel, and on a CPU its time is the
 #: gathers' (docs/bench-notes.md). Rounding to nearest, each channel is within 1/511.5 (≈ 2⁻⁹) of the texel's
 #: largest channel (≥ 2⁻¹⁶; below it, within 2⁻²⁴ absolute); Filament ships its prefiltered specular
-#: in R11G11B10F (within 2⁻⁷).
+#: in R11G11B10F (6 and 5 mantissa bits: within 2⁻⁷ and 2⁻⁶ of each channel).
 RGB9E5_MANTISSA = 9
 RGB9E5_BIAS = 15
 RGB9E5_MAX_EXPONENT = 31

@@ -243,28 +243,32 @@ def test_planes_from_the_pool_are_written_whole(robot, device_runtime):
 
 
 def coplanar_layers(tmp_path):
-    """Three coplanar floors (red first, then a sphere of 80 faces, then green and blue at the same place, in
-    that face order) seen from above: their fragments tie in depth, and rasterize_mesh's merge decides."""
+    """Three coplanar floors (red first, then a sphere of 1280 faces, then green and blue at the same place,
+    in that face order) seen from above, and a sphere of 320 faces last (winners of the last indices): the
+    floors' fragments tie in depth, and rasterize_mesh's merge decides."""
     from conftest import write_scene
     from scene_toml import camera, material, obj, scene
     floor = dict(primitive="plane", size=2.0)
     text = scene(camera(position=[0.3, 3.0, 1.2], target=[0.0, 0.0, 0.0], fov=50.0, width=64, height=48),
                  material("red", base_color=[1.0, 0.0, 0.0]), material("green", base_color=[0.0, 1.0, 0.0]),
                  material("blue", base_color=[0.0, 0.0, 1.0]), material("grey"),
-                 obj(material="red", **floor), obj(primitive="sphere", subdivisions=1, radius=0.5,
+                 obj(material="red", **floor), obj(primitive="sphere", subdivisions=3, radius=0.5,
                                                    translate=[0.2, 0.3, 0.0], material="grey"),
-                 obj(material="green", **floor), obj(material="blue", **floor))
+                 obj(material="green", **floor), obj(material="blue", **floor),
+                 obj(primitive="sphere", subdivisions=2, radius=0.3, translate=[-0.5, 0.3, 0.3], material="grey"))
     loaded = load_scene(write_scene(tmp_path, text))
     return loaded, build_geometry(loaded)
 
 
-@pytest.mark.parametrize("face_batch", [16, 32])
+# Face batches of 256 and 512 (FACE_BATCH monkeypatched): the smallest whose depth quantisation is exact in
+# float64, as the default's is (key_layout: 2^(62 - tri_bits) - 1 below 2^53).
+@pytest.mark.parametrize("face_batch", [256, 512])
 def test_several_face_batches_resolve_as_the_hosts_merge(tmp_path, device_runtime, monkeypatch, face_batch):
     """A mesh of several face batches in one device pass: its batches' triangles joined in order, keys of the
     batches' depth quantisation with an index over all of them. At depth ties the host keeps the earlier
     batch's fragment, and in a batch the lower index: the red floor (batch 0) over green and blue (the last
     batch), everywhere the sphere leaves it visible; and the G-buffer is the host's bit for bit, with more
-    set-up triangles than one batch's keys number at 16 faces a batch."""
+    set-up triangles than one batch's keys number at 256 faces a batch."""
     from clshade.render.raster import batches
     from clshade.render.raster.resolve import key_layout
     monkeypatch.setattr(batches, "FACE_BATCH", face_batch)
@@ -274,24 +278,68 @@ def test_several_face_batches_resolve_as_the_hosts_merge(tmp_path, device_runtim
     mesh = RasterMesh(geometry.vertices, geometry.faces, geometry.cull)
     setup = setup_view(mesh, view, proj, W, H)
     assert setup is not None and len(geometry.faces) > 2 * face_batch       # three batches or more
-    if face_batch == 16:
-        assert len(setup.tris.face) > 1 << key_layout(face_batch)[0]
+    if face_batch == 256:                       # the last sphere's triangles are numbered past 2^tri_bits
+        assert len(setup.tris.face) > (1 << key_layout(face_batch)[0]) + 100
     expected, _ = assert_same(scene, geometry, view, proj, camera, runtime=device_runtime)
     base = expected.plane("base").reshape(3, -1)[:, :W * H][:, expected.coverage.reshape(-1)]
     assert (base[0] == 1.0).sum() > 1000 and not (base[1] == 1.0).any() and not (base[2] == 1.0).any()
 
 
 def test_a_view_with_more_triangles_than_the_keys_number_is_left_to_the_host(tmp_path, monkeypatch):
-    """setup_view refuses a view whose set-up triangles its keys cannot number (view_max_triangles: 64 at
-    16 faces a batch), and takes one that fits."""
+    """setup_view refuses a view whose set-up triangles its keys cannot number (view_max_triangles: 1023 at
+    256 faces a batch), and takes one that fits."""
     from clshade.render.raster import batches
     from clshade.render.raster.resolve import view_max_triangles
-    monkeypatch.setattr(batches, "FACE_BATCH", 16)
-    assert view_max_triangles(16) == 64
+    monkeypatch.setattr(batches, "FACE_BATCH", 256)
+    assert view_max_triangles(256) == 1023
     scene, geometry = coplanar_layers(tmp_path)
     camera = scene.camera.with_size(W, H)
     mesh = RasterMesh(geometry.vertices, geometry.faces, geometry.cull)
-    assert 64 >= len(setup_view(mesh, camera.view_matrix(), camera.projection_matrix(), W, H).tris.face) > 32
+    assert 1023 >= len(setup_view(mesh, camera.view_matrix(), camera.projection_matrix(), W, H).tris.face) > 512
     doubled = RasterMesh(geometry.vertices, np.concatenate([geometry.faces, geometry.faces[::-1]]),
                          np.concatenate([geometry.cull, geometry.cull[::-1]]))
     assert setup_view(doubled, camera.view_matrix(), camera.projection_matrix(), W, H) is None
+
+
+def far_plane_fan(count: int):
+    """`count` faces: count − 1 small triangles in the left half at z_view = −0.5, the last one over the right
+    half at the far plane of an orthographic (0, 0, −1) projection (z_ndc = 1: the deepest key)."""
+    from clshade.render.meshes import Geometry
+    verts, faces = [], []
+    for i in range(count - 1):
+        x, y = -0.9 + 0.8 * (i % 32) / 32, -0.9 + 1.8 * (i // 32) / (count // 32 + 1)
+        b = len(verts)
+        verts += [(x, y, -0.5), (x + 0.1, y, -0.5), (x, y + 0.1, -0.5)]
+        faces.append((b, b + 1, b + 2))
+    b = len(verts)
+    verts += [(0.05, -1.0, -1.0), (1.0, -1.0, -1.0), (1.0, 1.0, -1.0)]
+    faces.append((b, b + 1, b + 2))
+    verts, faces = np.array(verts, np.float64), np.array(faces, np.int64)
+    normals = np.tile(np.array([0.0, 0.0, 1.0], np.float32), (len(verts), 1))
+    return Geometry(verts, normals, faces, np.zeros(count, np.int32), np.zeros(count, np.int32),
+                    np.zeros(count, bool))
+
+
+def test_the_last_triangle_at_the_far_plane_is_not_the_empty_key(device_runtime, monkeypatch):
+    """At view_max_triangles set-up triangles, the last one's key at the deepest depth stays below EMPTY_KEY:
+    the device covers every pixel the host covers (a key equal to it would read as no fragment). One
+    triangle more is left to the host."""
+    from clshade.render.raster import batches
+    from clshade.render.raster.resolve import view_max_triangles
+    monkeypatch.setattr(batches, "FACE_BATCH", 256)
+    count = view_max_triangles(256)
+    view, proj = np.eye(4), np.diag([1.0, 1.0, -1.0, 1.0])
+    assert setup_view(RasterMesh(*(lambda g: (g.vertices, g.faces, False))(far_plane_fan(count + 1))),
+                      view, proj, 64, 64) is None
+    geometry = far_plane_fan(count)
+    mesh = RasterMesh(geometry.vertices, geometry.faces, False)
+    setup = setup_view(mesh, view, proj, 64, 64)
+    assert setup is not None and len(setup.tris.face) == count
+    fragments = rasterize_mesh(mesh, view, proj, 64, 64)
+    assert (fragments.face == count - 1).sum() > 500
+
+    class Grey:
+        base_color, roughness, metallic, emissive = (1.0, 1.0, 1.0), 0.5, 0.0, (0.0, 0.0, 0.0)
+    device = DeviceGBuffer(usable(device_runtime, geometry), geometry, face_planes(geometry, [Grey()]))
+    _, cover = device.build(setup, np.zeros((1, 8), np.float32))
+    np.testing.assert_array_equal(np.flatnonzero(cover[:64 * 64]), fragments.pixels)

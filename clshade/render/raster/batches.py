@@ -10,7 +10,7 @@ from numpy.typing import ArrayLike, NDArray
 from clshade.render.arrays import run_chunked
 from clshade.render.raster.fragments import Fragments, no_fragments
 from clshade.render.raster.mesh import RasterMesh, camera_centre
-from clshade.render.raster.resolve import Resolve, key_layout, resolved, view_tri_bits, winners
+from clshade.render.raster.resolve import Resolve, key_layout, resolved, view_max_triangles, view_tri_bits, winners
 from clshade.render.raster.visibility import ViewSetup
 from clshade.render.raster.tiles import cover
 from clshade.render.raster.triangles import Tris, join_batches, setup_parallel
@@ -117,14 +117,18 @@ def setup_view(
     if frame is None:
         return ViewSetup(int(width), int(height), None, True, tri_bits, z_scale, mvp=mvp)
     clip_t, vdepth, vfinite, _, eye = frame.args
-    with np.errstate(all="ignore"):  # non-finite input is dropped, never warned about
-        parts = [_setup_batch(clip_t, vdepth, vfinite, mesh, eye, int(f0), int(f1), frame.width, frame.height)
-                 for f0, f1 in zip(frame.bounds[:-1], frame.bounds[1:])]
-    done = [p for p in parts if p is not None]
+    limit, done, count = view_max_triangles(FACE_BATCH), [], 0
+    for f0, f1 in zip(frame.bounds[:-1], frame.bounds[1:]):
+        with np.errstate(all="ignore"):  # non-finite input is dropped, never warned about
+            part = _setup_batch(clip_t, vdepth, vfinite, mesh, eye, int(f0), int(f1), frame.width, frame.height)
+        if part is not None:
+            count += len(part.face)
+            if count > limit:
+                return None              # the rest is not set up (memory stays a few batches')
+            done.append(part)
     t = None if not done else done[0] if frame.n_batches == 1 else join_batches(done, mesh.batch(0, len(mesh)))
-    bits = view_tri_bits(0 if t is None else len(t.face), FACE_BATCH)
-    if bits is None:
-        return None
+    bits = view_tri_bits(count, FACE_BATCH)
+    assert bits is not None
     return ViewSetup(frame.width, frame.height, t, frame.w_is_depth, bits, z_scale, mvp=mvp)
 
 

@@ -33,16 +33,17 @@ def key_layout(batch_faces: int) -> tuple[int, float]:
     return tri_bits, float((1 << (KEY_BITS - tri_bits)) - 1) * 0.5
 
 
-#: The bits of one key over all face batches (a visibility pass resolves a view at once, setup_view): below
-#: 2⁶³, so that EMPTY_KEY stays above every key.
+#: The bits of one key over all face batches (a visibility pass resolves a view at once, setup_view).
 VIEW_KEY_BITS = 63
 
 
 def view_max_triangles(batch_faces: int) -> int:
     """The most set-up triangles of one view that keys of VIEW_KEY_BITS resolve at once with the depth
-    quantisation of key_layout(batch_faces) (so that depth ties break as across batches)."""
+    quantisation of key_layout(batch_faces) (so that depth ties break as across batches): one less than
+    the indices the triangle bits hold, so that the largest key (the deepest depth, the last index) stays
+    below EMPTY_KEY = 2⁶³ − 1, which would read as no fragment."""
     tri_bits, _ = key_layout(batch_faces)
-    return 1 << (VIEW_KEY_BITS - (KEY_BITS - tri_bits))
+    return (1 << (VIEW_KEY_BITS - (KEY_BITS - tri_bits))) - 1
 
 
 def view_tri_bits(triangles: int, batch_faces: int) -> int | None:

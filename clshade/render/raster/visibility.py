@@ -22,7 +22,8 @@ class ViewSetup:
         width, height: image size.
         tris: the triangles of the view, its face batches joined in order (None: no triangle survived setup).
         w_is_depth: the projection's clip w is the view depth (any perspective matrix).
-        tri_bits, z_scale: the packed keys' layout (resolve.key_layout): a fragment's key is
+        tri_bits, z_scale: the packed keys' layout (z_scale: resolve.key_layout's for the face batches;
+            tri_bits: resolve.view_tri_bits's for the view's triangles): a fragment's key is
             ``(int64((clip(z_ndc, -1, 1) + 1) · z_scale) << tri_bits) | triangle``, kept when
             ``-1 - depth_eps <= z_ndc <= 1 + depth_eps``; the least key of a pixel wins.
         mvp: projection @ view (float64 4x4), as gbuffer.uv_derivatives forms it: the device's
