@@ -110,7 +110,7 @@ def setup_view(
     several face batches is set up batch by batch, as rasterize_mesh does, and joined in batch order
     (join_batches): keys of the batches' depth quantisation with a triangle index over all of them
     pick the winners rasterize_mesh's merge picks. None when those keys cannot hold the view's
-    triangles (view_tri_bits: use rasterize_mesh)."""
+    triangles (past view_max_triangles: use rasterize_mesh)."""
     frame = _Frame.of(mesh, view, proj, width, height, 1)
     tri_bits, z_scale = key_layout(FACE_BATCH)
     mvp = np.asarray(proj, np.float64) @ np.asarray(view, np.float64)
@@ -128,7 +128,6 @@ def setup_view(
             done.append(part)
     t = None if not done else done[0] if frame.n_batches == 1 else join_batches(done, mesh.batch(0, len(mesh)))
     bits = view_tri_bits(count, FACE_BATCH)
-    assert bits is not None
     return ViewSetup(frame.width, frame.height, t, frame.w_is_depth, bits, z_scale, mvp=mvp)
 
 

@@ -46,11 +46,9 @@ def view_max_triangles(batch_faces: int) -> int:
     return (1 << (VIEW_KEY_BITS - (KEY_BITS - tri_bits))) - 1
 
 
-def view_tri_bits(triangles: int, batch_faces: int) -> int | None:
-    """The triangle bits of those keys for `triangles` set-up triangles (at least key_layout's), or None
-    past view_max_triangles."""
-    if triangles > view_max_triangles(batch_faces):
-        return None
+def view_tri_bits(triangles: int, batch_faces: int) -> int:
+    """The triangle bits of those keys for `triangles` (at most view_max_triangles) set-up triangles: at
+    least key_layout's."""
     return max(key_layout(batch_faces)[0], (max(triangles, 1) - 1).bit_length())
 
 
