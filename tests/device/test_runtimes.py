@@ -87,17 +87,21 @@ def test_probe_fails_where_pocl_rejects_its_builds_and_the_cache_knows(tmp_path)
         pytest.skip("no PoCL device present")
     entries = lambda: sorted((tmp_path / "cache" / "health").glob("*.json"))  # noqa: E731
     first = _probe_in_new_process(tmp_path)
-    assert first and all(ok for _, ok, _ in first), first
+    healthy = [device for device, ok, _ in first if ok]
+    if not healthy:                           # pip's PoCL 3.0 on AMD family 26 (Zen 5) builds nothing
+        pytest.skip(f"no PoCL device builds here: {first}")
     stored = entries()
     assert len(stored) == len(first)
     broken = _probe_in_new_process(tmp_path, POCL_EXTRA_BUILD_FLAGS=REJECTED)
-    assert all(not ok and REJECTED in reason and "\n" not in reason for _, ok, reason in broken), broken
+    assert all(not ok and "\n" not in reason for _, ok, reason in broken), broken
+    assert all(REJECTED in reason for device, _, reason in broken if device in healthy), broken
     assert len(entries()) == 2 * len(first)
-    for path in stored:                       # the healthy entries, now read from disk: make them say so
+    for path in stored:                       # the first entries, now read from disk: make them say so
         doc = json.loads(path.read_text(encoding="utf-8"))
         path.write_text(json.dumps({**doc, "reason": "read from the cache"}), encoding="utf-8")
     again = _probe_in_new_process(tmp_path)
-    assert all(ok and reason == "read from the cache" for _, ok, reason in again), again
+    assert [ok for _, ok, _ in again] == [ok for _, ok, _ in first], (first, again)
+    assert all(reason == "read from the cache" for device, _, reason in again if device in healthy), again
 
 
 def _fake_health(monkeypatch, broken: set[str]):
