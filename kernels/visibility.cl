@@ -43,7 +43,10 @@
  * Speed: a work-item does LANES adjacent pixels, one per vector lane (the reason is
  * simd.h's: PoCL vectorises no scalar code of this shape, which then runs a pixel at a
  * time), gathering each lane's triangle and face constants; a work-item whose pixels are
- * all empty (sky) only writes zeros.
+ * all empty (sky) only writes zeros. `visibility` writes its planes and the emptied keys by streaming
+ * stores (VSTORE_NT): the G-buffer is several times the last-level cache, and a plain store first reads
+ * each output line (faster on PoCL 3.1 with AVX-512 in alternated runs, docs/bench-notes.md; Intel's
+ * compiler gives the same time either way). CLSHADE_VIS_PLAIN_STORES keeps plain stores.
  */
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
 #pragma OPENCL EXTENSION cl_khr_int64_base_atomics : enable
@@ -89,6 +92,14 @@ typedef uchar4 cvec;
 #error "LANES must be 4 or 8"
 #endif
 #define EMPTY_KEY LONG_MAX
+/* VSTORE_NT(T, v, i, p): VSTORE of one vector T at p[i·LANES], on x86 with AVX a streaming store, which skips the
+ * read for ownership of each output line (simd.h's STORE_ROW8 says why that matters); the planes and the
+ * key plane are aligned to their vectors (PLANE_ALIGN, PIXEL_PAD). */
+#if defined(__x86_64__) && defined(__AVX__) && !defined(CLSHADE_VIS_PLAIN_STORES)
+#define VSTORE_NT(T, v, i, p) __builtin_nontemporal_store((T)(v), (__global T*)(p) + (i))
+#else
+#define VSTORE_NT(T, v, i, p) VSTORE((T)(v), (i), (p))
+#endif
 #define TILE 8                              /* raster/tiles.py's TILE: a tile's row is TILE / LANES vectors */
 
 /* Lane k of each: p[i.sk]. */
@@ -195,27 +206,27 @@ __kernel void visibility(
     const ivec vis = convert_ivec(tri);
     const fvec fzero = (fvec)(0.0f);
     if (!any(hit)) {                        /* sky: zeros everywhere */
-        VSTORE(fzero, i, depth);
+        VSTORE_NT(fvec, fzero, i, depth);
         for (uint d = 0; d < 3; d++) {
-            VSTORE(fzero, i, normal + d * plane);
-            VSTORE(fzero, i, base + d * plane);
+            VSTORE_NT(fvec, fzero, i, normal + d * plane);
+            VSTORE_NT(fvec, fzero, i, base + d * plane);
 #if HAS_EMISSIVE
-            VSTORE(fzero, i, emissive + d * plane);
+            VSTORE_NT(fvec, fzero, i, emissive + d * plane);
 #endif
         }
-        VSTORE(fzero, i, roughness);
-        VSTORE(fzero, i, metallic);
-        VSTORE((cvec)(0), i, material);
-        VSTORE((cvec)(0), i, cover);
+        VSTORE_NT(fvec, fzero, i, roughness);
+        VSTORE_NT(fvec, fzero, i, metallic);
+        VSTORE_NT(cvec, (cvec)(0), i, material);
+        VSTORE_NT(cvec, (cvec)(0), i, cover);
 #if HAS_TEXTURES
-        VSTORE((ivec)(-1), i, tex_face);
+        VSTORE_NT(ivec, (ivec)(-1), i, tex_face);
 #endif
 #if HAS_OCCLUSION
-        VSTORE(fzero, i, occlusion);
+        VSTORE_NT(fvec, fzero, i, occlusion);
 #endif
         return;
     }
-    VSTORE((lvec)(EMPTY_KEY), i, keys);    /* empty again for the next frame's cover */
+    VSTORE_NT(lvec, (lvec)(EMPTY_KEY), i, keys);    /* empty again for the next frame's cover */
     const ivec t = select((ivec)(0), vis, hit);   /* empty lanes compute on triangle 0, then get zeros */
 
     /* The winners' step (raster/resolve.py), in double. */
@@ -274,28 +285,28 @@ __kernel void visibility(
     ny = ny * inv;
     nz = nz * inv;
     const ivec ok = hit & isfinite(zf) & isfinite(nx) & isfinite(ny) & isfinite(nz);
-    VSTORE(select(fzero, zf, ok), i, depth);
-    VSTORE(select(fzero, nx, ok), i, normal);
-    VSTORE(select(fzero, ny, ok), i, normal + plane);
-    VSTORE(select(fzero, nz, ok), i, normal + 2 * plane);
+    VSTORE_NT(fvec, select(fzero, zf, ok), i, depth);
+    VSTORE_NT(fvec, select(fzero, nx, ok), i, normal);
+    VSTORE_NT(fvec, select(fzero, ny, ok), i, normal + plane);
+    VSTORE_NT(fvec, select(fzero, nz, ok), i, normal + 2 * plane);
     for (uint d = 0; d < 3; d++) {
-        VSTORE(select(fzero, GF(face_base + d * nface, f), ok), i, base + d * plane);
+        VSTORE_NT(fvec, select(fzero, GF(face_base + d * nface, f), ok), i, base + d * plane);
 #if HAS_EMISSIVE
-        VSTORE(select(fzero, GF(face_emissive + d * nface, f), ok), i, emissive + d * plane);
+        VSTORE_NT(fvec, select(fzero, GF(face_emissive + d * nface, f), ok), i, emissive + d * plane);
 #endif
     }
-    VSTORE(select(fzero, GF(face_roughness, f), hit), i, roughness);
-    VSTORE(select(fzero, GF(face_metallic, f), hit), i, metallic);
-    VSTORE(convert_cvec(select((ivec)(0), convert_ivec(GATHER(cvec, face_material, f)), hit)), i, material);
-    VSTORE(convert_cvec(select(select((ivec)(0), (ivec)(2), hit), (ivec)(1), ok)), i, cover);
+    VSTORE_NT(fvec, select(fzero, GF(face_roughness, f), hit), i, roughness);
+    VSTORE_NT(fvec, select(fzero, GF(face_metallic, f), hit), i, metallic);
+    VSTORE_NT(cvec, convert_cvec(select((ivec)(0), convert_ivec(GATHER(cvec, face_material, f)), hit)), i, material);
+    VSTORE_NT(cvec, convert_cvec(select(select((ivec)(0), (ivec)(2), hit), (ivec)(1), ok)), i, cover);
 #if HAS_OCCLUSION
-    VSTORE(select(fzero, (fvec)(1.0f), hit), i, occlusion);   /* textured pixels: kernel `texture` */
+    VSTORE_NT(fvec, select(fzero, (fvec)(1.0f), hit), i, occlusion);   /* textured pixels: kernel `texture` */
 #endif
 #if HAS_TEXTURES
-    VSTORE(select((ivec)(-1), f, hit & (GI(face_texture, f) >= 0)), i, tex_face);
-    VSTORE(b0, i, tex_bary);
-    VSTORE(b1, i, tex_bary + plane);
-    VSTORE(b2, i, tex_bary + 2 * plane);
+    VSTORE_NT(ivec, select((ivec)(-1), f, hit & (GI(face_texture, f) >= 0)), i, tex_face);
+    VSTORE_NT(fvec, b0, i, tex_bary);
+    VSTORE_NT(fvec, b1, i, tex_bary + plane);
+    VSTORE_NT(fvec, b2, i, tex_bary + 2 * plane);
 #endif
 }
 #if HAS_TEXTURES
