@@ -10,7 +10,10 @@
  *         three edges (thr: the top-left rule's 0 or TIE_EPS); its NDC depth
  *         z = z_a X + (z_b Y + z_c) is kept within [-1 - eps, 1 + eps], clamped to [-1, 1];
  *         key = (int64((z + 1) z_scale) << tri_bits) | triangle, and the pixel keeps the
- *         least key (atom_min: the same minimum in any order).
+ *         least key (atom_min: the same minimum in any order). A dispatch of one triangle's
+ *         tiles alone (`exclusive`: the host's largest triangles, before the others) keeps it
+ *         by a plain compare and store: each pixel is in one of its tiles, so no other
+ *         work-item writes it meanwhile, and the locked operation per fragment is saved.
  *   The host's grids skip the tiles outside an edge and the edge tests of interior tiles;
  *   both only leave out tests that fail or pass, so testing every pixel of the box gives
  *   the same keys.
@@ -114,6 +117,7 @@ __kernel void cover(
     const uint ntiles, const uint ntri, const uint width, const uint tri_bits, const double z_scale,
     const double z_lo, const double z_hi,
     const uint first,                       /* the batch's first triangle */
+    const uint exclusive,                   /* 1: the dispatch holds one triangle's tiles only */
     __global const uint* tile_end,          /* (batch,) tiles of triangles first..first + j, inclusive */
     __global const uint* tile_tri,          /* (ntiles,) the triangle of each tile (the host's np.repeat) */
     __global const int* box,                /* (4, ntri): col0, row0, col1, row1 (inclusive) */
@@ -159,8 +163,12 @@ __kernel void cover(
             __global long* row = keys + (size_t)(y0 + r) * width + x0 + h;
             for (int x = 0; x < LANES; x++) {
                 const long kx = ((const long*)&key)[x];
-                if (((const long*)&keep)[x] && kx < row[x])
-                    atom_min(row + x, kx);
+                if (((const long*)&keep)[x] && kx < row[x]) {
+                    if (exclusive)
+                        row[x] = kx;
+                    else
+                        atom_min(row + x, kx);
+                }
             }
         }
     }

@@ -36,6 +36,12 @@ SOURCE = "visibility.cl"
 #: grow it with the triangle count times the frame's tiles; more pairs are dispatched in batches of
 #: whole triangles (keys resolve by atomic minimum, so the batches' order does not matter).
 COVER_BATCH_TILES = 1 << 24
+#: Triangles with at least this many tiles are dispatched alone, largest first and before the others
+#: (kernel `cover`'s `exclusive`: a plain compare and store per fragment instead of a locked atom_min).
+#: A floor or a wall covers much of a frame with a few triangles; each dispatch costs an enqueue.
+EXCLUSIVE_MIN_TILES = 512
+#: At most this many triangles are dispatched alone per frame (the largest).
+EXCLUSIVE_MAX = 8
 #: The kernels' float division and square root must round as NumPy's do (IEEE, correctly rounded).
 EXACT_OPTIONS = ("-cl-fp32-correctly-rounded-divide-sqrt",)
 #: What the kernels need of the device: doubles (the winners' step) and atom_min on 64-bit keys.
@@ -73,6 +79,14 @@ def cover_batches(tile_end: np.ndarray, limit: int) -> list[tuple[int, int, int]
         batches.append((first, last, base))
         first = last
     return batches
+
+
+def exclusive_triangles(tiles: np.ndarray, min_tiles: int | None = None, most: int | None = None) -> np.ndarray:
+    """The triangles (indices into `tiles`, each triangle's tile count) that kernel `cover` takes
+    alone, one dispatch each: the `most` largest with at least `min_tiles` tiles, largest first
+    (defaults: EXCLUSIVE_MAX and EXCLUSIVE_MIN_TILES)."""
+    big = np.flatnonzero(tiles >= (EXCLUSIVE_MIN_TILES if min_tiles is None else min_tiles))
+    return big[np.argsort(-tiles[big], kind="stable")][:EXCLUSIVE_MAX if most is None else most]
 
 
 def texture_channels(runtime: Runtime, geometry: Geometry) -> bool:
@@ -220,17 +234,26 @@ class DeviceGBuffer:
             edge = rt.to_device(np.concatenate([t.edge_a, t.edge_b, t.edge_c, t.edge_thr,
                                                 t.z_a[None], t.z_b[None], t.z_c[None]]))
             inputs += [box, edge]
+            alone = exclusive_triangles(tiles)
+            for tri in alone:               # the largest first, each alone: no atomics
+                count = int(tiles[tri])
+                batch = [rt.to_device(np.array([count], np.uint32)), rt.to_device(np.full(count, tri, np.uint32))]
+                inputs += batch
+                self._cover(count, ntri, w, view, int(tri), 1, batch, box, edge, keys)
+            if len(alone):
+                tiles = tiles.copy()
+                tiles[alone] = 0
+                tile_end = np.cumsum(tiles, dtype=np.int64)
             for first, last, base in cover_batches(tile_end, COVER_BATCH_TILES):
                 # The batch's own running counts, from its first triangle (at most the limit, or one
                 # triangle's tiles: uint32 as long as one triangle has fewer than 2^32 tiles).
                 batch_end = (tile_end[first:last] - base).astype(np.uint32)
                 tile_tri = np.repeat(np.arange(first, last, dtype=np.uint32), tiles[first:last])
+                if not len(tile_tri):       # every triangle of the batch went alone
+                    continue
                 batch = [rt.to_device(a) for a in (batch_end, tile_tri)]
                 inputs += batch
-                self.cover.set_args(np.uint32(len(tile_tri)), np.uint32(ntri), np.uint32(w), np.uint32(view.tri_bits),
-                                    np.float64(view.z_scale), np.float64(-1.0 - view.depth_eps),
-                                    np.float64(1.0 + view.depth_eps), np.uint32(first), *batch, box, edge, keys)
-                cl.enqueue_nd_range_kernel(rt.queue, self.cover, (rt.global_size(len(tile_tri)),), (rt.local_size,))
+                self._cover(len(tile_tri), ntri, w, view, first, 0, batch, box, edge, keys)
         mf = cl.mem_flags
         # The texture kernel reads back what the visibility kernel wrote (normal, depth, cover).
         flags = mf.READ_WRITE if self.textures is not None else mf.WRITE_ONLY
@@ -270,6 +293,17 @@ class DeviceGBuffer:
         gbuffer = GBuffer.from_planes(w, h, planes, materials, (covered == 1).reshape(h, w),
                                       int(np.count_nonzero(covered == 2)), unit_normals=True)
         return gbuffer, covered
+
+    def _cover(self, count: int, ntri: int, width: int, view: ViewSetup, first: int, exclusive: int,
+               batch: list, box, edge, keys) -> None:
+        """Enqueue kernel `cover` on `count` tiles: `batch` (running tile counts from triangle
+        `first`, each tile's triangle); `exclusive` 1 where they are one triangle's tiles alone."""
+        rt = self.rt
+        self.cover.set_args(np.uint32(count), np.uint32(ntri), np.uint32(width), np.uint32(view.tri_bits),
+                            np.float64(view.z_scale), np.float64(-1.0 - view.depth_eps),
+                            np.float64(1.0 + view.depth_eps), np.uint32(first), np.uint32(exclusive), *batch,
+                            box, edge, keys)
+        rt.cl.enqueue_nd_range_kernel(rt.queue, self.cover, (rt.global_size(count),), (rt.local_size,))
 
     def _scratch_of(self, plane: int) -> tuple:
         """The device's per-pixel textured face (int) and barycentrics (3 float planes) of `plane` pixels."""

@@ -285,6 +285,31 @@ def test_several_face_batches_resolve_as_the_hosts_merge(tmp_path, device_runtim
     assert (base[0] == 1.0).sum() > 1000 and not (base[1] == 1.0).any() and not (base[2] == 1.0).any()
 
 
+@pytest.mark.parametrize("min_tiles, most", [(1, 8), (1, 100_000), (4, 3)])
+def test_triangles_covered_alone_resolve_as_the_hosts_merge(tmp_path, device_runtime, monkeypatch, min_tiles, most):
+    """Kernel `cover`'s exclusive dispatches (the largest triangles, each alone, before the rest; at
+    (1, 100000) every triangle alone) keep the least key as the atomic pass does: the coplanar floors'
+    depth ties still go to the red floor (the lowest index), whichever floor's triangle ran first."""
+    import clshade.device.visibility as visibility
+    monkeypatch.setattr(visibility, "EXCLUSIVE_MIN_TILES", min_tiles)
+    monkeypatch.setattr(visibility, "EXCLUSIVE_MAX", most)
+    scene, geometry = coplanar_layers(tmp_path)
+    camera = scene.camera.with_size(W, H)
+    expected, _ = assert_same(scene, geometry, camera.view_matrix(), camera.projection_matrix(), camera,
+                              runtime=device_runtime)
+    base = expected.plane("base").reshape(3, -1)[:, :W * H][:, expected.coverage.reshape(-1)]
+    assert (base[0] == 1.0).sum() > 1000 and not (base[1] == 1.0).any() and not (base[2] == 1.0).any()
+
+
+def test_exclusive_triangles_are_the_largest_first():
+    from clshade.device.visibility import exclusive_triangles
+    tiles = np.array([3, 600, 1, 9000, 512, 511, 700])
+    assert exclusive_triangles(tiles).tolist() == [3, 6, 1, 4]
+    assert exclusive_triangles(tiles, most=2).tolist() == [3, 6]
+    assert exclusive_triangles(tiles, min_tiles=1, most=100).tolist() == [3, 6, 1, 4, 5, 0, 2]
+    assert exclusive_triangles(tiles[:0]).tolist() == []
+
+
 def test_a_view_with_more_triangles_than_the_keys_number_is_left_to_the_host(tmp_path, monkeypatch):
     """setup_view refuses a view whose set-up triangles its keys cannot number (view_max_triangles: 1023 at
     256 faces a batch), and takes one that fits."""
