@@ -362,6 +362,9 @@ inline ivec wrap(dvec a, ivec n) {
     const ivec small = convert_ivec(fabs(a) < WRAP_INT);
     ivec r = convert_ivec(select((dvec)(0.0), a, convert_lvec(small)));
     if (all(inside)) return r;
+    if (all(small) && all((n & (n - 1)) == 0))   /* sizes of powers of two: r & (n - 1) is np.mod (two's
+                                                    complement), without the integer division */
+        return r & (n - 1);
     ivec m = r % n;
     m = select(m, m + n, m < 0);
     r = select(m, r, inside);

@@ -103,6 +103,28 @@ def test_textured_scene(textured, device_runtime, azimuth, elevation, scale):
     assert expected.coverage.sum() > 0.2 * expected.pixels
 
 
+@pytest.mark.parametrize("size", [(12, 10), (16, 8)])
+def test_textures_of_any_size_wrap_as_the_hosts(tmp_path, device_runtime, size):
+    """A repeated texture (uv_scale 3.5) whose sizes are not powers of two (12×10: levels 12×10, 6×5,
+    3×2 wrap by the remainder) and one whose are (16×8: by a mask): texel coordinates past either edge,
+    negative ones included, wrap as np.mod does on the host."""
+    from PIL import Image
+    from conftest import write_scene
+    w, h = size
+    rng = np.random.default_rng(7)
+    Image.fromarray(rng.integers(0, 256, (h, w, 3), dtype=np.uint8)).save(tmp_path / "noise.png")
+    text = scene(camera(position=[0.4, 1.6, 1.9], target=[0.0, 0.0, 0.0], fov=50.0, width=W, height=H),
+                 light("directional", direction=[-0.3, -1.0, -0.4]),
+                 material("noise", base_color=[1.0, 1.0, 1.0], base_color_texture="noise.png", uv_scale=3.5),
+                 obj(primitive="plane", size=3.0, material="noise"))
+    loaded = load_scene(write_scene(tmp_path, text))
+    geometry = build_geometry(loaded)
+    device = DeviceGBuffer(usable(device_runtime, geometry), geometry,
+                           face_planes(geometry, list(loaded.materials.values())))
+    expected = assert_same(loaded, geometry, loaded.camera.with_size(W, H), device)
+    assert expected.coverage.sum() > 0.5 * expected.pixels
+
+
 @pytest.mark.parametrize("lanes", [4, 8])
 def test_textured_frames_one_after_another(textured, device_runtime, lanes):
     """One DeviceGBuffer (its textures uploaded once), frame after frame at three sizes; at 97 x 61
