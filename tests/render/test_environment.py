@@ -461,8 +461,8 @@ def test_split_sum_ms_of_an_f0_one_conductor_is_one(conductor_frame):
 
 
 def test_both_gather_paths_read_the_sky_alike(tmp_path, device_runtime):
-    """The split sum's chain and table and the background, read with AVX2's gathers (kernels/simd.h, PoCL on
-    x86) and lane by lane (CLSHADE_SCALAR_GATHER, each lane's texels blended as float4): the same image on a
+    """The split sum's chain and table and the background, read with AVX2's or AVX-512's gathers (kernels/simd.h,
+    PoCL on x86) and lane by lane (CLSHADE_SCALAR_GATHER, each lane's texels blended as float4): the same image on a
     sky of distinct texels, metal spheres from mirror to rough, grazing edges and background included."""
     from clshade.device.runtime import FIXED, SCALAR_GATHER, Runtime
     rng = np.random.default_rng(5)
