@@ -208,7 +208,7 @@ def _fake_frames(monkeypatch, frame_ms: list[float]) -> None:
     """FrameStream.frame returning these whole-frame times in turn (the stages a fixed split of each)."""
     times = iter(frame_ms)
 
-    def frame(self, camera, model):
+    def frame(self, camera, model, copy=True):
         self.stage.path = pipeline.GBufferPath("host", "frames made up by the test")
         ms = next(times)
         t = dict(zip(whole.STAGES, (0.4 * ms, 0.3 * ms, 0.1 * ms, 0.1 * ms, 0.1 * ms)))
@@ -261,6 +261,27 @@ def test_whole_frames_reuse_buffers_and_show_the_reference_image(runtime, sample
         expected = render(moved, model, runtime=runtime, frame=frame).image
         np.testing.assert_array_equal(_bits(image), _bits(expected))
     assert stream.stage.path.path == ("device" if device_visibility.supports(runtime, geometry) else "host")
+
+
+def test_an_image_read_in_place_is_the_copy(runtime):
+    """FrameStream.frame(copy=False) reads the image where the shading kernel wrote it (on a CPU device the
+    Shader's output is host memory: no copy; the next frame writes over it): the same bits as the copy, frame
+    after frame, while a copy stays the caller's own."""
+    scene = load_scene(SCENES / "robot.toml")
+    geometry = build_geometry(scene)
+    model = BUILT_IN.resolve("ggx_correlated")
+    stream = whole.FrameStream(scene, geometry, None, runtime, [model])
+    first, second = (whole.orbit(scene.camera.with_size(72, 40), a) for a in (0.0, 40.0))
+    _, kept = stream.frame(first, model)
+    _, here = stream.frame(first, model, copy=False)
+    np.testing.assert_array_equal(_bits(here), _bits(kept))
+    _, later = stream.frame(second, model)
+    _, there = stream.frame(second, model, copy=False)
+    np.testing.assert_array_equal(_bits(there), _bits(later))
+    assert (_bits(kept) != _bits(later)).any() and there.shape == kept.shape == (40, 72, 4)
+    if "cpu" in runtime.info.kind:              # one memory, overwritten by the next frame
+        assert np.shares_memory(here, there) and not np.shares_memory(kept, here)
+        np.testing.assert_array_equal(_bits(here), _bits(later))
 
 
 def test_the_perf_tables_name_each_runtimes_path(runtime):

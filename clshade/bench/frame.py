@@ -8,7 +8,9 @@ Per frame, clshade.pipeline's stages, the same as `clshade render` and the viewe
 rasterize (the NumPy rasterizer on clshade.render.arrays.worker_count() threads, or only the
 triangle setup where the device makes the visibility buffer) → g-buffer (build_gbuffer, or
 the device's visibility + G-buffer kernels; GBufferStage picks the path and says why) →
-upload (the Shader rebound to the new planes) → shade (one dispatch) → read back the image.
+upload (the Shader rebound to the new planes) → shade (one dispatch) → read back the image
+(on a CPU device the shading kernel writes into host memory: the image is read in place, after a
+map, with no copy; the benchmarks consume each frame's image before the next, Shader.read).
 Geometry, shadow maps (they depend on the lights, not the camera), the path's check and
 the kernel build are made once before the timed frames, as an interactive viewer would.
 The camera orbits the target about the vertical axis by `step_degrees` a frame. The FPS
@@ -57,24 +59,26 @@ class FrameStream:
         self.pool = PlanePool()
         self.shader: Shader | None = None
 
-    def frame(self, camera: Camera, model: Model) -> tuple[dict[str, float], np.ndarray]:
+    def frame(self, camera: Camera, model: Model, copy: bool = True) -> tuple[dict[str, float], np.ndarray]:
         """One whole frame of `model` from `camera`: (seconds per stage and 'frame', the image; N×N
-        samples per pixel (the scene's) rasterized at N·W × N·H and resolved on the device)."""
+        samples per pixel (the scene's) rasterized at N·W × N·H and resolved on the device).
+        `copy=False`: on a CPU device the image is the Shader's output memory, read in place
+        (Shader.read): valid until the next frame, for a caller that consumes it before then."""
         camera = supersampled(camera, self.scene.samples)
         t0 = time.perf_counter()
         raster, raster_s = self._raster(camera)
-        t, image = self._finish(camera, raster, raster_s, model)
+        t, image = self._finish(camera, raster, raster_s, model, copy)
         t["frame"] = time.perf_counter() - t0
         return t, image
 
-    def frames(self, cameras: list[Camera], model: Model, overlap: bool = False):
+    def frames(self, cameras: list[Camera], model: Model, overlap: bool = False, copy: bool = True):
         """Whole frames of `model` from each camera in turn, as (stage seconds, image). `overlap`, on the
         device path once a frame has chosen it: the host's triangle setup of the next frame runs on a
         second thread while this frame's G-buffer, shading and read-back run (the same images); 'frame'
-        is then the time from one image to the next, and the stages overlap."""
+        is then the time from one image to the next, and the stages overlap. `copy`: as frame's."""
         if not (overlap and self.stage.path is not None and self.stage.path.path == "device"):
             for camera in cameras:
-                yield self.frame(camera, model)
+                yield self.frame(camera, model, copy)
             return
         cams = [supersampled(c, self.scene.samples) for c in cameras]
         with ThreadPoolExecutor(max_workers=1) as worker:
@@ -84,7 +88,7 @@ class FrameStream:
                 raster, raster_s = ahead.result()
                 if k + 1 < len(cams):
                     ahead = worker.submit(self._raster, cams[k + 1])
-                t, image = self._finish(camera, raster, raster_s, model)
+                t, image = self._finish(camera, raster, raster_s, model, copy)
                 now = time.perf_counter()
                 t["frame"], last = now - last, now
                 yield t, image
@@ -94,7 +98,8 @@ class FrameStream:
         raster = self.stage.raster(camera)
         return raster, time.perf_counter() - start
 
-    def _finish(self, camera: Camera, raster, raster_s: float, model: Model) -> tuple[dict[str, float], np.ndarray]:
+    def _finish(self, camera: Camera, raster, raster_s: float, model: Model,
+                copy: bool = True) -> tuple[dict[str, float], np.ndarray]:
         """The stages after the raster: G-buffer, upload (Shader rebound), shade, read back."""
         scratch = Timings()             # the path's one-off work (its check, face tables) lands here
         t1 = time.perf_counter()
@@ -109,7 +114,7 @@ class FrameStream:
         t3 = time.perf_counter()
         self.shader.enqueue(dispatch).wait()
         t4 = time.perf_counter()
-        image = self.shader.read()
+        image = self.shader.read(copy)
         t5 = time.perf_counter()
         return dict(zip(STAGES, (raster_s, t2 - t1, t3 - t2, t4 - t3, t5 - t4))), image
 
@@ -152,7 +157,7 @@ def whole_frames_on(scene: Scene, model: Model, runtimes: list[Runtime], width: 
     for k in range(frames + 1):
         camera = orbit(base, step_degrees * k)
         for stream, timed in zip(streams, per_frame):
-            t, _ = stream.frame(camera, model)
+            t, _ = stream.frame(camera, model, copy=False)
             if k > 0:
                 timed.append(t)
     load = _load_average()
@@ -183,14 +188,14 @@ def orbit_bench(scene: Scene, models: list[Model], runtime: Runtime, width: int 
     cameras = [orbit(base, step_degrees * k) for k in range(frames + 1)]
     timed: dict[str, list[dict[str, float]]] = {m.id: [] for m in models}
     for model in models:
-        stream.frame(cameras[0], model)                 # untimed: the path's check, the kernel build
+        stream.frame(cameras[0], model, copy=False)     # untimed: the path's check, the kernel build
     if overlap:
         for model in models:
-            timed[model.id] = [t for t, _ in stream.frames(cameras[1:], model, overlap=True)]
+            timed[model.id] = [t for t, _ in stream.frames(cameras[1:], model, overlap=True, copy=False)]
     else:
         for camera in cameras[1:]:
             for model in models:
-                timed[model.id].append(stream.frame(camera, model)[0])
+                timed[model.id].append(stream.frame(camera, model, copy=False)[0])
     rows = []
     for model in models:
         ms = np.array([f["frame"] for f in timed[model.id]]) * 1e3

@@ -32,6 +32,7 @@ from clshade.device import health, tuned
 from clshade.device.buildlog import relocate
 from clshade.diagnostics import stderr_captured
 from clshade.errors import ClshadeError, first_error
+from clshade.render.arrays import aligned_zeros
 from clshade.resources import kernels_dir
 
 ENV_DEVICE = "CLSHADE_DEVICE"
@@ -576,6 +577,16 @@ class Runtime:
 
     def empty(self, nbytes: int):
         return self.cl.Buffer(self.context, self.cl.mem_flags.READ_WRITE, size=max(int(nbytes), 1))
+
+    def host_output(self, count: int, dtype: type = np.float32) -> tuple[object, np.ndarray | None]:
+        """A buffer of `count` elements that kernels write: on a CPU device a host array's own memory
+        (CL_MEM_USE_HOST_PTR on an aligned array: the host reads the result in place, after a map,
+        with no copy), returned with it; elsewhere a device buffer and None."""
+        if "cpu" not in self.info.kind:
+            return self.empty(count * np.dtype(dtype).itemsize), None
+        array = aligned_zeros((max(int(count), 1),), dtype, max(self.base_align, 64))
+        mf = self.cl.mem_flags
+        return self.cl.Buffer(self.context, mf.READ_WRITE | mf.USE_HOST_PTR, hostbuf=array), array
 
     @property
     def simd(self) -> int:

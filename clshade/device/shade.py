@@ -140,7 +140,8 @@ class Shader:
             self.shadow_maps = runtime.to_device(np.zeros(1, np.float32))
             self.shadow_params = runtime.to_device(np.zeros((1, 4), np.float32))
         self.materials = runtime.to_device(self._table(gbuffer))
-        self.out = runtime.empty(padded(gbuffer.pixels) * 16)
+        #: The shaded samples (float4 each); on a CPU device `_out_host` is their memory (read_samples(copy=False)).
+        self.out, self._out_host = runtime.host_output(padded(gbuffer.pixels) * 4)
         self.background = np.array([*scene.background, 0.0], np.float32)
         self.ambient = np.array([*scene.ambient, 0.0], np.float32)
         self._dispatches: dict[tuple, Dispatch] = {}
@@ -302,16 +303,27 @@ class Shader:
                                                    (dispatch.local_size,))
         return self.resolver.enqueue(event) if self.resolver is not None else event
 
-    def read(self) -> np.ndarray:
+    def read(self, copy: bool = True) -> np.ndarray:
         """The last output as an (H, W, 4) float32 image (RGB radiance, coverage; with
-        supersampling the resolved pixels, alpha the covered fraction)."""
+        supersampling the resolved pixels, alpha the covered fraction). `copy=False`: where the
+        output lives in host memory (CPU devices, no supersampling) the image is that memory itself,
+        read in place: valid until the next dispatch writes it (a stream of frames that consumes
+        each image before the next); elsewhere a copy as usual."""
         if self.resolver is not None:
             return self.resolver.read()
-        return self.read_samples()
+        return self.read_samples(copy)
 
-    def read_samples(self) -> np.ndarray:
-        """The last shaded G-buffer (one value per sample) as (H, W, 4) float32."""
-        image = np.empty((self.gb.height, self.gb.width, 4), np.float32)
+    def read_samples(self, copy: bool = True) -> np.ndarray:
+        """The last shaded G-buffer (one value per sample) as (H, W, 4) float32 (`copy`: see read)."""
+        shape = (self.gb.height, self.gb.width, 4)
+        if not copy and self._out_host is not None:
+            cl = self.rt.cl     # mapped and unmapped: the host array then holds the result (no copy on a CPU device)
+            mapped, _ = cl.enqueue_map_buffer(self.rt.queue, self.out, cl.map_flags.READ, 0, self._out_host.size,
+                                              np.float32)
+            mapped.base.release(self.rt.queue)
+            self.rt.queue.finish()
+            return self._out_host[:shape[0] * shape[1] * 4].reshape(shape)
+        image = np.empty(shape, np.float32)
         self.rt.cl.enqueue_copy(self.rt.queue, image, self.out)
         return image
 
