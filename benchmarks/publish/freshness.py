@@ -23,11 +23,20 @@ ROOT = Path(__file__).resolve().parents[2]
 # reruns them); tests/contracts/test_freshness.py marks them xfail, strict: a regenerated one fails there until it
 # leaves this list. The list lives here, outside every result's producers, so that taking a result off it
 # does not make that result stale again (tests/ produces mutants.json).
+#: Why the results measured on pip's PoCL 3.0 (their commands name it) are not measured again on 2026-11-30.
+_POCL30_ELSEWHERE = ("measured on an AMD EPYC of family 25 with pip's PoCL 3.0, the runtime its command names; the "
+                     "2026-11-30 session's machine is of family 26 (Zen 5), where pip's PoCL 3.0 builds nothing, and "
+                     "its kernel and frame-path changes (streaming stores and exclusive dispatches in the device "
+                     "G-buffer, AVX-512 gathers, images read in place) came after; measure again where PoCL 3.0 builds")
 KNOWN_STALE: dict[str, str] = {
     "benchmarks/results/mutants.json": "mutation catalogue (benchmarks/mutation): its full run was on d07aa10's "
-                    "code (407 mutants, 0 survivors); branches tex-speed, split-pack, split-dfg and multi-batch changed "
-                    "kernels, clshade and tests since and added 25 mutants (listed as not run); `python -m benchmarks.mutation.run --jobs 2` "
-                    "measures it again",
+                    "code (407 mutants, 0 survivors); branches tex-speed, split-pack, split-dfg and multi-batch and "
+                    "the 2026-11-30 frame-path changes changed kernels, clshade and tests since and added 30 mutants "
+                    "(listed as not run, each killed by hand); `python -m benchmarks.mutation.run --jobs 2` measures "
+                    "it again",
+    "benchmarks/results/bench_1080p.json": _POCL30_ELSEWHERE,
+    "benchmarks/report/report.json": _POCL30_ELSEWHERE,
+    "benchmarks/results/view_pocl30.json": _POCL30_ELSEWHERE,
 }
 
 
