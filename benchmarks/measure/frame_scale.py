@@ -16,6 +16,7 @@ and the stage medians.
 from __future__ import annotations
 
 import argparse
+import textwrap
 import sys
 import tempfile
 import time
@@ -110,6 +111,7 @@ def plot(doc: dict, out: Path) -> None:
     b.loglog([r["triangles"] for r in tri], [r["frame_ms"] for r in tri], "o")
     for r in tri:
         b.annotate(r["name"], (r["triangles"], r["frame_ms"]), textcoords="offset points", xytext=(4, 2), fontsize=7)
+    b.set_xlim(right=max(r["triangles"] for r in tri) * 8)     # room for the largest mesh's name
     b.set_xlabel("triangles")
     b.set_title(f"whole frame against triangles ({doc['width']}×{doc['height']})")
     for ax in (a, b):
@@ -117,7 +119,8 @@ def plot(doc: dict, out: Path) -> None:
         ax.set_ylabel("median whole frame, ms")
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(loc="upper left", fontsize=8)
-    fig.suptitle(f"{doc['device']} — {doc['model']}, commit {(doc['provenance']['commit'] or '')[:10]}", fontsize=9)
+    title = f"{doc['device']} — {doc['model']}, commit {(doc['provenance']['commit'] or '')[:10]}"
+    fig.suptitle(textwrap.fill(title, 130), fontsize=9)     # a device's description can be longer than the figure
     fig.tight_layout()
     write_figure(plt, fig, out)
 
