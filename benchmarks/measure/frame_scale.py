@@ -16,9 +16,9 @@ and the stage medians.
 from __future__ import annotations
 
 import argparse
-import textwrap
 import sys
 import tempfile
+import textwrap
 import time
 from pathlib import Path
 
