@@ -29,11 +29,6 @@ _POCL30_ELSEWHERE = ("measured on an AMD EPYC of family 25 with pip's PoCL 3.0, 
                      "its kernel and frame-path changes (streaming stores and exclusive dispatches in the device "
                      "G-buffer, AVX-512 gathers, images read in place) came after; measure again where PoCL 3.0 builds")
 KNOWN_STALE: dict[str, str] = {
-    "benchmarks/results/mutants.json": "mutation catalogue (benchmarks/mutation): its full run was on d07aa10's "
-                    "code (407 mutants, 0 survivors); branches tex-speed, split-pack, split-dfg and multi-batch and "
-                    "the 2026-11-30 frame-path changes changed kernels, clshade and tests since and added 30 mutants "
-                    "(listed as not run, each killed by hand); `python -m benchmarks.mutation.run --jobs 2` measures "
-                    "it again",
     "benchmarks/results/bench_1080p.json": _POCL30_ELSEWHERE,
     "benchmarks/report/report.json": _POCL30_ELSEWHERE,
     "benchmarks/results/view_pocl30.json": _POCL30_ELSEWHERE,
