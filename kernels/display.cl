@@ -15,25 +15,29 @@
 /* The count, per bucket of float32 values (the top 17 bits of a positive float: its
  * exponent and 8 mantissa bits, a 0.4 % wide range), is base[b] plus one when the value is
  * at or above the one threshold inside the bucket, cross[b] (+INFINITY when the bucket holds
- * none; NaN in the buckets of +∞ and NaN). display.py checks that no bucket holds two
- * thresholds: the transform's steepest level per log-radiance (the sRGB curve, 0.42 levels
- * per bucket) keeps them apart. Two table reads per channel instead of a search. */
+ * none). display.py checks that no bucket holds two thresholds: the transform's steepest
+ * level per log-radiance (the sRGB curve, 0.42 levels per bucket) keeps them apart. Two
+ * table reads per channel instead of a search.
+ *
+ * The tables hold only the buckets from the first threshold's (`first`) to the last's
+ * (`first + last`), 3–6 thousand for the tone maps (under 32 KB: the first-level cache): a
+ * value below them has no threshold at or below it (level base[0] = 0), one above them has
+ * all (base[last] plus its crossing, which it is past), so the bucket is clamped into them. */
 #define BUCKET_SHIFT 15
 
-inline uchar display_level(float x, __global const uchar* base, __global const float* cross)
+inline uchar display_level(float x, __global const uchar* base, __global const float* cross, uint first, uint last)
 {
-    if (!(x > 0.0f))                    /* NaN, negatives and zeros: level 0 */
-        return 0;
-    uint b = as_uint(x) >> BUCKET_SHIFT;
-    return base[b] + (uchar)(x >= cross[b]);
+    uint b = min(max(as_uint(x) >> BUCKET_SHIFT, first) - first, last);     /* +∞: the last bucket */
+    uchar level = base[b] + (uchar)(x >= cross[b]);
+    return x > 0.0f ? level : (uchar)0;     /* NaN, negatives and zeros: level 0 (no branch: vectorised) */
 }
 
 __kernel void display(const uint npix, __global const float4* radiance, __global const uchar* base,
-                      __global const float* cross, __global uchar4* out)
+                      __global const float* cross, const uint first, const uint last, __global uchar4* out)
 {
     uint i = get_global_id(0);
     if (i >= npix) return;
     float4 c = radiance[i];
-    out[i] = (uchar4)(display_level(c.x, base, cross), display_level(c.y, base, cross),
-                      display_level(c.z, base, cross), (uchar)255);
+    out[i] = (uchar4)(display_level(c.x, base, cross, first, last), display_level(c.y, base, cross, first, last),
+                      display_level(c.z, base, cross, first, last), (uchar)255);
 }

@@ -1,6 +1,6 @@
 """How live `clshade view` feels: re-shade updates per second and orbit frames per second at
 960×540 on scenes/robot.toml, and the time from input to the frame drawn on the page's canvas,
-encoding and transfer included, measured in a real browser (headless Chromium, as the
+packing and transfer included, measured in a real browser (headless Chromium, as the
 end-to-end tests drive it).
 
 Usage::
@@ -171,11 +171,12 @@ def measure_canvas(frames: int, repeats: int) -> dict:
 
 def measure(frames: int, repeats: int, drag_seconds: float, canvas_only: bool = False) -> dict:
     from clshade.view import headless
+    from clshade.view.server import FRAME_ENCODING
     from clshade.view.session import ViewSession
     if canvas_only:
         canvas = measure_canvas(frames, repeats)
         return dict(scene="scenes/robot.toml", frames_per_block=frames, repeats=repeats, targets=TARGETS,
-                    browser=headless.CHROMIUM, canvas_1080=canvas,
+                    browser=headless.CHROMIUM, frame_encoding=FRAME_ENCODING, canvas_1080=canvas,
                     met={"canvas_1080_orbit_fps": canvas["rate_per_s_median"] >= TARGETS["canvas_1080_orbit_fps"]})
     with tempfile.TemporaryDirectory(prefix="view-bench-") as tmp:
         session = ViewSession(SCENE, tmp, WIDTH, HEIGHT)
@@ -190,7 +191,7 @@ def measure(frames: int, repeats: int, drag_seconds: float, canvas_only: bool = 
         device = session.runtime.info.description
     out: dict = dict(device=device, scene="scenes/robot.toml", width=WIDTH, height=HEIGHT,
                      frames_per_block=frames, repeats=repeats, drag_hz=DRAG_HZ, drag_seconds=drag_seconds,
-                     targets=TARGETS, browser=headless.CHROMIUM, kinds={})
+                     targets=TARGETS, browser=headless.CHROMIUM, frame_encoding=FRAME_ENCODING, kinds={})
     for kind, runs in blocks.items():
         records = [r for b in runs for r in b["records"]]
         rates = [len(b["records"]) / b["seconds"] for b in runs]

@@ -67,35 +67,37 @@ def _check(found: np.ndarray, want: np.ndarray, method: str, exposure: float) ->
                            f"the device display cannot reproduce it")
 
 
-#: Float32 bits below a bucket's index (kernels/display.cl, BUCKET_SHIFT): 65536 buckets of
-#: the non-negative floats, each 2⁻⁸ of an octave wide.
+#: Float32 bits below a bucket's index (kernels/display.cl, BUCKET_SHIFT): buckets of the
+#: non-negative floats, each 2⁻⁸ of an octave wide.
 BUCKET_SHIFT = 15
-BUCKETS = 1 << (32 - 1 - BUCKET_SHIFT)
 
 
 @lru_cache(maxsize=64)
-def bucket_tables(method: str, exposure: float) -> tuple[np.ndarray, np.ndarray]:
-    """(base, cross): per bucket of positive float32 values, the level of its least value and
-    the one threshold inside it (+inf if none, NaN for the buckets of +inf and NaN), from
-    `thresholds`; refuses a bucket that holds two thresholds."""
+def bucket_tables(method: str, exposure: float) -> tuple[np.ndarray, np.ndarray, int]:
+    """(base, cross, first): for the buckets of positive float32 values from the one of the first
+    finite threshold to the one of the last (kernels/display.cl clamps a value's bucket into
+    them), the level of each bucket's least value and the one threshold inside it (+inf if
+    none), from `thresholds`; `first` the first bucket's index. Refuses a bucket that holds two
+    thresholds."""
     t = thresholds(method, exposure)
-    first = np.arange(BUCKETS, dtype=np.int64) << BUCKET_SHIFT
-    last = np.minimum(first + (1 << BUCKET_SHIFT) - 1, F32_MAX_BITS)
-    finite = first <= F32_MAX_BITS
-    low = np.minimum(first, F32_MAX_BITS).astype(np.uint32).view(np.float32)
-    high = last.astype(np.uint32).view(np.float32)
+    finite = t[np.isfinite(t)]
+    if finite.size == 0:    # every value shows as 0 (a very low exposure): one bucket that nothing crosses, +∞ included
+        return np.zeros(1, np.uint8), np.full(1, np.nan, np.float32), 0
+    first, end = (int(finite[k].view(np.uint32)) >> BUCKET_SHIFT for k in (0, -1))
+    start = np.arange(first, end + 1, dtype=np.int64) << BUCKET_SHIFT
+    low = start.astype(np.uint32).view(np.float32)
+    high = (start + (1 << BUCKET_SHIFT) - 1).astype(np.uint32).view(np.float32)
     base = np.searchsorted(t, low, side="right")
     steps = np.searchsorted(t, high, side="right") - base
     if steps.max() > 1:
         raise ClshadeError(f"display transform ({method}, exposure {exposure:g}): a bucket of float32 values "
                            f"holds {steps.max()} level steps; the device display cannot reproduce it")
     cross = np.where(steps == 1, t[np.minimum(base, LEVELS - 1)], np.inf).astype(np.float32)
-    cross[~finite] = np.nan
-    return base.astype(np.uint8), cross
+    return base.astype(np.uint8), cross, first
 
 
 class Display:
-    """Radiance buffer (float4 per pixel) → RGBA8 on the device, then read back."""
+    """Radiance buffer (float4 per pixel) → RGBA8 on the device, then read back (or read in place)."""
 
     def __init__(self, runtime: Runtime) -> None:
         self.rt = runtime
@@ -103,28 +105,42 @@ class Display:
         built = runtime.kernel(f"#line 1 \"{DISPLAY_SOURCE}\"\n{text}\n", "display", label="display")
         cl = runtime.cl
         self.kernel = cl.Kernel(built.get_info(cl.kernel_info.PROGRAM), "display")
-        self._tables: dict[tuple[str, float], tuple[object, object]] = {}
-        self._out: dict[int, object] = {}
+        self._tables: dict[tuple[str, float], tuple[object, ...]] = {}
+        #: (pixels, slot) → (buffer, host array or None): Runtime.host_output's, one per view of a frame.
+        self._out: dict[tuple[int, str], tuple[object, np.ndarray | None]] = {}
 
     def table(self, method: str, exposure: float):
         key = (method, float(exposure))
         if key not in self._tables:
             if len(self._tables) > 64:
                 self._tables.clear()
-            self._tables[key] = tuple(self.rt.to_device(a) for a in bucket_tables(method, float(exposure)))
+            base, cross, first = bucket_tables(method, float(exposure))
+            self._tables[key] = (self.rt.to_device(base), self.rt.to_device(cross), np.uint32(first),
+                                 np.uint32(len(base) - 1))
         return self._tables[key]
 
-    def enqueue(self, radiance, pixels: int, method: str, exposure: float, wait_for=None):
-        """Enqueue the transform of `pixels` float4 of `radiance`; returns (event, output buffer)."""
-        if pixels not in self._out:
-            self._out = {pixels: self.rt.empty(pixels * 4)}
-        out = self._out[pixels]
+    def enqueue(self, radiance, pixels: int, method: str, exposure: float, wait_for=None, slot: str = "a"):
+        """Enqueue the transform of `pixels` float4 of `radiance` into the output of `slot` (each
+        view of a frame its own: one read in place is not overwritten by the next view's);
+        returns (event, output buffer)."""
+        if any(size != pixels for size, _ in self._out):
+            self._out = {}                  # a new frame size: the old outputs go
+        if (pixels, slot) not in self._out:
+            self._out[(pixels, slot)] = self.rt.host_output(pixels, np.uint32)
+        out = self._out[(pixels, slot)][0]
         self.kernel.set_args(np.uint32(pixels), radiance, *self.table(method, exposure), out)
         event = self.rt.cl.enqueue_nd_range_kernel(self.rt.queue, self.kernel, (self.rt.global_size(pixels),),
                                                    (self.rt.local_size,), wait_for=wait_for)
         return event, out
 
-    def read(self, out, height: int, width: int) -> np.ndarray:
+    def read(self, out, height: int, width: int, copy: bool = True) -> np.ndarray:
+        """The (height, width, 4) uint8 image in `out`. `copy=False`: where the output lives in host
+        memory (CPU devices) the image is that memory, valid until the next transform into the
+        same slot; elsewhere a copy."""
+        host = next((array for buffer, array in self._out.values() if buffer is out), None)
+        if not copy and host is not None:
+            self.rt.read_in_place((out, host))
+            return host[:height * width].view(np.uint8).reshape(height, width, 4)
         rgba = np.empty((height, width, 4), np.uint8)
         self.rt.cl.enqueue_copy(self.rt.queue, rgba, out)
         return rgba

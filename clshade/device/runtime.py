@@ -588,6 +588,16 @@ class Runtime:
         mf = self.cl.mem_flags
         return self.cl.Buffer(self.context, mf.READ_WRITE | mf.USE_HOST_PTR, hostbuf=array), array
 
+    def read_in_place(self, *pairs: tuple[object, np.ndarray]) -> None:
+        """Make each (buffer, host array) pair of host_output's hold the kernels' last writes:
+        map for reading and unmap (no copy where the buffer uses the array's memory), then wait."""
+        cl = self.cl
+        for buffer, array in pairs:
+            mapped, _ = cl.enqueue_map_buffer(self.queue, buffer, cl.map_flags.READ, 0, array.size, array.dtype,
+                                              is_blocking=False)
+            mapped.base.release(self.queue)
+        self.queue.finish()
+
     @property
     def simd(self) -> int:
         """Pixels per work-item of the shading kernels (kernels/simd.h). On CPU

@@ -317,11 +317,7 @@ class Shader:
         """The last shaded G-buffer (one value per sample) as (H, W, 4) float32 (`copy`: see read)."""
         shape = (self.gb.height, self.gb.width, 4)
         if not copy and self._out_host is not None:
-            cl = self.rt.cl     # mapped and unmapped: the host array then holds the result (no copy on a CPU device)
-            mapped, _ = cl.enqueue_map_buffer(self.rt.queue, self.out, cl.map_flags.READ, 0, self._out_host.size,
-                                              np.float32)
-            mapped.base.release(self.rt.queue)
-            self.rt.queue.finish()
+            self.rt.read_in_place((self.out, self._out_host))
             return self._out_host[:shape[0] * shape[1] * 4].reshape(shape)
         image = np.empty(shape, np.float32)
         self.rt.cl.enqueue_copy(self.rt.queue, image, self.out)

@@ -229,7 +229,6 @@ class DeviceGBuffer:
             setup = np.concatenate([t.persp_a, t.persp_b, t.persp_c, t.area2[None]])
             tri_face, vdepth = t.face.astype(np.int32), t.vdepth
             tiles = (((t.col1 - t.col0) // view.tile) + 1) * (((t.row1 - t.row0) // view.tile) + 1)
-            tile_end = np.cumsum(tiles, dtype=np.int64)
             box = rt.to_device(np.stack([t.col0, t.row0, t.col1, t.row1]).astype(np.int32))
             edge = rt.to_device(np.concatenate([t.edge_a, t.edge_b, t.edge_c, t.edge_thr,
                                                 t.z_a[None], t.z_b[None], t.z_c[None]]))
@@ -240,10 +239,10 @@ class DeviceGBuffer:
                 batch = [rt.to_device(np.array([count], np.uint32)), rt.to_device(np.full(count, tri, np.uint32))]
                 inputs += batch
                 self._cover(count, ntri, w, view, int(tri), 1, batch, box, edge, keys)
-            if len(alone):
+            if len(alone):                  # the rest: every other triangle's tiles
                 tiles = tiles.copy()
                 tiles[alone] = 0
-                tile_end = np.cumsum(tiles, dtype=np.int64)
+            tile_end = np.cumsum(tiles, dtype=np.int64)
             for first, last, base in cover_batches(tile_end, COVER_BATCH_TILES):
                 # The batch's own running counts, from its first triangle (at most the limit, or one
                 # triangle's tiles: uint32 as long as one triangle has fewer than 2^32 tiles).
@@ -283,12 +282,7 @@ class DeviceGBuffer:
                                                                "cover")))
             cl.enqueue_nd_range_kernel(rt.queue, self.texture, (rt.global_size(plane // self.lanes),),
                                        (rt.local_size,))
-        for buffer, array in zip(outputs.values(), (*planes.values(), cover)):
-            # Mapped and unmapped: the host arrays then hold the result (no copy on a CPU device).
-            mapped, _ = cl.enqueue_map_buffer(rt.queue, buffer, cl.map_flags.READ, 0, array.size, array.dtype,
-                                              is_blocking=False)
-            mapped.base.release(rt.queue)
-        rt.queue.finish()
+        rt.read_in_place(*zip(outputs.values(), (*planes.values(), cover)))
         covered = cover[:n]
         gbuffer = GBuffer.from_planes(w, h, planes, materials, (covered == 1).reshape(h, w),
                                       int(np.count_nonzero(covered == 2)), unit_normals=True)

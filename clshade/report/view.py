@@ -56,8 +56,9 @@ def view_markdown(doc: dict) -> str:
     k, m = doc["kinds"], doc["machine"]
     stages = list(dict.fromkeys(s for x in ("orbit", "reshade", "drag") for s in k[x]["stage_ms_median"]))
     rows = [[s, *(_ms(k[x]["stage_ms_median"].get(s)) for x in STEPS)] for s in stages]
-    rows.append([f"pack (header + raw RGBA, {k['orbit']['bytes_per_frame'] / 1e6:.1f} MB)",
-                 *(_ms(k[x]["pack_ms_median"]) for x in STEPS)])
+    encoding = doc.get("frame_encoding")         # absent: results measured when frames travelled raw
+    rows.append([f"pack (header + {'encoded' if encoding else 'raw'} RGBA, "
+                 f"{k['orbit']['bytes_per_frame'] / 1e6:.1f} MB)", *(_ms(k[x]["pack_ms_median"]) for x in STEPS)])
     if all("render_ms_median" in k[x] for x in STEPS):
         rows.append(["**render, whole** (render thread, stages above and the rest)",
                      *(_ms(k[x]["render_ms_median"]) for x in STEPS)])
@@ -81,6 +82,14 @@ def view_markdown(doc: dict) -> str:
                       "G-buffer interpolation on the device (kernels/visibility.cl), bit for bit the host's G-buffer."]
     lines += ["", "Latency: from the page's input (control state sent) to the frame drawn on its canvas "
                   "(putImageData returned; compositing to the screen not included). Server ms: from the state's "
-                  "arrival to the frame sent (waiting, rendering, packing, sending). Frames travel as raw RGBA "
-                  "(no encoding: the canvas must equal `clshade render`'s PNG, which lossy JPEG would not)."]
+                  "arrival to the frame sent (waiting, rendering, packing, sending). " + (
+                      f"Frames travel losslessly as {encoding} (clshade/view/server.py, encode_view; the canvas "
+                      f"equals `clshade render`'s PNG): {k['orbit']['bytes_per_frame'] / 1e6:.1f} MB an orbit frame "
+                      f"of {doc['width'] * doc['height'] * 4 / 1e6:.1f} MB of pixels"
+                      + (f", {doc['canvas_1080']['bytes_per_frame'] / 1e6:.1f} MB of "
+                         f"{doc['canvas_1080']['width'] * doc['canvas_1080']['height'] * 4 / 1e6:.1f} MB on the "
+                         f"{doc['canvas_1080']['width']}x{doc['canvas_1080']['height']} canvas"
+                         if "canvas_1080" in doc else "") + "."
+                      if encoding else "Frames travel as raw RGBA (no encoding: the canvas must equal `clshade "
+                                       "render`'s PNG, which lossy JPEG would not).")]
     return "\n".join(lines) + "\n"

@@ -522,8 +522,11 @@ class ViewSession:
     def render(self, controls: Controls) -> ViewFrame:
         return self.finish(self.prepare(controls))
 
-    def finish(self, p: Prepared) -> ViewFrame:
-        """The rest of a frame after prepare(): G-buffer, shading, display transform, read back."""
+    def finish(self, p: Prepared, copy: bool = True) -> ViewFrame:
+        """The rest of a frame after prepare(): G-buffer, shading, display transform, read back.
+        `copy=False`: the views are the display's outputs read in place where they live in host
+        memory (Display.read): valid until the next frame (the server packs each frame before
+        the next one renders)."""
         controls, scene, geometry, camera, timings = p.controls, p.scene, p.geometry, p.camera, p.timings
         model_a, model_b = controls.models(self.registry)
         self._resized(camera.width, camera.height)
@@ -544,10 +547,11 @@ class ViewSession:
                 device_ms, host_ms = timed_dispatch(shader, dispatch)
             self.history.setdefault(labels[view], deque(maxlen=HISTORY)).append((device_ms, host_ms))
             with timings.stage("display"):
-                event, out = self.display.enqueue(radiance, width * height, scene.tonemap, scene.exposure)
+                event, out = self.display.enqueue(radiance, width * height, scene.tonemap, scene.exposure,
+                                                  slot=view)
                 event.wait()
             with timings.stage("read back"):
-                views[view] = self.display.read(out, height, width)
+                views[view] = self.display.read(out, height, width, copy)
         scale = None
         if controls.diff:
             with timings.stage("difference"):

@@ -315,6 +315,12 @@ def test_split_and_difference_views(session):
     np.testing.assert_array_equal(both.views["diff"][same], both.views["diff"][same][:1].repeat(same.sum(), 0))
     for model in both.models.values():
         assert both.stats[model]["frames"] >= 1 and both.stats[model]["mean_ms"] > 0
+    # The server's frames: each view read in place (its own output, not the next view's), equal to the copies.
+    state = parse_controls(controls(session, model_b="lambert", split=True, diff=True, azimuth=20.0), session.limits)
+    copied = session.render(state)
+    in_place = session.finish(session.prepare(state), copy=False)
+    for view in ("a", "b", "diff"):
+        np.testing.assert_array_equal(in_place.views[view], copied.views[view], err_msg=view)
 
 
 def test_only_read_columns_are_baked():
@@ -332,7 +338,8 @@ def test_only_read_columns_are_baked():
 # ---------------------------------------------------------------- the display transform
 
 
-@pytest.mark.parametrize("method,exposure", [("aces", 0.0), ("reinhard", 2.25), ("none", -3.5), ("aces", 64.0)])
+@pytest.mark.parametrize("method,exposure", [("aces", 0.0), ("reinhard", 2.25), ("none", -3.5), ("aces", 64.0),
+                                             ("none", -200.0)])
 def test_device_display_equals_to_display(session, method, exposure):
     rng = np.random.default_rng(7)
     special = [np.nan, np.inf, -np.inf, 0.0, -0.0, -1.0, 1e-45, 1e-38, 3.4e38, 1e30]
@@ -420,12 +427,12 @@ class SlowSession:
         time.sleep(0.025)
         return c.exposure, self.real.prepare(dataclasses.replace(c, exposure=0.0))
 
-    def finish(self, p):
+    def finish(self, p, copy=True):
         import time
         time.sleep(0.025)
         exposure, prepared = p
         self.rendered.append(exposure)
-        return self.real.finish(prepared)
+        return self.real.finish(prepared, copy)
 
     def render(self, c):
         return self.finish(self.prepare(c))
@@ -617,13 +624,44 @@ def _same_value(a, b) -> bool:
     return a == b
 
 
+@pytest.mark.parametrize("width, height", [(64, 2), (37, 5), (480, 270), (7, 3), (1, 1)])
+def test_frame_messages_carry_every_pixel(width, height):
+    """pack_frame's segment encoding is lossless at any size (a partial last run included): an
+    object on a background, a background in one corner only, a frame with no background at all,
+    pixels equal to the background in the middle of an object's runs, and a second view."""
+    from clshade.view.server import SEGMENT, background_value, pack_frame, unpack_frame
+    from clshade.view.session import ViewFrame
+    rng = np.random.default_rng(width * height)
+    background = np.array([24, 28, 35, 255], np.uint8)
+    scene = np.broadcast_to(background, (height, width, 4)).copy()
+    y0, x0 = height // 3, width // 4
+    scene[y0:, x0:x0 + max(1, width // 2)] = rng.integers(0, 256, (height - y0, max(1, width // 2), 4), np.uint8)
+    scene[-1, -1] = background                              # the object's last pixel is the background
+    noise = rng.integers(0, 256, (height, width, 4), np.uint8)
+    corner = noise.copy()
+    corner[: max(1, height // 2), : max(1, width // 2)] = (9, 8, 7, 255)
+    for views in ({"a": scene}, {"a": noise}, {"a": corner, "b": scene}):
+        frame = ViewFrame(width, height, views, {}, {}, {k: "lambert" for k in views})
+        header, decoded = unpack_frame(pack_frame(frame, 7, {}))
+        assert header["seq"] == 7 and list(decoded) == list(views)
+        for name, rgba in views.items():
+            np.testing.assert_array_equal(decoded[name], rgba, err_msg=f"{name} of {width}x{height}")
+    pixels = scene.reshape(-1).view("<u4").reshape(height, width)
+    if width * height >= 4 * SEGMENT:
+        assert background_value(pixels) == int(background.view("<u4")[0])
+        corner_pixels = corner.reshape(-1).view("<u4").reshape(height, width)
+        assert background_value(corner_pixels) == int(np.array([9, 8, 7, 255], np.uint8).view("<u4")[0])
+        message = pack_frame(ViewFrame(width, height, {"a": scene}, {}, {}, {"a": "lambert"}), 1, {})
+        assert len(message) < 0.8 * scene.nbytes              # the background does not travel
+
+
 def test_pipelined_frames_show_their_own_state(session):
     """The raster thread prepares a state while the render thread finishes the one before: the
     stages overlap, yet every frame sent is of its own state (its pixels are a fresh render of
     that state's controls: never another state's camera), frames leave in order, the newest last."""
     import threading
     import time
-    from clshade.view.server import Page, ViewServer
+    from clshade.view.server import Page, ViewServer, unpack_frame
 
     class Recorder:
         def __init__(self, real):
@@ -641,8 +679,8 @@ def test_pipelined_frames_show_their_own_state(session):
         def prepare(self, c):
             return self._span("prepare", self.real.prepare, c)
 
-        def finish(self, p):
-            return self._span("finish", self.real.finish, p)
+        def finish(self, p, copy=True):
+            return self._span("finish", lambda q: self.real.finish(q, copy), p)
 
     recorder = Recorder(session)
     server = ViewServer(recorder, log=lambda text: None)
@@ -667,9 +705,8 @@ def test_pipelined_frames_show_their_own_state(session):
     frames = []
     for m in ws.sent:
         if isinstance(m, bytes):
-            n = int.from_bytes(m[:4], "little")
-            header = json.loads(m[4:4 + n])
-            frames.append((header["seq"], np.frombuffer(m[4 + n:4 + n + W * H * 4], np.uint8)))
+            header, views = unpack_frame(m)
+            frames.append((header["seq"], views["a"].reshape(-1)))
     seqs = [seq for seq, _ in frames]
     assert len(frames) >= 2 and seqs == sorted(set(seqs)) and seqs[-1] == max(states)
     for seq, pixels in frames:

@@ -8,6 +8,7 @@ for its mutants)."""
 from __future__ import annotations
 
 import base64
+import hashlib
 import io
 import json
 import os
@@ -20,7 +21,8 @@ from clshade.device.variants import ENV_RUNG_DEFINES
 from clshade.render.image import read_image
 from clshade.resources import scenes_dir
 from clshade.view import headless
-from clshade.view.server import ServerThread
+from clshade.view.controls import parse_controls
+from clshade.view.server import SEGMENT, ServerThread
 from clshade.view.session import ViewSession
 
 W, H = 480, 270
@@ -335,13 +337,26 @@ def test_canvas_follows_the_window(window_browser, tmp_path):
     pixel ratio, capped at 1920×1080 (aspect kept), halved by the 50 % control; a resize mid-orbit
     gives frames of the new size."""
     driver = window_browser
-    with ServerThread(ViewSession(scenes_dir() / "robot.toml", tmp_path)) as url:
+    session = ViewSession(scenes_dir() / "robot.toml", tmp_path)
+    with ServerThread(session) as url:
         window(driver, 1000, 700, 1)
         driver.get(url)
         wait_for(driver, "window.clshadeView && window.clshadeView.lastFrame")
         frame = js(driver, "return window.clshadeView.lastFrame;")
         assert (frame["width"], frame["height"]) == expected_size(driver, 1) and frame["width"] > 200
         assert canvas(driver).shape[:2] == (frame["height"], frame["width"])
+        # Both views of a split frame whose pixels are not a multiple of the message's runs: the page
+        # decodes each (the partial last run included) to the pixels the server rendered.
+        js(driver, "window.clshadeView.set({split: true});")
+        next_frame(driver)
+        frame = js(driver, "return window.clshadeView.lastFrame;")
+        assert frame["width"] * frame["height"] % SEGMENT, "the frame size should leave a partial run"
+        digests = until(driver, "const v = window.clshadeView; Promise.all(['a', 'b'].map((n) => "
+                                "crypto.subtle.digest('SHA-256', v.view(n)))).then((d) => done(d.map((x) => "
+                                "[...new Uint8Array(x)].map((b) => b.toString(16).padStart(2, '0')).join(''))));")
+        rendered = session.render(parse_controls(js(driver, "return window.clshadeView.controls;"), session.limits))
+        assert digests == [hashlib.sha256(rendered.views[n].tobytes()).hexdigest() for n in "ab"]
+        js(driver, "window.clshadeView.set({split: false});")
 
         for k in range(4):                                    # an orbit, resized half-way at twice the DPR
             if k == 2:

@@ -11,7 +11,7 @@ const sentAt = new Map();          // seq → performance.now() when the state w
 const latencies = [];              // input → displayed, ms, recent frames
 const waiters = [];                // [seq, resolve]: frameFor()
 const records = [];                // per displayed frame: {seq, latency, server, stages}
-const canvas = $("frame"), ctx = canvas.getContext("2d");
+const canvas = $("frame"), ctx = canvas.getContext("2d", {alpha: false});
 let views = {};
 const progress = [];               // the sky error's progress messages, for tests
 const skyErrors = {};              // cost label → the sky error's relative RMSE, once measured
@@ -26,6 +26,8 @@ function update() {                // the controls changed: ask for a frame
   return seq;
 }
 function showError(text) { $("error").textContent = text || ""; }
+// Text written only when it changed: a rewrite costs the browser a style, layout and paint per frame.
+function setText(element, value) { if (element.textContent !== value) element.textContent = value; }
 
 // ------------------------------------------------------------------ frames
 
@@ -45,17 +47,40 @@ function draw() {
   }
 }
 
+// Each view's pixels (server.py's encode_view): per run of `segment` pixels a flag (1: its pixels
+// follow, 0: all of them are the background value), then the flagged runs' pixels. Decoded into an
+// ImageData kept per view and size (putImageData copies it: the next frame may overwrite it).
+const kept = {};
+function decodeView(name, buffer, offset, w, h, segment, background) {
+  const npix = w * h, runs = Math.ceil(npix / segment);
+  if (!kept[name] || kept[name].width !== w || kept[name].height !== h) kept[name] = new ImageData(w, h);
+  const out = new Uint32Array(kept[name].data.buffer);
+  const flags = new Uint8Array(buffer, offset, runs);
+  offset += runs + (-runs & 3);
+  let from = offset / 4;
+  const words = new Uint32Array(buffer);
+  for (let k = 0; k < runs;) {
+    let end = k;
+    while (end < runs && flags[end] === flags[k]) end++;
+    const a = k * segment, b = Math.min(end * segment, npix);
+    if (flags[k]) { out.set(words.subarray(from, from + b - a), a); from += b - a; }
+    else out.fill(background, a, b);
+    k = end;
+  }
+  return [kept[name], from * 4];
+}
+
 function onFrame(buffer) {
   const received = performance.now();
   const n = new DataView(buffer).getUint32(0, true);
   const header = JSON.parse(new TextDecoder().decode(new Uint8Array(buffer, 4, n)));
-  const w = header.width, h = header.height, size = w * h * 4;
+  const w = header.width, h = header.height, e = header.encoding;
   if (canvas.width !== w || canvas.height !== h) { canvas.width = w; canvas.height = h; }
   views = {};
-  header.views.forEach((name, i) => {
-    const pixels = new Uint8ClampedArray(buffer, 4 + n + i * size, size);
-    views[name] = new ImageData(pixels, w, h);
-  });
+  let offset = 4 + n;
+  for (const name of header.views) {
+    [views[name], offset] = decodeView(name, buffer, offset, w, h, e.segment, e.background[name]);
+  }
   draw();
   const now = performance.now();
   const latency = sentAt.has(header.seq) ? now - sentAt.get(header.seq) : null;
@@ -68,9 +93,9 @@ function onFrame(buffer) {
   if ($("error").dataset.seq && +$("error").dataset.seq < header.seq) showError("");
   costShown(header);
   $("legend").hidden = !(controls.diff && views.diff);
-  if (header.diff_scale !== null) $("scale").textContent = header.diff_scale.toFixed(3);
-  const e = header.environment;
-  $("rungs").textContent = e ? `${e.sky}: ${e.rungs} · variant ${e.variant}` : "no environment";
+  if (header.diff_scale !== null) setText($("scale"), header.diff_scale.toFixed(3));
+  const sky = header.environment;
+  setText($("rungs"), sky ? `${sky.sky}: ${sky.rungs} · variant ${sky.variant}` : "no environment");
   for (let i = waiters.length - 1; i >= 0; i--) {
     if (header.seq >= waiters[i][0]) { waiters[i][1]({seq: header.seq, latency}); waiters.splice(i, 1); }
   }
