@@ -122,3 +122,31 @@ def register() -> str | None:
     os.environ[ENV_VENDORS] = str(folder)
     _registered = str(folder)
     return _registered
+
+
+def unregistered_hint() -> str:
+    """Where a pip runtime is installed but the loader cannot see it (the user's own OCL_ICD_VENDORS
+    names a folder without it, or CLSHADE_NO_PIP_RUNTIMES is set): one sentence saying which and how
+    to let the loader find it; '' otherwise."""
+    if _registered is not None:
+        return ""
+    folder = os.environ.get(ENV_VENDORS, "").strip()
+    off = os.environ.get(ENV_NO_PIP_RUNTIMES, "").strip() not in ("", "0")
+    hints = []
+    for rt in PIP_RUNTIMES:
+        lib = installed_library(rt)
+        if lib is None:
+            continue
+        if off:
+            hints.append(f"{rt.distribution} is installed ({lib}) but {ENV_NO_PIP_RUNTIMES} leaves it unregistered")
+            continue
+        try:
+            named = folder and any(str(lib) in p.read_text(encoding="utf-8", errors="replace")
+                                   for p in Path(folder).glob("*.icd"))
+        except OSError:
+            named = False
+        if folder and not named:
+            hints.append(f"{rt.distribution} is installed ({lib}) but {ENV_VENDORS}={folder} names no .icd file "
+                         f"with it: unset {ENV_VENDORS}, or add a .icd file holding that path")
+    return "; ".join(hints)
+

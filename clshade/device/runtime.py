@@ -170,7 +170,9 @@ def choose_device(spec: str | None = None) -> Selection:
                 return Selection(info, device, tuple(skipped))
             skipped.append((info, state.reason))
         detail = "; ".join(f"{i.spec} {i.description}: {reason}" for i, reason in skipped)
-        raise ClshadeError(f"no OpenCL device can build programs ({detail}); {INSTALL_HINT}")
+        from clshade.device import icd
+        hidden = icd.unregistered_hint()
+        raise ClshadeError(f"no OpenCL device can build programs ({detail}); {hidden or INSTALL_HINT}")
     info, device = _match(spec, devices)
     state = device_health(info, device)
     if not state.ok:

@@ -239,6 +239,15 @@ def test_pip_runtimes_are_registered_beside_the_systems(tmp_path, monkeypatch):
     monkeypatch.setattr(icd, "_registered", None)
     monkeypatch.setenv("OCL_ICD_VENDORS", "/the/users/choice")
     assert icd.register() is None and os.environ["OCL_ICD_VENDORS"] == "/the/users/choice"
+    # The user's folder hides Intel's runtime: the "no device" error says so, and how to undo it.
+    hint = icd.unregistered_hint()
+    assert "intel-opencl-rt" in hint and str(lib) in hint and "OCL_ICD_VENDORS=/the/users/choice" in hint
+    (system / "mine.icd").write_text(f"{lib}\n", encoding="utf-8")     # a folder of the user's that names it
+    monkeypatch.setenv("OCL_ICD_VENDORS", str(system))
+    assert icd.unregistered_hint() == ""
+    monkeypatch.delenv("OCL_ICD_VENDORS")
+    monkeypatch.setenv("CLSHADE_NO_PIP_RUNTIMES", "1")
+    assert "CLSHADE_NO_PIP_RUNTIMES" in icd.unregistered_hint()
 
 
 def test_a_new_process_finds_pips_intel_runtime(tmp_path):
