@@ -24,7 +24,7 @@
  * or below it (level base[0] = 0), one above them has all (base[last] plus its crossing,
  * which it is past), so the bucket is clamped into them. Every read is then in range, for
  * negative and NaN inputs too: the lookup runs before the select that gives them 0, with no
- * branch, so that the compiler vectorises it (a third faster than the branch here). */
+ * branch, so that the compiler vectorises it. */
 #define BUCKET_SHIFT 15
 
 inline uchar display_level(float x, __global const uchar* base, __global const float* cross, uint first, uint last)
