@@ -71,8 +71,9 @@ def is_loopback(host: str) -> bool:
 
 
 #: Pixels per run of a frame message's segment encoding: runs of 64 RGBA8 pixels (256 bytes) keep
-#: the flags at 1/256 of the pixels' bytes and follow an object's outline to within 64 pixels (a
-#: 1080p robot orbit sends about half its pixels; 16-pixel runs send 2 % fewer for 3× the encoding time).
+#: the flags at 1/256 of the pixels' bytes, follow an object's outline to within 64 pixels, and are
+#: found with 64-bit compares of eight flags at a time (shorter runs send a little less and take
+#: longer to find; the bytes per frame are in benchmarks/results/view.md).
 SEGMENT = 64
 #: How frames travel, in words (benchmarks/measure/view_bench.py records it beside the bytes per frame).
 FRAME_ENCODING = f"runs of {SEGMENT} RGBA8 pixels, those all of the background left out"
