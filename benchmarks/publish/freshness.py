@@ -27,7 +27,8 @@ ROOT = Path(__file__).resolve().parents[2]
 _POCL30_ELSEWHERE = ("measured on an AMD EPYC of family 25 with pip's PoCL 3.0, the runtime its command names; the "
                      "2026-11-30 session's machine is of family 26 (Zen 5), where pip's PoCL 3.0 builds nothing, and "
                      "its kernel and frame-path changes (streaming stores and exclusive dispatches in the device "
-                     "G-buffer, AVX-512 gathers, images read in place) came after; measure again where PoCL 3.0 builds")
+                     "G-buffer, AVX-512 gathers, images read in place; later the viewer's frames sent as runs and a "
+                     "branch-free display kernel) came after; measure again where PoCL 3.0 builds")
 KNOWN_STALE: dict[str, str] = {
     "benchmarks/results/bench_1080p.json": _POCL30_ELSEWHERE,
     "benchmarks/report/report.json": _POCL30_ELSEWHERE,
