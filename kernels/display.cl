@@ -27,6 +27,27 @@
  * branch, so that the compiler vectorises it. */
 #define BUCKET_SHIFT 15
 
+#ifdef DISPLAY_PACKED
+/* Intel's CPU compiler (clshade/device/display.py, PACKED_RUNTIMES): float table reads and one
+ * packed 32-bit store per pixel vectorise there; byte reads and uchar4 stores do not. The levels
+ * are the same (a float holds every integer up to 255 exactly). */
+inline uint packed_level(float x, __global const float* base, __global const float* cross, uint first, uint last)
+{
+    uint b = min(max(as_uint(x) >> BUCKET_SHIFT, first) - first, last);     /* +∞: the last bucket */
+    uint level = (uint)base[b] + (x >= cross[b] ? 1u : 0u);
+    return x > 0.0f ? level : 0u;       /* NaN, negatives and zeros: level 0 (no branch: vectorised) */
+}
+
+__kernel void display(const uint npix, __global const float4* radiance, __global const float* base,
+                      __global const float* cross, const uint first, const uint last, __global uint* out)
+{
+    uint i = get_global_id(0);
+    if (i >= npix) return;
+    float4 c = radiance[i];
+    out[i] = packed_level(c.x, base, cross, first, last) | packed_level(c.y, base, cross, first, last) << 8
+             | packed_level(c.z, base, cross, first, last) << 16 | 0xFF000000u;   /* R, G, B, A in memory (little-endian) */
+}
+#else
 inline uchar display_level(float x, __global const uchar* base, __global const float* cross, uint first, uint last)
 {
     uint b = min(max(as_uint(x) >> BUCKET_SHIFT, first) - first, last);     /* +∞: the last bucket */
@@ -43,3 +64,4 @@ __kernel void display(const uint npix, __global const float4* radiance, __global
     out[i] = (uchar4)(display_level(c.x, base, cross, first, last), display_level(c.y, base, cross, first, last),
                       display_level(c.z, base, cross, first, last), (uchar)255);
 }
+#endif

@@ -96,13 +96,22 @@ def bucket_tables(method: str, exposure: float) -> tuple[np.ndarray, np.ndarray,
     return base.astype(np.uint8), cross, first
 
 
+#: Runtimes (substrings of the platform name) whose compiler vectorises the display kernel's packed
+#: form (kernels/display.cl, DISPLAY_PACKED: float table, one 32-bit store) and not its byte form;
+#: the byte form is the faster elsewhere (alternated runs: docs/bench-notes.md).
+PACKED_RUNTIMES = ("Intel",)
+
+
 class Display:
     """Radiance buffer (float4 per pixel) → RGBA8 on the device, then read back (or read in place)."""
 
-    def __init__(self, runtime: Runtime) -> None:
+    def __init__(self, runtime: Runtime, packed: bool | None = None) -> None:
+        """`packed`: the kernel's packed form (None: where the runtime is one of PACKED_RUNTIMES)."""
         self.rt = runtime
         text = (kernels_dir() / DISPLAY_SOURCE).read_text(encoding="utf-8")
-        built = runtime.kernel(f"#line 1 \"{DISPLAY_SOURCE}\"\n{text}\n", "display", label="display")
+        self.packed = any(name in runtime.info.platform for name in PACKED_RUNTIMES) if packed is None else packed
+        options = ("-DDISPLAY_PACKED",) if self.packed else ()
+        built = runtime.kernel(f"#line 1 \"{DISPLAY_SOURCE}\"\n{text}\n", "display", options, label="display")
         cl = runtime.cl
         self.kernel = cl.Kernel(built.get_info(cl.kernel_info.PROGRAM), "display")
         self._tables: dict[tuple[str, float], tuple[object, ...]] = {}
@@ -115,6 +124,7 @@ class Display:
             if len(self._tables) > 64:
                 self._tables.clear()
             base, cross, first = bucket_tables(method, float(exposure))
+            base = base.astype(np.float32) if self.packed else base
             self._tables[key] = (self.rt.to_device(base), self.rt.to_device(cross), np.uint32(first),
                                  np.uint32(len(base) - 1))
         return self._tables[key]

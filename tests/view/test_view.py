@@ -338,9 +338,11 @@ def test_only_read_columns_are_baked():
 # ---------------------------------------------------------------- the display transform
 
 
+@pytest.mark.parametrize("packed", [False, True])
 @pytest.mark.parametrize("method,exposure", [("aces", 0.0), ("reinhard", 2.25), ("none", -3.5), ("aces", 64.0),
                                              ("none", -200.0)])
-def test_device_display_equals_to_display(session, method, exposure):
+def test_device_display_equals_to_display(session, method, exposure, packed):
+    """Both forms of the kernel (kernels/display.cl: bytes, or DISPLAY_PACKED), on any device."""
     rng = np.random.default_rng(7)
     special = [np.nan, np.inf, -np.inf, 0.0, -0.0, -1.0, 1e-45, 1e-38, 3.4e38, 1e30]
     values = np.concatenate([rng.exponential(0.6, 4 * 4000), rng.uniform(0, 50, 4 * 1000), special * 4])
@@ -351,7 +353,7 @@ def test_device_display_equals_to_display(session, method, exposure):
     values = np.concatenate([values, edges, np.nextafter(edges, np.float32(0))]).astype(np.float32)
     values = np.concatenate([values, np.zeros(-len(values) % 4, np.float32)])
     image = values.astype(np.float32).reshape(-1, 1, 4)
-    display = Display(session.runtime)
+    display = Display(session.runtime, packed)
     buf = session.runtime.to_device(np.ascontiguousarray(image))
     event, out = display.enqueue(buf, len(image), method, exposure)
     event.wait()
