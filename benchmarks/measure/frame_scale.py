@@ -16,6 +16,7 @@ and the stage medians.
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import tempfile
 import textwrap
@@ -96,21 +97,33 @@ def point(scene_path: Path, width: int, height: int, frames: int, runtime, model
                 stage_ms=row["stage_ms_median"], load_average=doc["load_average"])
 
 
+def _label_sides(xs: list[float], ys: list[float]) -> list[int]:
+    """Vertical offsets (points) of each point's label: above it when it lies above its nearest
+    neighbour along x, below otherwise, so that two close points' labels part."""
+    sides = []
+    for i, (x, y) in enumerate(zip(xs, ys)):
+        others = [j for j in range(len(xs)) if j != i]
+        near = min(others, key=lambda j: abs(xs[j] - x)) if others else i
+        sides.append(4 if y >= ys[near] else -11)
+    return sides
+
+
 def plot(doc: dict, out: Path) -> None:
     from clshade.report.plots import pyplot, write_figure
     plt = pyplot()
     fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4.2))
     res = doc["resolution"]
     a.plot([r["width"] * r["height"] / 1e6 for r in res], [r["frame_ms"] for r in res], "o-")
-    for r in res:
-        a.annotate(f"{r['height']}p", (r["width"] * r["height"] / 1e6, r["frame_ms"]), textcoords="offset points",
-                   xytext=(4, -10), fontsize=8)
+    xs = [r["width"] * r["height"] / 1e6 for r in res]
+    for x, r, side in zip(xs, res, _label_sides(xs, [r["frame_ms"] for r in res])):
+        a.annotate(f"{r['height']}p", (x, r["frame_ms"]), textcoords="offset points", xytext=(4, side), fontsize=8)
     a.set_xlabel("megapixels (robot.toml)")
     a.set_title("whole frame against resolution")
     tri = sorted(doc["triangles"], key=lambda r: r["triangles"])
     b.loglog([r["triangles"] for r in tri], [r["frame_ms"] for r in tri], "o")
-    for r in tri:
-        b.annotate(r["name"], (r["triangles"], r["frame_ms"]), textcoords="offset points", xytext=(4, 2), fontsize=7)
+    sides = _label_sides([math.log(r["triangles"]) for r in tri], [math.log(r["frame_ms"]) for r in tri])
+    for r, side in zip(tri, sides):
+        b.annotate(r["name"], (r["triangles"], r["frame_ms"]), textcoords="offset points", xytext=(4, side), fontsize=7)
     b.set_xlim(right=max(r["triangles"] for r in tri) * 8)     # room for the largest mesh's name
     b.set_xlabel("triangles")
     b.set_title(f"whole frame against triangles ({doc['width']}×{doc['height']})")
@@ -118,6 +131,7 @@ def plot(doc: dict, out: Path) -> None:
         ax.axhline(TARGET_MS, color="tab:red", linestyle="--", linewidth=1, label="30 FPS (33.3 ms)")
         ax.set_ylabel("median whole frame, ms")
         ax.grid(True, which="both", alpha=0.3)
+        ax.margins(y=0.12)                  # room for the labels of the lowest and highest points
         ax.legend(loc="upper left", fontsize=8)
     title = f"{doc['device']} — {doc['model']}, commit {(doc['provenance']['commit'] or '')[:10]}"
     fig.suptitle(textwrap.fill(title, 130), fontsize=9)     # a device's description can be longer than the figure
