@@ -44,6 +44,11 @@ PIP_RUNTIMES = (PipRuntime("intel-opencl-rt", "libintelocl.so", "clshade-intel-c
 _registered: str | None = None
 
 
+def _pip_runtimes_off() -> bool:
+    """CLSHADE_NO_PIP_RUNTIMES set to anything but '' or '0'."""
+    return os.environ.get(ENV_NO_PIP_RUNTIMES, "").strip() not in ("", "0")
+
+
 def installed_library(runtime: PipRuntime) -> Path | None:
     """The absolute path of `runtime`'s ICD library as pip installed it, or None."""
     try:
@@ -105,7 +110,7 @@ def register() -> str | None:
     global _registered
     if _registered is not None:
         return _registered
-    if os.environ.get(ENV_VENDORS, "").strip() or os.environ.get(ENV_NO_PIP_RUNTIMES, "").strip() not in ("", "0"):
+    if os.environ.get(ENV_VENDORS, "").strip() or _pip_runtimes_off():
         return None
     files = vendor_files()
     if not any(rt.icd_name in files for rt in PIP_RUNTIMES):
@@ -131,7 +136,7 @@ def unregistered_hint() -> str:
     if _registered is not None:
         return ""
     folder = os.environ.get(ENV_VENDORS, "").strip()
-    off = os.environ.get(ENV_NO_PIP_RUNTIMES, "").strip() not in ("", "0")
+    off = _pip_runtimes_off()
     hints = []
     for rt in PIP_RUNTIMES:
         lib = installed_library(rt)
@@ -149,4 +154,3 @@ def unregistered_hint() -> str:
             hints.append(f"{rt.distribution} is installed ({lib}) but {ENV_VENDORS}={folder} names no .icd file "
                          f"with it: unset {ENV_VENDORS}, or add a .icd file holding that path")
     return "; ".join(hints)
-

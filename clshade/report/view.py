@@ -82,14 +82,20 @@ def view_markdown(doc: dict) -> str:
                       "G-buffer interpolation on the device (kernels/visibility.cl), bit for bit the host's G-buffer."]
     lines += ["", "Latency: from the page's input (control state sent) to the frame drawn on its canvas "
                   "(putImageData returned; compositing to the screen not included). Server ms: from the state's "
-                  "arrival to the frame sent (waiting, rendering, packing, sending). " + (
-                      f"Frames travel losslessly as {encoding} (clshade/view/server.py, encode_view; the canvas "
-                      f"equals `clshade render`'s PNG): {k['orbit']['bytes_per_frame'] / 1e6:.1f} MB an orbit frame "
-                      f"of {doc['width'] * doc['height'] * 4 / 1e6:.1f} MB of pixels"
-                      + (f", {doc['canvas_1080']['bytes_per_frame'] / 1e6:.1f} MB of "
-                         f"{doc['canvas_1080']['width'] * doc['canvas_1080']['height'] * 4 / 1e6:.1f} MB on the "
-                         f"{doc['canvas_1080']['width']}x{doc['canvas_1080']['height']} canvas"
-                         if "canvas_1080" in doc else "") + "."
-                      if encoding else "Frames travel as raw RGBA (no encoding: the canvas must equal `clshade "
-                                       "render`'s PNG, which lossy JPEG would not).")]
+                  "arrival to the frame sent (waiting, rendering, packing, sending). " + _frames_note(doc)]
     return "\n".join(lines) + "\n"
+
+
+def _frames_note(doc: dict) -> str:
+    """How the frames travelled and how many bytes they took, from the result's frame_encoding."""
+    encoding = doc.get("frame_encoding")
+    if not encoding:
+        return ("Frames travel as raw RGBA (no encoding: the canvas must equal `clshade render`'s PNG, which "
+                "lossy JPEG would not).")
+    sizes = [("an orbit frame", doc["kinds"]["orbit"]["bytes_per_frame"], doc["width"], doc["height"])]
+    if "canvas_1080" in doc:
+        c = doc["canvas_1080"]
+        sizes.append((f"a {c['width']}x{c['height']} canvas frame", c["bytes_per_frame"], c["width"], c["height"]))
+    told = ", ".join(f"{what} {sent / 1e6:.1f} MB of {w * h * 4 / 1e6:.1f} MB of pixels" for what, sent, w, h in sizes)
+    return (f"Frames travel losslessly as {encoding} (clshade/view/server.py, encode_view; the canvas equals "
+            f"`clshade render`'s PNG): {told}.")

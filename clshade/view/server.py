@@ -93,27 +93,24 @@ def background_value(pixels: np.ndarray) -> int:
 
 
 def encode_view(rgba: np.ndarray) -> tuple[int, np.ndarray, np.ndarray]:
-    """(background, flags, runs) of one (h, w, 4) uint8 view: flags[k] = 1 where run k of SEGMENT
-    pixels holds a pixel other than the background; runs the flagged runs as (k, SEGMENT) uint32
-    (the partial last run, if any, always flagged and padded: only its pixels travel)."""
+    """(background, flags, pixels) of one (h, w, 4) uint8 view: flags[k] = 1 where run k of SEGMENT
+    pixels holds a pixel other than the background; pixels those of the flagged runs, uint32 one
+    after the other (the partial last run, if any, always flagged)."""
     pixels = np.ascontiguousarray(rgba).reshape(rgba.shape[0], rgba.shape[1], 4).view("<u4")[..., 0]
     background = background_value(pixels)
     flat = pixels.reshape(-1)
     whole = flat.size // SEGMENT
     differs = flat[:whole * SEGMENT] != background
     flags = differs.view(np.uint64).reshape(whole, SEGMENT // 8).any(axis=1)
-    runs = np.compress(flags, flat[:whole * SEGMENT].reshape(whole, SEGMENT), axis=0)
+    sent = np.compress(flags, flat[:whole * SEGMENT].reshape(whole, SEGMENT), axis=0).reshape(-1)
     if whole * SEGMENT < flat.size:
-        tail = np.zeros((1, SEGMENT), "<u4")
-        tail[0, :flat.size - whole * SEGMENT] = flat[whole * SEGMENT:]
-        flags, runs = np.append(flags, True), np.concatenate([runs, tail])
-    return background, flags.astype(np.uint8), runs
+        flags, sent = np.append(flags, True), np.concatenate([sent, flat[whole * SEGMENT:]])
+    return background, flags.astype(np.uint8), sent
 
 
 def pack_frame(frame: ViewFrame, seq: int, extra: dict[str, Any]) -> bytes:
     """One binary frame message (see the module docstring)."""
     names = list(frame.views)
-    npix = frame.width * frame.height
     encoded = {n: encode_view(frame.views[n]) for n in names}
     header = dict(type="frame", seq=seq, width=frame.width, height=frame.height, views=names, models=frame.models,
                   stats=frame.stats, stages={k: v * 1e3 for k, v in frame.stages.items()},
@@ -124,9 +121,8 @@ def pack_frame(frame: ViewFrame, seq: int, extra: dict[str, Any]) -> bytes:
     text += b" " * _pad4(4 + len(text))
     parts: list[bytes | np.ndarray] = [struct.pack("<I", len(text)), text]
     for n in names:
-        _, flags, runs = encoded[n]
-        last = npix - (len(flags) - 1) * SEGMENT            # pixels of the last run that travel
-        parts += [flags, bytes(_pad4(len(flags))), runs.reshape(-1)[:runs.size - SEGMENT + last]]
+        _, flags, sent = encoded[n]
+        parts += [flags, bytes(_pad4(len(flags))), sent]
     return b"".join(parts)
 
 
@@ -143,13 +139,10 @@ def unpack_frame(message: bytes) -> tuple[dict, dict[str, np.ndarray]]:
         flags = np.frombuffer(message, np.uint8, count, offset).astype(bool)
         offset += count + _pad4(count)
         out = np.full(count * segment, header["encoding"]["background"][name], "<u4")
-        sent = np.flatnonzero(flags)
-        size = len(sent) * segment - (count * segment - npix if flags[-1] else 0)
-        pixels = np.frombuffer(message, "<u4", size, offset)
-        offset += 4 * size
-        ends = np.minimum((sent + 1) * segment, npix)
-        index = np.concatenate([np.arange(k * segment, e) for k, e in zip(sent, ends)]) if len(sent) else sent
-        out[index] = pixels
+        index = (np.flatnonzero(flags)[:, None] * segment + np.arange(segment)).reshape(-1)
+        index = index[index < npix]                 # the partial last run's pixels only
+        out[index] = np.frombuffer(message, "<u4", len(index), offset)
+        offset += 4 * len(index)
         views[name] = out[:npix].view(np.uint8).reshape(h, w, 4)
     return header, views
 
