@@ -27,41 +27,30 @@
  * branch, so that the compiler vectorises it. */
 #define BUCKET_SHIFT 15
 
-#ifdef DISPLAY_PACKED
-/* Intel's CPU compiler (clshade/device/display.py, PACKED_RUNTIMES): float table reads and one
- * packed 32-bit store per pixel vectorise there; byte reads and uchar4 stores do not. The levels
- * are the same (a float holds every integer up to 255 exactly). */
-inline uint packed_level(float x, __global const float* base, __global const float* cross, uint first, uint last)
+/* Four pixels a work-item, read as one float16 and written as four packed RGBA8 words: the
+ * implicit vectoriser of both CPU compilers (PoCL's, Intel's) then loads whole vectors; one pixel
+ * a work-item (a float4 load, one uchar4 store) became per-lane loads, slow on Intel's CPU runtime
+ * above all (docs/bench-notes.md). The radiance and output buffers hold the pixel count rounded up
+ * to PIXELS_PER_ITEM (clshade/device/display.py checks the radiance buffer's size). */
+#define PIXELS_PER_ITEM 4
+
+/* The 8-bit levels of four values of one channel. */
+inline uint4 display_levels(float4 x, __global const uchar* base, __global const float* cross, uint first, uint last)
 {
-    uint b = min(max(as_uint(x) >> BUCKET_SHIFT, first) - first, last);     /* +∞: the last bucket */
-    uint level = (uint)base[b] + (x >= cross[b] ? 1u : 0u);
-    return x > 0.0f ? level : 0u;       /* NaN, negatives and zeros: level 0 (no branch: vectorised) */
+    uint4 b = min(max(as_uint4(x) >> BUCKET_SHIFT, (uint4)first) - first, (uint4)last);  /* +∞: the last bucket */
+    uint4 level = (uint4)(base[b.x], base[b.y], base[b.z], base[b.w]);
+    level += select((uint4)0, (uint4)1, x >= (float4)(cross[b.x], cross[b.y], cross[b.z], cross[b.w]));
+    return select((uint4)0, level, x > 0.0f);   /* NaN, negatives and zeros: level 0 (no branch: vectorised) */
 }
 
-__kernel void display(const uint npix, __global const float4* radiance, __global const float* base,
+__kernel void display(const uint npix, __global const float* radiance, __global const uchar* base,
                       __global const float* cross, const uint first, const uint last, __global uint* out)
 {
     uint i = get_global_id(0);
-    if (i >= npix) return;
-    float4 c = radiance[i];
-    out[i] = packed_level(c.x, base, cross, first, last) | packed_level(c.y, base, cross, first, last) << 8
-             | packed_level(c.z, base, cross, first, last) << 16 | 0xFF000000u;   /* R, G, B, A in memory (little-endian) */
+    if (i >= (npix + PIXELS_PER_ITEM - 1) / PIXELS_PER_ITEM) return;
+    float16 c = vload16(i, radiance);           /* RGBA of four pixels */
+    uint4 r = display_levels(c.s048c, base, cross, first, last);
+    uint4 g = display_levels(c.s159d, base, cross, first, last);
+    uint4 b = display_levels(c.s26ae, base, cross, first, last);
+    vstore4(r | g << 8 | b << 16 | 0xFF000000u, i, out);    /* R, G, B, A in memory (little-endian) */
 }
-#else
-inline uchar display_level(float x, __global const uchar* base, __global const float* cross, uint first, uint last)
-{
-    uint b = min(max(as_uint(x) >> BUCKET_SHIFT, first) - first, last);     /* +∞: the last bucket */
-    uchar level = base[b] + (uchar)(x >= cross[b]);
-    return x > 0.0f ? level : (uchar)0;     /* NaN, negatives and zeros: level 0 (no branch: vectorised) */
-}
-
-__kernel void display(const uint npix, __global const float4* radiance, __global const uchar* base,
-                      __global const float* cross, const uint first, const uint last, __global uchar4* out)
-{
-    uint i = get_global_id(0);
-    if (i >= npix) return;
-    float4 c = radiance[i];
-    out[i] = (uchar4)(display_level(c.x, base, cross, first, last), display_level(c.y, base, cross, first, last),
-                      display_level(c.z, base, cross, first, last), (uchar)255);
-}
-#endif

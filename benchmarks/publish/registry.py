@@ -129,6 +129,11 @@ RESULTS: tuple[Result, ...] = (
            (Rendering(OUT + "view_pocl30.md", view_markdown),
             _region("README.md", "view-pocl30-table", lambda doc: view_table(doc, "view_pocl30.json"))),
            "the same on pip's PoCL 3.0, the PoCL a fresh install gives"),
+    Result(OUT + "view_intel.json", "CLSHADE_DEVICE=Intel python -m benchmarks.measure.view_bench --repeats 5 "
+                                   "--out benchmarks/results/view_intel.json", VIEWER,
+           (Rendering(OUT + "view_intel.md", view_markdown),
+            _region("README.md", "view-intel-table", lambda doc: view_table(doc, "view_intel.json"))),
+           "the same on Intel's CPU runtime, the install's runtime where pip's PoCL 3.0 builds nothing"),
     Result(OUT + "host_ab.json", "python -m benchmarks.experiments.host_ab", ("benchmarks/experiments/host_ab.py",),
            (Rendering(OUT + "host_ab.md", host_ab_markdown),),
            "host stages and the warm render against main (A/B), whole 1080p frame"),

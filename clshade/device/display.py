@@ -96,22 +96,23 @@ def bucket_tables(method: str, exposure: float) -> tuple[np.ndarray, np.ndarray,
     return base.astype(np.uint8), cross, first
 
 
-#: Runtimes (substrings of the platform name) whose compiler vectorises the display kernel's packed
-#: form (kernels/display.cl, DISPLAY_PACKED: float table, one 32-bit store) and not its byte form;
-#: the byte form is the faster elsewhere (alternated runs: docs/bench-notes.md).
-PACKED_RUNTIMES = ("Intel",)
+#: Pixels a work-item of kernels/display.cl transforms: the radiance buffer holds the pixel count
+#: rounded up to a multiple of it (the shading kernels' and the resolve's outputs do), the output too.
+PIXELS_PER_ITEM = 4
+
+
+def items(pixels: int) -> int:
+    """The display kernel's work-items for `pixels`: one per PIXELS_PER_ITEM, the last one partial."""
+    return -(-int(pixels) // PIXELS_PER_ITEM)
 
 
 class Display:
     """Radiance buffer (float4 per pixel) → RGBA8 on the device, then read back (or read in place)."""
 
-    def __init__(self, runtime: Runtime, packed: bool | None = None) -> None:
-        """`packed`: the kernel's packed form (None: where the runtime is one of PACKED_RUNTIMES)."""
+    def __init__(self, runtime: Runtime) -> None:
         self.rt = runtime
         text = (kernels_dir() / DISPLAY_SOURCE).read_text(encoding="utf-8")
-        self.packed = any(name in runtime.info.platform for name in PACKED_RUNTIMES) if packed is None else packed
-        options = ("-DDISPLAY_PACKED",) if self.packed else ()
-        built = runtime.kernel(f"#line 1 \"{DISPLAY_SOURCE}\"\n{text}\n", "display", options, label="display")
+        built = runtime.kernel(f"#line 1 \"{DISPLAY_SOURCE}\"\n{text}\n", "display", label="display")
         cl = runtime.cl
         self.kernel = cl.Kernel(built.get_info(cl.kernel_info.PROGRAM), "display")
         self._tables: dict[tuple[str, float], tuple[object, ...]] = {}
@@ -124,7 +125,6 @@ class Display:
             if len(self._tables) > 64:
                 self._tables.clear()
             base, cross, first = bucket_tables(method, float(exposure))
-            base = base.astype(np.float32) if self.packed else base
             self._tables[key] = (self.rt.to_device(base), self.rt.to_device(cross), np.uint32(first),
                                  np.uint32(len(base) - 1))
         return self._tables[key]
@@ -132,14 +132,18 @@ class Display:
     def enqueue(self, radiance, pixels: int, method: str, exposure: float, wait_for=None, slot: str = "a"):
         """Enqueue the transform of `pixels` float4 of `radiance` into the output of `slot` (each
         view of a frame its own: one read in place is not overwritten by the next view's);
-        returns (event, output buffer)."""
+        returns (event, output buffer). `radiance` holds `pixels` rounded up to PIXELS_PER_ITEM."""
+        need = items(pixels) * PIXELS_PER_ITEM * 16
+        if radiance.size < need:
+            raise ClshadeError(f"display transform: the radiance buffer holds {radiance.size} bytes, the kernel "
+                               f"reads {need} ({pixels} pixels rounded up to {PIXELS_PER_ITEM})")
         if any(size != pixels for size, _ in self._out):
             self._out = {}                  # a new frame size: the old outputs go
         if (pixels, slot) not in self._out:
-            self._out[(pixels, slot)] = self.rt.host_output(pixels, np.uint32)
+            self._out[(pixels, slot)] = self.rt.host_output(items(pixels) * PIXELS_PER_ITEM, np.uint32)
         out = self._out[(pixels, slot)][0]
         self.kernel.set_args(np.uint32(pixels), radiance, *self.table(method, exposure), out)
-        event = self.rt.cl.enqueue_nd_range_kernel(self.rt.queue, self.kernel, (self.rt.global_size(pixels),),
+        event = self.rt.cl.enqueue_nd_range_kernel(self.rt.queue, self.kernel, (self.rt.global_size(items(pixels)),),
                                                    (self.rt.local_size,), wait_for=wait_for)
         return event, out
 

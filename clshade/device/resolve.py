@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from clshade.device.runtime import Runtime
+from clshade.render.arrays import padded
 from clshade.resources import kernels_dir
 
 RESOLVE_SOURCE = "resolve.cl"
@@ -49,7 +50,7 @@ class Resolver:
     def __init__(self, runtime: Runtime, width: int, height: int, samples: int, source_buffer) -> None:
         self.rt, self.width, self.height, self.samples = runtime, width, height, samples
         self.source = source_buffer        # held: a kernel's arguments do not keep their buffers alive
-        self.out = runtime.empty(width * height * 16)
+        self.out = runtime.empty(padded(width * height) * 16)   # whole float4 rows of PIXEL_PAD: the display reads them
         built = runtime.kernel(resolve_source(samples), "resolve", label=f"resolve {samples}x{samples}")
         cl = runtime.cl
         self.kernel = cl.Kernel(built.get_info(cl.kernel_info.PROGRAM), "resolve")

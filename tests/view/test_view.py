@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from clshade.cli import main
-from clshade.device.display import Display, thresholds
+from clshade.device.display import PIXELS_PER_ITEM, Display, items, thresholds
 from clshade.device.runtime import get_runtime
 from clshade.device.variants import Variant
 from clshade.errors import ClshadeError
@@ -338,11 +338,11 @@ def test_only_read_columns_are_baked():
 # ---------------------------------------------------------------- the display transform
 
 
-@pytest.mark.parametrize("packed", [False, True])
 @pytest.mark.parametrize("method,exposure", [("aces", 0.0), ("reinhard", 2.25), ("none", -3.5), ("aces", 64.0),
                                              ("none", -200.0)])
-def test_device_display_equals_to_display(session, method, exposure, packed):
-    """Both forms of the kernel (kernels/display.cl: bytes, or DISPLAY_PACKED), on any device."""
+def test_device_display_equals_to_display(session, method, exposure):
+    """kernels/display.cl (four pixels a work-item) on any device; a pixel count that leaves the last
+    work-item partial."""
     rng = np.random.default_rng(7)
     special = [np.nan, np.inf, -np.inf, 0.0, -0.0, -1.0, 1e-45, 1e-38, 3.4e38, 1e30]
     values = np.concatenate([rng.exponential(0.6, 4 * 4000), rng.uniform(0, 50, 4 * 1000), special * 4])
@@ -353,13 +353,24 @@ def test_device_display_equals_to_display(session, method, exposure, packed):
     values = np.concatenate([values, edges, np.nextafter(edges, np.float32(0))]).astype(np.float32)
     values = np.concatenate([values, np.zeros(-len(values) % 4, np.float32)])
     image = values.astype(np.float32).reshape(-1, 1, 4)
-    display = Display(session.runtime, packed)
-    buf = session.runtime.to_device(np.ascontiguousarray(image))
+    image = image[:len(image) - (len(image) % 4 == 0)]       # not a multiple of PIXELS_PER_ITEM
+    assert len(image) % PIXELS_PER_ITEM
+    padding = np.full((items(len(image)) * PIXELS_PER_ITEM - len(image), 1, 4), 7.0, np.float32)
+    display = Display(session.runtime)
+    buf = session.runtime.to_device(np.concatenate([image, padding]))
     event, out = display.enqueue(buf, len(image), method, exposure)
     event.wait()
     got = display.read(out, len(image), 1)
     np.testing.assert_array_equal(got[..., :3], to_display(image, method, exposure))
     assert (got[..., 3] == 255).all()
+
+
+def test_device_display_refuses_a_short_radiance_buffer(session):
+    """The kernel reads whole groups of PIXELS_PER_ITEM pixels: a buffer of exactly 5 pixels is refused,
+    with the sizes in the message, rather than read past its end."""
+    buf = session.runtime.to_device(np.ones((5, 4), np.float32))
+    with pytest.raises(ClshadeError, match="holds 80 bytes, the kernel reads 128"):
+        Display(session.runtime).enqueue(buf, 5, "aces", 0.0)
 
 
 # ---------------------------------------------------------------- save ↔ clshade render
