@@ -55,6 +55,17 @@ class Result:
         return self.json.rsplit("/", 1)[-1]
 
 
+def _from_file(render: Callable[[dict], str], written: str, source: str) -> Callable[[dict], str]:
+    """`render` for a second result of the same measure: its page names `source`, not the file
+    `written` that the renderer names for the first."""
+    def rendered(doc: dict) -> str:
+        text = render(doc)
+        if f"benchmarks/results/{written}" not in text:
+            raise ValueError(f"{render.__name__}: its page no longer names benchmarks/results/{written}")
+        return text.replace(f"benchmarks/results/{written}", f"benchmarks/results/{source}", 1)
+    return rendered
+
+
 def _region(path: str, region: str, render: Callable[[dict], str]) -> Rendering:
     return Rendering(path, render, region)
 
@@ -106,6 +117,13 @@ RESULTS: tuple[Result, ...] = (
             "clshade/device/variants.py", "benchmarks/measure/environment_cost.py"),
            (Rendering(OUT + "environment_cost.md", environment_cost_markdown),),
            "each sky rung's time at 1920×1080 against one directional light; the precompute per map"),
+    Result(OUT + "environment_cost_intel.json", "python -m benchmarks.measure.environment_cost --device Intel "
+                                             "--out benchmarks/results/environment_cost_intel.json",
+           ("kernels", "clshade/render/environment.py", "clshade/render/prefilter.py", "clshade/device/shade.py",
+            "clshade/device/variants.py", "benchmarks/measure/environment_cost.py"),
+           (Rendering(OUT + "environment_cost_intel.md", _from_file(environment_cost_markdown, "environment_cost.json",
+                                                                    "environment_cost_intel.json")),),
+           "the same on Intel's CPU runtime, the install's runtime where pip's PoCL 3.0 builds nothing"),
     Result(OUT + "frame_scale.json", "python -m benchmarks.measure.frame_scale",
            ("kernels", "clshade/pipeline.py", "clshade/bench/frame.py", "clshade/device/visibility.py",
             "clshade/render", "benchmarks/measure/frame_scale.py"),
