@@ -61,3 +61,39 @@ class DeviceBuffers:
                                               is_blocking=False)
             mapped.base.release(self.queue)
         self.queue.finish()
+
+
+class Staging:
+    """Buffers reused frame after frame for a stream's per-frame inputs (a frame's triangle setup,
+    its coverage batches), one per slot, grown to the next power of two when an input outgrows it,
+    instead of a new buffer a frame: a new buffer costs an allocation and first-touch page faults on
+    the copy (on Intel's CPU runtime about 0.1 ms an upload, 1–2 ms of a 1080p frame of the robot;
+    docs/bench-notes.md). On a CPU device a slot is an aligned host array that is the buffer's memory
+    (CL_MEM_USE_HOST_PTR), written by the host with no command; elsewhere a device buffer written by
+    a non-blocking copy on the in-order queue. The caller writes a slot only once the kernels that
+    read its last contents are done (DeviceGBuffer.build ends each frame by waiting for them)."""
+
+    def __init__(self, runtime: DeviceBuffers) -> None:
+        self.rt = runtime
+        self._host = "cpu" in runtime.info.kind
+        self._slots: dict[object, tuple[object, np.ndarray | None]] = {}
+
+    def upload(self, slot: object, array: np.ndarray):
+        """A read-only buffer of the kernels' that holds `array` (contiguous) from its start; its size
+        may be larger (the kernels read as many elements as they are told)."""
+        array = np.ascontiguousarray(array)
+        cl = self.rt.cl
+        buffer, host = self._slots.get(slot, (None, None))
+        if buffer is None or buffer.size < array.nbytes:
+            size = 1 << max(int(array.nbytes) - 1, 63).bit_length()      # a power of two, at least 64 bytes
+            if self._host:
+                host = aligned_zeros((size,), np.uint8, max(self.rt.base_align, 64))
+                buffer = cl.Buffer(self.rt.context, cl.mem_flags.READ_ONLY | cl.mem_flags.USE_HOST_PTR, hostbuf=host)
+            else:
+                buffer = cl.Buffer(self.rt.context, cl.mem_flags.READ_ONLY, size=size)
+            self._slots[slot] = buffer, host
+        if host is not None:
+            host[:array.nbytes] = array.reshape(-1).view(np.uint8)
+        elif array.nbytes:
+            cl.enqueue_copy(self.rt.queue, buffer, array, is_blocking=False)
+        return buffer

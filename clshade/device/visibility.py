@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from clshade import budget
+from clshade.device.buffers import Staging
 from clshade.device.runtime import Runtime
 from clshade.render.arrays import PlanePool, aligned_zeros, padded
 from clshade.render.gbuffer import CHANNELS, GBuffer, build_gbuffer, channel_names, material_table
@@ -191,6 +192,7 @@ class DeviceGBuffer:
         self.texture = cl.Kernel(program, "texture") if self.textures is not None else None
         self._key_pixels, self._key_buffer = 0, None
         self._scratch_pixels, self._scratch = 0, ()
+        self._staging = Staging(runtime)       # the per-frame inputs' buffers, reused
         self.n_faces = len(geometry.faces)
         stack = lambda names, dtype: runtime.to_device(np.stack([faces[k] for k in names]).astype(dtype))  # noqa: E731
         self.tables = [
@@ -210,7 +212,7 @@ class DeviceGBuffer:
         table `materials` (clshade.render.gbuffer.material_table), and per pixel whether a fragment
         covers it (uint8: 0 empty, 1 covered, 2 covered by non-finite inputs, replaced). The
         planes are host arrays (from `pool` when given) that the kernel writes through."""
-        rt, cl = self.rt, self.rt.cl
+        rt, cl, stage = self.rt, self.rt.cl, self._staging
         w, h = view.width, view.height
         n = w * h
         plane = padded(n)
@@ -229,28 +231,29 @@ class DeviceGBuffer:
             setup = np.concatenate([t.persp_a, t.persp_b, t.persp_c, t.area2[None]])
             tri_face, vdepth = t.face.astype(np.int32), t.vdepth
             tiles = (((t.col1 - t.col0) // view.tile) + 1) * (((t.row1 - t.row0) // view.tile) + 1)
-            box = rt.to_device(np.stack([t.col0, t.row0, t.col1, t.row1]).astype(np.int32))
-            edge = rt.to_device(np.concatenate([t.edge_a, t.edge_b, t.edge_c, t.edge_thr,
-                                                t.z_a[None], t.z_b[None], t.z_c[None]]))
+            box = stage.upload("box", np.stack([t.col0, t.row0, t.col1, t.row1]).astype(np.int32))
+            edge = stage.upload("edge", np.concatenate([t.edge_a, t.edge_b, t.edge_c, t.edge_thr,
+                                                        t.z_a[None], t.z_b[None], t.z_c[None]]))
             inputs += [box, edge]
             alone = exclusive_triangles(tiles)
-            for tri in alone:               # the largest first, each alone: no atomics
+            for k, tri in enumerate(alone):     # the largest first, each alone: no atomics
                 count = int(tiles[tri])
-                batch = [rt.to_device(np.array([count], np.uint32)), rt.to_device(np.full(count, tri, np.uint32))]
+                batch = [stage.upload(("alone end", k), np.array([count], np.uint32)),
+                         stage.upload(("alone tiles", k), np.full(count, tri, np.uint32))]
                 inputs += batch
                 self._cover(count, ntri, w, view, int(tri), 1, batch, box, edge, keys)
             if len(alone):                  # the rest: every other triangle's tiles
                 tiles = tiles.copy()
                 tiles[alone] = 0
             tile_end = np.cumsum(tiles, dtype=np.int64)
-            for first, last, base in cover_batches(tile_end, COVER_BATCH_TILES):
+            for k, (first, last, base) in enumerate(cover_batches(tile_end, COVER_BATCH_TILES)):
                 # The batch's own running counts, from its first triangle (at most the limit, or one
                 # triangle's tiles: uint32 as long as one triangle has fewer than 2^32 tiles).
                 batch_end = (tile_end[first:last] - base).astype(np.uint32)
                 tile_tri = np.repeat(np.arange(first, last, dtype=np.uint32), tiles[first:last])
                 if not len(tile_tri):       # every triangle of the batch went alone
                     continue
-                batch = [rt.to_device(a) for a in (batch_end, tile_tri)]
+                batch = [stage.upload(("batch end", k), batch_end), stage.upload(("batch tiles", k), tile_tri)]
                 inputs += batch
                 self._cover(len(tile_tri), ntri, w, view, first, 0, batch, box, edge, keys)
         mf = cl.mem_flags
@@ -265,14 +268,14 @@ class DeviceGBuffer:
                 raise ValueError("DeviceGBuffer.build: a textured geometry's view needs its mvp (setup_view's)")
             tex_face, tex_bary = self._scratch_of(plane)
             textured = [self.textures.buffers[0], tex_face, tex_bary]
-        inputs += [rt.to_device(a) for a in (setup, tri_face, vdepth)]
+        inputs += [stage.upload(name, a) for name, a in (("setup", setup), ("face", tri_face), ("depth", vdepth))]
         self.kernel.set_args(np.uint32(plane), np.uint32(w), np.uint32(ntri), np.uint32(view.w_is_depth),
                              np.uint32(view.tri_bits), keys, *inputs[-3:], *self.tables,
                              *((*self.emissive_table, outputs["emissive"]) if self.emissive else ()), *textured,
                              *((outputs["occlusion"],) if self.occlusion else ()), *tail)
         cl.enqueue_nd_range_kernel(rt.queue, self.kernel, (rt.global_size(plane // self.lanes),), (rt.local_size,))
         if self.textures is not None and t is not None:
-            mvp = rt.to_device(np.ascontiguousarray(view.mvp[[0, 1, 3]], np.float64))
+            mvp = stage.upload("mvp", np.ascontiguousarray(view.mvp[[0, 1, 3]], np.float64))
             inputs.append(mvp)
             self.texture.set_args(np.uint32(n), np.uint32(plane), np.uint32(w), np.uint32(h), np.uint32(self.n_faces),
                                   *textured[1:], mvp, self.tables[0], *self.textures.mesh, *self.textures.buffers,
