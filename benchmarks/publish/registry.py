@@ -74,6 +74,7 @@ OUT = "benchmarks/results/"
 # The live viewer's code: what view_bench measures besides its own file.
 VIEWER = ("kernels", "clshade/view", "clshade/render", "clshade/device/display.py", "clshade/device/shade.py",
           "clshade/device/variants.py", "clshade/device/visibility.py", "clshade/device/runtime.py",
+          "clshade/device/buffers.py",
           "clshade/device/timing.py", "benchmarks/measure/view_bench.py")
 
 RESULTS: tuple[Result, ...] = (
@@ -90,7 +91,8 @@ RESULTS: tuple[Result, ...] = (
            "with its images: the study's claims; 1000 frames per model, GGX timed 3 times (the noise band)"),
     Result(OUT + "perf_1080p.json", "python -m benchmarks.measure.perf",
            ("kernels", "clshade/bench/perf.py", "clshade/bench/bandwidth.py", "clshade/bench/frame.py",
-            "clshade/bench/peers.py", "benchmarks/measure/perf.py"),
+            "clshade/bench/peers.py", "clshade/pipeline.py", "clshade/device/visibility.py",
+            "clshade/device/buffers.py", "clshade/device/shade.py", "benchmarks/measure/perf.py"),
            (Rendering(OUT + "perf_1080p.md", perf_markdown),),
            "every CPU runtime and build, the peers, STREAM, whole frames; needs '.[peers]' and a quiet machine"),
     Result(OUT + "runtimes.json", "python -m benchmarks.measure.runtimes",
@@ -126,7 +128,7 @@ RESULTS: tuple[Result, ...] = (
            "the same on Intel's CPU runtime, the install's runtime where pip's PoCL 3.0 builds nothing"),
     Result(OUT + "frame_scale.json", "python -m benchmarks.measure.frame_scale",
            ("kernels", "clshade/pipeline.py", "clshade/bench/frame.py", "clshade/device/visibility.py",
-            "clshade/render", "benchmarks/measure/frame_scale.py"),
+            "clshade/device/buffers.py", "clshade/render", "benchmarks/measure/frame_scale.py"),
            (Rendering(OUT + "frame_scale.md", frame_scale_markdown),),
            "with its plot: whole frames against resolution (540p … 4K) and triangles (up to 1.3 M)"),
     Result(OUT + "aa.json", "clshade aa -o benchmarks/results/aa", ("kernels", "clshade/bench/aa.py"),
