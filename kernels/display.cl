@@ -31,8 +31,11 @@
  * implicit vectoriser of both CPU compilers (PoCL's, Intel's) then loads whole vectors; one pixel
  * a work-item (a float4 load, one uchar4 store) became per-lane loads, slow on Intel's CPU runtime
  * above all (docs/bench-notes.md). The radiance and output buffers hold the pixel count rounded up
- * to PIXELS_PER_ITEM (clshade/device/display.py checks the radiance buffer's size). */
-#define PIXELS_PER_ITEM 4
+ * to PIXELS_PER_ITEM (clshade/device/display.py defines it, 4, and checks the radiance buffer's
+ * size; the float16 load and the four stores below are written for four). */
+#if PIXELS_PER_ITEM != 4
+#error "display.cl transforms four pixels a work-item: build it with -DPIXELS_PER_ITEM=4"
+#endif
 
 /* The 8-bit levels of four values of one channel. */
 inline uint4 display_levels(float4 x, __global const uchar* base, __global const float* cross, uint first, uint last)

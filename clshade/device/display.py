@@ -16,6 +16,7 @@ import numpy as np
 
 from clshade.device.runtime import Runtime
 from clshade.errors import ClshadeError
+from clshade.render.arrays import PIXEL_PAD
 from clshade.render.image import to_display
 from clshade.resources import kernels_dir
 
@@ -99,6 +100,8 @@ def bucket_tables(method: str, exposure: float) -> tuple[np.ndarray, np.ndarray,
 #: Pixels a work-item of kernels/display.cl transforms: the radiance buffer holds the pixel count
 #: rounded up to a multiple of it (the shading kernels' and the resolve's outputs do), the output too.
 PIXELS_PER_ITEM = 4
+# The resolve's output is padded() (PIXEL_PAD pixels), which must hold whole work-items.
+assert PIXEL_PAD % PIXELS_PER_ITEM == 0, (PIXEL_PAD, PIXELS_PER_ITEM)
 
 
 def items(pixels: int) -> int:
@@ -112,7 +115,8 @@ class Display:
     def __init__(self, runtime: Runtime) -> None:
         self.rt = runtime
         text = (kernels_dir() / DISPLAY_SOURCE).read_text(encoding="utf-8")
-        built = runtime.kernel(f"#line 1 \"{DISPLAY_SOURCE}\"\n{text}\n", "display", label="display")
+        built = runtime.kernel(f"#line 1 \"{DISPLAY_SOURCE}\"\n{text}\n", "display",
+                               (f"-DPIXELS_PER_ITEM={PIXELS_PER_ITEM}",), label="display")
         cl = runtime.cl
         self.kernel = cl.Kernel(built.get_info(cl.kernel_info.PROGRAM), "display")
         self._tables: dict[tuple[str, float], tuple[object, ...]] = {}
@@ -133,14 +137,15 @@ class Display:
         """Enqueue the transform of `pixels` float4 of `radiance` into the output of `slot` (each
         view of a frame its own: one read in place is not overwritten by the next view's);
         returns (event, output buffer). `radiance` holds `pixels` rounded up to PIXELS_PER_ITEM."""
-        need = items(pixels) * PIXELS_PER_ITEM * 16
+        rounded = items(pixels) * PIXELS_PER_ITEM
+        need = rounded * 16
         if radiance.size < need:
             raise ClshadeError(f"display transform: the radiance buffer holds {radiance.size} bytes, the kernel "
                                f"reads {need} ({pixels} pixels rounded up to {PIXELS_PER_ITEM})")
         if any(size != pixels for size, _ in self._out):
             self._out = {}                  # a new frame size: the old outputs go
         if (pixels, slot) not in self._out:
-            self._out[(pixels, slot)] = self.rt.host_output(items(pixels) * PIXELS_PER_ITEM, np.uint32)
+            self._out[(pixels, slot)] = self.rt.host_output(rounded, np.uint32)
         out = self._out[(pixels, slot)][0]
         self.kernel.set_args(np.uint32(pixels), radiance, *self.table(method, exposure), out)
         event = self.rt.cl.enqueue_nd_range_kernel(self.rt.queue, self.kernel, (self.rt.global_size(items(pixels)),),
