@@ -55,17 +55,6 @@ class Result:
         return self.json.rsplit("/", 1)[-1]
 
 
-def _from_file(render: Callable[[dict], str], written: str, source: str) -> Callable[[dict], str]:
-    """`render` for a second result of the same measure: its page names `source`, not the file
-    `written` that the renderer names for the first."""
-    def rendered(doc: dict) -> str:
-        text = render(doc)
-        if f"benchmarks/results/{written}" not in text:
-            raise ValueError(f"{render.__name__}: its page no longer names benchmarks/results/{written}")
-        return text.replace(f"benchmarks/results/{written}", f"benchmarks/results/{source}", 1)
-    return rendered
-
-
 def _region(path: str, region: str, render: Callable[[dict], str]) -> Rendering:
     return Rendering(path, render, region)
 
@@ -74,6 +63,7 @@ OUT = "benchmarks/results/"
 # The live viewer's code: what view_bench measures besides its own file.
 VIEWER = ("kernels", "clshade/view", "clshade/render", "clshade/device/display.py", "clshade/device/shade.py",
           "clshade/device/variants.py", "clshade/device/visibility.py", "clshade/device/runtime.py",
+          "clshade/device/buildchoice.py",
           "clshade/device/buffers.py",
           "clshade/device/timing.py", "benchmarks/measure/view_bench.py")
 
@@ -101,6 +91,7 @@ RESULTS: tuple[Result, ...] = (
            "every OpenCL runtime: health, times, error against float64"),
     Result(OUT + "tuning.json", "python -m benchmarks.measure.tuning",
            ("kernels", "clshade/device/tune.py", "clshade/device/tuned.py", "clshade/device/runtime.py",
+            "clshade/device/buildchoice.py",
             "clshade/bench/tuning.py", "benchmarks/measure/tuning.py"),
            (Rendering(OUT + "tuning.md", tuning_markdown),),
            "every CPU runtime: the tuner's pick and every build choice per model on a full frame; a quiet machine"),
@@ -123,8 +114,7 @@ RESULTS: tuple[Result, ...] = (
                                              "--out benchmarks/results/environment_cost_intel.json",
            ("kernels", "clshade/render/environment.py", "clshade/render/prefilter.py", "clshade/device/shade.py",
             "clshade/device/variants.py", "benchmarks/measure/environment_cost.py"),
-           (Rendering(OUT + "environment_cost_intel.md", _from_file(environment_cost_markdown, "environment_cost.json",
-                                                                    "environment_cost_intel.json")),),
+           (Rendering(OUT + "environment_cost_intel.md", environment_cost_markdown),),
            "the same on Intel's CPU runtime, the install's runtime where pip's PoCL 3.0 builds nothing"),
     Result(OUT + "frame_scale.json", "python -m benchmarks.measure.frame_scale",
            ("kernels", "clshade/pipeline.py", "clshade/bench/frame.py", "clshade/device/visibility.py",

@@ -165,13 +165,19 @@ def environment_answer_markdown(doc: dict) -> str:
     return "\n".join(out)
 
 
+def _written(doc: dict) -> str:
+    """The results file `doc` was written to: its command's `--out`, else the measure's default."""
+    words = doc["command"].split()
+    return words[words.index("--out") + 1] if "--out" in words[:-1] else "benchmarks/results/environment_cost.json"
+
+
 def environment_cost_markdown(doc: dict) -> str:
     """benchmarks/results/environment_cost.md: each rung's device time at full size against one directional
     light, the sampled rung's line in N, and the precompute per map (benchmarks/measure/environment_cost.py)."""
     from clshade.report.tables import markdown
     sh = doc["shading"]
     out = ["# What light from the sky costs", "",
-           f"Rendered by `python -m benchmarks.publish` from benchmarks/results/environment_cost.json; how it is "
+           f"Rendered by `python -m benchmarks.publish` from {_written(doc)}; how it is "
            f"measured: the docstring of benchmarks/measure/environment_cost.py. {doc['scene']} at "
            f"{sh['width']}×{sh['height']} ({sh['covered_pixels']} covered pixels) on {sh['device']['name']} "
            f"({sh['device']['platform']}), median device ms of {sh['rounds']} interleaved rounds.", ""]
