@@ -26,7 +26,8 @@ import numpy as np
 
 from clshade import __version__
 from clshade.bench import bandwidth, frame as whole, peers as peer_mod
-from clshade.device.runtime import CACHED_STORES, INLINE_MATH, LIBRARY_MATH, NO_PREFETCH, Runtime, healthy_devices
+from clshade.device.buildchoice import CACHED_STORES, INLINE_MATH, LIBRARY_MATH, NO_PREFETCH
+from clshade.device.runtime import Runtime, healthy_devices
 from clshade.device.shade import Shader, scene_features
 from clshade.device.timing import settle
 from clshade.models.registry import Registry

@@ -27,7 +27,8 @@ import numpy as np
 from clshade import __version__
 from clshade.bench import perf
 from clshade.device import tuned, tune
-from clshade.device.runtime import FIXED, BuildChoice, Runtime, healthy_devices
+from clshade.device.buildchoice import FIXED, BuildChoice
+from clshade.device.runtime import Runtime, healthy_devices
 from clshade.device.shade import Shader, scene_features
 from clshade.device.timing import settle
 from clshade.models.registry import Registry

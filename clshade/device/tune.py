@@ -1,9 +1,9 @@
 """Measure a device's build choices, and the order of the devices, once (clshade/device/tuned.py keeps them).
 
-What is tuned (runtime.BuildChoice): the math builtins (the OpenCL library's or kernels/simd.h's inline
+What is tuned (buildchoice.BuildChoice): the math builtins (the OpenCL library's or kernels/simd.h's inline
 ones), the image rows' stores (streaming or plain), the G-buffer prefetch (on or off), the lanes per
 work-item (4, 8 or 16, up to the device's native width; 1 lane is the scalar code PoCL does not
-vectorise, simd.h) and the work-group size (LOCAL_SIZES beside runtime.LOCAL_SIZE). The prefetch has
+vectorise, simd.h) and the work-group size (LOCAL_SIZES beside buildchoice.LOCAL_SIZE). The prefetch has
 one distance (gbuffer.h, PREFETCH_PIXELS), so it is on or off. A choice is a candidate only where it
 changes the code on this device, as probed there: Intel's CPU compiler defines no __AVX__, so on its
 runtime the math, stores and prefetch choices are one build each and only lanes and work-group size race.
@@ -48,8 +48,8 @@ from dataclasses import dataclass, field, replace
 from typing import Callable, Hashable, Iterable, TextIO
 
 from clshade.device import tuned
-from clshade.device.runtime import (FIXED, RUNTIME_PREFERENCE, SIMD_WIDTHS, BuildChoice, Runtime, device_key,
-                                    healthy_devices, list_devices, preference)
+from clshade.device.buildchoice import FIXED, SIMD_WIDTHS, BuildChoice
+from clshade.device.runtime import RUNTIME_PREFERENCE, Runtime, device_key, healthy_devices, list_devices, preference
 from clshade.device.shade import Shader, scene_features
 from clshade.device.timing import settle, timed_dispatch
 from clshade.device.variants import Features
@@ -81,7 +81,7 @@ CALIBRATION_SIZE = (1280, 720)
 #: docs/bench-notes.md says why (a race on GGX alone missed inline math's gain for Cook–Torrance).
 CALIBRATION_MODELS = {"diffuse": ("lambert", "oren_nayar", "burley"), "empirical": ("lambert+blinn_phong",),
                       "microfacet": ("lambert+ggx_correlated", "lambert+cook_torrance")}
-#: Work-group sizes raced beside runtime.LOCAL_SIZE (64): a quarter and four times it. PoCL runs a
+#: Work-group sizes raced beside buildchoice.LOCAL_SIZE (64): a quarter and four times it. PoCL runs a
 #: work-group as one loop on one thread, so the size trades the loop's overhead against the balance
 #: of the work over the cores.
 LOCAL_SIZES = (16, 256)

@@ -3,7 +3,7 @@
 (benchmarks/measure/tuning.py: every choice on a full frame per runtime, default against the best)."""
 from __future__ import annotations
 
-from clshade.device.runtime import BuildChoice
+from clshade.device.buildchoice import BuildChoice
 from clshade.report.tables import MISSING, cell, markdown
 
 yes_no = {True: "yes", False: "no", None: MISSING}
@@ -18,7 +18,7 @@ def _ratio(x: float | None) -> str:
 
 
 def choice_name(row: dict) -> str:
-    """A candidate by what it changes from today's rule (runtime.BuildChoice.label)."""
+    """A candidate by what it changes from today's rule (buildchoice.BuildChoice.label)."""
     return BuildChoice.from_dict(row["choice"]).label()
 
 

@@ -47,7 +47,8 @@ def test_the_build_choices_are_recorded(report):
     """The JSON names the build the kernels ran with (the tuned choice, here today's rule: the suite runs
     with CLSHADE_TUNE=fixed) and what the device compiled; the printed line says the same."""
     from clshade.cli.commands.bench import build_line
-    from clshade.device.runtime import FIXED, get_runtime
+    from clshade.device.buildchoice import FIXED
+    from clshade.device.runtime import get_runtime
     build = report["device"]["build"]
     rt = get_runtime()
     assert build["choice"] == FIXED.as_dict() and build["source"] == "tuning off: CLSHADE_TUNE=fixed"

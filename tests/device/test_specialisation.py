@@ -171,7 +171,8 @@ def test_inline_math_matches_library_math(runtime, model, half, lanes, monkeypat
     loads (vcvtph2ps). `lanes = "16"` checks the 16-lane paths (two 8-lane AVX halves) on
     every x86 CPU device: the runtime picks them only on AVX-512 hosts (`native_simd`), for
     speed, but they are plain AVX code that any AVX target builds."""
-    from clshade.device.runtime import INLINE_MATH, LIBRARY_MATH, Runtime
+    from clshade.device.buildchoice import INLINE_MATH, LIBRARY_MATH
+    from clshade.device.runtime import Runtime
     if lanes == "16":
         if "cpu" not in runtime.info.kind or platform.machine() not in ("x86_64", "AMD64"):
             pytest.skip(f"{runtime.info.description}: simd.h's 16-lane inline paths are x86 CPU code")
@@ -235,7 +236,7 @@ def switch_pair(runtime, option: str, prop: str, what: str):
 def test_streaming_stores_write_the_image_plain_stores_write(device_runtime, monkeypatch, simd):
     """kernels/simd.h's STORE_ROW8 (streaming stores on x86) writes every row where the
     plain stores do: the same image bit for bit, sky work-items and covered ones."""
-    from clshade.device.runtime import CACHED_STORES
+    from clshade.device.buildchoice import CACHED_STORES
     runtime = device_runtime
     if simd == "16" and runtime.native_simd < 16 and not runtime.inline_math:
         pytest.skip("16 lanes build here only with simd.h's inline builtins")
@@ -255,7 +256,7 @@ def test_streaming_stores_write_the_image_plain_stores_write(device_runtime, mon
 def _prefetch_shaders(runtime):
     """(features, [(shader with prefetch, its runtime), (shader without, its runtime)]) for the
     specialised and the general kernel in turn, and the model."""
-    from clshade.device.runtime import NO_PREFETCH
+    from clshade.device.buildchoice import NO_PREFETCH
     frame = prepare_frame(parse_scene(SCENE))
     features = scene_features(frame.scene, geometry=frame.geometry)
     on, off = switch_pair(runtime, NO_PREFETCH, "prefetches", "an x86 CPU device prefetches the G-buffer ahead")

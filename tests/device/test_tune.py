@@ -12,8 +12,8 @@ from dataclasses import replace
 import pytest
 
 from clshade.device import runtime as rtmod
-from clshade.device import tune, tuned
-from clshade.device.runtime import FIXED, BuildChoice
+from clshade.device import buildchoice, tune, tuned
+from clshade.device.buildchoice import FIXED, BuildChoice
 from clshade.errors import ClshadeError
 
 MODELS = ["lambert+blinn_phong", "lambert+ggx_correlated"]
@@ -267,24 +267,24 @@ def test_the_environment_still_forces_a_choice(monkeypatch):
                  "CLSHADE_LOCAL_SIZE"):
         monkeypatch.delenv(name, raising=False)
     tuned_pick = BuildChoice(math="inline", stores="plain", lanes=4, local=256)
-    assert rtmod.forced(tuned_pick) == (tuned_pick, ())
+    assert buildchoice.forced(tuned_pick) == (tuned_pick, ())
     monkeypatch.setenv("CLSHADE_LIBRARY_MATH", "1")
     monkeypatch.setenv("CLSHADE_NO_PREFETCH", "1")
-    assert rtmod.forced(tuned_pick) == (replace(tuned_pick, math="library", prefetch=False),
+    assert buildchoice.forced(tuned_pick) == (replace(tuned_pick, math="library", prefetch=False),
                                           ("CLSHADE_LIBRARY_MATH", "CLSHADE_NO_PREFETCH"))
     monkeypatch.delenv("CLSHADE_LIBRARY_MATH")
     monkeypatch.setenv("CLSHADE_INLINE_MATH", "1")
     monkeypatch.setenv("CLSHADE_LOCAL_SIZE", "32")
-    assert rtmod.forced(FIXED)[0] == BuildChoice(math="inline", prefetch=False, local=32)
+    assert buildchoice.forced(FIXED)[0] == BuildChoice(math="inline", prefetch=False, local=32)
     monkeypatch.setenv("CLSHADE_LOCAL_SIZE", "lots")
     with pytest.raises(ClshadeError, match="CLSHADE_LOCAL_SIZE='lots'"):
-        rtmod.forced(FIXED)
+        buildchoice.forced(FIXED)
 
 
 def test_a_build_choice_is_validated_and_round_trips():
     choice = BuildChoice(math="library", prefetch=False, lanes=8, local=16)
     assert BuildChoice.from_dict(json.loads(json.dumps(choice.as_dict()))) == choice
-    assert choice.options() == (rtmod.LIBRARY_MATH, rtmod.NO_PREFETCH) and FIXED.options() == ()
+    assert choice.options() == (buildchoice.LIBRARY_MATH, buildchoice.NO_PREFETCH) and FIXED.options() == ()
     assert choice.changes() == ("math", "prefetch", "lanes", "local") and FIXED.label() == "today's rule"
     for bad in ({"math": "fast"}, {"lanes": 3}, {"local": 0}, {"prefetch": "yes"}):
         with pytest.raises(ValueError):
@@ -307,7 +307,8 @@ def tuned_device(runtime, cache, monkeypatch):
 
 
 def test_the_runtime_builds_with_the_cached_choice(tuned_device, runtime, cache, monkeypatch):
-    from clshade.device.runtime import CACHED_STORES, INLINE_MATH, Runtime
+    from clshade.device.buildchoice import CACHED_STORES, INLINE_MATH
+    from clshade.device.runtime import Runtime
     rt = Runtime(runtime.info.spec)
     assert rt.choice == tuned_device and rt.choice_source.startswith("measured") and not cache["calls"]
     assert rt.simd == 4 and rt.local_size == 16 and CACHED_STORES in rt.options
@@ -323,7 +324,7 @@ def test_the_runtime_builds_with_the_cached_choice(tuned_device, runtime, cache,
     monkeypatch.delenv("CLSHADE_SIMD")
     fixed = Runtime(runtime.info.spec)
     assert fixed.choice == FIXED and fixed.options == runtime.options
-    assert fixed.local_size == min(rtmod.LOCAL_SIZE, int(runtime.device.max_work_group_size))
+    assert fixed.local_size == min(buildchoice.LOCAL_SIZE, int(runtime.device.max_work_group_size))
     assert fixed.choice_source == "tuning off: CLSHADE_TUNE=fixed" and not cache["calls"]
 
 

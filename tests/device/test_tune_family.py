@@ -10,8 +10,8 @@ from types import SimpleNamespace
 import pytest
 
 from clshade.device import runtime as rtmod
-from clshade.device import tune, tuned
-from clshade.device.runtime import FIXED, BuildChoice
+from clshade.device import buildchoice, tune, tuned
+from clshade.device.buildchoice import FIXED, BuildChoice
 from clshade.models.registry import Registry
 
 INLINE, NO_PREFETCH, WG256 = BuildChoice(math="inline"), BuildChoice(prefetch=False), BuildChoice(local=256)
@@ -190,8 +190,8 @@ def test_a_model_is_built_with_its_familys_choice(family_device, runtime, cache,
         shader.enqueue(d).wait()
     assert seen["diffuse"].local_size == 16 and rt.for_model(registry.resolve("burley")).simd == 4
     assert seen["microfacet"].local_size == min(32, int(runtime.device.max_work_group_size))
-    assert rtmod.CACHED_STORES in rt.for_model(registry.resolve("lambert+blinn_phong")).options
-    assert rtmod.CACHED_STORES not in rt.options and rtmod.NO_PREFETCH in rt.options
+    assert buildchoice.CACHED_STORES in rt.for_model(registry.resolve("lambert+blinn_phong")).options
+    assert buildchoice.CACHED_STORES not in rt.options and buildchoice.NO_PREFETCH in rt.options
     record = rt.for_model(registry.resolve("burley")).build_record()
     assert record["family"] == "diffuse" and record["families"]["empirical"] == "plain stores"
     # A model of a family the tuner did not measure (a user lobe's own): the general choice.

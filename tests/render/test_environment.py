@@ -417,7 +417,8 @@ def test_split_sum_is_the_same_one_lane_at_a_time(tmp_path, device_runtime):
     """Spheres of four roughnesses (four chain levels) on a sky of distinct texels, at 8 lanes a work-item and
     at 1: where a work-item's lanes fall on different levels (sphere edges: covered beside uncovered lanes) the
     level table is gathered per lane, elsewhere read once; one lane is always read once. The same image."""
-    from clshade.device.runtime import BuildChoice, Runtime
+    from clshade.device.buildchoice import BuildChoice
+    from clshade.device.runtime import Runtime
     rng = np.random.default_rng(9)
     write_map(tmp_path / "sky.exr", (rng.random((32, 64, 3)) * 4.0).astype(np.float32))
     s = load_scene(write_scene(tmp_path, conductor_spheres(dict(map="sky.exr", diffuse="sh9", specular="split_sum"))))
@@ -464,7 +465,8 @@ def test_both_gather_paths_read_the_sky_alike(tmp_path, device_runtime):
     """The split sum's chain and table and the background, read with AVX2's or AVX-512's gathers (kernels/simd.h,
     PoCL on x86) and lane by lane (CLSHADE_SCALAR_GATHER, each lane's texels blended as float4): the same image on a
     sky of distinct texels, metal spheres from mirror to rough, grazing edges and background included."""
-    from clshade.device.runtime import FIXED, SCALAR_GATHER, Runtime
+    from clshade.device.buildchoice import FIXED, SCALAR_GATHER
+    from clshade.device.runtime import Runtime
     rng = np.random.default_rng(5)
     write_map(tmp_path / "sky.exr", (rng.random((32, 64, 3)) * 4.0).astype(np.float32))
     s = load_scene(write_scene(tmp_path, conductor_spheres(dict(map="sky.exr", diffuse="sh9", specular="split_sum"),
