@@ -343,8 +343,10 @@ __kernel void visibility(
  * Speed: as `visibility`, a work-item does LANES adjacent pixels, one per lane (a pixel at a
  * time, its double arithmetic and branches run scalar, several times slower: the textured row
  * of benchmarks/results/frame_scale.md); each lane
- * gathers its own face, texture set, level and texels, and a texture slot is sampled where any
- * lane uses it (the others' results are discarded by select). A work-item without a textured
+ * gathers its own face, texture set, level and texels — except where all its lanes share the face
+ * (most work-items: a large triangle's pixels), the texture or the mip level, whose values are then
+ * read once and broadcast (FACE_READ, LEVEL_READ: the same values) — and a texture slot is sampled
+ * where any lane uses it (the others' results are discarded by select). A work-item without a textured
  * pixel returns at once; the lanes that are not textured compute on the first textured lane's
  * face and keep what `visibility` wrote.
  */
@@ -393,9 +395,9 @@ inline fvec3 bilinear(__global const float* texels, ivec offset, ivec w, ivec h,
     const fvec fx = convert_fvec(x - x0), fy = convert_fvec(y - y0);
     const ivec i0 = wrap(y0, h), j0 = wrap(x0, w);
     const ivec i1 = select((ivec)(0), i0 + 1, i0 + 1 < h), j1 = select((ivec)(0), j0 + 1, j0 + 1 < w);
-    const lvec o = convert_lvec(offset), r0 = convert_lvec(i0 * w), r1 = convert_lvec(i1 * w);
-    const lvec ia = o + 3 * (r0 + convert_lvec(j0)), ib = o + 3 * (r0 + convert_lvec(j1));
-    const lvec ic = o + 3 * (r1 + convert_lvec(j0)), id = o + 3 * (r1 + convert_lvec(j1));
+    const ivec r0 = i0 * w, r1 = i1 * w;     /* fewer than 2^31 texel floats (visibility.supports) */
+    const ivec ia = offset + 3 * (r0 + j0), ib = offset + 3 * (r0 + j1);
+    const ivec ic = offset + 3 * (r1 + j0), id = offset + 3 * (r1 + j1);
     const fvec gx = 1.0f - fx, gy = 1.0f - fy;
     fvec3 out;
 #define BILINEAR_CHANNEL(C, k) {                                                   \
@@ -413,9 +415,14 @@ inline fvec3 bilinear(__global const float* texels, ivec offset, ivec w, ivec h,
  * level, levels, width, height; `level` rows: offset, w, h). */
 inline fvec3 sample(__global const int* info, __global const int* level, __global const float* texels, ivec index,
                     dvec u, dvec v, dvec dx0, dvec dx1, dvec dy0, dvec dy1) {
+    /* One texture in every lane (a work-item on one face): its row read once, not gathered. */
+    const int one = all(index == (ivec)(index.s0));
     const ivec row = 4 * index;
-    const ivec first = GI(info, row), levels = GI(info + 1, row);
-    const dvec w = convert_dvec(GI(info + 2, row)), h = convert_dvec(GI(info + 3, row));
+    const int row1 = 4 * index.s0;
+#define ROW_READ(p) (one ? (ivec)((p)[row1]) : GI(p, row))
+    const ivec first = ROW_READ(info), levels = ROW_READ(info + 1);
+    const dvec w = convert_dvec(ROW_READ(info + 2)), h = convert_dvec(ROW_READ(info + 3));
+#undef ROW_READ
     const dvec ax = dx0 * w, ay = dx1 * h, bx = dy0 * w, by = dy1 * h;
     const dvec rx = sqrt(ax * ax + ay * ay), ry = sqrt(bx * bx + by * by);
     const dvec rho = select(fmax(rx, ry), (dvec)(NAN), isnan(rx) | isnan(ry));
@@ -429,19 +436,24 @@ inline fvec3 sample(__global const int* info, __global const int* level, __globa
     const fvec frac = convert_fvec(lam - fl);
     const ivec l1 = min(l0 + 1, levels - 1);
     const ivec a = 3 * (first + l0);
+    /* The bilinear footprint on level row `r` of each lane; one row in every lane is read once. */
+#define LEVEL_READ(r, k) (all((r) == (ivec)((r).s0)) ? (ivec)(level[(r).s0 + (k)]) : GI(level + (k), (r)))
+#define LEVEL_BILINEAR(r) bilinear(texels, LEVEL_READ(r, 0), LEVEL_READ(r, 1), LEVEL_READ(r, 2), u, v)
     const fvec keep = 1.0f - frac;
-    fvec3 out = bilinear(texels, GI(level, a), GI(level + 1, a), GI(level + 2, a), u, v);
+    fvec3 out = LEVEL_BILINEAR(a);
     out.x = 0.0f + keep * out.x;
     out.y = 0.0f + keep * out.y;
     out.z = 0.0f + keep * out.z;
     const ivec two = l1 != l0;
     if (any(two)) {
         const ivec b = 3 * (first + l1);
-        const fvec3 more = bilinear(texels, GI(level, b), GI(level + 1, b), GI(level + 2, b), u, v);
+        const fvec3 more = LEVEL_BILINEAR(b);
         out.x = select(out.x, out.x + frac * more.x, two);
         out.y = select(out.y, out.y + frac * more.y, two);
         out.z = select(out.z, out.z + frac * more.z, two);
     }
+#undef LEVEL_BILINEAR
+#undef LEVEL_READ
     return out;
 }
 
@@ -497,16 +509,24 @@ __kernel void texture(
     for (int k = 0; k < LANES; k++)
         if (((const int*)&tex)[k]) { any_face = ((const int*)&face)[k]; break; }
     const ivec f = select((ivec)(any_face), face, tex);
-    const ivec set = GI(face_texture, f);
+    /* Where every lane is on one face (most work-items: the pixels of a large triangle), the face's
+     * values are read once and broadcast, not gathered lane by lane: the same values, bit for bit. */
+    const int one = all(f == (ivec)(any_face));
+#define FACE_READ(T, p, index, one_index) (one ? (T)((p)[one_index]) : GATHER(T, p, index))
+    const ivec set = FACE_READ(ivec, face_texture, f, any_face);
+    const int set1 = face_texture[any_face];       /* any_face is a textured lane's: a set */
     const ivec sv = SET_FLOATS * set, ss = SET_SLOTS * set;
-    const dvec uv_scale = GD(set_uv_scale, set);
+    const int sv1 = SET_FLOATS * set1, ss1 = SET_SLOTS * set1;
+    const dvec uv_scale = FACE_READ(dvec, set_uv_scale, set, set1);
     const dvec bc0 = convert_dvec(VLOAD(i, tex_bary)), bc1 = convert_dvec(VLOAD(i, tex_bary + plane));
     const dvec bc2 = convert_dvec(VLOAD(i, tex_bary + 2 * plane));
-    const ivec c[3] = {GI(corners, f), GI(corners + nface, f), GI(corners + 2 * nface, f)};
+    const int c1[3] = {corners[any_face], corners[nface + any_face], corners[2 * nface + any_face]};
+    const ivec c[3] = {FACE_READ(ivec, corners, f, any_face),
+                       FACE_READ(ivec, corners + nface, f, any_face), FACE_READ(ivec, corners + 2 * nface, f, any_face)};
     dvec uc[3], vc[3];
     for (int k = 0; k < 3; k++) {
-        uc[k] = convert_dvec(GF(vertex_uv, 2 * c[k]));
-        vc[k] = convert_dvec(GF(vertex_uv + 1, 2 * c[k]));
+        uc[k] = convert_dvec(FACE_READ(fvec, vertex_uv, 2 * c[k], 2 * c1[k]));
+        vc[k] = convert_dvec(FACE_READ(fvec, vertex_uv + 1, 2 * c[k], 2 * c1[k]));
     }
     dvec u = (bc0 * uc[0] + bc1 * uc[1]) + bc2 * uc[2];
     dvec v = (bc0 * vc[0] + bc1 * vc[1]) + bc2 * vc[2];
@@ -517,8 +537,9 @@ __kernel void texture(
         for (int k = 0; k < 3; k++) {
             __global const double* m = mvp + 4 * r;
             const ivec q = 3 * c[k];
-            dvec clip = m[0] * GD(vertex, q) + m[1] * GD(vertex + 1, q);
-            clip = clip + m[2] * GD(vertex + 2, q);
+            const int q1 = 3 * c1[k];
+            dvec clip = m[0] * FACE_READ(dvec, vertex, q, q1) + m[1] * FACE_READ(dvec, vertex + 1, q, q1);
+            clip = clip + m[2] * FACE_READ(dvec, vertex + 2, q, q1);
             A[3 * r + k] = clip + m[3];
         }
     const dvec c00 = A[4] * A[8] - A[5] * A[7];
@@ -553,14 +574,15 @@ __kernel void texture(
     dyu = dyu * uv_scale; dyv = dyv * uv_scale;
     /* Slot k of each lane's set; the lanes that sample it (`use`); its texture there, read at the
      * lanes' UV (UV 0 elsewhere: a lane's coordinates are sampled only where its set has the map). */
-#define SLOT(k) GI(set_slot + (k), ss)
+#define SLOT(k) FACE_READ(ivec, set_slot + (k), ss, ss1)
 #define USES(s) (tex & ((s) >= 0))
 #define SAMPLE(s, use) sample(texture_info, level_info, texels, max((s), 0), \
                               select((dvec)(0.0), u, convert_lvec(use)), select((dvec)(0.0), v, convert_lvec(use)), \
                               dxu, dxv, dyu, dyv)
 
-    fvec bx = GF(set_value, sv), by = GF(set_value + 1, sv), bz = GF(set_value + 2, sv);
-    fvec rough = GF(set_value + 3, sv), metal = GF(set_value + 4, sv);
+    fvec bx = FACE_READ(fvec, set_value, sv, sv1), by = FACE_READ(fvec, set_value + 1, sv, sv1);
+    fvec bz = FACE_READ(fvec, set_value + 2, sv, sv1);
+    fvec rough = FACE_READ(fvec, set_value + 3, sv, sv1), metal = FACE_READ(fvec, set_value + 4, sv, sv1);
     const ivec slot0 = SLOT(0), use0 = USES(slot0), slot1 = SLOT(1), use1 = USES(slot1);
     if (any(use0)) {
         const fvec3 t = SAMPLE(slot0, use0);
@@ -578,7 +600,7 @@ __kernel void texture(
     const ivec slot4 = SLOT(4), use4 = USES(slot4);
     if (any(use4)) {
         const fvec ao = SAMPLE(slot4, use4).x - 1.0f;
-        occ = select(occ, 1.0f + GF(set_value + 9, sv) * ao, use4);
+        occ = select(occ, 1.0f + FACE_READ(fvec, set_value + 9, sv, sv1) * ao, use4);
     }
     VSTORE(select(VLOAD(i, occlusion), occ, tex), i, occlusion);
 #endif
@@ -591,13 +613,13 @@ __kernel void texture(
     const ivec slot2 = SLOT(2), use2 = USES(slot2);
     if (any(use2 & live)) {
         const fvec3 t = SAMPLE(slot2, use2);
-        const fvec scale = GF(set_value + 8, sv);
+        const fvec scale = FACE_READ(fvec, set_value + 8, sv, sv1);
         const fvec ux = (t.x * 2.0f - 1.0f) * scale, uy = (t.y * 2.0f - 1.0f) * scale, uz = t.z * 2.0f - 1.0f;
         dvec tg[4];
         for (int k = 0; k < 4; k++) {
-            const dvec t0 = convert_dvec(GF(vertex_tangent + k, 4 * c[0]));
-            const dvec t1 = convert_dvec(GF(vertex_tangent + k, 4 * c[1]));
-            const dvec t2 = convert_dvec(GF(vertex_tangent + k, 4 * c[2]));
+            const dvec t0 = convert_dvec(FACE_READ(fvec, vertex_tangent + k, 4 * c[0], 4 * c1[0]));
+            const dvec t1 = convert_dvec(FACE_READ(fvec, vertex_tangent + k, 4 * c[1], 4 * c1[1]));
+            const dvec t2 = convert_dvec(FACE_READ(fvec, vertex_tangent + k, 4 * c[2], 4 * c1[2]));
             tg[k] = (bc0 * t0 + bc1 * t1) + bc2 * t2;
         }
         const dvec tn = (tg[0] * nx + tg[2] * nz) + tg[1] * ny;
@@ -625,7 +647,8 @@ __kernel void texture(
     WRITE(normal, fx); WRITE(normal + plane, fy); WRITE(normal + 2 * plane, fz);
     WRITE(base, bx); WRITE(base + plane, by); WRITE(base + 2 * plane, bz);
 #if HAS_EMISSIVE
-    fvec ex = GF(set_value + 5, sv), ey = GF(set_value + 6, sv), ez = GF(set_value + 7, sv);
+    fvec ex = FACE_READ(fvec, set_value + 5, sv, sv1), ey = FACE_READ(fvec, set_value + 6, sv, sv1);
+    fvec ez = FACE_READ(fvec, set_value + 7, sv, sv1);
     const ivec slot3 = SLOT(3), use3 = USES(slot3);
     if (any(use3 & live)) {
         const fvec3 e = SAMPLE(slot3, use3);
@@ -637,6 +660,7 @@ __kernel void texture(
 #undef SLOT
 #undef USES
 #undef SAMPLE
+#undef FACE_READ
     const ivec bad = live & ~ok;
     VSTORE(select(VLOAD(i, depth), (fvec)(0.0f), bad), i, depth);
     VSTORE(convert_cvec(select(convert_ivec(VLOAD(i, cover)), (ivec)(2), bad)), i, cover);

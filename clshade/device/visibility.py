@@ -60,6 +60,9 @@ SET_SLOTS = ("base_color", "metallic_roughness", "normal", "emissive", "occlusio
 #: with NumPy's, the device with the adjugate and its own log2, so λ = log2 ρ can differ in its last
 #: bits; trilinear filtering is continuous in λ and in the UV, so a level or texel flip moves a value by
 #: about that relative error times the texels' range (measured: <= 7e-8 on the bundled scenes).
+#: Kernel `texture` indexes the texel floats (and the level table holds their offsets) with 32-bit
+#: integers: geometries with more keep the host path (`supports`).
+MAX_TEXEL_FLOATS = 2 ** 31
 TEXTURE_TOLERANCE = 1e-5
 #: The share of covered pixels whose textured channels may differ at all, by at most TEXTURE_TOLERANCE
 #: (measured: 1 pixel in 3.6e5 at 960x540 on textured.toml, none on the glTF samples; a wrong level,
@@ -106,7 +109,13 @@ def supports(runtime: Runtime, geometry: Geometry) -> bool:
     if not all(e in extensions for e in EXTENSIONS):
         return False
     return geometry.face_texture is None or (geometry.uvs is not None and geometry.tangents is not None
-                                             and texture_channels(runtime, geometry))
+                                             and texture_channels(runtime, geometry)
+                                             and texel_floats(geometry) < MAX_TEXEL_FLOATS)
+
+
+def texel_floats(geometry: Geometry) -> int:
+    """The floats of every level of the geometry's distinct textures (DeviceTextures' buffer)."""
+    return sum(level.size for t in _textures_of(geometry.texture_sets) for level in t.levels)
 
 
 def _textures_of(sets: tuple[TextureSet, ...]) -> list[Texture]:
@@ -129,7 +138,7 @@ class DeviceTextures:
         sets = geometry.texture_sets
         textures = _textures_of(sets)
         index = {id(t): k for k, t in enumerate(textures)}
-        texels = sum(level.size for t in textures for level in t.levels)
+        texels = texel_floats(geometry)
         budget.check_memory(f"the device copy of {len(textures)} textures ({texels // 3} texels)", 4 * texels)
         info, levels, chunks, offset = [], [], [], 0
         for t in textures:

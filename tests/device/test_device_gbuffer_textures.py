@@ -240,6 +240,20 @@ def test_textures_that_are_not_rgb_keep_the_host_path(textured):
                       face_planes(geometry, list(scene.materials.values())))
 
 
+def test_more_texels_than_32_bit_indices_keep_the_host_path(textured, monkeypatch):
+    """Kernel `texture` indexes texel floats with 32-bit integers: a geometry whose textures hold
+    MAX_TEXEL_FLOATS or more keeps the host path (the limit lowered to the scene's own count)."""
+    from clshade.device import visibility
+    scene, geometry = textured
+    runtime = usable(get_runtime(None), geometry)
+    floats = visibility.texel_floats(geometry)
+    assert floats > 0
+    monkeypatch.setattr(visibility, "MAX_TEXEL_FLOATS", floats + 1)
+    assert supports(runtime, geometry)
+    monkeypatch.setattr(visibility, "MAX_TEXEL_FLOATS", floats)
+    assert not supports(runtime, geometry)
+
+
 def test_a_textured_view_needs_its_matrices(textured):
     scene, geometry = textured
     runtime = usable(get_runtime(None), geometry)
