@@ -45,7 +45,8 @@
  *
  * Speed: a work-item does LANES adjacent pixels, one per vector lane (the reason is
  * simd.h's: PoCL vectorises no scalar code of this shape, which then runs a pixel at a
- * time), gathering each lane's triangle and face constants; a work-item whose pixels are
+ * time), gathering each lane's triangle and face constants — read once and broadcast where
+ * every lane is on one triangle (TRI_READ), as most work-items are; a work-item whose pixels are
  * all empty (sky) only writes zeros. `visibility` writes its planes and the emptied keys by streaming
  * stores (VSTORE_NT): the G-buffer is several times the last-level cache, and a plain store first reads
  * each output line (faster on PoCL 3.1 with AVX-512 in alternated runs, docs/bench-notes.md; Intel's
@@ -237,16 +238,24 @@ __kernel void visibility(
     VSTORE_NT(lvec, (lvec)(EMPTY_KEY), i, keys);    /* empty again for the next frame's cover */
     const ivec t = select((ivec)(0), vis, hit);   /* empty lanes compute on triangle 0, then get zeros */
 
+    /* Where every lane is on one triangle (most work-items: a large triangle's pixels), its values
+     * and its face's are read once and broadcast, not gathered lane by lane: the same values. */
+    const int one = all(t == (ivec)(t.s0));
+#define TRI_READ(T, p, index, one_index) (one ? (T)((p)[one_index]) : GATHER(T, p, index))
+    const int t1 = t.s0;
+
     /* The winners' step (raster/resolve.py), in double. */
     const ivec pix = (ivec)((int)p0) + LANE_IOTA;
     const ivec row = pix / (int)width;
     const dvec X = convert_dvec(pix - row * (int)width) + 0.5;
     const dvec Y = convert_dvec(row) + 0.5;
-    dvec by0 = GD(setup + 3 * ntri, t) * Y, by1 = GD(setup + 4 * ntri, t) * Y, by2 = GD(setup + 5 * ntri, t) * Y;
-    by0 = by0 + GD(setup + 6 * ntri, t);
-    by1 = by1 + GD(setup + 7 * ntri, t);
-    by2 = by2 + GD(setup + 8 * ntri, t);
-    dvec e0 = GD(setup, t) * X, e1 = GD(setup + ntri, t) * X, e2 = GD(setup + 2 * ntri, t) * X;
+    dvec by0 = TRI_READ(dvec, setup + 3 * ntri, t, t1) * Y, by1 = TRI_READ(dvec, setup + 4 * ntri, t, t1) * Y;
+    dvec by2 = TRI_READ(dvec, setup + 5 * ntri, t, t1) * Y;
+    by0 = by0 + TRI_READ(dvec, setup + 6 * ntri, t, t1);
+    by1 = by1 + TRI_READ(dvec, setup + 7 * ntri, t, t1);
+    by2 = by2 + TRI_READ(dvec, setup + 8 * ntri, t, t1);
+    dvec e0 = TRI_READ(dvec, setup, t, t1) * X, e1 = TRI_READ(dvec, setup + ntri, t, t1) * X;
+    dvec e2 = TRI_READ(dvec, setup + 2 * ntri, t, t1) * X;
     e0 = clamp_low(e0 + by0);
     e1 = clamp_low(e1 + by1);
     e2 = clamp_low(e2 + by2);
@@ -257,11 +266,12 @@ __kernel void visibility(
     e1 = select(e1, (dvec)(1.0), bad);
     e2 = select(e2, (dvec)(1.0), bad);
     s = select(s, (dvec)(3.0), bad);
-    dvec z = GD(setup + 9 * ntri, t) / s;
+    dvec z = TRI_READ(dvec, setup + 9 * ntri, t, t1) / s;
     e0 = e0 / s;
     e1 = e1 / s;
     e2 = e2 / s;
-    const ivec f = GI(tri_face, t);
+    const ivec f = TRI_READ(ivec, tri_face, t, t1);
+    const int f1 = tri_face[t1];
     if (!w_is_depth || any(bad & hitl)) {
         dvec zi = e0 * GD(vdepth, GI(corners, f));
         zi = zi + e1 * GD(vdepth, GI(corners + nface, f));
@@ -272,17 +282,18 @@ __kernel void visibility(
     const fvec zf = convert_fvec(z);
 
     /* build_gbuffer's step (render/gbuffer.py), in float. */
-    fvec nx = GF(corner_normal, f) * b0, ny = GF(corner_normal + nface, f) * b0;
-    fvec nz = GF(corner_normal + 2 * nface, f) * b0;
+    fvec nx = TRI_READ(fvec, corner_normal, f, f1) * b0;
+    fvec ny = TRI_READ(fvec, corner_normal + nface, f, f1) * b0;
+    fvec nz = TRI_READ(fvec, corner_normal + 2 * nface, f, f1) * b0;
     nx = nx + 0.0f;
     ny = ny + 0.0f;
     nz = nz + 0.0f;
-    nx = nx + GF(corner_normal + 3 * nface, f) * b1;
-    ny = ny + GF(corner_normal + 4 * nface, f) * b1;
-    nz = nz + GF(corner_normal + 5 * nface, f) * b1;
-    nx = nx + GF(corner_normal + 6 * nface, f) * b2;
-    ny = ny + GF(corner_normal + 7 * nface, f) * b2;
-    nz = nz + GF(corner_normal + 8 * nface, f) * b2;
+    nx = nx + TRI_READ(fvec, corner_normal + 3 * nface, f, f1) * b1;
+    ny = ny + TRI_READ(fvec, corner_normal + 4 * nface, f, f1) * b1;
+    nz = nz + TRI_READ(fvec, corner_normal + 5 * nface, f, f1) * b1;
+    nx = nx + TRI_READ(fvec, corner_normal + 6 * nface, f, f1) * b2;
+    ny = ny + TRI_READ(fvec, corner_normal + 7 * nface, f, f1) * b2;
+    nz = nz + TRI_READ(fvec, corner_normal + 8 * nface, f, f1) * b2;
     fvec len2 = nx * nx;
     len2 = len2 + ny * ny;
     len2 = len2 + nz * nz;
@@ -298,24 +309,25 @@ __kernel void visibility(
     VSTORE_NT(fvec, select(fzero, ny, ok), i, normal + plane);
     VSTORE_NT(fvec, select(fzero, nz, ok), i, normal + 2 * plane);
     for (uint d = 0; d < 3; d++) {
-        VSTORE_NT(fvec, select(fzero, GF(face_base + d * nface, f), ok), i, base + d * plane);
+        VSTORE_NT(fvec, select(fzero, TRI_READ(fvec, face_base + d * nface, f, f1), ok), i, base + d * plane);
 #if HAS_EMISSIVE
-        VSTORE_NT(fvec, select(fzero, GF(face_emissive + d * nface, f), ok), i, emissive + d * plane);
+        VSTORE_NT(fvec, select(fzero, TRI_READ(fvec, face_emissive + d * nface, f, f1), ok), i, emissive + d * plane);
 #endif
     }
-    VSTORE_NT(fvec, select(fzero, GF(face_roughness, f), hit), i, roughness);
-    VSTORE_NT(fvec, select(fzero, GF(face_metallic, f), hit), i, metallic);
-    VSTORE_NT(cvec, convert_cvec(select((ivec)(0), convert_ivec(GATHER(cvec, face_material, f)), hit)), i, material);
+    VSTORE_NT(fvec, select(fzero, TRI_READ(fvec, face_roughness, f, f1), hit), i, roughness);
+    VSTORE_NT(fvec, select(fzero, TRI_READ(fvec, face_metallic, f, f1), hit), i, metallic);
+    VSTORE_NT(cvec, convert_cvec(select((ivec)(0), convert_ivec(TRI_READ(cvec, face_material, f, f1)), hit)), i, material);
     VSTORE_NT(cvec, convert_cvec(select(select((ivec)(0), (ivec)(2), hit), (ivec)(1), ok)), i, cover);
 #if HAS_OCCLUSION
     VSTORE_NT(fvec, select(fzero, (fvec)(1.0f), hit), i, occlusion);   /* textured pixels: kernel `texture` */
 #endif
 #if HAS_TEXTURES
-    VSTORE_NT(ivec, select((ivec)(-1), f, hit & (GI(face_texture, f) >= 0)), i, tex_face);
+    VSTORE_NT(ivec, select((ivec)(-1), f, hit & (TRI_READ(ivec, face_texture, f, f1) >= 0)), i, tex_face);
     VSTORE_NT(fvec, b0, i, tex_bary);
     VSTORE_NT(fvec, b1, i, tex_bary + plane);
     VSTORE_NT(fvec, b2, i, tex_bary + 2 * plane);
 #endif
+#undef TRI_READ
 }
 #if HAS_TEXTURES
 /* ---------------------------------------------------------------- textures
