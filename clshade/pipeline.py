@@ -157,7 +157,8 @@ class GBufferStage:
             if missing:
                 return f"{rt.info.runtime} lacks {', '.join(missing)}"
             return ("textures the device path cannot sample: kernel texture reads RGB pyramids that fit in one "
-                    "device buffer")
+                    f"device buffer, fewer than {device_visibility.MAX_TEXEL_FLOATS} floats "
+                    f"(this geometry's: {device_visibility.texel_floats(self.geometry)})")
         return None
 
     def _host(self, reason: str) -> None:

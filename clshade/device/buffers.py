@@ -1,4 +1,5 @@
-"""The buffers of a Runtime: uploads, shared host arrays, kernel outputs read in place.
+"""The buffers of a Runtime: uploads, shared host arrays, kernel outputs read in place; and
+Staging, buffers reused frame after frame for a stream's per-frame inputs.
 
 A mixin of clshade.device.runtime.Runtime, which gives it `cl` (pyopencl), `context`, `queue`,
 `device` and `info` (DeviceInfo: `kind` says whether the device is a CPU, where a buffer can be
@@ -69,14 +70,18 @@ class Staging:
     instead of a new buffer a frame: a new buffer costs an allocation and first-touch page faults on
     the copy (on Intel's CPU runtime about 0.1 ms an upload, 1–2 ms of a 1080p frame of the robot;
     docs/bench-notes.md). On a CPU device a slot is an aligned host array that is the buffer's memory
-    (CL_MEM_USE_HOST_PTR), written by the host with no command; elsewhere a device buffer written by
-    a non-blocking copy on the in-order queue. The caller writes a slot only once the kernels that
+    (CL_MEM_USE_HOST_PTR), written by the host with no command — as `share`, this relies on the CPU
+    runtimes (PoCL, Intel's) using that memory itself, not a copy; elsewhere a device buffer written
+    by a non-blocking copy on the in-order queue, its event kept until the slot is written again
+    (pyopencl's copy event blocks when dropped). The caller writes a slot only once the kernels that
     read its last contents are done (DeviceGBuffer.build ends each frame by waiting for them)."""
 
     def __init__(self, runtime: DeviceBuffers) -> None:
         self.rt = runtime
         self._host = "cpu" in runtime.info.kind
         self._slots: dict[object, tuple[object, np.ndarray | None]] = {}
+        #: slot → the pending copy's event and source array (off CPU devices).
+        self._copies: dict[object, object] = {}
 
     def upload(self, slot: object, array: np.ndarray):
         """A read-only buffer of the kernels' that holds `array` (contiguous) from its start; its size
@@ -95,5 +100,5 @@ class Staging:
         if host is not None:
             host[:array.nbytes] = array.reshape(-1).view(np.uint8)
         elif array.nbytes:
-            cl.enqueue_copy(self.rt.queue, buffer, array, is_blocking=False)
+            self._copies[slot] = cl.enqueue_copy(self.rt.queue, buffer, array, is_blocking=False)
         return buffer

@@ -100,8 +100,8 @@ def bucket_tables(method: str, exposure: float) -> tuple[np.ndarray, np.ndarray,
 #: Pixels a work-item of kernels/display.cl transforms: the radiance buffer holds the pixel count
 #: rounded up to a multiple of it (the shading kernels' and the resolve's outputs do), the output too.
 PIXELS_PER_ITEM = 4
-# The resolve's output is padded() (PIXEL_PAD pixels), which must hold whole work-items.
-assert PIXEL_PAD % PIXELS_PER_ITEM == 0, (PIXEL_PAD, PIXELS_PER_ITEM)
+if PIXEL_PAD % PIXELS_PER_ITEM:     # the resolve's output is padded(): whole work-items
+    raise ImportError(f"PIXEL_PAD {PIXEL_PAD} is not a multiple of PIXELS_PER_ITEM {PIXELS_PER_ITEM}")
 
 
 def items(pixels: int) -> int:

@@ -21,7 +21,7 @@ import hashlib
 import os
 import re
 import warnings
-from dataclasses import asdict, dataclass, fields, replace
+from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 

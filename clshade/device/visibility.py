@@ -60,14 +60,14 @@ SET_SLOTS = ("base_color", "metallic_roughness", "normal", "emissive", "occlusio
 #: with NumPy's, the device with the adjugate and its own log2, so λ = log2 ρ can differ in its last
 #: bits; trilinear filtering is continuous in λ and in the UV, so a level or texel flip moves a value by
 #: about that relative error times the texels' range (measured: <= 7e-8 on the bundled scenes).
-#: Kernel `texture` indexes the texel floats (and the level table holds their offsets) with 32-bit
-#: integers: geometries with more keep the host path (`supports`).
-MAX_TEXEL_FLOATS = 2 ** 31
 TEXTURE_TOLERANCE = 1e-5
 #: The share of covered pixels whose textured channels may differ at all, by at most TEXTURE_TOLERANCE
 #: (measured: 1 pixel in 3.6e5 at 960x540 on textured.toml, none on the glTF samples; a wrong level,
 #: texel, wrap mode or channel changes most textured pixels).
 TEXTURE_DIFFER_SHARE = 1e-3
+#: Kernel `texture` indexes the texel floats (and the level table holds their offsets) with 32-bit
+#: integers: geometries with more keep the host path (`supports`).
+MAX_TEXEL_FLOATS = 2 ** 31
 #: The channels textures write (the others stay bit for bit the host's).
 TEXTURED_CHANNELS = ("normal", "base", "roughness", "metallic", "emissive", "occlusion")
 
@@ -104,7 +104,8 @@ def texture_channels(runtime: Runtime, geometry: Geometry) -> bool:
 
 def supports(runtime: Runtime, geometry: Geometry) -> bool:
     """Whether the device path gives build_gbuffer's G-buffer for this geometry: a device with
-    doubles and 64-bit atomics, and textures it can hold (texture_channels)."""
+    doubles and 64-bit atomics, and textures it can hold (texture_channels: RGB pyramids in one device
+    buffer; fewer than MAX_TEXEL_FLOATS texel floats, the texture kernel's 32-bit indices)."""
     extensions = runtime.device.extensions.split()
     if not all(e in extensions for e in EXTENSIONS):
         return False
@@ -221,6 +222,8 @@ class DeviceGBuffer:
         table `materials` (clshade.render.gbuffer.material_table), and per pixel whether a fragment
         covers it (uint8: 0 empty, 1 covered, 2 covered by non-finite inputs, replaced). The
         planes are host arrays (from `pool` when given) that the kernel writes through."""
+        if self.textures is not None and view.mvp is None:     # before any kernel reads a staged input
+            raise ValueError("DeviceGBuffer.build: a textured geometry's view needs its mvp (setup_view's)")
         rt, cl, stage = self.rt, self.rt.cl, self._staging
         w, h = view.width, view.height
         n = w * h
@@ -273,8 +276,6 @@ class DeviceGBuffer:
         tail = [outputs[name] for name in ("depth", "normal", "base", "roughness", "metallic", "material", "cover")]
         textured = []
         if self.textures is not None:
-            if view.mvp is None:
-                raise ValueError("DeviceGBuffer.build: a textured geometry's view needs its mvp (setup_view's)")
             tex_face, tex_bary = self._scratch_of(plane)
             textured = [self.textures.buffers[0], tex_face, tex_bary]
         inputs += [stage.upload(name, a) for name, a in (("setup", setup), ("face", tri_face), ("depth", vdepth))]

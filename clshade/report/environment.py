@@ -168,7 +168,12 @@ def environment_answer_markdown(doc: dict) -> str:
 def _written(doc: dict) -> str:
     """The results file `doc` was written to: its command's `--out`, else the measure's default."""
     words = doc["command"].split()
-    return words[words.index("--out") + 1] if "--out" in words[:-1] else "benchmarks/results/environment_cost.json"
+    for k, word in enumerate(words):
+        if word.startswith("--out="):
+            return word[len("--out="):]
+        if word == "--out" and k + 1 < len(words):
+            return words[k + 1]
+    return "benchmarks/results/environment_cost.json"
 
 
 def environment_cost_markdown(doc: dict) -> str:

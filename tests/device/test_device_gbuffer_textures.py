@@ -255,14 +255,18 @@ def test_more_texels_than_32_bit_indices_keep_the_host_path(textured, monkeypatc
 
 
 def test_a_textured_view_needs_its_matrices(textured):
+    """Refused before any kernel runs: the next frame on the same device (its key buffer, its
+    staged inputs) is still the host's."""
     scene, geometry = textured
     runtime = usable(get_runtime(None), geometry)
-    device = DeviceGBuffer(runtime, geometry, face_planes(geometry, list(scene.materials.values())))
+    faces = face_planes(geometry, list(scene.materials.values()))
+    device = DeviceGBuffer(runtime, geometry, faces)
     cam = orbit(scene, 0.0)
-    setup = setup_view(RasterMesh(geometry.vertices, geometry.faces, geometry.cull), cam.view_matrix(),
-                       cam.projection_matrix(), W, H)
+    mesh = RasterMesh(geometry.vertices, geometry.faces, geometry.cull)
+    setup = setup_view(mesh, cam.view_matrix(), cam.projection_matrix(), W, H)
     with pytest.raises(ValueError, match="mvp"):
         device.build(dataclasses.replace(setup, mvp=None), material_table(scene))
+    assert_same(scene, geometry, orbit(scene, 40.0, 60.0), device)
 
 
 def test_the_viewer_orbits_a_textured_scene_on_the_device(tmp_path):
