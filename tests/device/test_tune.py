@@ -1,8 +1,9 @@
-"""The tuner (clshade/device/tune.py) and its cache (clshade/device/tuned.py): fed fake timings, the race
-picks the fastest choice, keeps the default inside the noise band (more rounds first, the default when the
-budget ends); the cache is read where its key matches and measured again where the driver, the CPU or the
-kernels changed, or the file is damaged; the runtime and the default device follow the cached entries;
-the environment's switches still force a choice. One small race on the real device."""
+"""The tuner (clshade/device/tune.py, its race in clshade/device/race.py) and its cache
+(clshade/device/tuned.py): fed fake timings, the race picks the fastest choice, keeps the default inside the
+noise band (more rounds first, the default when the budget ends); the cache is read where its key matches
+and measured again where the driver, the CPU or the kernels changed, or the file is damaged; the runtime
+and the default device follow the cached entries; the environment's switches still force a choice. One
+small race on the real device."""
 from __future__ import annotations
 
 import json
@@ -12,7 +13,7 @@ from dataclasses import replace
 import pytest
 
 from clshade.device import runtime as rtmod
-from clshade.device import buildchoice, tune, tuned
+from clshade.device import buildchoice, race, tune, tuned
 from clshade.device.buildchoice import FIXED, BuildChoice
 from clshade.errors import ClshadeError
 
@@ -44,8 +45,8 @@ class FakeDevice:
         self.now += 2 * ms / 1e3
         return ms
 
-    def race(self, order: list, budget_s: float = 10.0) -> tune.Race:
-        return tune.race(order, MODELS, self.prepare, self.timer, budget_s, clock=self.clock)
+    def race(self, order: list, budget_s: float = 10.0) -> race.Race:
+        return race.race(order, MODELS, self.prepare, self.timer, budget_s, clock=self.clock)
 
 
 # ---------------------------------------------------------------- the race, on fake timings
@@ -57,7 +58,7 @@ def test_the_tuner_picks_the_fastest_choice(order):
     result = fake.race(order)
     assert result.verdict.pick == B and result.verdict.best == B and result.verdict.settled
     assert result.verdict.reason.startswith("clear") and not result.budget_spent
-    assert len(result.rounds[A]) >= tune.MIN_ROUNDS
+    assert len(result.rounds[A]) >= race.MIN_ROUNDS
 
 
 def test_a_gain_inside_the_noise_floor_keeps_the_default():
@@ -74,14 +75,14 @@ def test_the_tuner_refuses_to_pick_inside_the_noise_band_without_more_repeats():
     ms = {A: 10.0, B: 9.2}
     early = FakeDevice(ms, noise=0.15)
     rounds = {c: [] for c in (A, B)}
-    for _ in range(tune.MIN_ROUNDS):
+    for _ in range(race.MIN_ROUNDS):
         for c in (A, B):
             rounds[c].append({m: early.timer(c, m) for m in MODELS})
-    verdict = tune.judge(rounds, [A, B])
+    verdict = race.judge(rounds, [A, B])
     assert not verdict.settled and verdict.pick == A and set(verdict.tied) == {A, B}
     patient = FakeDevice(ms, noise=0.15).race([A, B], budget_s=120.0)
     assert patient.verdict.pick == B and patient.verdict.settled
-    assert len(patient.rounds[A]) > tune.MIN_ROUNDS
+    assert len(patient.rounds[A]) > race.MIN_ROUNDS
     hurried = FakeDevice(ms, noise=0.15, build_s=0.05).race([A, B], budget_s=1.0)
     assert hurried.budget_spent and not hurried.verdict.settled
     assert hurried.verdict.pick == A and hurried.verdict.reason.startswith("budget")
@@ -96,9 +97,9 @@ def test_the_noise_band_comes_from_the_spread_of_the_rounds():
             for c, ms in ((A, 10.0), (B, 9.2)):
                 out[c].append({m: ms * (1 + spread * rng.gauss(0, 1)) for m in MODELS})
         return out
-    steady, noisy = tune.gap(rounds(0.005), A, B), tune.gap(rounds(0.2), A, B)
+    steady, noisy = race.gap(rounds(0.005), A, B), race.gap(rounds(0.2), A, B)
     assert steady.clearly_faster and not noisy.clearly_faster
-    assert noisy.band > steady.band >= tune.math.log1p(tune.NOISE_FLOOR)
+    assert noisy.band > steady.band >= race.math.log1p(race.NOISE_FLOOR)
 
 
 def test_a_choice_that_fails_to_build_is_left_out_with_its_reason():
