@@ -151,15 +151,7 @@ class GBufferStage:
             return "--gbuffer host"
         if self.tangents:
             return "a lobe reads the mesh tangents: the device path writes no tangent channel"
-        rt = self.runtime
-        if not device_visibility.supports(rt, self.geometry):
-            missing = [e for e in device_visibility.EXTENSIONS if e not in rt.device.extensions.split()]
-            if missing:
-                return f"{rt.info.runtime} lacks {', '.join(missing)}"
-            return ("textures the device path cannot sample: kernel texture reads RGB pyramids that fit in one "
-                    f"device buffer, fewer than {device_visibility.MAX_TEXEL_FLOATS} floats "
-                    f"(this geometry's: {device_visibility.texel_floats(self.geometry)})")
-        return None
+        return device_visibility.refusal(self.runtime, self.geometry)
 
     def _host(self, reason: str) -> None:
         if self.mode == "device":

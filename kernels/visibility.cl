@@ -46,7 +46,7 @@
  * Speed: a work-item does LANES adjacent pixels, one per vector lane (the reason is
  * simd.h's: PoCL vectorises no scalar code of this shape, which then runs a pixel at a
  * time), gathering each lane's triangle and face constants — read once and broadcast where
- * every lane is on one triangle (TRI_READ), as most work-items are; a work-item whose pixels are
+ * every lane is on one triangle (UNIFORM_READ), as most work-items are; a work-item whose pixels are
  * all empty (sky) only writes zeros. `visibility` writes its planes and the emptied keys by streaming
  * stores (VSTORE_NT): the G-buffer is several times the last-level cache, and a plain store first reads
  * each output line (faster on PoCL 3.1 with AVX-512 in alternated runs, docs/bench-notes.md; Intel's
@@ -110,6 +110,9 @@ typedef uchar4 cvec;
 #define GD(p, i) GATHER(dvec, p, i)
 #define GF(p, i) GATHER(fvec, p, i)
 #define GI(p, i) GATHER(ivec, p, i)
+/* p[index] lane by lane, or p[one_index] read once and broadcast where `one` says every lane's index is
+ * one_index (the lanes of one triangle, face, texture or mip level: most work-items): the same values. */
+#define UNIFORM_READ(one, T, p, index, one_index) ((one) ? (T)((p)[one_index]) : GATHER(T, p, index))
 
 /* np.maximum(e, 0.0): NaN stays NaN, -0.0 becomes +0.0. */
 inline dvec clamp_low(dvec e) { return select(select((dvec)(0.0), e, e > 0.0), e, isnan(e)); }
@@ -241,7 +244,6 @@ __kernel void visibility(
     /* Where every lane is on one triangle (most work-items: a large triangle's pixels), its values
      * and its face's are read once and broadcast, not gathered lane by lane: the same values. */
     const int one = all(t == (ivec)(t.s0));
-#define TRI_READ(T, p, index, one_index) (one ? (T)((p)[one_index]) : GATHER(T, p, index))
     const int t1 = t.s0;
 
     /* The winners' step (raster/resolve.py), in double. */
@@ -249,13 +251,14 @@ __kernel void visibility(
     const ivec row = pix / (int)width;
     const dvec X = convert_dvec(pix - row * (int)width) + 0.5;
     const dvec Y = convert_dvec(row) + 0.5;
-    dvec by0 = TRI_READ(dvec, setup + 3 * ntri, t, t1) * Y, by1 = TRI_READ(dvec, setup + 4 * ntri, t, t1) * Y;
-    dvec by2 = TRI_READ(dvec, setup + 5 * ntri, t, t1) * Y;
-    by0 = by0 + TRI_READ(dvec, setup + 6 * ntri, t, t1);
-    by1 = by1 + TRI_READ(dvec, setup + 7 * ntri, t, t1);
-    by2 = by2 + TRI_READ(dvec, setup + 8 * ntri, t, t1);
-    dvec e0 = TRI_READ(dvec, setup, t, t1) * X, e1 = TRI_READ(dvec, setup + ntri, t, t1) * X;
-    dvec e2 = TRI_READ(dvec, setup + 2 * ntri, t, t1) * X;
+    dvec by0 = UNIFORM_READ(one, dvec, setup + 3 * ntri, t, t1) * Y;
+    dvec by1 = UNIFORM_READ(one, dvec, setup + 4 * ntri, t, t1) * Y;
+    dvec by2 = UNIFORM_READ(one, dvec, setup + 5 * ntri, t, t1) * Y;
+    by0 = by0 + UNIFORM_READ(one, dvec, setup + 6 * ntri, t, t1);
+    by1 = by1 + UNIFORM_READ(one, dvec, setup + 7 * ntri, t, t1);
+    by2 = by2 + UNIFORM_READ(one, dvec, setup + 8 * ntri, t, t1);
+    dvec e0 = UNIFORM_READ(one, dvec, setup, t, t1) * X, e1 = UNIFORM_READ(one, dvec, setup + ntri, t, t1) * X;
+    dvec e2 = UNIFORM_READ(one, dvec, setup + 2 * ntri, t, t1) * X;
     e0 = clamp_low(e0 + by0);
     e1 = clamp_low(e1 + by1);
     e2 = clamp_low(e2 + by2);
@@ -266,11 +269,11 @@ __kernel void visibility(
     e1 = select(e1, (dvec)(1.0), bad);
     e2 = select(e2, (dvec)(1.0), bad);
     s = select(s, (dvec)(3.0), bad);
-    dvec z = TRI_READ(dvec, setup + 9 * ntri, t, t1) / s;
+    dvec z = UNIFORM_READ(one, dvec, setup + 9 * ntri, t, t1) / s;
     e0 = e0 / s;
     e1 = e1 / s;
     e2 = e2 / s;
-    const ivec f = TRI_READ(ivec, tri_face, t, t1);
+    const ivec f = UNIFORM_READ(one, ivec, tri_face, t, t1);
     const int f1 = tri_face[t1];
     if (!w_is_depth || any(bad & hitl)) {
         dvec zi = e0 * GD(vdepth, GI(corners, f));
@@ -282,18 +285,18 @@ __kernel void visibility(
     const fvec zf = convert_fvec(z);
 
     /* build_gbuffer's step (render/gbuffer.py), in float. */
-    fvec nx = TRI_READ(fvec, corner_normal, f, f1) * b0;
-    fvec ny = TRI_READ(fvec, corner_normal + nface, f, f1) * b0;
-    fvec nz = TRI_READ(fvec, corner_normal + 2 * nface, f, f1) * b0;
+    fvec nx = UNIFORM_READ(one, fvec, corner_normal, f, f1) * b0;
+    fvec ny = UNIFORM_READ(one, fvec, corner_normal + nface, f, f1) * b0;
+    fvec nz = UNIFORM_READ(one, fvec, corner_normal + 2 * nface, f, f1) * b0;
     nx = nx + 0.0f;
     ny = ny + 0.0f;
     nz = nz + 0.0f;
-    nx = nx + TRI_READ(fvec, corner_normal + 3 * nface, f, f1) * b1;
-    ny = ny + TRI_READ(fvec, corner_normal + 4 * nface, f, f1) * b1;
-    nz = nz + TRI_READ(fvec, corner_normal + 5 * nface, f, f1) * b1;
-    nx = nx + TRI_READ(fvec, corner_normal + 6 * nface, f, f1) * b2;
-    ny = ny + TRI_READ(fvec, corner_normal + 7 * nface, f, f1) * b2;
-    nz = nz + TRI_READ(fvec, corner_normal + 8 * nface, f, f1) * b2;
+    nx = nx + UNIFORM_READ(one, fvec, corner_normal + 3 * nface, f, f1) * b1;
+    ny = ny + UNIFORM_READ(one, fvec, corner_normal + 4 * nface, f, f1) * b1;
+    nz = nz + UNIFORM_READ(one, fvec, corner_normal + 5 * nface, f, f1) * b1;
+    nx = nx + UNIFORM_READ(one, fvec, corner_normal + 6 * nface, f, f1) * b2;
+    ny = ny + UNIFORM_READ(one, fvec, corner_normal + 7 * nface, f, f1) * b2;
+    nz = nz + UNIFORM_READ(one, fvec, corner_normal + 8 * nface, f, f1) * b2;
     fvec len2 = nx * nx;
     len2 = len2 + ny * ny;
     len2 = len2 + nz * nz;
@@ -309,25 +312,26 @@ __kernel void visibility(
     VSTORE_NT(fvec, select(fzero, ny, ok), i, normal + plane);
     VSTORE_NT(fvec, select(fzero, nz, ok), i, normal + 2 * plane);
     for (uint d = 0; d < 3; d++) {
-        VSTORE_NT(fvec, select(fzero, TRI_READ(fvec, face_base + d * nface, f, f1), ok), i, base + d * plane);
+        VSTORE_NT(fvec, select(fzero, UNIFORM_READ(one, fvec, face_base + d * nface, f, f1), ok), i, base + d * plane);
 #if HAS_EMISSIVE
-        VSTORE_NT(fvec, select(fzero, TRI_READ(fvec, face_emissive + d * nface, f, f1), ok), i, emissive + d * plane);
+        VSTORE_NT(fvec, select(fzero, UNIFORM_READ(one, fvec, face_emissive + d * nface, f, f1), ok), i,
+                  emissive + d * plane);
 #endif
     }
-    VSTORE_NT(fvec, select(fzero, TRI_READ(fvec, face_roughness, f, f1), hit), i, roughness);
-    VSTORE_NT(fvec, select(fzero, TRI_READ(fvec, face_metallic, f, f1), hit), i, metallic);
-    VSTORE_NT(cvec, convert_cvec(select((ivec)(0), convert_ivec(TRI_READ(cvec, face_material, f, f1)), hit)), i, material);
+    VSTORE_NT(fvec, select(fzero, UNIFORM_READ(one, fvec, face_roughness, f, f1), hit), i, roughness);
+    VSTORE_NT(fvec, select(fzero, UNIFORM_READ(one, fvec, face_metallic, f, f1), hit), i, metallic);
+    const ivec mat = convert_ivec(UNIFORM_READ(one, cvec, face_material, f, f1));
+    VSTORE_NT(cvec, convert_cvec(select((ivec)(0), mat, hit)), i, material);
     VSTORE_NT(cvec, convert_cvec(select(select((ivec)(0), (ivec)(2), hit), (ivec)(1), ok)), i, cover);
 #if HAS_OCCLUSION
     VSTORE_NT(fvec, select(fzero, (fvec)(1.0f), hit), i, occlusion);   /* textured pixels: kernel `texture` */
 #endif
 #if HAS_TEXTURES
-    VSTORE_NT(ivec, select((ivec)(-1), f, hit & (TRI_READ(ivec, face_texture, f, f1) >= 0)), i, tex_face);
+    VSTORE_NT(ivec, select((ivec)(-1), f, hit & (UNIFORM_READ(one, ivec, face_texture, f, f1) >= 0)), i, tex_face);
     VSTORE_NT(fvec, b0, i, tex_bary);
     VSTORE_NT(fvec, b1, i, tex_bary + plane);
     VSTORE_NT(fvec, b2, i, tex_bary + 2 * plane);
 #endif
-#undef TRI_READ
 }
 #if HAS_TEXTURES
 /* ---------------------------------------------------------------- textures
@@ -357,7 +361,7 @@ __kernel void visibility(
  * of benchmarks/results/frame_scale.md); each lane
  * gathers its own face, texture set, level and texels — except where all its lanes share the face
  * (most work-items: a large triangle's pixels), the texture or the mip level, whose values are then
- * read once and broadcast (FACE_READ, LEVEL_READ: the same values) — and a texture slot is sampled
+ * read once and broadcast (UNIFORM_READ: the same values) — and a texture slot is sampled
  * where any lane uses it (the others' results are discarded by select). A work-item without a textured
  * pixel returns at once; the lanes that are not textured compute on the first textured lane's
  * face and keep what `visibility` wrote.
@@ -431,10 +435,10 @@ inline fvec3 sample(__global const int* info, __global const int* level, __globa
     const int one = all(index == (ivec)(index.s0));
     const ivec row = 4 * index;
     const int row1 = 4 * index.s0;
-#define ROW_READ(p) (one ? (ivec)((p)[row1]) : GI(p, row))
-    const ivec first = ROW_READ(info), levels = ROW_READ(info + 1);
-    const dvec w = convert_dvec(ROW_READ(info + 2)), h = convert_dvec(ROW_READ(info + 3));
-#undef ROW_READ
+    const ivec first = UNIFORM_READ(one, ivec, info, row, row1);
+    const ivec levels = UNIFORM_READ(one, ivec, info + 1, row, row1);
+    const dvec w = convert_dvec(UNIFORM_READ(one, ivec, info + 2, row, row1));
+    const dvec h = convert_dvec(UNIFORM_READ(one, ivec, info + 3, row, row1));
     const dvec ax = dx0 * w, ay = dx1 * h, bx = dy0 * w, by = dy1 * h;
     const dvec rx = sqrt(ax * ax + ay * ay), ry = sqrt(bx * bx + by * by);
     const dvec rho = select(fmax(rx, ry), (dvec)(NAN), isnan(rx) | isnan(ry));
@@ -449,7 +453,7 @@ inline fvec3 sample(__global const int* info, __global const int* level, __globa
     const ivec l1 = min(l0 + 1, levels - 1);
     const ivec a = 3 * (first + l0);
     /* The bilinear footprint on level row `r` of each lane; one row in every lane is read once. */
-#define LEVEL_READ(r, k) (all((r) == (ivec)((r).s0)) ? (ivec)(level[(r).s0 + (k)]) : GI(level + (k), (r)))
+#define LEVEL_READ(r, k) UNIFORM_READ(all((r) == (ivec)((r).s0)), ivec, level + (k), r, (r).s0)
 #define LEVEL_BILINEAR(r) bilinear(texels, LEVEL_READ(r, 0), LEVEL_READ(r, 1), LEVEL_READ(r, 2), u, v)
     const fvec keep = 1.0f - frac;
     fvec3 out = LEVEL_BILINEAR(a);
@@ -524,21 +528,20 @@ __kernel void texture(
     /* Where every lane is on one face (most work-items: the pixels of a large triangle), the face's
      * values are read once and broadcast, not gathered lane by lane: the same values, bit for bit. */
     const int one = all(f == (ivec)(any_face));
-#define FACE_READ(T, p, index, one_index) (one ? (T)((p)[one_index]) : GATHER(T, p, index))
-    const ivec set = FACE_READ(ivec, face_texture, f, any_face);
+    const ivec set = UNIFORM_READ(one, ivec, face_texture, f, any_face);
     const int set1 = face_texture[any_face];       /* any_face is a textured lane's: a set */
     const ivec sv = SET_FLOATS * set, ss = SET_SLOTS * set;
     const int sv1 = SET_FLOATS * set1, ss1 = SET_SLOTS * set1;
-    const dvec uv_scale = FACE_READ(dvec, set_uv_scale, set, set1);
+    const dvec uv_scale = UNIFORM_READ(one, dvec, set_uv_scale, set, set1);
     const dvec bc0 = convert_dvec(VLOAD(i, tex_bary)), bc1 = convert_dvec(VLOAD(i, tex_bary + plane));
     const dvec bc2 = convert_dvec(VLOAD(i, tex_bary + 2 * plane));
     const int c1[3] = {corners[any_face], corners[nface + any_face], corners[2 * nface + any_face]};
-    const ivec c[3] = {FACE_READ(ivec, corners, f, any_face),
-                       FACE_READ(ivec, corners + nface, f, any_face), FACE_READ(ivec, corners + 2 * nface, f, any_face)};
+    ivec c[3];
     dvec uc[3], vc[3];
     for (int k = 0; k < 3; k++) {
-        uc[k] = convert_dvec(FACE_READ(fvec, vertex_uv, 2 * c[k], 2 * c1[k]));
-        vc[k] = convert_dvec(FACE_READ(fvec, vertex_uv + 1, 2 * c[k], 2 * c1[k]));
+        c[k] = UNIFORM_READ(one, ivec, corners + k * nface, f, any_face);
+        uc[k] = convert_dvec(UNIFORM_READ(one, fvec, vertex_uv, 2 * c[k], 2 * c1[k]));
+        vc[k] = convert_dvec(UNIFORM_READ(one, fvec, vertex_uv + 1, 2 * c[k], 2 * c1[k]));
     }
     dvec u = (bc0 * uc[0] + bc1 * uc[1]) + bc2 * uc[2];
     dvec v = (bc0 * vc[0] + bc1 * vc[1]) + bc2 * vc[2];
@@ -550,8 +553,9 @@ __kernel void texture(
             __global const double* m = mvp + 4 * r;
             const ivec q = 3 * c[k];
             const int q1 = 3 * c1[k];
-            dvec clip = m[0] * FACE_READ(dvec, vertex, q, q1) + m[1] * FACE_READ(dvec, vertex + 1, q, q1);
-            clip = clip + m[2] * FACE_READ(dvec, vertex + 2, q, q1);
+            dvec clip = m[0] * UNIFORM_READ(one, dvec, vertex, q, q1);
+            clip = clip + m[1] * UNIFORM_READ(one, dvec, vertex + 1, q, q1);
+            clip = clip + m[2] * UNIFORM_READ(one, dvec, vertex + 2, q, q1);
             A[3 * r + k] = clip + m[3];
         }
     const dvec c00 = A[4] * A[8] - A[5] * A[7];
@@ -586,15 +590,16 @@ __kernel void texture(
     dyu = dyu * uv_scale; dyv = dyv * uv_scale;
     /* Slot k of each lane's set; the lanes that sample it (`use`); its texture there, read at the
      * lanes' UV (UV 0 elsewhere: a lane's coordinates are sampled only where its set has the map). */
-#define SLOT(k) FACE_READ(ivec, set_slot + (k), ss, ss1)
+#define SLOT(k) UNIFORM_READ(one, ivec, set_slot + (k), ss, ss1)
 #define USES(s) (tex & ((s) >= 0))
 #define SAMPLE(s, use) sample(texture_info, level_info, texels, max((s), 0), \
                               select((dvec)(0.0), u, convert_lvec(use)), select((dvec)(0.0), v, convert_lvec(use)), \
                               dxu, dxv, dyu, dyv)
 
-    fvec bx = FACE_READ(fvec, set_value, sv, sv1), by = FACE_READ(fvec, set_value + 1, sv, sv1);
-    fvec bz = FACE_READ(fvec, set_value + 2, sv, sv1);
-    fvec rough = FACE_READ(fvec, set_value + 3, sv, sv1), metal = FACE_READ(fvec, set_value + 4, sv, sv1);
+    fvec bx = UNIFORM_READ(one, fvec, set_value, sv, sv1), by = UNIFORM_READ(one, fvec, set_value + 1, sv, sv1);
+    fvec bz = UNIFORM_READ(one, fvec, set_value + 2, sv, sv1);
+    fvec rough = UNIFORM_READ(one, fvec, set_value + 3, sv, sv1);
+    fvec metal = UNIFORM_READ(one, fvec, set_value + 4, sv, sv1);
     const ivec slot0 = SLOT(0), use0 = USES(slot0), slot1 = SLOT(1), use1 = USES(slot1);
     if (any(use0)) {
         const fvec3 t = SAMPLE(slot0, use0);
@@ -612,7 +617,7 @@ __kernel void texture(
     const ivec slot4 = SLOT(4), use4 = USES(slot4);
     if (any(use4)) {
         const fvec ao = SAMPLE(slot4, use4).x - 1.0f;
-        occ = select(occ, 1.0f + FACE_READ(fvec, set_value + 9, sv, sv1) * ao, use4);
+        occ = select(occ, 1.0f + UNIFORM_READ(one, fvec, set_value + 9, sv, sv1) * ao, use4);
     }
     VSTORE(select(VLOAD(i, occlusion), occ, tex), i, occlusion);
 #endif
@@ -625,13 +630,13 @@ __kernel void texture(
     const ivec slot2 = SLOT(2), use2 = USES(slot2);
     if (any(use2 & live)) {
         const fvec3 t = SAMPLE(slot2, use2);
-        const fvec scale = FACE_READ(fvec, set_value + 8, sv, sv1);
+        const fvec scale = UNIFORM_READ(one, fvec, set_value + 8, sv, sv1);
         const fvec ux = (t.x * 2.0f - 1.0f) * scale, uy = (t.y * 2.0f - 1.0f) * scale, uz = t.z * 2.0f - 1.0f;
         dvec tg[4];
         for (int k = 0; k < 4; k++) {
-            const dvec t0 = convert_dvec(FACE_READ(fvec, vertex_tangent + k, 4 * c[0], 4 * c1[0]));
-            const dvec t1 = convert_dvec(FACE_READ(fvec, vertex_tangent + k, 4 * c[1], 4 * c1[1]));
-            const dvec t2 = convert_dvec(FACE_READ(fvec, vertex_tangent + k, 4 * c[2], 4 * c1[2]));
+            const dvec t0 = convert_dvec(UNIFORM_READ(one, fvec, vertex_tangent + k, 4 * c[0], 4 * c1[0]));
+            const dvec t1 = convert_dvec(UNIFORM_READ(one, fvec, vertex_tangent + k, 4 * c[1], 4 * c1[1]));
+            const dvec t2 = convert_dvec(UNIFORM_READ(one, fvec, vertex_tangent + k, 4 * c[2], 4 * c1[2]));
             tg[k] = (bc0 * t0 + bc1 * t1) + bc2 * t2;
         }
         const dvec tn = (tg[0] * nx + tg[2] * nz) + tg[1] * ny;
@@ -659,8 +664,8 @@ __kernel void texture(
     WRITE(normal, fx); WRITE(normal + plane, fy); WRITE(normal + 2 * plane, fz);
     WRITE(base, bx); WRITE(base + plane, by); WRITE(base + 2 * plane, bz);
 #if HAS_EMISSIVE
-    fvec ex = FACE_READ(fvec, set_value + 5, sv, sv1), ey = FACE_READ(fvec, set_value + 6, sv, sv1);
-    fvec ez = FACE_READ(fvec, set_value + 7, sv, sv1);
+    fvec ex = UNIFORM_READ(one, fvec, set_value + 5, sv, sv1), ey = UNIFORM_READ(one, fvec, set_value + 6, sv, sv1);
+    fvec ez = UNIFORM_READ(one, fvec, set_value + 7, sv, sv1);
     const ivec slot3 = SLOT(3), use3 = USES(slot3);
     if (any(use3 & live)) {
         const fvec3 e = SAMPLE(slot3, use3);
@@ -672,7 +677,6 @@ __kernel void texture(
 #undef SLOT
 #undef USES
 #undef SAMPLE
-#undef FACE_READ
     const ivec bad = live & ~ok;
     VSTORE(select(VLOAD(i, depth), (fvec)(0.0f), bad), i, depth);
     VSTORE(convert_cvec(select(convert_ivec(VLOAD(i, cover)), (ivec)(2), bad)), i, cover);

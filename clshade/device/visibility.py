@@ -93,33 +93,41 @@ def exclusive_triangles(tiles: np.ndarray, min_tiles: int | None = None, most: i
     return big[np.argsort(-tiles[big], kind="stable")][:EXCLUSIVE_MAX if most is None else most]
 
 
-def texture_channels(runtime: Runtime, geometry: Geometry) -> bool:
-    """Whether the device can hold and sample `geometry`'s textures: RGB pyramids whose texels
-    fit in one device buffer (the device's largest allocation)."""
-    textures = _textures_of(geometry.texture_sets)
+def refusal(runtime: Runtime, geometry: Geometry) -> str | None:
+    """Why the device path cannot give build_gbuffer's G-buffer for this geometry, else None. It needs a
+    device with doubles and 64-bit atomics (EXTENSIONS) and, for a textured geometry, UVs, tangents and
+    textures the device can hold: RGB pyramids whose texels fit in one device buffer (the device's largest
+    allocation) and number fewer than MAX_TEXEL_FLOATS floats (kernel `texture`'s 32-bit indices)."""
+    missing = [e for e in EXTENSIONS if e not in runtime.device.extensions.split()]
+    if missing:
+        return f"{runtime.info.runtime} lacks {', '.join(missing)}"
+    if geometry.face_texture is None:
+        return None
+    if geometry.uvs is None or geometry.tangents is None:
+        return "textured faces without UVs or tangents"
+    textures = distinct_textures(geometry.texture_sets)
     if any(t.levels[0].ndim != 3 or t.levels[0].shape[2] != 3 for t in textures):
-        return False
-    return 4 * sum(level.size for t in textures for level in t.levels) <= runtime.device.max_mem_alloc_size
+        return "textures that are not RGB (kernel texture samples three channels)"
+    floats = texel_floats(textures)
+    if 4 * floats > runtime.device.max_mem_alloc_size:
+        return (f"textures of {4 * floats} bytes, more than the device's largest buffer "
+                f"({runtime.device.max_mem_alloc_size} bytes)")
+    if floats >= MAX_TEXEL_FLOATS:
+        return f"{floats} texel floats, where kernel texture's 32-bit indices reach {MAX_TEXEL_FLOATS}"
+    return None
 
 
 def supports(runtime: Runtime, geometry: Geometry) -> bool:
-    """Whether the device path gives build_gbuffer's G-buffer for this geometry: a device with
-    doubles and 64-bit atomics, and textures it can hold (texture_channels: RGB pyramids in one device
-    buffer; fewer than MAX_TEXEL_FLOATS texel floats, the texture kernel's 32-bit indices)."""
-    extensions = runtime.device.extensions.split()
-    if not all(e in extensions for e in EXTENSIONS):
-        return False
-    return geometry.face_texture is None or (geometry.uvs is not None and geometry.tangents is not None
-                                             and texture_channels(runtime, geometry)
-                                             and texel_floats(geometry) < MAX_TEXEL_FLOATS)
+    """Whether the device path gives build_gbuffer's G-buffer for this geometry (`refusal` says why not)."""
+    return refusal(runtime, geometry) is None
 
 
-def texel_floats(geometry: Geometry) -> int:
-    """The floats of every level of the geometry's distinct textures (DeviceTextures' buffer)."""
-    return sum(level.size for t in _textures_of(geometry.texture_sets) for level in t.levels)
+def texel_floats(textures: list[Texture]) -> int:
+    """The floats of every level of `textures` (DeviceTextures' buffer)."""
+    return sum(level.size for t in textures for level in t.levels)
 
 
-def _textures_of(sets: tuple[TextureSet, ...]) -> list[Texture]:
+def distinct_textures(sets: tuple[TextureSet, ...]) -> list[Texture]:
     """The distinct textures of the sets (one upload for a texture that several sets share)."""
     seen: dict[int, Texture] = {}
     for t in sets:
@@ -137,9 +145,9 @@ class DeviceTextures:
 
     def __init__(self, runtime: Runtime, geometry: Geometry) -> None:
         sets = geometry.texture_sets
-        textures = _textures_of(sets)
+        textures = distinct_textures(sets)
         index = {id(t): k for k, t in enumerate(textures)}
-        texels = texel_floats(geometry)
+        texels = texel_floats(textures)
         budget.check_memory(f"the device copy of {len(textures)} textures ({texels // 3} texels)", 4 * texels)
         info, levels, chunks, offset = [], [], [], 0
         for t in textures:
@@ -179,9 +187,9 @@ class DeviceGBuffer:
                  lanes: int | None = None) -> None:
         """`faces`: face_planes(geometry, materials) (without tangents); `lanes`: 4 or 8 pixels
         per work-item (default: the device's, Runtime.double_lanes)."""
-        if not supports(runtime, geometry):
-            raise ValueError("DeviceGBuffer: a device without double precision or 64-bit atomics, or textures it "
-                             "cannot hold (rasterize_mesh and build_gbuffer make that G-buffer)")
+        reason = refusal(runtime, geometry)
+        if reason is not None:
+            raise ValueError(f"DeviceGBuffer: {reason} (rasterize_mesh and build_gbuffer make that G-buffer)")
         self.rt = runtime
         self.emissive = geometry.has_emission
         self.occlusion = geometry.has_occlusion

@@ -235,7 +235,7 @@ def test_textures_that_are_not_rgb_keep_the_host_path(textured):
     grey = Texture.from_pixels(np.full((4, 4), 0.5, np.float32), "grey")
     sets = tuple(dataclasses.replace(t, base_color=grey) for t in geometry.texture_sets)
     assert not supports(runtime, dataclasses.replace(geometry, texture_sets=sets))
-    with pytest.raises(ValueError, match="textures it cannot hold"):
+    with pytest.raises(ValueError, match="textures that are not RGB"):
         DeviceGBuffer(runtime, dataclasses.replace(geometry, texture_sets=sets),
                       face_planes(geometry, list(scene.materials.values())))
 
@@ -246,12 +246,38 @@ def test_more_texels_than_32_bit_indices_keep_the_host_path(textured, monkeypatc
     from clshade.device import visibility
     scene, geometry = textured
     runtime = usable(get_runtime(None), geometry)
-    floats = visibility.texel_floats(geometry)
+    floats = visibility.texel_floats(visibility.distinct_textures(geometry.texture_sets))
     assert floats > 0
     monkeypatch.setattr(visibility, "MAX_TEXEL_FLOATS", floats + 1)
     assert supports(runtime, geometry)
     monkeypatch.setattr(visibility, "MAX_TEXEL_FLOATS", floats)
     assert not supports(runtime, geometry)
+    assert f"{floats} texel floats" in visibility.refusal(runtime, geometry)
+
+
+def _fake_runtime(extensions, largest_buffer=1 << 40):
+    """What `refusal` reads of a runtime: its extensions, its largest allocation, its name."""
+    from types import SimpleNamespace
+    return SimpleNamespace(device=SimpleNamespace(extensions=" ".join(extensions), max_mem_alloc_size=largest_buffer),
+                           info=SimpleNamespace(runtime="Fake CL 9.9"))
+
+
+def test_refusal_names_what_the_device_lacks(textured):
+    """Without a device: the doubles or the atomics missing are named; with them, the untextured robot
+    and the textured scene are served, until the textures outgrow the device's largest buffer."""
+    from clshade.device import visibility
+    scene, geometry = textured
+    robot = build_geometry(load_scene(scenes_dir() / "robot.toml"))
+    every = visibility.EXTENSIONS
+    assert visibility.refusal(_fake_runtime(every), robot) is None
+    assert visibility.refusal(_fake_runtime(every), geometry) is None
+    for missing in every:
+        got = visibility.refusal(_fake_runtime([e for e in every if e != missing]), robot)
+        assert got == f"Fake CL 9.9 lacks {missing}", got
+    floats = visibility.texel_floats(visibility.distinct_textures(geometry.texture_sets))
+    assert visibility.refusal(_fake_runtime(every, 4 * floats), geometry) is None
+    got = visibility.refusal(_fake_runtime(every, 4 * floats - 1), geometry)
+    assert got is not None and "more than the device's largest buffer" in got, got
 
 
 def test_a_textured_view_needs_its_matrices(textured):
