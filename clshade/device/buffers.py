@@ -68,7 +68,8 @@ class Staging:
     """Buffers reused frame after frame for a stream's per-frame inputs (a frame's triangle setup,
     its coverage batches), one per slot, grown to the next power of two when an input outgrows it,
     instead of a new buffer a frame: a new buffer costs an allocation and first-touch page faults on
-    the copy (on Intel's CPU runtime a noticeable share of a 1080p viewer frame; docs/bench-notes.md). On a CPU device a slot is an aligned host array that is the buffer's memory
+    the copy (on Intel's CPU runtime a noticeable share of a 1080p viewer frame; docs/bench-notes.md).
+    On a CPU device a slot is an aligned host array that is the buffer's memory
     (CL_MEM_USE_HOST_PTR), written by the host with no command — as `share`, this relies on the CPU
     runtimes (PoCL, Intel's) using that memory itself, not a copy; elsewhere a device buffer written
     by a non-blocking copy on the in-order queue, its event kept until the slot is written again
@@ -79,7 +80,7 @@ class Staging:
         self.rt = runtime
         self._host = "cpu" in runtime.info.kind
         self._slots: dict[object, tuple[object, np.ndarray | None]] = {}
-        #: slot → the pending copy's event and source array (off CPU devices).
+        #: slot → the pending copy's event (off CPU devices; pyopencl's event keeps its source array alive).
         self._copies: dict[object, object] = {}
 
     def upload(self, slot: object, array: np.ndarray):
