@@ -164,11 +164,13 @@ def main() -> int:
     maps = [Path(scene.environment.map)] + (sorted(args.hdri.glob("*.exr")) if args.hdri.is_dir() else [])
     pre = precompute(maps, scene.path)
     shade, device = shading(args.width, args.height, args.rounds, args.device)
+    out = Path(args.out).resolve()
     doc = dict(command="python -m benchmarks.measure.environment_cost " + " ".join(sys.argv[1:]),
                created=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), scene=str(SCENE.relative_to(ROOT)),
+               results_file=str(out.relative_to(ROOT)) if out.is_relative_to(ROOT) else str(out),
                shading=shade, precompute=pre, skipped=None if args.hdri.is_dir() else f"{args.hdri} is absent",
                load_average={"start": start, "end": load_average()})
-    write_result(args.out, doc, device)
+    write_result(out, doc, device)
     return 0
 
 

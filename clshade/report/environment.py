@@ -165,24 +165,13 @@ def environment_answer_markdown(doc: dict) -> str:
     return "\n".join(out)
 
 
-def _written(doc: dict) -> str:
-    """The results file `doc` was written to: its command's `--out`, else the measure's default."""
-    words = doc["command"].split()
-    for k, word in enumerate(words):
-        if word.startswith("--out="):
-            return word[len("--out="):]
-        if word == "--out" and k + 1 < len(words):
-            return words[k + 1]
-    return "benchmarks/results/environment_cost.json"
-
-
 def environment_cost_markdown(doc: dict) -> str:
     """benchmarks/results/environment_cost.md: each rung's device time at full size against one directional
     light, the sampled rung's line in N, and the precompute per map (benchmarks/measure/environment_cost.py)."""
     from clshade.report.tables import markdown
     sh = doc["shading"]
     out = ["# What light from the sky costs", "",
-           f"Rendered by `python -m benchmarks.publish` from {_written(doc)}; how it is "
+           f"Rendered by `python -m benchmarks.publish` from {doc['results_file']}; how it is "
            f"measured: the docstring of benchmarks/measure/environment_cost.py. {doc['scene']} at "
            f"{sh['width']}×{sh['height']} ({sh['covered_pixels']} covered pixels) on {sh['device']['name']} "
            f"({sh['device']['platform']}), median device ms of {sh['rounds']} interleaved rounds.", ""]
