@@ -55,3 +55,16 @@ def test_a_non_contiguous_input_is_uploaded_in_order(staging):
     grid = np.arange(24, dtype=np.float32).reshape(4, 6)
     buffer = stage.upload("t", grid.T)                # Fortran order: uploaded as its C-ordered copy
     np.testing.assert_array_equal(_read(rt, buffer, 24, np.float32), grid.T.reshape(-1))
+
+
+def test_a_slot_grows_only_within_the_memory_available(staging, monkeypatch):
+    """Growth is refused with the slot named when the memory available is smaller than the new buffer;
+    a slot that already holds the input needs nothing more."""
+    from clshade import budget
+    from clshade.errors import ClshadeError
+    stage, rt = staging
+    held = stage.upload("setup", np.zeros(100, np.float32))
+    monkeypatch.setattr(budget, "available_memory", lambda: 256)
+    assert stage.upload("setup", np.ones(64, np.float32)) is held         # fits: no new buffer, no check
+    with pytest.raises(ClshadeError, match=r"staging buffer for 'setup'.*needs about"):
+        stage.upload("setup", np.zeros(1000, np.float32))
