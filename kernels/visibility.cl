@@ -453,7 +453,7 @@ inline fvec3 sample(__global const int* info, __global const int* level, __globa
     const ivec l1 = min(l0 + 1, levels - 1);
     const ivec a = 3 * (first + l0);
     /* The bilinear footprint on level row `r` of each lane; one row in every lane is read once. */
-#define LEVEL_READ(r, k) UNIFORM_READ(all((r) == (ivec)((r).s0)), ivec, level + (k), r, (r).s0)
+#define LEVEL_READ(r, k) UNIFORM_READ(all((r) == (ivec)((r).s0)), ivec, level + (k), (r), (r).s0)
 #define LEVEL_BILINEAR(r) bilinear(texels, LEVEL_READ(r, 0), LEVEL_READ(r, 1), LEVEL_READ(r, 2), u, v)
     const fvec keep = 1.0f - frac;
     fvec3 out = LEVEL_BILINEAR(a);

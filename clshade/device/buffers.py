@@ -70,7 +70,8 @@ class Staging:
     its coverage batches), one per slot, grown to the next power of two when an input outgrows it,
     instead of a new buffer a frame: a new buffer costs an allocation and first-touch page faults on
     the copy (on Intel's CPU runtime a noticeable share of a 1080p viewer frame; docs/bench-notes.md).
-    A slot keeps its largest size; each growth is checked against the memory available (budget).
+    A slot keeps its largest size; on a CPU device each growth is checked against the memory available
+    (budget.check_memory; elsewhere the runtime refuses a buffer its device cannot hold).
     On a CPU device a slot is an aligned host array that is the buffer's memory
     (CL_MEM_USE_HOST_PTR), written by the host with no command — as `share`, this relies on the CPU
     runtimes (PoCL, Intel's) using that memory itself, not a copy; elsewhere a device buffer written
@@ -93,8 +94,8 @@ class Staging:
         buffer, host = self._slots.get(slot, (None, None))
         if buffer is None or buffer.size < array.nbytes:
             size = 1 << max(int(array.nbytes) - 1, 63).bit_length()      # a power of two, at least 64 bytes
-            budget.check_memory(f"the staging buffer for {slot!r} ({array.nbytes} bytes of input)", size)
             if self._host:
+                budget.check_memory(f"the staging buffer for {slot!r} ({array.nbytes} bytes of input)", size)
                 host = aligned_zeros((size,), np.uint8, max(self.rt.base_align, 64))
                 buffer = cl.Buffer(self.rt.context, cl.mem_flags.READ_ONLY | cl.mem_flags.USE_HOST_PTR, hostbuf=host)
             else:

@@ -32,7 +32,6 @@ Candidate = Hashable
 Rounds = dict[Candidate, list["dict[str, float] | None"]]
 
 
-
 @dataclass(frozen=True)
 class Gap:
     """Candidate b against a over the rounds both ran: the median of the per-round log time ratio

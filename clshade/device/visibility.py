@@ -98,13 +98,15 @@ def refusal(runtime: Runtime, geometry: Geometry) -> str | None:
     device with doubles and 64-bit atomics (EXTENSIONS) and, for a textured geometry, UVs, tangents and
     textures the device can hold: RGB pyramids whose texels fit in one device buffer (the device's largest
     allocation) and number fewer than MAX_TEXEL_FLOATS floats (kernel `texture`'s 32-bit indices)."""
-    missing = [e for e in EXTENSIONS if e not in runtime.device.extensions.split()]
+    has = set(runtime.device.extensions.split())
+    missing = [e for e in EXTENSIONS if e not in has]
     if missing:
         return f"{runtime.info.runtime} lacks {', '.join(missing)}"
     if geometry.face_texture is None:
         return None
-    if geometry.uvs is None or geometry.tangents is None:
-        return "textured faces without UVs or tangents"
+    lacking = [name for name in ("uvs", "tangents") if getattr(geometry, name) is None]
+    if lacking:
+        return f"textured faces without {' or '.join(lacking)}"
     textures = distinct_textures(geometry.texture_sets)
     if any(t.levels[0].ndim != 3 or t.levels[0].shape[2] != 3 for t in textures):
         return "textures that are not RGB (kernel texture samples three channels)"
@@ -113,7 +115,8 @@ def refusal(runtime: Runtime, geometry: Geometry) -> str | None:
         return (f"textures of {4 * floats} bytes, more than the device's largest buffer "
                 f"({runtime.device.max_mem_alloc_size} bytes)")
     if floats >= MAX_TEXEL_FLOATS:
-        return f"{floats} texel floats, where kernel texture's 32-bit indices reach {MAX_TEXEL_FLOATS}"
+        return (f"textures of {floats} texel floats, not fewer than {MAX_TEXEL_FLOATS} (kernel texture's 32-bit "
+                "indices)")
     return None
 
 

@@ -15,7 +15,7 @@ import pytest
 
 from clshade.device.runtime import get_runtime
 from clshade.device.visibility import (TEXTURE_DIFFER_SHARE, TEXTURE_TOLERANCE, TEXTURED_CHANNELS, DeviceGBuffer,
-                                       plane_differences, supports, verify)
+                                       plane_differences, refusal, supports, verify)
 from clshade.render.gbuffer import build_gbuffer, face_planes, material_table
 from clshade.render.meshes import build_geometry
 from clshade.render.raster import RasterMesh, rasterize_mesh, setup_view
@@ -29,8 +29,9 @@ W, H = 192, 108
 
 
 def usable(runtime, geometry):
-    if not supports(runtime, geometry):
-        pytest.skip(f"{runtime.info.description}: no doubles or 64-bit atomics (the host rasterizes)")
+    reason = refusal(runtime, geometry)
+    if reason is not None:
+        pytest.skip(f"{runtime.info.description}: {reason} (the host rasterizes)")
     return runtime
 
 
@@ -252,7 +253,7 @@ def test_more_texels_than_32_bit_indices_keep_the_host_path(textured, monkeypatc
     assert supports(runtime, geometry)
     monkeypatch.setattr(visibility, "MAX_TEXEL_FLOATS", floats)
     assert not supports(runtime, geometry)
-    assert f"{floats} texel floats" in visibility.refusal(runtime, geometry)
+    assert f"textures of {floats} texel floats" in visibility.refusal(runtime, geometry)
 
 
 def _fake_runtime(extensions, largest_buffer=1 << 40):
@@ -264,7 +265,8 @@ def _fake_runtime(extensions, largest_buffer=1 << 40):
 
 def test_refusal_names_what_the_device_lacks(textured):
     """Without a device: the doubles or the atomics missing are named; with them, the untextured robot
-    and the textured scene are served, until the textures outgrow the device's largest buffer."""
+    and the textured scene are served, until the textures outgrow the device's largest buffer or the
+    geometry lacks its UVs or tangents."""
     from clshade.device import visibility
     scene, geometry = textured
     robot = build_geometry(load_scene(scenes_dir() / "robot.toml"))
@@ -278,6 +280,9 @@ def test_refusal_names_what_the_device_lacks(textured):
     assert visibility.refusal(_fake_runtime(every, 4 * floats), geometry) is None
     got = visibility.refusal(_fake_runtime(every, 4 * floats - 1), geometry)
     assert got is not None and "more than the device's largest buffer" in got, got
+    for lacking in ("uvs", "tangents"):
+        got = visibility.refusal(_fake_runtime(every), dataclasses.replace(geometry, **{lacking: None}))
+        assert got == f"textured faces without {lacking}", got
 
 
 def test_a_textured_view_needs_its_matrices(textured):

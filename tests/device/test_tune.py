@@ -7,6 +7,7 @@ small race on the real device."""
 from __future__ import annotations
 
 import json
+import math
 import random
 from dataclasses import replace
 
@@ -45,7 +46,7 @@ class FakeDevice:
         self.now += 2 * ms / 1e3
         return ms
 
-    def race(self, order: list, budget_s: float = 10.0) -> race.Race:
+    def run(self, order: list, budget_s: float = 10.0) -> race.Race:
         return race.race(order, MODELS, self.prepare, self.timer, budget_s, clock=self.clock)
 
 
@@ -55,7 +56,7 @@ class FakeDevice:
 @pytest.mark.parametrize("order", [[A, B, C], [A, C, B]])
 def test_the_tuner_picks_the_fastest_choice(order):
     fake = FakeDevice({A: 10.0, B: 7.0, C: 9.0}, noise=0.01)
-    result = fake.race(order)
+    result = fake.run(order)
     assert result.verdict.pick == B and result.verdict.best == B and result.verdict.settled
     assert result.verdict.reason.startswith("clear") and not result.budget_spent
     assert len(result.rounds[A]) >= race.MIN_ROUNDS
@@ -64,7 +65,7 @@ def test_the_tuner_picks_the_fastest_choice(order):
 def test_a_gain_inside_the_noise_floor_keeps_the_default():
     """1 % faster, measured tightly: settled as a tie (inside NOISE_FLOOR), and a tie keeps today's rule."""
     fake = FakeDevice({A: 10.0, B: 9.9}, noise=0.002)
-    result = fake.race([A, B])
+    result = fake.run([A, B])
     assert result.verdict.best == B and result.verdict.pick == A
     assert result.verdict.settled and not result.budget_spent and result.verdict.reason.startswith("tied")
 
@@ -80,10 +81,10 @@ def test_the_tuner_refuses_to_pick_inside_the_noise_band_without_more_repeats():
             rounds[c].append({m: early.timer(c, m) for m in MODELS})
     verdict = race.judge(rounds, [A, B])
     assert not verdict.settled and verdict.pick == A and set(verdict.tied) == {A, B}
-    patient = FakeDevice(ms, noise=0.15).race([A, B], budget_s=120.0)
+    patient = FakeDevice(ms, noise=0.15).run([A, B], budget_s=120.0)
     assert patient.verdict.pick == B and patient.verdict.settled
     assert len(patient.rounds[A]) > race.MIN_ROUNDS
-    hurried = FakeDevice(ms, noise=0.15, build_s=0.05).race([A, B], budget_s=1.0)
+    hurried = FakeDevice(ms, noise=0.15, build_s=0.05).run([A, B], budget_s=1.0)
     assert hurried.budget_spent and not hurried.verdict.settled
     assert hurried.verdict.pick == A and hurried.verdict.reason.startswith("budget")
 
@@ -99,12 +100,12 @@ def test_the_noise_band_comes_from_the_spread_of_the_rounds():
         return out
     steady, noisy = race.gap(rounds(0.005), A, B), race.gap(rounds(0.2), A, B)
     assert steady.clearly_faster and not noisy.clearly_faster
-    assert noisy.band > steady.band >= race.math.log1p(race.NOISE_FLOOR)
+    assert noisy.band > steady.band >= math.log1p(race.NOISE_FLOOR)
 
 
 def test_a_choice_that_fails_to_build_is_left_out_with_its_reason():
     fake = FakeDevice({A: 10.0, B: 7.0, C: 8.0}, noise=0.01, fail=(B,))
-    result = fake.race([A, B, C])
+    result = fake.run([A, B, C])
     assert result.failed == {B: "kernel build failed for math inline"}
     assert result.verdict.pick == C and B not in result.rounds
 
@@ -112,7 +113,7 @@ def test_a_choice_that_fails_to_build_is_left_out_with_its_reason():
 def test_the_budget_bounds_the_builds():
     """Builds stop once BUILD_SHARE of the budget is spent; the rest times rounds."""
     fake = FakeDevice({A: 10.0, B: 7.0, C: 9.0}, noise=0.01, build_s=3.0)
-    result = fake.race([A, B, C], budget_s=10.0)
+    result = fake.run([A, B, C], budget_s=10.0)
     assert fake.built == [A, B] and result.unbuilt == [C]
     assert result.verdict.pick == B
 
