@@ -17,6 +17,8 @@ without double precision or 64-bit atomics keep the host path (`supports`).
 """
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 
 from clshade import budget
@@ -235,6 +237,19 @@ class DeviceGBuffer:
         planes are host arrays (from `pool` when given) that the kernel writes through."""
         if self.textures is not None and view.mvp is None:     # before any kernel reads a staged input
             raise ValueError("DeviceGBuffer.build: a textured geometry's view needs its mvp (setup_view's)")
+        try:
+            return self._build(view, materials, pool)
+        except BaseException:
+            # Refused part way (an upload over the memory budget, a buffer the runtime would not
+            # create, an interrupt): `cover` may have written keys that only the visibility kernel
+            # empties. The keys are refilled before the next frame, once the queued kernels are done.
+            self._key_pixels = 0
+            with contextlib.suppress(Exception):
+                self.rt.queue.finish()
+            raise
+
+    def _build(self, view: ViewSetup, materials: np.ndarray,
+               pool: PlanePool | None) -> tuple[GBuffer, np.ndarray]:
         rt, cl, stage = self.rt, self.rt.cl, self._staging
         w, h = view.width, view.height
         n = w * h

@@ -85,6 +85,34 @@ def test_frames_one_after_another_share_one_key_buffer(robot, device_runtime, la
     assert device.lanes == lanes
 
 
+def test_a_frame_refused_part_way_leaves_the_next_frames_the_hosts(robot, device_runtime):
+    """A frame whose triangle setup is refused after kernel `cover` has written its keys (a staging slot
+    over the memory budget, say) raises; the frames after it on the same DeviceGBuffer, whose key buffer
+    only the visibility kernel empties, are still the host's."""
+    from clshade.errors import ClshadeError
+    scene, geometry = robot
+    runtime = usable(device_runtime, geometry)
+    camera = orbit_camera(scene, 0.0)
+    _, device = assert_same(scene, geometry, camera.view_matrix(), camera.projection_matrix(), camera,
+                            runtime=runtime)
+    upload = device._staging.upload
+
+    def refused(slot, array):
+        if slot == "setup":
+            raise ClshadeError("the staging buffer for 'setup' needs more memory than is available")
+        return upload(slot, array)
+
+    near = orbit_camera(scene, 0.0, scale=0.3)         # large triangles: exclusive and batched cover
+    mesh = RasterMesh(geometry.vertices, geometry.faces, geometry.cull)
+    device._staging.upload = refused
+    with pytest.raises(ClshadeError, match="staging buffer for 'setup'"):
+        device.build(setup_view(mesh, near.view_matrix(), near.projection_matrix(), W, H), material_table(scene))
+    device._staging.upload = upload
+    for azimuth, scale in ((90.0, 2.0), (0.0, 1.0)):
+        camera = orbit_camera(scene, azimuth, scale=scale)
+        assert_same(scene, geometry, camera.view_matrix(), camera.projection_matrix(), camera, device=device)
+
+
 def test_the_program_builds_again_from_the_caches(robot, device_runtime):
     """New runtimes on the same device build the program again, from PoCL's kernel cache and
     clshade's binary cache, and it still has its kernels and makes the host's G-buffer. (double8
