@@ -71,8 +71,10 @@ SETUP_STAGE = "triangle setup"
 KEPT_STAGES = 4
 
 _default_mode: dict[str, object] = {"mode": "auto", "device": None, "taken": None}
-#: (device, geometry and face tables digest) → None where that device made the NumPy rasterizer's
+#: (device, mesh digest, face tables digest) → None where that device made the NumPy rasterizer's
 #: G-buffer bit for bit, else what differed: each device and geometry is verified once per process.
+#: Only verdicts are kept: a check that could not run (a buffer refused, the runtime out of
+#: resources) leaves its stage on the host and lets the next stage of that geometry try again.
 _VERIFIED: dict[tuple, str | None] = {}
 _VERIFYING = threading.Lock()
 _STAGES: OrderedDict[tuple, "GBufferStage"] = OrderedDict()
@@ -104,10 +106,11 @@ class GBufferPath:
         return f"g-buffer: {self.path} ({self.reason})"
 
 
-def _digest(geometry: Geometry, faces: dict[str, np.ndarray]) -> str:
-    """What the device's G-buffer depends on besides the camera: the mesh and its face tables."""
+def _digest(*arrays: np.ndarray) -> str:
+    """A digest of arrays' dtypes, shapes and bytes (what the device's G-buffer depends on besides
+    the camera: the mesh, once per stage, and each new set of face tables)."""
     h = hashlib.blake2b(digest_size=16)
-    for a in (geometry.vertices, geometry.faces, np.asarray(geometry.cull), *(faces[k] for k in sorted(faces))):
+    for a in arrays:
         a = np.ascontiguousarray(a)
         h.update(f"{a.dtype}{a.shape}".encode())
         h.update(a.tobytes())
@@ -136,6 +139,7 @@ class GBufferStage:
         self._runtime, self._device = runtime, device
         self._gpu: device_visibility.DeviceGBuffer | None = None
         self._gpu_faces: tuple[object, str] | None = None       # (the face tables object, their digest)
+        self._mesh_digest: str | None = None
         self._refusal: str | None = None                        # why not the device, once known for good
         self.path: GBufferPath | None = None
 
@@ -213,23 +217,31 @@ class GBufferStage:
         rt = self.runtime
         if self._gpu_faces is None or self._gpu_faces[0] is not faces:
             with timings.stage("g-buffer kernel"):
-                digest = _digest(self.geometry, faces)
+                if self._mesh_digest is None:
+                    g = self.geometry
+                    self._mesh_digest = _digest(g.vertices, g.faces, np.asarray(g.cull))
+                digest = _digest(*(faces[k] for k in sorted(faces)))
                 if self._gpu_faces is None or self._gpu_faces[1] != digest:
                     self._gpu = None
                 self._gpu_faces = (faces, digest)
-        key = (rt.info.spec, rt.info.description, self._gpu_faces[1])
+        key = (rt.info.spec, rt.info.description, self._mesh_digest, self._gpu_faces[1])
         with _VERIFYING:
             reason = _VERIFIED.get(key, "")
-            if reason == "" or self._gpu is None:
+            if reason == "" or (reason is None and self._gpu is None):
                 with timings.stage("g-buffer kernel"):
                     try:
                         self._gpu = device_visibility.DeviceGBuffer(rt, self.geometry, faces)
                         if reason == "":
                             reason = device_visibility.verify(self._gpu, scene, self.geometry, self.mesh,
                                                               _uncropped(camera), faces)
+                            _VERIFIED[key] = reason
                     except (ClshadeError, rt.cl.Error) as exc:
-                        self._gpu, reason = None, f"{type(exc).__name__}: {exc}"
-                _VERIFIED[key] = reason
+                        # Not a verdict on the device: this stage stays on the host, the next may try.
+                        self._gpu = None
+                        self._refusal = (f"the device's G-buffer could not be made on {rt.info.runtime}: "
+                                         f"{type(exc).__name__}: {exc}")
+                        self._host(self._refusal)
+                        return None
         if reason is None:
             self._set(GBufferPath("device", f"verified bit for bit on {rt.info.runtime}"))
             return self._gpu

@@ -120,17 +120,18 @@ inline dvec clamp_low(dvec e) { return select(select((dvec)(0.0), e, e > 0.0), e
 __kernel void cover(
     const uint ntiles, const uint ntri, const uint width, const uint tri_bits, const double z_scale,
     const double z_lo, const double z_hi,
-    const uint first,                       /* the batch's first triangle */
-    const uint exclusive,                   /* 1: the dispatch holds one triangle's tiles only */
+    const uint first,                       /* the batch's first triangle (exclusive: the triangle) */
+    const uint exclusive,                   /* 1: the dispatch holds triangle `first`'s tiles only */
     __global const uint* tile_end,          /* (batch,) tiles of triangles first..first + j, inclusive */
-    __global const uint* tile_tri,          /* (ntiles,) the triangle of each tile (the host's np.repeat) */
+    __global const uint* tile_tri,          /* (ntiles,) the triangle of each tile (the host's np.repeat);
+                                               neither is read where exclusive */
     __global const int* box,                /* (4, ntri): col0, row0, col1, row1 (inclusive) */
     __global const double* edge,            /* (15, ntri): A0 A1 A2, B0 B1 B2, C0 C1 C2, thr0 thr1 thr2, z_a z_b z_c */
     __global long* keys)                    /* (plane,) packed keys, EMPTY_KEY where none */
 {
     const uint i = get_global_id(0);
     if (i >= ntiles) return;
-    const int t = (int)tile_tri[i];         /* the first triangle with tile_end > i */
+    const int t = exclusive ? (int)first : (int)tile_tri[i];    /* the first triangle with tile_end > i */
     const uint k = i - ((uint)t > first ? tile_end[t - first - 1] : 0u);
     const int col0 = box[t], row0 = box[ntri + t], col1 = box[2 * ntri + t], row1 = box[3 * ntri + t];
     const uint ntx = (uint)((col1 - col0) / TILE) + 1u;

@@ -139,6 +139,55 @@ def test_each_device_and_geometry_is_verified_once(runtime, monkeypatch):
     assert len(calls) == 2
 
 
+def test_only_verdicts_are_kept(runtime, monkeypatch):
+    """A device G-buffer that could not be made (a buffer refused, the runtime out of resources) is no
+    verdict: its stage stays on the host, saying why, and the next stage of the geometry is verified and
+    takes the device path. A verdict that the device differed is kept: later stages build no device
+    G-buffer for it."""
+    scene = load_scene(SCENES / "robot.toml")
+    geometry = build_geometry(scene)
+    _device_or_skip(runtime, geometry)
+    camera = scene.camera.with_size(64, 36)
+    real, built = device_visibility.DeviceGBuffer, []
+
+    def refused(*args, **kwargs):
+        raise ClshadeError("the staging buffer for 'setup' needs more memory than is available")
+    monkeypatch.setattr(pipeline, "_VERIFIED", {})
+    monkeypatch.setattr(device_visibility, "DeviceGBuffer", refused)
+    stage = GBufferStage(geometry, runtime)
+    stage.frame(scene, camera, Timings())
+    assert stage.path.path == "host" and "could not be made" in stage.path.reason
+    assert "staging buffer for 'setup'" in stage.path.reason and pipeline._VERIFIED == {}
+    monkeypatch.setattr(device_visibility, "DeviceGBuffer", lambda *a, **k: built.append(1) or real(*a, **k))
+    stage.frame(scene, camera, Timings())
+    assert stage.path.path == "host" and not built        # a stream keeps its path
+    again = GBufferStage(geometry, runtime)
+    again.frame(scene, camera, Timings())
+    assert again.path.path == "device" and len(built) == 1
+
+    monkeypatch.setattr(pipeline, "_VERIFIED", {})
+    monkeypatch.setattr(device_visibility, "verify", lambda *args: "7 of 5184 pixels differ from the host's in depth")
+    for _ in range(3):
+        stage = GBufferStage(geometry, runtime)
+        stage.frame(scene, camera, Timings())
+        assert stage.path.path == "host" and "7 of 5184" in stage.path.reason
+    assert len(built) == 2
+
+
+def test_a_stage_hashes_its_mesh_once(runtime, monkeypatch):
+    """Frames given no face tables make new ones each frame: their digest is taken again, the mesh's not."""
+    scene = load_scene(SCENES / "robot.toml")
+    geometry = build_geometry(scene)
+    _device_or_skip(runtime, geometry)
+    real, hashed = pipeline._digest, []
+    monkeypatch.setattr(pipeline, "_digest", lambda *a: hashed.append(a[0] is geometry.vertices) or real(*a))
+    stage = GBufferStage(geometry, runtime)
+    for azimuth in (0.0, 20.0, 40.0):
+        stage.frame(scene, whole.orbit(scene.camera.with_size(64, 36), azimuth), Timings())
+        assert stage.path.path == "device"
+    assert hashed.count(True) == 1 and hashed.count(False) == 3
+
+
 def test_the_stage_refuses_an_unknown_mode(runtime):
     with pytest.raises(ClshadeError, match=r"--gbuffer = 'gpu'"):
         GBufferStage(build_geometry(load_scene(SCENES / "red_ball.toml")), runtime, "gpu")

@@ -229,16 +229,18 @@ class DeviceGBuffer:
         ]
         self.emissive_table = [stack([f"emissive{d}" for d in range(3)], np.float32)] if self.emissive else []
 
-    def build(self, view: ViewSetup, materials: np.ndarray,
-              pool: PlanePool | None = None) -> tuple[GBuffer, np.ndarray]:
+    def build(self, view: ViewSetup, materials: np.ndarray, pool: PlanePool | None = None,
+              alone_min_tiles: int | None = None) -> tuple[GBuffer, np.ndarray]:
         """The G-buffer of the view set up in `view` (a view of this geometry) with the material
         table `materials` (clshade.render.gbuffer.material_table), and per pixel whether a fragment
         covers it (uint8: 0 empty, 1 covered, 2 covered by non-finite inputs, replaced). The
-        planes are host arrays (from `pool` when given) that the kernel writes through."""
+        planes are host arrays (from `pool` when given) that the kernel writes through.
+        `alone_min_tiles`: the tiles from which a triangle is covered alone (default
+        EXCLUSIVE_MIN_TILES; `verify` lowers it so that its small frame takes that path too)."""
         if self.textures is not None and view.mvp is None:     # before any kernel reads a staged input
             raise ValueError("DeviceGBuffer.build: a textured geometry's view needs its mvp (setup_view's)")
         try:
-            return self._build(view, materials, pool)
+            return self._build(view, materials, pool, alone_min_tiles)
         except BaseException:
             # Refused part way (an upload over the memory budget, a buffer the runtime would not
             # create, an interrupt): `cover` may have written keys that only the visibility kernel
@@ -248,8 +250,8 @@ class DeviceGBuffer:
                 self.rt.queue.finish()
             raise
 
-    def _build(self, view: ViewSetup, materials: np.ndarray,
-               pool: PlanePool | None) -> tuple[GBuffer, np.ndarray]:
+    def _build(self, view: ViewSetup, materials: np.ndarray, pool: PlanePool | None,
+               alone_min_tiles: int | None) -> tuple[GBuffer, np.ndarray]:
         rt, cl, stage = self.rt, self.rt.cl, self._staging
         w, h = view.width, view.height
         n = w * h
@@ -273,13 +275,10 @@ class DeviceGBuffer:
             edge = stage.upload("edge", np.concatenate([t.edge_a, t.edge_b, t.edge_c, t.edge_thr,
                                                         t.z_a[None], t.z_b[None], t.z_c[None]]))
             inputs += [box, edge]
-            alone = exclusive_triangles(tiles)
-            for k, tri in enumerate(alone):     # the largest first, each alone: no atomics
-                count = int(tiles[tri])
-                batch = [stage.upload(("alone end", k), np.array([count], np.uint32)),
-                         stage.upload(("alone tiles", k), np.full(count, tri, np.uint32))]
-                inputs += batch
-                self._cover(count, ntri, w, view, int(tri), 1, batch, box, edge, keys)
+            alone = exclusive_triangles(tiles, alone_min_tiles)
+            for tri in alone:                   # the largest first, each alone: no atomics
+                # The kernel takes the triangle from `first` and reads neither tile list (box stands in).
+                self._cover(int(tiles[tri]), ntri, w, view, int(tri), 1, [box, box], box, edge, keys)
             if len(alone):                  # the rest: every other triangle's tiles
                 tiles = tiles.copy()
                 tiles[alone] = 0
@@ -388,9 +387,11 @@ def verify(device: DeviceGBuffer, scene: Scene, geometry: Geometry, mesh: Raster
            faces: dict[str, np.ndarray]) -> str | None:
     """Whether `device` makes the host's G-buffer on this device: one small frame of `camera`'s
     view (VERIFY_SIZE) both ways, compared bit for bit (a textured geometry's textured channels
-    within TEXTURE_TOLERANCE, plane_differences). None when they agree, else what differs (the
-    live viewer then keeps the host path: a device that rounds otherwise, or a compiler that
-    breaks the program, must not change the picture)."""
+    within TEXTURE_TOLERANCE, plane_differences); the device's twice, once with its largest
+    triangles covered alone. None when they agree, else what differs (the live viewer then keeps
+    the host path: a device that rounds otherwise, or a compiler that breaks the program, must not
+    change the picture). Every frame the pipeline verifies for is a Camera's, a perspective
+    projection (ViewSetup.w_is_depth), as this one is."""
     small = camera.with_size(*VERIFY_SIZE)
     view, proj = small.view_matrix(), small.projection_matrix()
     setup = setup_view(mesh, view, proj, small.width, small.height)
@@ -398,10 +399,13 @@ def verify(device: DeviceGBuffer, scene: Scene, geometry: Geometry, mesh: Raster
         return None                     # more triangles than its keys number: the device path is not used
     fragments = rasterize_mesh(mesh, view, proj, small.width, small.height)
     expected = build_gbuffer(scene, geometry, fragments, small, faces=faces)
-    got, cover = device.build(setup, material_table(scene))
-    why = plane_differences(expected, got, device.textures is not None)
-    if why is not None:
-        return why
-    if not np.array_equal(np.flatnonzero(cover), fragments.pixels):
-        return "the covered pixels differ from the host's"
+    # A small frame's triangles span few tiles: built again with its largest covered alone (kernel
+    # `cover`'s exclusive path, which a full frame's floors and walls take).
+    for alone_min_tiles, path in ((None, ""), (1, " (its largest triangles covered alone)")):
+        got, cover = device.build(setup, material_table(scene), alone_min_tiles=alone_min_tiles)
+        why = plane_differences(expected, got, device.textures is not None)
+        if why is not None:
+            return why + path
+        if not np.array_equal(np.flatnonzero(cover), fragments.pixels):
+            return "the covered pixels differ from the host's" + path
     return None

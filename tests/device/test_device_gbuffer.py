@@ -11,6 +11,7 @@ import dataclasses
 import numpy as np
 import pytest
 
+from clshade.device import visibility
 from clshade.device.runtime import Runtime, get_runtime
 from clshade.device.visibility import DeviceGBuffer, supports, verify
 from clshade.render.arrays import PlanePool
@@ -166,6 +167,30 @@ def test_verify_finds_a_device_that_differs(robot, monkeypatch):
         return gbuffer, cover
     monkeypatch.setattr(device, "build", dropped)
     assert verify(device, scene, geometry, mesh, camera, faces) == "the covered pixels differ from the host's"
+
+
+def test_verify_covers_the_largest_triangles_alone_too(robot, monkeypatch):
+    """verify's small frame has no triangle of EXCLUSIVE_MIN_TILES tiles (a full frame's floors and walls
+    have), so it builds that frame again with its largest triangles covered alone: a device whose
+    exclusive dispatches are lost is caught, and the reason names that pass."""
+    scene, geometry = robot
+    runtime = usable(get_runtime(None), geometry)
+    mesh = RasterMesh(geometry.vertices, geometry.faces, geometry.cull)
+    faces = face_planes(geometry, list(scene.materials.values()))
+    camera = orbit_camera(scene, 30.0)
+    device = DeviceGBuffer(runtime, geometry, faces)
+    cover, dispatched = device._cover, []
+
+    def lost_alone(count, ntri, width, view, first, exclusive, *rest):
+        dispatched.append(exclusive)
+        if not exclusive:
+            cover(count, ntri, width, view, first, exclusive, *rest)
+    monkeypatch.setattr(device, "_cover", lost_alone)
+    why = verify(device, scene, geometry, mesh, camera, faces)
+    assert why is not None and why.endswith("(its largest triangles covered alone)"), why
+    assert dispatched.count(1) == visibility.EXCLUSIVE_MAX
+    monkeypatch.setattr(device, "_cover", cover)
+    assert verify(device, scene, geometry, mesh, camera, faces) is None
 
 
 @pytest.mark.parametrize("azimuth, elevation, scale", [(0.0, None, 1.0), (33.0, None, 1.0), (137.0, 60.0, 1.0),
