@@ -140,7 +140,7 @@ class GBufferStage:
         self._gpu: device_visibility.DeviceGBuffer | None = None
         self._gpu_faces: tuple[object, str] | None = None       # (the face tables object, their digest)
         self._mesh_digest: str | None = None
-        self._refusal: str | None = None                        # why not the device, once known for good
+        self._refusal: str | None = None                        # why this stage keeps to the host
         self.path: GBufferPath | None = None
 
     @property
@@ -245,6 +245,7 @@ class GBufferStage:
         if reason is None:
             self._set(GBufferPath("device", f"verified bit for bit on {rt.info.runtime}"))
             return self._gpu
+        self._gpu = None                                        # its device buffers freed
         self._refusal = f"the device's G-buffer differed from the host's on {rt.info.runtime}: {reason}"
         self._host(self._refusal)
         return None

@@ -131,7 +131,7 @@ __kernel void cover(
 {
     const uint i = get_global_id(0);
     if (i >= ntiles) return;
-    const int t = exclusive ? (int)first : (int)tile_tri[i];    /* the first triangle with tile_end > i */
+    const int t = exclusive ? (int)first : (int)tile_tri[i];    /* else: the first triangle with tile_end > i */
     const uint k = i - ((uint)t > first ? tile_end[t - first - 1] : 0u);
     const int col0 = box[t], row0 = box[ntri + t], col1 = box[2 * ntri + t], row1 = box[3 * ntri + t];
     const uint ntx = (uint)((col1 - col0) / TILE) + 1u;

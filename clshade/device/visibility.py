@@ -329,7 +329,8 @@ class DeviceGBuffer:
     def _cover(self, count: int, ntri: int, width: int, view: ViewSetup, first: int, exclusive: int,
                batch: list, box, edge, keys) -> None:
         """Enqueue kernel `cover` on `count` tiles: `batch` (running tile counts from triangle
-        `first`, each tile's triangle); `exclusive` 1 where they are one triangle's tiles alone."""
+        `first`, each tile's triangle); `exclusive` 1 where they are triangle `first`'s tiles alone
+        (then the kernel reads neither of `batch`'s buffers)."""
         rt = self.rt
         self.cover.set_args(np.uint32(count), np.uint32(ntri), np.uint32(width), np.uint32(view.tri_bits),
                             np.float64(view.z_scale), np.float64(-1.0 - view.depth_eps),
