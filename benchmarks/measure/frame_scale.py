@@ -7,9 +7,9 @@ and its plot frame_scale.png. JSON and plot only: `python -m benchmarks.publish`
   about a million triangles made here (MILLION_SUBDIVISIONS: an icosphere written as OBJ into a temporary
   folder, never committed), and the third-party meshes of ../shared/assets (each skipped with its reason when
   absent), each framed by a camera at FRAMING × its bounding radius, one directional light.
-Each point: --frames orbit frames (after one untimed frame: the path's check and the kernel build) of one
-model (GGX height-correlated) on the default device; the median whole frame, its 1 % low, the G-buffer path
-and the stage medians.
+Each point: --frames orbit frames (after clshade.bench.frame.WARMUP_FRAMES untimed ones: the path's check,
+the kernel build, the planes) of one model (GGX height-correlated) on the default device; the median whole
+frame, its 1 % low, the G-buffer path and the stage medians.
 
     python -m benchmarks.measure.frame_scale [--frames 12] [--width 1920 --height 1080]
 """

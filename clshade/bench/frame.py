@@ -43,6 +43,10 @@ from clshade.render.shadows import ShadowMaps, build_shadow_maps
 #: triangle setup where the device makes the rest; "g-buffer": build_gbuffer, or the device's
 #: visibility buffer and G-buffer).
 STAGES = ("rasterize", "g-buffer", "upload", "shade", "read back")
+#: Untimed whole frames before the timed ones: the first makes the path's check and the kernel build,
+#: the second the PlanePool's second set of planes (the Shader still holds the first frame's while the
+#: next G-buffer is built). A fresh set's page faults made a 1920x1080 frame several times its time.
+WARMUP_FRAMES = 2
 
 
 class FrameStream:
@@ -139,7 +143,7 @@ def _shown(path: Path | None) -> str | None:
 
 def whole_frames(scene: Scene, model: Model, runtime: Runtime, width: int, height: int,
                  frames: int = 10, step_degrees: float = 2.0) -> dict[str, object]:
-    """Per-stage seconds of `frames` whole frames (after one untimed frame);
+    """Per-stage seconds of `frames` whole frames (after WARMUP_FRAMES untimed ones);
     returns medians per stage, the median whole frame and every frame's stages."""
     return whole_frames_on(scene, model, [runtime], width, height, frames, step_degrees)[0]
 
@@ -154,12 +158,13 @@ def whole_frames_on(scene: Scene, model: Model, runtimes: list[Runtime], width: 
     streams = [FrameStream(scene, geometry, shadows, runtime, [model], gbuffer) for runtime in runtimes]
     base = scene.camera.with_size(width, height)
     per_frame: list[list[dict[str, float]]] = [[] for _ in runtimes]
-    for k in range(frames + 1):
+    for _ in range(WARMUP_FRAMES):
+        for stream in streams:
+            stream.frame(base, model, copy=False)
+    for k in range(1, frames + 1):
         camera = orbit(base, step_degrees * k)
         for stream, timed in zip(streams, per_frame):
-            t, _ = stream.frame(camera, model, copy=False)
-            if k > 0:
-                timed.append(t)
+            timed.append(stream.frame(camera, model, copy=False)[0])
     load = _load_average()
     return [dict(scene=_shown(scene.path), model=model.id, width=width, height=height,
                  frames=frames, step_degrees=step_degrees, triangles=int(len(geometry.faces)),
@@ -176,7 +181,7 @@ def _path(stream: FrameStream) -> dict[str, str]:
 def orbit_bench(scene: Scene, models: list[Model], runtime: Runtime, width: int | None, height: int | None,
                 frames: int, step_degrees: float = 2.0, gbuffer: str | None = None,
                 overlap: bool = False) -> dict[str, object]:
-    """`clshade bench --whole-frames N`: N whole frames per model (after one untimed frame each),
+    """`clshade bench --whole-frames N`: N whole frames per model (after WARMUP_FRAMES untimed ones each),
     the camera orbiting and the models interleaved at each camera position (with `overlap`, see
     FrameStream.frames, each model's orbit in turn). Per model the frame statistics of whole frames
     (clshade.bench.run.frame_stats: average FPS, 1 % and 0.1 % lows), `whole_frame_ms_median`,
@@ -187,8 +192,9 @@ def orbit_bench(scene: Scene, models: list[Model], runtime: Runtime, width: int 
     base = scene.camera.with_size(width, height)
     cameras = [orbit(base, step_degrees * k) for k in range(frames + 1)]
     timed: dict[str, list[dict[str, float]]] = {m.id: [] for m in models}
-    for model in models:
-        stream.frame(cameras[0], model, copy=False)     # untimed: the path's check, the kernel build
+    for _ in range(WARMUP_FRAMES):                      # untimed: the path's check, the kernel build, the planes
+        for model in models:
+            stream.frame(cameras[0], model, copy=False)
     if overlap:
         for model in models:
             timed[model.id] = [t for t, _ in stream.frames(cameras[1:], model, overlap=True, copy=False)]
