@@ -26,6 +26,7 @@ import numpy as np
 
 from clshade import __version__
 from clshade.bench import bandwidth, frame as whole, peers as peer_mod
+from clshade.bench.run import frame_stats
 from clshade.device.buildchoice import CACHED_STORES, INLINE_MATH, LIBRARY_MATH, NO_PREFETCH
 from clshade.device.runtime import Runtime, healthy_devices
 from clshade.device.shade import Shader, scene_features
@@ -46,7 +47,8 @@ ROUND_STREAM_MIB = 64
 SCHEMA = "clshade-perf/1"
 LAMBERT_BOUND = 1.3          # target: Lambert within 1.3× of its bytes at the STREAM rate
 COPY_BOUND = 1.5             # every model ≤ 1.5× the copy kernel
-FRAME_BOUND_S = 0.100        # the robot scene at 1920×1080, whole frame (rasterize … read back)
+FRAME_BOUND_S = 1.0 / 30.0   # the robot scene at 1920×1080, median whole frame (rasterize … read back): 30 FPS
+LOW1_BOUND_FPS = 24.0        # and its whole frames' 1 % low (clshade.bench.run.frame_stats)
 
 
 def _versions() -> dict[str, str]:
@@ -276,7 +278,8 @@ def run(scene_path: str, width: int, height: int, rounds: int, warmup: int, fram
     doc = compare(scene_path, [Registry().resolve(m) for m in MODELS], width, height, rounds, warmup, peer_names)
     frames = whole.merge_blocks([before, frames_block()])
     for f in frames:
-        f.pop("frames_s")
+        ms = np.array([t["frame"] for t in f.pop("frames_s")]) * 1e3
+        f["low1_fps"] = frame_stats(ms, ms)["low1_fps"]
     doc["whole_frames"] = frames
     doc["targets"] = targets(doc)
     return doc
@@ -310,9 +313,16 @@ def targets(doc: dict) -> list[dict]:
                                 stream_miss_cause(r, anchor, rt.get("opencl_stream_gbs"))))
     for wf in doc.get("whole_frames", []):
         m = wf["median_s"]
-        out.append(dict(runtime=wf["device"], target="robot 1920×1080 whole frame ≤ 100 ms (ms)",
+        out.append(dict(runtime=wf["device"], target=f"robot 1920×1080 whole frame ≤ {FRAME_BOUND_S * 1e3:.1f} ms (ms)",
                         value=m["frame"] * 1e3, met=m["frame"] <= FRAME_BOUND_S,
                         cause="" if m["frame"] <= FRAME_BOUND_S else frame_miss_cause(wf)))
+        if "low1_fps" in wf:            # results measured since the 1 % low is kept
+            low = wf["low1_fps"]
+            out.append(dict(runtime=wf["device"], target=f"robot 1920×1080 whole frames' 1 % low ≥ {LOW1_BOUND_FPS:.0f} FPS",
+                            value=low, met=low >= LOW1_BOUND_FPS,
+                            cause="" if low >= LOW1_BOUND_FPS else
+                            f"the slowest 1 % of {wf['frames']} frames took {1e3 / low:.0f} ms each on average "
+                            f"(median {m['frame'] * 1e3:.0f} ms)"))
     return out
 
 

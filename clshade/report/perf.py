@@ -160,6 +160,8 @@ def perf_whole_frame_markdown(wfs: list[dict]) -> list[str]:
             ms = f"{m[k] * 1e3:.1f}"
             cells += [f"**{ms}**" if k == "frame" else ms, f"{m[k] / m['frame']:.0%}"]
         rows.append(["**whole frame**" if k == "frame" else k, *cells])
+    if all("low1_fps" in w for w in wfs):
+        rows.append(["whole frames' 1 % low, FPS", *(c for w in wfs for c in (f"{w['low1_fps']:.1f}", ""))])
     if all("block_frame_s" in w for w in wfs):
         rows.append(["whole frame, median of each block",
                      *(c for w in wfs for c in (" / ".join(f"{b * 1e3:.1f}" for b in w["block_frame_s"]), ""))])

@@ -198,16 +198,20 @@ def test_whole_frames_interleave_runtimes_and_judge_each(runtime):
     assert merged[0]["block_frame_s"] == [out[0]["median_s"]["frame"]] * 2
     assert all(r["device"] == runtime.info.description for r in out)
     # The verdicts are judged on stated frame times, not on this machine's (timings are no test's business).
-    fast = dict(out[0], median_s=dict(out[0]["median_s"], frame=0.001))
-    slow = dict(out[1], device="slow device", median_s=dict(out[1]["median_s"], frame=0.25))
+    fast = dict(out[0], median_s=dict(out[0]["median_s"], frame=0.030), low1_fps=25.0)
+    slow = dict(out[1], device="slow device", median_s=dict(out[1]["median_s"], frame=0.034), low1_fps=23.0)
     doc = dict(runtimes=[], peers=[], stream=dict(anchor_gbs=1.0), whole_frames=[fast, slow])
     frame_targets = [t for t in perf.targets(doc) if "whole frame" in t["target"]]
-    assert [(t["runtime"], t["met"]) for t in frame_targets] == [(runtime.info.description, True), ("slow device", False)]
-    assert "250 ms" not in frame_targets[1]["cause"] and "G-buffer" in frame_targets[1]["cause"]
+    assert [(t["runtime"], t["met"]) for t in frame_targets] == [(runtime.info.description, True)] * 2 + [
+        ("slow device", False)] * 2
+    assert "34 ms" not in frame_targets[2]["cause"] and "G-buffer" in frame_targets[2]["cause"]
+    assert "43 ms" in frame_targets[3]["cause"], frame_targets[3]["cause"]      # 1000 / 23 FPS
     from clshade.report.perf import perf_whole_frame_markdown
     table = next(block for block in perf_whole_frame_markdown(doc["whole_frames"]) if block.startswith("| stage "))
     header = table.splitlines()[0]
     assert header.count("median ms") == 2 and "slow device" in header
+    low = next(line for line in table.splitlines() if line.startswith("| whole frames' 1 % low"))
+    assert [c.strip() for c in low.strip("|").split("|")][1:] == ["25.0", "", "23.0", ""]
 
 
 @pytest.mark.extra
