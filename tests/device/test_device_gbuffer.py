@@ -146,18 +146,23 @@ def test_lanes_follow_what_the_device_compiles():
     assert lanes("OpenCL 3.0 CUDA", "NVIDIA H100", 1, 1) == 4
 
 
-def test_verify_finds_a_device_that_differs(robot, monkeypatch):
-    """verify compares the device's small frame with the host's and names what differs: face
-    tables of other materials (the roughness), a pixel dropped from the coverage."""
+def checked(robot) -> tuple:
+    """verify's arguments for the robot seen from 30°: (a DeviceGBuffer on the default device, scene,
+    geometry, raster mesh, camera, face tables)."""
     scene, geometry = robot
     runtime = usable(get_runtime(None), geometry)
     mesh = RasterMesh(geometry.vertices, geometry.faces, geometry.cull)
     faces = face_planes(geometry, list(scene.materials.values()))
-    camera = orbit_camera(scene, 30.0)
-    device = DeviceGBuffer(runtime, geometry, faces)
+    return DeviceGBuffer(runtime, geometry, faces), scene, geometry, mesh, orbit_camera(scene, 30.0), faces
+
+
+def test_verify_finds_a_device_that_differs(robot, monkeypatch):
+    """verify compares the device's small frame with the host's and names what differs: face
+    tables of other materials (the roughness), a pixel dropped from the coverage."""
+    device, scene, geometry, mesh, camera, faces = checked(robot)
     assert verify(device, scene, geometry, mesh, camera, faces) is None
     rougher = dict(faces, roughness=np.minimum(faces["roughness"] + 0.125, 1.0))
-    why = verify(DeviceGBuffer(runtime, geometry, rougher), scene, geometry, mesh, camera, faces)
+    why = verify(DeviceGBuffer(device.rt, geometry, rougher), scene, geometry, mesh, camera, faces)
     assert why is not None and "in roughness" in why
     build = device.build
 
@@ -173,12 +178,7 @@ def test_verify_covers_the_largest_triangles_alone_too(robot, monkeypatch):
     """verify's small frame has no triangle of EXCLUSIVE_MIN_TILES tiles (a full frame's floors and walls
     have), so it builds that frame again with its largest triangles covered alone: a device whose
     exclusive dispatches are lost is caught, and the reason names that pass."""
-    scene, geometry = robot
-    runtime = usable(get_runtime(None), geometry)
-    mesh = RasterMesh(geometry.vertices, geometry.faces, geometry.cull)
-    faces = face_planes(geometry, list(scene.materials.values()))
-    camera = orbit_camera(scene, 30.0)
-    device = DeviceGBuffer(runtime, geometry, faces)
+    device, scene, geometry, mesh, camera, faces = checked(robot)
     cover, dispatched = device._cover, []
 
     def lost_alone(count, ntri, width, view, first, exclusive, *rest):
